@@ -1,0 +1,356 @@
+"""Typed, validated configuration: nested dataclasses loaded from TOML.
+
+Every parameter of method.md has a field here with its unit in the name (``_m``, ``_deg``, ...);
+the algorithms read SI/radian values through the ``*_rad`` / covariance properties. Two named
+profiles ship (Decision 1): ``apsipa`` (default, APSIPA Table I) and ``reference`` (the authors'
+published implementation); they differ only in ``beta``, ``gamma_a`` and the merge rule.
+
+Fields marked [PROP] in their doc are assumptions where the papers are silent (method.md tags).
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import math
+import tomllib
+import typing
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from radarslam.core.errors import ConfigError
+
+
+def param(default: Any, doc: str, *, low: float | None = None, high: float | None = None,
+          low_open: bool = False, choices: tuple[str, ...] | None = None, length: int | None = None) -> Any:
+    """A config field with its documentation and admissible range (checked by :func:`validate`)."""
+    meta = {"doc": doc, "low": low, "high": high, "low_open": low_open, "choices": choices, "length": length}
+    if isinstance(default, list):
+        return field(default_factory=lambda d=default: list(d), metadata=meta)
+    return field(default=default, metadata=meta)
+
+
+# --------------------------------------------------------------------------------------------
+# Simulation (method.md section b)
+# --------------------------------------------------------------------------------------------
+#: The 12 vehicles of the car park as [x_left, y_bottom, size_x, size_y] (method.md b.1, HEAD layout).
+CARPARK_VEHICLES = [
+    [30.0, 0.0, 4.0, 2.0], [30.0, 15.0, 4.0, 2.0],                       # G1
+    [5.0, 5.0, 4.0, 2.0], [5.0, 10.0, 4.0, 2.0], [5.0, 15.0, 4.0, 2.0],  # G2
+    [-14.0, 4.0, 2.0, 4.0], [-14.0, 12.0, 2.0, 4.0], [-14.0, 18.0, 2.0, 4.0],  # G3
+    [2.0, -8.0, 5.0, 2.0], [11.0, -8.0, 5.0, 2.0],                       # G4
+    [4.0, 33.0, 5.0, 2.0], [14.0, 33.0, 5.0, 2.0],                       # G5
+]
+
+
+@dataclass
+class TrajectoryConfig:
+    """Platform trajectory and true motion (method.md b.2)."""
+
+    n_steps: int = param(120, "number of time steps K", low=2)
+    dt_s: float = param(0.16, "time step (s)", low=0.0, low_open=True)
+    speed_mps: float = param(4.0, "commanded speed v (m/s)")
+    turn_rate_rad_s: float = param(0.32, "commanded turn rate psi during the turn (rad/s)")
+    turn_start: int = param(10, "first step k (1-based) with psi != 0", low=1)
+    turn_end: int = param(100, "last step k (inclusive) with psi != 0", low=1)
+    initial_pose: list[float] = param([0.0, 0.0, 0.0], "true pose at k = 1 [x_m, y_m, theta_rad]", length=3)
+    process_var_xy_m2: float = param(1.5e-3, "process-noise variance Q on x and y (m^2)", low=0.0)
+    process_var_heading_rad2: float = param(5e-5, "process-noise variance Q on the heading (rad^2)", low=0.0)
+
+
+@dataclass
+class OdometerConfig:
+    """Odometer readings u_bar = u + eta + bias (method.md b.3)."""
+
+    speed_std_mps: float = param(0.02, "speed-noise std (m/s)", low=0.0)
+    turn_rate_std_deg_s: float = param(0.008, "turn-rate-noise std (deg/s)", low=0.0)
+    speed_bias_mps: float = param(0.0, "[PROP] constant speed bias (m/s); 0 in both papers (h.15)")
+    turn_rate_bias_deg_s: float = param(0.0, "[PROP] constant turn-rate bias (deg/s)")
+
+
+@dataclass
+class RadarConfig:
+    """The 'ideal' radar of both papers (method.md b.4)."""
+
+    max_range_m: float = param(20.0, "radar range R_max (m)", low=0.0, low_open=True)
+    range_std_m: float = param(0.5, "range-noise std (m)", low=0.0)
+    azimuth_std_deg: float = param(1.0, "azimuth-noise std (deg)", low=0.0)
+    detection_probability: float = param(0.9, "P_D of each potential detection", low=0.0, high=1.0)
+    points_per_m2: float = param(0.8, "mean potential detections per m^2 of vehicle area", low=0.0)
+    points_var: float = param(1.5, "variance of the potential-detection count", low=0.0)
+    clutter_rate_per_m2: float = param(0.005, "clutter rate lambda (1/m^2, Decision 9)", low=0.0)
+    clutter_grid_m: float = param(0.2, "clutter position grid (m)", low=0.0, low_open=True)
+    scene_min_m: float = param(-15.0, "lower corner of the square clutter scene (m)")
+    scene_max_m: float = param(45.0, "upper corner of the square clutter scene (m)")
+    shuffle_detections: bool = param(True, "[PROP] shuffle each scan's detection order (b.4)")
+
+
+@dataclass
+class WorldConfig:
+    """The car park (method.md b.1)."""
+
+    vehicles: list[list[float]] = param(CARPARK_VEHICLES, "rectangles [x_left, y_bottom, size_x, size_y] (m)")
+    departing_vehicle: int = param(5, "index of the vehicle that leaves (-1: none); 5 is the car at (-13, 6)", low=-1)
+    departure_step: int = param(60, "[PROP] first step k at which it is gone (Decision 2, h.10)", low=1)
+
+
+# --------------------------------------------------------------------------------------------
+# Estimation
+# --------------------------------------------------------------------------------------------
+@dataclass
+class FilterConfig:
+    """EKF-SLAM noise models and initialisation (method.md b.5). Defaults equal the simulation's."""
+
+    motion_model: str = param("unicycle", "motion model of the platform", choices=("unicycle",))
+    initial_pose: list[float] = param([0.1, 0.1, math.pi / 180.0], "initial estimate [x_m, y_m, theta_rad]", length=3)
+    initial_pose_std: list[float] = param([0.15, 0.15, math.pi / 180.0], "initial std [x_m, y_m, theta_rad]", length=3)
+    range_std_m: float = param(0.5, "R: range std (m)", low=0.0, low_open=True)
+    azimuth_std_deg: float = param(1.0, "R: azimuth std (deg)", low=0.0, low_open=True)
+    speed_std_mps: float = param(0.02, "U: speed std (m/s)", low=0.0)
+    turn_rate_std_deg_s: float = param(0.008, "U: turn-rate std (deg/s)", low=0.0)
+    process_var_xy_m2: float = param(1.5e-3, "Q: variance on x and y (m^2)", low=0.0)
+    process_var_heading_rad2: float = param(5e-5, "Q: variance on the heading (rad^2)", low=0.0)
+    max_range_m: float = param(20.0, "sensor range used by the M/N in-range test (m)", low=0.0, low_open=True)
+
+    @property
+    def R(self) -> np.ndarray:
+        """Radar noise covariance diag(sigma_r^2, sigma_phi^2)."""
+        return np.diag([self.range_std_m**2, math.radians(self.azimuth_std_deg) ** 2])
+
+    @property
+    def U(self) -> np.ndarray:
+        """Odometer noise covariance diag(sigma_v^2, sigma_psi^2)."""
+        return np.diag([self.speed_std_mps**2, math.radians(self.turn_rate_std_deg_s) ** 2])
+
+    @property
+    def Q(self) -> np.ndarray:
+        """Process noise covariance on the pose."""
+        return np.diag([self.process_var_xy_m2, self.process_var_xy_m2, self.process_var_heading_rad2])
+
+
+@dataclass
+class LandmarkConfig:
+    """Landmark management (method.md c.1; APSIPA Table I unless marked)."""
+
+    alpha: float = param(500.0, "log-distance threshold a new cluster must exceed to every landmark")
+    beta: float = param(20.0, "log-distance association threshold (profile-dependent)")
+    sift_radius_m: float = param(3.0, "gamma_s: sifting radius (m)", low=0.0, low_open=True)
+    cluster_eps_m: float = param(2.5, "gamma_c: DBSCAN eps (m)", low=0.0, low_open=True)
+    cluster_min_samples: int = param(2, "N_c2: DBSCAN minPts, the point itself included", low=1)
+    tentative_gate_m: float = param(3.5, "gamma_a: cluster <-> unconfirmed-landmark gate (m, profile-dependent)", low=0.0, low_open=True)
+    confirm_points: int = param(6, "N_c1: cluster size confirmed at once (Rule 1)", low=1)
+    confirm_window: int = param(5, "M of the M/N confirmation (Rule 2)", low=1)
+    confirm_hits: int = param(3, "N of the M/N confirmation (Rule 2)", low=1)
+    removal_window: int = param(10, "M of the M/N removal", low=1)
+    removal_max_hits: int = param(2, "delete when associated in <= this many of the last M scans", low=0)
+    n_nearest_assoc: int = param(3, "N_s: nearest landmarks scored in association [REF]", low=1)
+    n_nearest_new: int = param(5, "N_a: nearest landmarks scored in the alpha test [REF]", low=1)
+    merge_distance_m: float = param(1.5, "merge landmarks closer than this (m, profile-dependent)", low=0.0)
+    merge_axis_tol_m: float = param(math.inf, "also require |dx| or |dy| <= this (m); inf = no axis test", low=0.0)
+    merge_max_per_scan: int = param(0, "at most this many merges per scan; 0 = unlimited", low=0)
+
+
+@dataclass
+class ExtentConfig:
+    """Landmark extents (method.md a.3-a.7, d; Decisions 3-6)."""
+
+    track: bool = param(True, "estimate RMA and EFA extents for every landmark")
+    use_in_slam: bool = param(False, "'With extent' (Decision 6): contour sifting + extent-inflated noise")
+    n_init: int = param(20, "N_i: initialise once more than this many detections are buffered", low=1)
+    alpha0: float = param(50.0, "alpha_0 at initialisation", low=2.0, low_open=True)
+    tau_s: float = param(100.0, "tau: extent decay constant (s)", low=0.0, low_open=True)
+    gamma_z: float = param(0.25, "gamma_z: spread factor of the uniform-surface model", low=0.0, low_open=True)
+    kappa: float = param(1.0, "contour-sifting scale kappa (a.7, h.12)", low=0.0, low_open=True)
+    w_mode: str = param("max_trace", "scan-level W from the W(i) (h.3)", choices=("max_trace", "max_det", "mean"))
+    eig_floor_m2: float = param(1e-4, "[PROP] eigenvalue floor of X after each update (m^2)", low=0.0, low_open=True)
+    efa_mode: str = param("per_scan", "EFA baseline data (Decision 5)", choices=("per_scan", "sliding"))
+    efa_window: int = param(20, "buffer length of the sliding EFA variant", low=3)
+    efa_noise_correct: bool = param(False, "noise-corrected EFA semi-axes instead of the upper bound (d.3)")
+    use_posterior_landmark: bool = param(False, "RM update against p_{k|k}, P_{k|k} instead of the prior (h.4)")
+
+
+@dataclass
+class MetricsConfig:
+    """Evaluation (method.md e, f; Decision 7)."""
+
+    gt_convention: str = param("moment", "ground-truth ellipse of a car (Decision 7)",
+                               choices=("moment", "inscribed", "enclosing", "full"))
+    match_gate_m: float = param(5.0, "[PROP] landmark <-> vehicle matching gate (m)", low=0.0, low_open=True)
+    include_stale: bool = param(False, "match landmarks of departed vehicles in the GWD (h.10)")
+    missed_grace_scans: int = param(5, "[PROP] scans in range before an unmapped vehicle counts as missed", low=0)
+
+
+@dataclass
+class Config:
+    """Everything a run needs apart from the seed."""
+
+    profile: str = param("apsipa", "parameter profile (Decision 1)", choices=("apsipa", "reference"))
+    trajectory: TrajectoryConfig = field(default_factory=TrajectoryConfig)
+    odometer: OdometerConfig = field(default_factory=OdometerConfig)
+    radar: RadarConfig = field(default_factory=RadarConfig)
+    world: WorldConfig = field(default_factory=WorldConfig)
+    filter: FilterConfig = field(default_factory=FilterConfig)
+    landmarks: LandmarkConfig = field(default_factory=LandmarkConfig)
+    extent: ExtentConfig = field(default_factory=ExtentConfig)
+    metrics: MetricsConfig = field(default_factory=MetricsConfig)
+
+
+#: Profile overrides (Decision 1). Everything not listed is shared.
+PROFILES: dict[str, dict[str, dict[str, Any]]] = {
+    "apsipa": {"landmarks": {"beta": 20.0, "tentative_gate_m": 3.5, "merge_distance_m": 1.5,
+                             "merge_axis_tol_m": math.inf, "merge_max_per_scan": 0}},
+    "reference": {"landmarks": {"beta": 3.0, "tentative_gate_m": 5.0, "merge_distance_m": 3.0,
+                                "merge_axis_tol_m": 0.8, "merge_max_per_scan": 1}},
+}
+
+
+def profile_config(name: str = "apsipa") -> Config:
+    """The default :class:`Config` of profile ``name``."""
+    if name not in PROFILES:
+        raise ConfigError(f"profile: expected one of {sorted(PROFILES)}, got {name!r}")
+    cfg = Config(profile=name)
+    _apply(cfg, PROFILES[name], "")
+    return cfg
+
+
+# --------------------------------------------------------------------------------------------
+# Loading, validating, writing
+# --------------------------------------------------------------------------------------------
+def _field_type(cls: type, name: str) -> Any:
+    return typing.get_type_hints(cls)[name]
+
+
+def _check_value(key: str, typ: Any, meta: dict, value: Any) -> Any:
+    """Type-check (and coerce int -> float) one leaf value; range-check it."""
+    origin = typing.get_origin(typ)
+    if typ is bool:
+        if not isinstance(value, bool):
+            raise ConfigError(f"{key}: expected true or false, got {value!r}")
+        return value
+    if typ is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError(f"{key}: expected an integer, got {value!r}")
+    elif typ is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ConfigError(f"{key}: expected a number, got {value!r}")
+        value = float(value)
+        if math.isnan(value):
+            raise ConfigError(f"{key}: expected a number, got nan")
+    elif typ is str:
+        if not isinstance(value, str):
+            raise ConfigError(f"{key}: expected a string, got {value!r}")
+        if meta.get("choices") and value not in meta["choices"]:
+            raise ConfigError(f"{key}: expected one of {list(meta['choices'])}, got {value!r}")
+        return value
+    elif origin is list:
+        (inner,) = typing.get_args(typ)
+        if not isinstance(value, list):
+            raise ConfigError(f"{key}: expected a list, got {value!r}")
+        if meta.get("length") is not None and len(value) != meta["length"]:
+            raise ConfigError(f"{key}: expected a list of {meta['length']} values, got {len(value)}")
+        return [_check_value(f"{key}[{i}]", inner, {}, v) for i, v in enumerate(value)]
+    low, high = meta.get("low"), meta.get("high")
+    if low is not None and (value < low or (meta.get("low_open") and value == low)):
+        raise ConfigError(f"{key}: expected a value {'>' if meta.get('low_open') else '>='} {low}, got {value!r}")
+    if high is not None and value > high:
+        raise ConfigError(f"{key}: expected a value <= {high}, got {value!r}")
+    return value
+
+
+def _apply(obj: Any, data: dict, prefix: str) -> None:
+    """Overlay ``data`` onto the dataclass ``obj`` with full checking; unknown keys are refused."""
+    fields = {f.name: f for f in dataclasses.fields(obj)}
+    for key, value in data.items():
+        dotted = f"{prefix}{key}"
+        if key not in fields:
+            raise ConfigError(f"{dotted}: unknown key (known here: {', '.join(sorted(fields))})")
+        current = getattr(obj, key)
+        if dataclasses.is_dataclass(current):
+            if not isinstance(value, dict):
+                raise ConfigError(f"{dotted}: expected a table, got {value!r}")
+            _apply(current, value, dotted + ".")
+        else:
+            setattr(obj, key, _check_value(dotted, _field_type(type(obj), key), dict(fields[key].metadata), value))
+
+
+def validate(cfg: Config) -> Config:
+    """Check every field of ``cfg`` (type and range) and cross-field constraints; return ``cfg``."""
+    _apply(copy.deepcopy(cfg), to_dict(cfg), "")
+    t = cfg.trajectory
+    if t.turn_end < t.turn_start:
+        raise ConfigError(f"trajectory.turn_end: expected >= turn_start ({t.turn_start}), got {t.turn_end}")
+    if cfg.radar.scene_max_m <= cfg.radar.scene_min_m:
+        raise ConfigError(f"radar.scene_max_m: expected > scene_min_m ({cfg.radar.scene_min_m}), got {cfg.radar.scene_max_m}")
+    for i, v in enumerate(cfg.world.vehicles):
+        if len(v) != 4 or v[2] <= 0 or v[3] <= 0:
+            raise ConfigError(f"world.vehicles[{i}]: expected [x, y, size_x > 0, size_y > 0], got {v}")
+    if cfg.world.departing_vehicle >= len(cfg.world.vehicles):
+        raise ConfigError(f"world.departing_vehicle: expected -1 or an index < {len(cfg.world.vehicles)}, got {cfg.world.departing_vehicle}")
+    if cfg.landmarks.removal_max_hits >= cfg.landmarks.removal_window:
+        raise ConfigError(f"landmarks.removal_max_hits: expected < removal_window ({cfg.landmarks.removal_window}), got {cfg.landmarks.removal_max_hits}")
+    if any(s <= 0 for s in cfg.filter.initial_pose_std):
+        raise ConfigError(f"filter.initial_pose_std: expected positive values, got {cfg.filter.initial_pose_std}")
+    return cfg
+
+
+def from_dict(data: dict, profile: str | None = None) -> Config:
+    """Build a config: the profile's defaults (``data['profile']`` or ``profile``) overlaid with ``data``."""
+    data = dict(data)
+    name = profile or data.get("profile", "apsipa")
+    if not isinstance(name, str):
+        raise ConfigError(f"profile: expected a string, got {name!r}")
+    cfg = profile_config(name)
+    data["profile"] = name
+    _apply(cfg, data, "")
+    return validate(cfg)
+
+
+def load_config(path: str | Path, profile: str | None = None) -> Config:
+    """Load a TOML file over the defaults of ``profile`` (or the file's own ``profile`` key)."""
+    path = Path(path)
+    try:
+        with path.open("rb") as fh:
+            data = tomllib.load(fh)
+    except FileNotFoundError:
+        raise ConfigError(f"config file {path}: no such file") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"config file {path}: not valid TOML ({exc})") from None
+    return from_dict(data, profile)
+
+
+def to_dict(cfg: Any) -> dict:
+    """Plain nested dict of a config dataclass."""
+    return dataclasses.asdict(cfg)
+
+
+def _toml_value(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if math.isinf(v):
+            return "inf" if v > 0 else "-inf"
+        return repr(v)
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(v, list):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    raise TypeError(f"cannot write {v!r} as TOML")
+
+
+def to_toml(cfg: Config, *, comments: bool = True) -> str:
+    """Serialise ``cfg`` as TOML (the stdlib reads TOML but does not write it)."""
+    lines = [f"# radarslam configuration (profile {cfg.profile!r})", f"profile = {_toml_value(cfg.profile)}"]
+    for f in dataclasses.fields(cfg):
+        sub = getattr(cfg, f.name)
+        if not dataclasses.is_dataclass(sub):
+            continue
+        lines += ["", f"[{f.name}]"]
+        for g in dataclasses.fields(sub):
+            doc = f"  # {g.metadata['doc']}" if comments and g.metadata.get("doc") else ""
+            lines.append(f"{g.name} = {_toml_value(getattr(sub, g.name))}{doc}")
+    return "\n".join(lines) + "\n"

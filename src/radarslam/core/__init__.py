@@ -1,0 +1,1 @@
+"""Foundations shared by every other sub-package: angles, linear algebra, validation, event types."""

@@ -1,0 +1,80 @@
+"""The time-ordered event stream every estimator consumes.
+
+The simulator and every dataset loader produce the same two event types, so the filter never
+knows where its data came from:
+
+- :class:`Odometry`: a control reading that moves the platform over ``dt`` seconds;
+- :class:`Scan`: one radar (or laser) scan of range-azimuth detections.
+
+The ground truth is never inside the stream; it travels separately for evaluation.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from radarslam.core.errors import InputError
+from radarslam.core.validation import as_array
+
+
+@dataclass(frozen=True, slots=True)
+class Odometry:
+    """An odometer reading applied over ``dt`` seconds, ending at time ``t``.
+
+    Attributes
+    ----------
+    t : float
+        Time at the end of the interval (s).
+    dt : float
+        Length of the interval (s), > 0.
+    control : ndarray, shape (2,)
+        Model-specific control; for the car park's unicycle model ``[v (m/s), psi (rad/s)]``.
+    """
+
+    t: float
+    dt: float
+    control: np.ndarray
+
+    @classmethod
+    def checked(cls, t: float, dt: float, control: object) -> "Odometry":
+        """Build with validation (finite values, ``dt > 0``, ``control`` of shape (2,))."""
+        if not (np.isfinite(t) and np.isfinite(dt) and dt > 0):
+            raise InputError(f"odometry: expected finite t and dt > 0, got t={t!r}, dt={dt!r}")
+        return cls(float(t), float(dt), as_array("odometry.control", control, (2,)))
+
+
+@dataclass(frozen=True, slots=True)
+class Scan:
+    """One scan of range-azimuth detections.
+
+    Attributes
+    ----------
+    t : float
+        Scan time (s).
+    index : int
+        Scan number ``k`` (1-based in the car park).
+    polar : ndarray, shape (m, 2)
+        Detections ``[range (m), azimuth (rad)]``, azimuth relative to the heading; ``m`` may be 0.
+    """
+
+    t: float
+    index: int
+    polar: np.ndarray
+
+    @classmethod
+    def checked(cls, t: float, index: int, polar: object) -> "Scan":
+        """Build with validation: finite ``(m, 2)`` detections with non-negative ranges."""
+        if not np.isfinite(t):
+            raise InputError(f"scan.t: expected a finite time, got {t!r}")
+        arr = np.asarray(polar, dtype=np.float64)
+        if arr.size == 0:
+            return cls(float(t), int(index), np.empty((0, 2)))
+        arr = as_array("scan.polar", arr, (None, 2))
+        if np.any(arr[:, 0] < 0):
+            raise InputError(f"scan.polar: expected ranges >= 0, got min {arr[:, 0].min()}")
+        return cls(float(t), int(index), arr)
+
+
+Event = Odometry | Scan

@@ -1,0 +1,1 @@
+"""Experiments: single runs and Monte Carlo."""

@@ -1,0 +1,1 @@
+"""Motion and measurement models with analytic Jacobians."""

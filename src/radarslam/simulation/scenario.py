@@ -1,0 +1,72 @@
+"""A complete simulated trial: the event stream the filter sees and the ground truth kept aside."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from radarslam.config import Config
+from radarslam.core.types import Odometry, Scan
+from radarslam.simulation.radar import simulate_scan
+from radarslam.simulation.trajectory import commanded_controls, odometer_readings, process_noise, true_path
+from radarslam.simulation.world import Vehicle, carpark_vehicles, presence
+
+
+@dataclass(frozen=True)
+class GroundTruth:
+    """What the evaluation knows and the filter does not.
+
+    Attributes
+    ----------
+    poses : ndarray, shape (K, 3)
+        True poses for k = 1..K.
+    controls : ndarray, shape (K, 2)
+        True controls (row k-1 moves pose k-1 to pose k; row 0 unused).
+    vehicles : list of Vehicle
+    present : ndarray of bool, shape (K, V)
+    sources : list of ndarray of int
+        Per scan, the producing vehicle of each detection (-1 = clutter).
+    """
+
+    poses: np.ndarray
+    controls: np.ndarray
+    vehicles: list[Vehicle]
+    present: np.ndarray
+    sources: list[np.ndarray]
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """The event stream ``[Scan 1, Odometry 2, Scan 2, ..., Odometry K, Scan K]`` and its truth."""
+
+    events: list[Odometry | Scan]
+    truth: GroundTruth
+    odometry: np.ndarray  # (K, 2) readings, row 0 unused
+
+    @property
+    def scans(self) -> list[Scan]:
+        return [e for e in self.events if isinstance(e, Scan)]
+
+
+def generate_scenario(config: Config, rng: np.random.Generator) -> Scenario:
+    """Simulate one trial of the car park from ``rng``.
+
+    The draws happen in a fixed order (process noise, odometer noise, then the scans in time
+    order), so a scenario is reproducible bit for bit from its seed.
+    """
+    traj = config.trajectory
+    vehicles = carpark_vehicles(config.world)
+    controls = commanded_controls(traj)
+    poses = true_path(traj, process_noise(traj, rng))
+    odo = odometer_readings(controls, config.odometer, rng)
+    events: list[Odometry | Scan] = []
+    sources = []
+    for k in range(1, traj.n_steps + 1):
+        if k > 1:
+            events.append(Odometry(t=(k - 1) * traj.dt_s, dt=traj.dt_s, control=odo[k - 1]))
+        polar, src = simulate_scan(poses[k - 1], vehicles, k, config.radar, rng)
+        events.append(Scan(t=(k - 1) * traj.dt_s, index=k, polar=polar))
+        sources.append(src)
+    truth = GroundTruth(poses, controls, vehicles, presence(vehicles, traj.n_steps), sources)
+    return Scenario(events, truth, odo)

@@ -1,0 +1,71 @@
+"""Vehicles of the car park as axis-aligned rectangles (method.md b.1)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from radarslam.config import WorldConfig
+
+
+@dataclass(frozen=True)
+class Vehicle:
+    """An axis-aligned rectangle ``[x_left, y_bottom, size_x, size_y]`` present for ``k < departure``."""
+
+    index: int
+    x_left: float
+    y_bottom: float
+    size_x: float
+    size_y: float
+    departure: int | None = None
+
+    @property
+    def center(self) -> np.ndarray:
+        """Rectangle centre (2,)."""
+        return np.array([self.x_left + 0.5 * self.size_x, self.y_bottom + 0.5 * self.size_y])
+
+    @property
+    def length(self) -> float:
+        """Long side L (m)."""
+        return max(self.size_x, self.size_y)
+
+    @property
+    def width(self) -> float:
+        """Short side W (m)."""
+        return min(self.size_x, self.size_y)
+
+    @property
+    def orientation(self) -> float:
+        """Orientation of the long axis: 0 along x, pi/2 along y."""
+        return 0.0 if self.size_x >= self.size_y else 0.5 * math.pi
+
+    @property
+    def area(self) -> float:
+        return self.size_x * self.size_y
+
+    def present(self, k: int) -> bool:
+        """Whether the vehicle is in the scene at step ``k`` (Decision 2)."""
+        return self.departure is None or k < self.departure
+
+
+def carpark_vehicles(world: WorldConfig) -> list[Vehicle]:
+    """The vehicles of ``world`` with the departure applied."""
+    out = []
+    for i, (x, y, sx, sy) in enumerate(world.vehicles):
+        dep = world.departure_step if i == world.departing_vehicle else None
+        out.append(Vehicle(i, float(x), float(y), float(sx), float(sy), dep))
+    return out
+
+
+def vehicle_centers(vehicles: list[Vehicle]) -> np.ndarray:
+    """Centres ``(V, 2)``."""
+    return np.array([v.center for v in vehicles]).reshape(-1, 2)
+
+
+def presence(vehicles: list[Vehicle], n_steps: int) -> np.ndarray:
+    """``(K, V)`` boolean: vehicle present at step k = 1..K (row k - 1)."""
+    ks = np.arange(1, n_steps + 1)[:, None]
+    dep = np.array([np.inf if v.departure is None else v.departure for v in vehicles])[None, :]
+    return ks < dep

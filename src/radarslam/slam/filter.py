@@ -1,0 +1,367 @@
+"""The EKF-SLAM orchestrator with APSIPA landmark management and landmark extents.
+
+:class:`EkfSlam` holds the state and calls the pure functions of :mod:`radarslam.slam.ekf`,
+:mod:`radarslam.landmarks` and :mod:`radarslam.extent` in the order of method.md a.8:
+
+1. prediction with the odometer (:meth:`EkfSlam.predict`);
+2-4. sifting, then sequential log-distance association and EKF point updates;
+5. M/N windows and removal;
+6. the extent step (RM prediction + update, EFA refit; or buffering until initialisation);
+7. DBSCAN of the unsifted detections, alpha test;
+8-9. Rule 2 / Rule 1 confirmation and state augmentation;
+10. merging.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from radarslam.config import Config
+from radarslam.core.errors import InputError
+from radarslam.core.types import Odometry, Scan
+from radarslam.core.validation import as_array
+from radarslam.extent import converted_measurement_covs, fit_ellipse, rm_predict, rm_update, select_scan_W
+from radarslam.landmarks.clustering import clusters_of, dbscan_labels
+from radarslam.landmarks.confirmation import Tentative, push_bit, rule2_step, should_remove
+from radarslam.landmarks.merging import next_merge
+from radarslam.landmarks.sifting import sift
+from radarslam.models.motion import MotionModel, get_motion_model
+from radarslam.models.radar import polar_to_xy
+from radarslam.slam import ekf
+
+
+@dataclass
+class ExtentState:
+    """Extent record of one landmark, kept outside the EKF state (method.md a.1).
+
+    Before initialisation only ``buffer`` is used; afterwards ``X``/``alpha`` are the RMA estimate
+    and ``X_efa`` the EFA baseline.
+    """
+
+    buffer: list[np.ndarray] = field(default_factory=list)
+    n_buffered: int = 0
+    X: np.ndarray | None = None
+    alpha: float = 0.0
+    X_efa: np.ndarray | None = None
+    efa_buffer: list[np.ndarray] = field(default_factory=list)
+    initialized_at: int | None = None
+
+    @property
+    def initialized(self) -> bool:
+        return self.X is not None
+
+
+@dataclass
+class LandmarkRecord:
+    """Bookkeeping of one confirmed landmark (its centroid lives in the EKF state)."""
+
+    id: int
+    created: int
+    assoc: int = 1  # M/N windows, newest-first bits; [1, 0, ..., 0] at creation (c.5)
+    in_range: int = 1
+    extent: ExtentState = field(default_factory=ExtentState)
+
+
+@dataclass(frozen=True)
+class ScanReport:
+    """What one scan did (for logging and tests)."""
+
+    index: int
+    n_detections: int
+    n_candidates: int
+    n_associated: int
+    associations: dict[int, np.ndarray]  # landmark id -> detection indices
+    removed: list[int]
+    confirmed: list[int]
+    merged: list[tuple[int, int]]  # (kept id, dropped id)
+    n_clusters: int
+    n_tentative: int
+
+
+@dataclass(frozen=True)
+class MapSnapshot:
+    """The map after a scan: ids ``(N,)``, centroids ``(N, 2)``, covariances ``(N, 2, 2)``,
+    RMA and EFA extents ``(N, 2, 2)`` (NaN where not initialised), creation scans ``(N,)``."""
+
+    ids: np.ndarray
+    positions: np.ndarray
+    covs: np.ndarray
+    rma: np.ndarray
+    efa: np.ndarray
+    created: np.ndarray
+
+
+class EkfSlam:
+    """EKF-SLAM of the pose and landmark centroids with landmark management and extents.
+
+    Parameters
+    ----------
+    config : Config
+        Uses ``filter``, ``landmarks`` and ``extent``.
+    motion_model : MotionModel, optional
+        Defaults to ``get_motion_model(config.filter.motion_model)``.
+    """
+
+    def __init__(self, config: Config, motion_model: MotionModel | None = None):
+        self.config = config
+        f = config.filter
+        self.model = motion_model or get_motion_model(f.motion_model)
+        self.R = f.R
+        self.U = f.U
+        self.Q = f.Q
+        self.x = np.array(f.initial_pose, dtype=float)
+        self.P = np.diag(np.square(f.initial_pose_std))
+        self.landmarks: list[LandmarkRecord] = []
+        self.tentatives: list[Tentative] = []
+        self._next_id = 0
+        self._dt_since_scan = 0.0
+        self._scans = 0
+
+    # ------------------------------------------------------------------ views
+    @property
+    def pose(self) -> np.ndarray:
+        return self.x[:3].copy()
+
+    @property
+    def pose_cov(self) -> np.ndarray:
+        return self.P[:3, :3].copy()
+
+    @property
+    def landmark_positions(self) -> np.ndarray:
+        return self.x[3:].reshape(-1, 2).copy()
+
+    def snapshot(self) -> MapSnapshot:
+        """The current map (copies)."""
+        n = len(self.landmarks)
+        idx = 3 + 2 * np.arange(n)
+        covs = np.empty((n, 2, 2))
+        covs[:, 0, 0] = self.P[idx, idx]
+        covs[:, 0, 1] = covs[:, 1, 0] = self.P[idx, idx + 1]
+        covs[:, 1, 1] = self.P[idx + 1, idx + 1]
+        nan = np.full((2, 2), np.nan)
+        return MapSnapshot(
+            ids=np.array([r.id for r in self.landmarks], dtype=int),
+            positions=self.landmark_positions,
+            covs=covs,
+            rma=np.array([r.extent.X if r.extent.X is not None else nan for r in self.landmarks]).reshape(n, 2, 2),
+            efa=np.array([r.extent.X_efa if r.extent.X_efa is not None else nan for r in self.landmarks]).reshape(n, 2, 2),
+            created=np.array([r.created for r in self.landmarks], dtype=int),
+        )
+
+    # ------------------------------------------------------------------ events
+    def process(self, event: Odometry | Scan) -> ScanReport | None:
+        """Dispatch one event of the stream."""
+        if isinstance(event, Odometry):
+            self.predict(event)
+            return None
+        if isinstance(event, Scan):
+            return self.update(event)
+        raise InputError(f"event: expected Odometry or Scan, got {type(event).__name__}")
+
+    def predict(self, odo: Odometry) -> None:
+        """EKF prediction with one odometer reading (method.md c.2)."""
+        u = as_array("odometry.control", odo.control, (2,))
+        if not (math.isfinite(odo.dt) and odo.dt > 0):
+            raise InputError(f"odometry.dt: expected a finite value > 0, got {odo.dt!r}")
+        self.x, self.P = ekf.predict(self.x, self.P, u, odo.dt, self.model, self.U, self.Q)
+        self._dt_since_scan += odo.dt
+
+    def update(self, scan: Scan) -> ScanReport:
+        """Process one scan (method.md a.8 steps 2-10). An empty scan still ages the M/N windows."""
+        polar = np.asarray(scan.polar, dtype=float)
+        if polar.size == 0:
+            polar = np.empty((0, 2))
+        polar = as_array("scan.polar", polar, (None, 2))
+        if np.any(polar[:, 0] < 0):
+            raise InputError(f"scan.polar: expected ranges >= 0, got min {polar[:, 0].min()}")
+        k = scan.index
+        lc, ec = self.config.landmarks, self.config.extent
+        use_ext = ec.use_in_slam
+        dt_ext = self._dt_since_scan if self._scans else 0.0
+        self._dt_since_scan = 0.0
+        self._scans += 1
+
+        # Snapshot of the prior (Decision 3); the pure ekf functions never mutate x or P.
+        x_prior, P_prior = self.x, self.P
+        ids_prior = {r.id: j for j, r in enumerate(self.landmarks)}
+
+        # 3. Sifting with the predicted pose.
+        m = polar.shape[0]
+        L = self.x[3:].reshape(-1, 2)
+        xy_pred = polar_to_xy(self.x[:3], polar)
+        ext_inv, has_ext = None, None
+        if use_ext and self.landmarks:
+            has_ext = np.array([r.extent.initialized for r in self.landmarks])
+            ext_inv = np.array([np.linalg.inv(r.extent.X) if r.extent.initialized else np.eye(2)
+                                for r in self.landmarks])
+        cand = sift(xy_pred, L, lc.sift_radius_m, ext_inv, has_ext, ec.kappa)
+
+        # 4. Sequential association and EKF point updates.
+        assoc: list[list[int]] = [[] for _ in self.landmarks]
+        for i in np.flatnonzero(cand):
+            j, D, e, Hs, idx, Rj = self._best_match(polar[i], lc.n_nearest_assoc)
+            if j >= 0 and D < lc.beta:
+                self.x, self.P = ekf.update(self.x, self.P, e, Hs, idx, Rj)
+                assoc[j].append(int(i))
+        n_assoc = sum(len(a) for a in assoc)
+        associations = {r.id: np.array(a, dtype=int) for r, a in zip(self.landmarks, assoc) if a}
+
+        # 5. M/N windows and removal (every scan, Decision 8).
+        pos = self.x[:2]
+        L = self.x[3:].reshape(-1, 2)
+        drop = []
+        for j, r in enumerate(self.landmarks):
+            hit = bool(assoc[j])
+            near = hit or math.hypot(L[j, 0] - pos[0], L[j, 1] - pos[1]) <= self.config.filter.max_range_m
+            r.assoc = push_bit(r.assoc, hit, lc.removal_window)
+            r.in_range = push_bit(r.in_range, near, lc.removal_window)
+            if should_remove(k, r.created, r.assoc, r.in_range, window=lc.removal_window, max_hits=lc.removal_max_hits):
+                drop.append(j)
+        removed = [self.landmarks[j].id for j in drop]
+        if drop:
+            self.x, self.P = ekf.remove_landmarks(self.x, self.P, drop)
+            keep = [j for j in range(len(self.landmarks)) if j not in set(drop)]
+            self.landmarks = [self.landmarks[j] for j in keep]
+            assoc = [assoc[j] for j in keep]
+
+        # 6. Extent step.
+        if ec.track:
+            for j, r in enumerate(self.landmarks):
+                jp = ids_prior[r.id]
+                ip = 3 + 2 * jp
+                if ec.use_posterior_landmark:
+                    c, C = self.x[3 + 2 * j: 5 + 2 * j], self.P[3 + 2 * j: 5 + 2 * j, 3 + 2 * j: 5 + 2 * j]
+                else:
+                    c, C = x_prior[ip: ip + 2], P_prior[ip: ip + 2, ip: ip + 2]
+                self._extent_step(r, polar[assoc[j]], c, C, dt_ext, k)
+
+        # 7. Clustering of Z \ Z^s and the alpha test.
+        rest = np.flatnonzero(~cand)
+        clusters = []
+        if rest.size >= lc.cluster_min_samples:
+            xy_rest = polar_to_xy(self.x[:3], polar[rest])
+            labels = dbscan_labels(xy_rest, lc.cluster_eps_m, lc.cluster_min_samples)
+            clusters = clusters_of(polar[rest], xy_rest, labels, rest)
+        fresh = [c for c in clusters if self._min_log_distance(c.centre_polar, lc.n_nearest_new) > lc.alpha]
+
+        # 8-9. Rule 2 / Rule 1 confirmation and augmentation.
+        confirmed, self.tentatives = rule2_step(
+            self.tentatives, fresh, gate=lc.tentative_gate_m, confirm_points=lc.confirm_points,
+            window=lc.confirm_window, hits=lc.confirm_hits)
+        new_ids = []
+        for c in confirmed:
+            self.x, self.P = ekf.augment(self.x, self.P, c.centre_polar, self.R)
+            self.landmarks.append(LandmarkRecord(self._next_id, k))
+            new_ids.append(self._next_id)
+            self._next_id += 1
+
+        # 10. Merging.
+        merged = self._merge()
+
+        return ScanReport(k, m, int(cand.sum()), n_assoc, associations, removed, new_ids, merged,
+                          len(clusters), len(self.tentatives))
+
+    # ------------------------------------------------------------------ pieces
+    def _noise(self, j: int, Hp: np.ndarray) -> np.ndarray:
+        """R, or R_eff = R + H_p (gamma_z X) H_p^T for a landmark with extent (a.7.2)."""
+        ec = self.config.extent
+        X = self.landmarks[j].extent.X
+        if ec.use_in_slam and X is not None:
+            return self.R + ec.gamma_z * (Hp @ X @ Hp.T)
+        return self.R
+
+    def _nearest(self, s: np.ndarray, count: int) -> np.ndarray:
+        """Indices of the ``count`` landmarks Euclidean-nearest to detection ``s`` (current pose)."""
+        n = len(self.landmarks)
+        a = self.x[2] + s[1]
+        zx, zy = self.x[0] + s[0] * math.cos(a), self.x[1] + s[0] * math.sin(a)
+        L = self.x[3:].reshape(-1, 2)
+        d2 = (L[:, 0] - zx) ** 2 + (L[:, 1] - zy) ** 2
+        if n <= count:
+            return np.argsort(d2)
+        near = np.argpartition(d2, count)[:count]
+        return near[np.argsort(d2[near])]
+
+    def _best_match(self, s: np.ndarray, count: int):
+        """Landmark of smallest log distance among the ``count`` nearest (c.4), with its update terms."""
+        best = (-1, math.inf, None, None, None, None)
+        if not self.landmarks:
+            return best
+        for j in self._nearest(s, count):
+            h, Hs, idx = ekf.landmark_measurement(self.x, int(j))
+            e = ekf.innovation(s, h)
+            Rj = self._noise(int(j), Hs[:, 3:])
+            D = ekf.log_distance(e, ekf.innovation_cov(self.P, Hs, idx, Rj))
+            if D < best[1]:
+                best = (int(j), D, e, Hs, idx, Rj)
+        return best
+
+    def _min_log_distance(self, s: np.ndarray, count: int) -> float:
+        """Smallest log distance of detection ``s`` to its ``count`` nearest landmarks; inf if none."""
+        return self._best_match(s, count)[1]
+
+    def _extent_step(self, r: LandmarkRecord, polar: np.ndarray, centroid: np.ndarray,
+                     centroid_cov: np.ndarray, dt: float, k: int) -> None:
+        """a.3-a.5 for one landmark; ``polar`` are this scan's associated detections."""
+        ec = self.config.extent
+        st = r.extent
+        m = polar.shape[0]
+        pts = polar_to_xy(self.x[:3], polar) if m else None
+        if not st.initialized:
+            if m:
+                st.buffer.append(pts)
+                st.n_buffered += m
+            if st.n_buffered > ec.n_init:
+                fit = fit_ellipse(np.concatenate(st.buffer), upper_bound=True)
+                if fit:
+                    st.X = fit[1]
+                    st.alpha = ec.alpha0
+                    st.X_efa = fit[1].copy()
+                    st.initialized_at = k
+                    st.efa_buffer = [np.concatenate(st.buffer)[-ec.efa_window:]]
+                    st.buffer = []
+                else:  # degenerate geometry: keep only the newest points and wait
+                    st.buffer = [np.concatenate(st.buffer)[-ec.n_init:]]
+                    st.n_buffered = st.buffer[0].shape[0]
+            return
+        if dt > 0.0:
+            st.X, st.alpha = rm_predict(st.X, st.alpha, dt, ec.tau_s)
+        if m == 0:
+            return
+        Ws = converted_measurement_covs(self.x[:3], self.P[:3, :3], polar, self.R)
+        W = select_scan_W(Ws, ec.w_mode)
+        st.X, st.alpha = rm_update(st.X, st.alpha, centroid, centroid_cov, pts, W, gamma=ec.gamma_z,
+                                   eig_floor=ec.eig_floor_m2)
+        if ec.efa_mode == "sliding":
+            data = np.concatenate(st.efa_buffer + [pts])[-ec.efa_window:]
+            st.efa_buffer = [data]
+        else:
+            data = pts
+        if data.shape[0] >= 3:
+            fit = fit_ellipse(data, upper_bound=not ec.efa_noise_correct, W=W if ec.efa_noise_correct else None)
+            if fit:
+                st.X_efa = fit[1]
+
+    def _merge(self) -> list[tuple[int, int]]:
+        """c.9: repeatedly drop the later-created landmark of the closest eligible pair."""
+        lc = self.config.landmarks
+        merged: list[tuple[int, int]] = []
+        while len(self.landmarks) >= 2 and (lc.merge_max_per_scan == 0 or len(merged) < lc.merge_max_per_scan):
+            pair = next_merge(self.x[3:].reshape(-1, 2), np.array([r.created for r in self.landmarks]),
+                              np.array([r.id for r in self.landmarks]), lc.merge_distance_m, lc.merge_axis_tol_m)
+            if pair is None:
+                break
+            keep, drop = pair
+            survivor, gone = self.landmarks[keep], self.landmarks[drop]
+            if not survivor.extent.initialized and gone.extent.initialized:
+                survivor.extent = gone.extent  # c.9 [PROP]: the extent follows the merge
+            elif not survivor.extent.initialized and not gone.extent.initialized:
+                survivor.extent.buffer += gone.extent.buffer  # [PROP]: pool the pre-init detections
+                survivor.extent.n_buffered += gone.extent.n_buffered
+            self.x, self.P = ekf.remove_landmarks(self.x, self.P, [drop])
+            del self.landmarks[drop]
+            merged.append((survivor.id, gone.id))
+        return merged
