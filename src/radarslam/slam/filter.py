@@ -23,7 +23,11 @@ from radarslam.config import Config
 from radarslam.core.errors import InputError
 from radarslam.core.types import Odometry, Scan
 from radarslam.core.validation import as_array
-from radarslam.extent import converted_measurement_covs, fit_ellipse, rm_predict, rm_update, select_scan_W
+# The SLAM loop calls the extent kernels directly: its inputs are already validated, and the
+# public wrappers' PSD checks cost 30-75 us per call (an eigen-solve per matrix).
+from radarslam.extent.ellipse_fit import _fit_ellipse
+from radarslam.extent.measurement import _scan_W
+from radarslam.extent.random_matrix import _rm_predict, _rm_update
 from radarslam.landmarks.clustering import clusters_of, dbscan_labels
 from radarslam.landmarks.confirmation import Tentative, push_bit, rule2_step, should_remove
 from radarslam.landmarks.merging import next_merge
@@ -315,7 +319,7 @@ class EkfSlam:
                 st.buffer.append(pts)
                 st.n_buffered += m
             if st.n_buffered > ec.n_init:
-                fit = fit_ellipse(np.concatenate(st.buffer), upper_bound=True)
+                fit = _fit_ellipse(np.concatenate(st.buffer), upper_bound=True)
                 if fit:
                     st.X = fit[1]
                     st.alpha = ec.alpha0
@@ -328,20 +332,18 @@ class EkfSlam:
                     st.n_buffered = st.buffer[0].shape[0]
             return
         if dt > 0.0:
-            st.X, st.alpha = rm_predict(st.X, st.alpha, dt, ec.tau_s)
+            st.X, st.alpha = _rm_predict(st.X, st.alpha, dt, ec.tau_s)
         if m == 0:
             return
-        Ws = converted_measurement_covs(self.x[:3], self.P[:3, :3], polar, self.R)
-        W = select_scan_W(Ws, ec.w_mode)
-        st.X, st.alpha = rm_update(st.X, st.alpha, centroid, centroid_cov, pts, W, gamma=ec.gamma_z,
-                                   eig_floor=ec.eig_floor_m2)
+        W = _scan_W(self.x[:3], self.P[:3, :3], polar, self.R, ec.w_mode)  # seed eq. (5), h.3
+        st.X, st.alpha = _rm_update(st.X, st.alpha, centroid, centroid_cov, pts, W, ec.gamma_z, ec.eig_floor_m2)
         if ec.efa_mode == "sliding":
             data = np.concatenate(st.efa_buffer + [pts])[-ec.efa_window:]
             st.efa_buffer = [data]
         else:
             data = pts
         if data.shape[0] >= 3:
-            fit = fit_ellipse(data, upper_bound=not ec.efa_noise_correct, W=W if ec.efa_noise_correct else None)
+            fit = _fit_ellipse(data, not ec.efa_noise_correct, W if ec.efa_noise_correct else None)
             if fit:
                 st.X_efa = fit[1]
 

@@ -1,0 +1,42 @@
+"""``radarslam`` entry point: parse, call one library function, save the result.
+
+Known errors (bad input, bad config, unwritable output) become one line on stderr and exit 1;
+argparse usage errors exit 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from radarslam import __version__
+from radarslam.core.errors import RadarSlamError
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from radarslam.cli import dump_config, run
+
+    p = argparse.ArgumentParser(prog="radarslam", description="Radar EKF-SLAM with extended landmarks.")
+    p.add_argument("--version", action="version", version=f"radarslam {__version__}")
+    sub = p.add_subparsers(dest="command", required=True)
+    for mod in (run, dump_config):
+        mod.add_parser(sub)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the CLI with ``argv`` (default ``sys.argv[1:]``); return the exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except RadarSlamError as exc:
+        print(f"radarslam {args.command}: error: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"radarslam {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+def entry_point() -> None:  # pragma: no cover - thin wrapper
+    sys.exit(main())

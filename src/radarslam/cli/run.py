@@ -1,0 +1,114 @@
+"""``radarslam run``: one seeded car-park trial, a summary table and its result files."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import sys
+import time
+
+import numpy as np
+
+from radarslam import __version__
+from radarslam.cli.common import add_config_args, config_from_args
+from radarslam.config import to_dict, to_toml
+from radarslam.core.errors import InputError
+from radarslam.io.results import atomic_write_text, prepare_out_dir, write_json, write_trajectory_csv, write_tum
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("run", help="run one seeded trial of the simulated car park")
+    p.add_argument("--seed", type=int, default=1, help="trial seed (default 1)")
+    add_config_args(p)
+    ext = p.add_mutually_exclusive_group()
+    ext.add_argument("--extent", dest="extent", action="store_true", default=None,
+                     help="'With extent': contour sifting and extent-inflated noise (Decision 6)")
+    ext.add_argument("--no-extent", dest="extent", action="store_false", help="'No extent' (the default)")
+    p.add_argument("--out", required=True, metavar="DIR", help="output directory (created; its parent must exist)")
+    p.add_argument("--no-plot", action="store_true", help="skip the figure even if matplotlib is installed")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from radarslam.experiments.single import run_trial
+
+    if args.seed < 0:
+        raise InputError(f"--seed: expected an integer >= 0, got {args.seed}")
+    config = config_from_args(args)
+    if args.extent is not None:
+        config = dataclasses.replace(config, extent=dataclasses.replace(config.extent, use_in_slam=args.extent))
+    out = prepare_out_dir(args.out)
+    t0 = time.perf_counter()
+    res = run_trial(config, args.seed)
+    wall = time.perf_counter() - t0
+    write_outputs(out, res, wall, argv=sys.argv)
+    print(summary_table(res))
+    print(f"\nwrote {out}/ (metrics.json, per_step.csv, trajectory.csv, map.json, config.toml, run.json"
+          + (", map.png)" if (out / "map.png").exists() else ")"))
+    return 0
+
+
+def summary_table(res) -> str:
+    m = res.metrics
+    lines = [
+        f"radarslam run  seed={res.seed}  profile={res.config.profile}  extent={'on' if res.config.extent.use_in_slam else 'off'}",
+        "",
+        "| metric | value |",
+        "|---|---|",
+        f"| position avg. RMSE (m) | {m['position_avg_rmse_m']:.3f} |",
+        f"| heading avg. RMSE (deg) | {m['heading_avg_rmse_deg']:.3f} |",
+        f"| final position error (m) | {m['final_position_error_m']:.3f} |",
+        f"| landmarks at the end | {m['n_landmarks_final']} |",
+        f"| false landmarks at the end | {m['final_false']} (mean over scans {m['mean_false']:.2f}, max {m['max_false']}) |",
+        f"| missed vehicles at the end | {m['final_missed']} (mean {m['mean_missed']:.2f}, max {m['max_missed']}) |",
+        f"| landmark position MAE at the end (m) | {m['landmark_mae_m']:.3f} |",
+        f"| mean inclusion delay (scans) | {m['mean_inclusion_delay']:.2f} |",
+        f"| removal delay of the departed car (scans) | {m['mean_removal_delay']:.2f} |",
+    ]
+    for key in ("gwd_rma_final_moment", "gwd_efa_final_moment", "gwd_rma_final_full", "gwd_efa_final_full"):
+        if key in m:
+            lines.append(f"| final mean GWD {key.split('_')[1].upper()} ({key.split('_')[-1]}) (m) | {m[key]:.3f} |")
+    lines += ["", "| vehicle | centre | error at the end (m) |", "|---|---|---|"]
+    for v, e in zip(res.scenario.truth.vehicles, m["final_errors"]):
+        state = "departed" if not v.present(res.record.poses.shape[0]) else ("not mapped" if not np.isfinite(e) else f"{e:.2f}")
+        lines.append(f"| {v.index} | ({v.center[0]:g}, {v.center[1]:g}) | {state} |")
+    return "\n".join(lines)
+
+
+def write_outputs(out, res, wall: float, argv=None) -> None:
+    """Every file of a single run."""
+    m = res.metrics
+    K = res.record.poses.shape[0]
+    t = np.array([s.t for s in res.scenario.scans])
+    scalars = {k: v for k, v in m.items() if np.ndim(v) == 0}
+    per_vehicle = {k: m[k] for k in ("final_errors", "inclusion_delay", "removal_delay")}
+    write_json(out / "metrics.json", {"scalars": scalars, "per_vehicle": per_vehicle})
+    cols = {"k": np.arange(1, K + 1), "t": t, "position_error_m": m["position_error_m"],
+            "heading_error_rad": m["heading_error_rad"], "nees": m["nees"], "n_landmarks": res.record.n_landmarks,
+            "n_detections": res.record.n_detections, "n_associated": res.record.n_associated,
+            "false_landmarks": m["false_per_scan"], "missed_vehicles": m["missed_per_scan"]}
+    for key in ("gwd_rma_moment", "gwd_efa_moment", "gwd_rma_full", "gwd_efa_full"):
+        if key in m:
+            cols[key] = m[key]
+    header = ",".join(cols)
+    rows = [",".join(repr(float(c[i])) if isinstance(c[i], (float, np.floating)) else str(c[i]) for c in cols.values())
+            for i in range(K)]
+    atomic_write_text(out / "per_step.csv", header + "\n" + "\n".join(rows) + "\n")
+    write_trajectory_csv(out / "trajectory.csv", t, res.record.poses, res.scenario.truth.poses)
+    write_tum(out / "trajectory_tum.txt", t, res.record.poses)
+    write_tum(out / "groundtruth_tum.txt", t, res.scenario.truth.poses)
+    mp = res.record.maps[-1]
+    write_json(out / "map.json", {"landmarks": [
+        {"id": int(i), "position": p, "cov": c, "created_scan": int(cr),
+         "rma_extent": x if np.all(np.isfinite(x)) else None, "efa_extent": e if np.all(np.isfinite(e)) else None}
+        for i, p, c, cr, x, e in zip(mp.ids, mp.positions, mp.covs, mp.created, mp.rma, mp.efa)]})
+    atomic_write_text(out / "config.toml", to_toml(res.config))
+    write_json(out / "run.json", {"seed": res.seed, "version": __version__, "argv": argv,
+                                  "wall_seconds": wall, "filter_seconds": res.record.seconds,
+                                  "config": to_dict(res.config)})
+    from radarslam.viz import have_matplotlib
+
+    if have_matplotlib():
+        from radarslam.viz.carpark import plot_carpark_run
+
+        plot_carpark_run(out / "map.png", res)

@@ -1,0 +1,1 @@
+"""Result files and dataset loaders (a leaf: estimation code never imports it)."""

@@ -1,0 +1,95 @@
+"""Writing results: atomic JSON / text / ``.npz`` files, trajectories, maps."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from radarslam.core.errors import InputError
+
+
+def to_jsonable(obj: Any) -> Any:
+    """numpy-aware conversion for ``json``; NaN and inf become ``null`` (JSON has neither)."""
+    if isinstance(obj, dict):
+        return {str(k): to_jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [to_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return to_jsonable(obj.tolist())
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, (float, np.floating)):
+        x = float(obj)
+        return x if math.isfinite(x) else None
+    if isinstance(obj, (np.bool_,)):
+        return bool(obj)
+    return obj
+
+
+def atomic_write_bytes(path: str | Path, data: bytes) -> None:
+    """Write ``data`` to a temporary file beside ``path``, fsync, then rename over ``path``."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix="." + path.name + ".", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def atomic_write_text(path: str | Path, text: str) -> None:
+    atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def write_json(path: str | Path, obj: Any) -> None:
+    """Atomically write ``obj`` as indented JSON."""
+    atomic_write_text(path, json.dumps(to_jsonable(obj), indent=2, allow_nan=False) + "\n")
+
+
+def prepare_out_dir(out: str | Path) -> Path:
+    """Create ``out`` if needed; refuse a missing parent or an unwritable directory."""
+    out = Path(out)
+    if out.exists():
+        if not out.is_dir():
+            raise InputError(f"--out: expected a directory, got an existing file {out}")
+    else:
+        if not out.parent.exists():
+            raise InputError(f"--out: parent directory {out.parent} does not exist")
+        try:
+            out.mkdir()
+        except OSError as exc:
+            raise InputError(f"--out: cannot create {out} ({exc.strerror})") from None
+    if not os.access(out, os.W_OK | os.X_OK):
+        raise InputError(f"--out: directory {out} is not writable")
+    return out
+
+
+def write_trajectory_csv(path: str | Path, t: np.ndarray, estimated: np.ndarray, true: np.ndarray | None = None) -> None:
+    """CSV with columns ``k,t,x,y,theta`` (+ ``x_true,y_true,theta_true``)."""
+    cols = ["k", "t", "x", "y", "theta"] + (["x_true", "y_true", "theta_true"] if true is not None else [])
+    rows = [",".join(cols)]
+    for i in range(estimated.shape[0]):
+        vals = [str(i + 1), repr(float(t[i]))] + [repr(float(v)) for v in estimated[i]]
+        if true is not None:
+            vals += [repr(float(v)) for v in true[i]]
+        rows.append(",".join(vals))
+    atomic_write_text(path, "\n".join(rows) + "\n")
+
+
+def write_tum(path: str | Path, t: np.ndarray, poses: np.ndarray) -> None:
+    """TUM trajectory format (``t x y z qx qy qz qw``) for ``evo``: planar pose, yaw quaternion."""
+    lines = []
+    for ti, (x, y, th) in zip(t, poses):
+        lines.append(f"{ti:.6f} {x:.6f} {y:.6f} 0.0 0.0 0.0 {math.sin(th / 2):.9f} {math.cos(th / 2):.9f}")
+    atomic_write_text(path, "\n".join(lines) + "\n")

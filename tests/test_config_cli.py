@@ -1,0 +1,143 @@
+"""Configuration loading/validation and the CLI (in-process ``main([...])``)."""
+
+from __future__ import annotations
+
+import json
+import tomllib
+
+import numpy as np
+import pytest
+
+from radarslam.cli.main import main
+from radarslam.config import from_dict, load_config, profile_config, to_toml
+from radarslam.core.errors import ConfigError
+
+from conftest import require
+
+
+def test_toml_round_trip_both_profiles():
+    for name in ("apsipa", "reference"):
+        cfg = profile_config(name)
+        assert from_dict(tomllib.loads(to_toml(cfg))) == cfg
+
+
+@pytest.mark.parametrize("data,key", [
+    ({"landmarks": {"betta": 3.0}}, "landmarks.betta"),
+    ({"radar": {"detection_probability": 1.5}}, "radar.detection_probability"),
+    ({"radar": {"range_std_m": -0.1}}, "radar.range_std_m"),
+    ({"filter": {"range_std_m": "big"}}, "filter.range_std_m"),
+    ({"trajectory": {"n_steps": 1.5}}, "trajectory.n_steps"),
+    ({"extent": {"use_in_slam": 1}}, "extent.use_in_slam"),
+    ({"extent": {"w_mode": "biggest"}}, "extent.w_mode"),
+    ({"nonsense": {}}, "nonsense"),
+    ({"filter": {"initial_pose": [0.0, 0.0]}}, "filter.initial_pose"),
+    ({"profile": "fancy"}, "profile"),
+    ({"odometer": 3}, "odometer"),
+])
+def test_bad_config_is_refused_naming_the_key(data, key):
+    with pytest.raises(ConfigError) as ei:
+        from_dict(data)
+    assert str(ei.value).startswith(key)
+
+
+def test_profile_key_in_file_and_override(tmp_path):
+    f = tmp_path / "c.toml"
+    f.write_text('profile = "reference"\n[landmarks]\nbeta = 7.5\n')
+    cfg = load_config(f)
+    assert cfg.profile == "reference" and cfg.landmarks.beta == 7.5 and cfg.landmarks.merge_distance_m == 3.0
+    cfg2 = load_config(f, profile="apsipa")
+    assert cfg2.profile == "apsipa" and cfg2.landmarks.beta == 7.5 and cfg2.landmarks.merge_distance_m == 1.5
+
+
+def test_dump_config_prints_loadable_toml(capsys):
+    assert main(["dump-config"]) == 0
+    text = capsys.readouterr().out
+    assert from_dict(tomllib.loads(text)) == profile_config()
+    assert main(["dump-config", "--profile", "reference"]) == 0
+    assert 'profile = "reference"' in capsys.readouterr().out
+
+
+def test_run_writes_all_outputs(tmp_path, capsys):
+    out = tmp_path / "r"
+    assert main(["run", "--seed", "3", "--out", str(out), "--no-plot"]) == 0
+    text = capsys.readouterr().out
+    assert "position avg. RMSE (m)" in text and "| vehicle |" in text
+    for name in ("metrics.json", "per_step.csv", "trajectory.csv", "map.json", "config.toml", "run.json",
+                 "trajectory_tum.txt", "groundtruth_tum.txt"):
+        assert (out / name).is_file(), name
+    m = json.loads((out / "metrics.json").read_text())["scalars"]
+    assert 0.0 < m["position_avg_rmse_m"] < 5.0
+    run = json.loads((out / "run.json").read_text())
+    assert run["seed"] == 3 and run["config"]["profile"] == "apsipa"
+    assert load_config(out / "config.toml") == profile_config()
+    traj = np.loadtxt(out / "trajectory.csv", delimiter=",", skiprows=1)
+    assert traj.shape == (120, 8)
+    # The run is reproducible: the same seed gives the same trajectory file.
+    out2 = tmp_path / "r2"
+    assert main(["run", "--seed", "3", "--out", str(out2), "--no-plot"]) == 0
+    assert (out / "trajectory.csv").read_bytes() == (out2 / "trajectory.csv").read_bytes()
+
+
+def test_run_with_config_file_and_extent_flag(tmp_path, capsys):
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("[trajectory]\nn_steps = 30\n")
+    out = tmp_path / "o"
+    assert main(["run", "--seed", "1", "--config", str(cfg), "--profile", "reference", "--extent",
+                 "--out", str(out), "--no-plot"]) == 0
+    saved = load_config(out / "config.toml")
+    assert saved.trajectory.n_steps == 30 and saved.profile == "reference" and saved.extent.use_in_slam
+
+
+def test_run_draws_map_when_matplotlib_present(tmp_path, capsys):
+    require("matplotlib")
+    out = tmp_path / "p"
+    assert main(["run", "--seed", "1", "--out", str(out)]) == 0
+    png = (out / "map.png").read_bytes()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 20_000
+
+
+@pytest.mark.parametrize("content,key", [("[landmarks]\nbetta = 3\n", "landmarks.betta"),
+                                         ("[radar]\ndetection_probability = 2.0\n", "radar.detection_probability"),
+                                         ("[radar\n", "not valid TOML")])
+def test_cli_bad_config_one_line_exit_1(tmp_path, capsys, content, key):
+    f = tmp_path / "bad.toml"
+    f.write_text(content)
+    assert main(["run", "--config", str(f), "--out", str(tmp_path / "o")]) == 1
+    err = capsys.readouterr().err
+    assert key in err and err.count("\n") == 1 and "Traceback" not in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_cli_missing_config_file(tmp_path, capsys):
+    assert main(["dump-config", "--config", str(tmp_path / "nope.toml")]) == 1
+    assert "no such file" in capsys.readouterr().err
+
+
+def test_cli_refuses_missing_parent(tmp_path, capsys):
+    assert main(["run", "--out", str(tmp_path / "a" / "b")]) == 1
+    err = capsys.readouterr().err
+    assert "--out" in err and "does not exist" in err and err.count("\n") == 1
+
+
+def test_cli_refuses_unwritable_dir_via_access(tmp_path, capsys, monkeypatch):
+    """The same check, independent of the user's privileges (CI runs as root)."""
+    import radarslam.io.results as results
+
+    real = results.os.access
+    monkeypatch.setattr(results.os, "access", lambda p, mode: False if str(p).endswith("ro") else real(p, mode))
+    d = tmp_path / "ro"
+    d.mkdir()
+    assert main(["run", "--out", str(d)]) == 1
+    assert "not writable" in capsys.readouterr().err
+
+
+def test_cli_refuses_out_that_is_a_file(tmp_path, capsys):
+    f = tmp_path / "file"
+    f.write_text("x")
+    assert main(["run", "--out", str(f)]) == 1
+    assert "existing file" in capsys.readouterr().err
+
+
+def test_cli_negative_seed(tmp_path, capsys):
+    assert main(["run", "--seed", "-2", "--out", str(tmp_path / "o")]) == 1
+    assert "--seed" in capsys.readouterr().err

@@ -1,0 +1,289 @@
+"""Landmark management on hand-made scans (method.md section c)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from radarslam.config import PROFILES, profile_config, to_dict
+from radarslam.core.errors import InputError
+from radarslam.core.types import Odometry, Scan
+from radarslam.landmarks.clustering import dbscan_labels
+from radarslam.landmarks.confirmation import push_bit, should_remove
+from radarslam.landmarks.merging import next_merge
+from radarslam.models.radar import xy_to_polar
+from radarslam.slam import ekf
+from radarslam.slam.filter import EkfSlam, LandmarkRecord
+
+POSE = np.array([0.0, 0.0, 0.0])
+
+
+def quiet_config(profile: str = "apsipa", **landmarks):
+    """Filter that starts at the true pose with tiny uncertainty; extents off unless asked."""
+    cfg = profile_config(profile)
+    f = replace(cfg.filter, initial_pose=[0.0, 0.0, 0.0], initial_pose_std=[1e-3, 1e-3, 1e-4])
+    return replace(cfg, filter=f, landmarks=replace(cfg.landmarks, **landmarks))
+
+
+def blob(center, n: int, spread: float = 0.3, seed: int = 0) -> np.ndarray:
+    """``n`` world points within ``spread`` of ``center`` (one DBSCAN cluster)."""
+    r = np.random.default_rng(seed)
+    return np.asarray(center) + r.uniform(-spread, spread, (n, 2))
+
+
+def scan(k: int, *point_sets) -> Scan:
+    pts = np.concatenate(point_sets) if point_sets else np.empty((0, 2))
+    return Scan(t=0.16 * (k - 1), index=k, polar=xy_to_polar(POSE, pts) if pts.size else np.empty((0, 2)))
+
+
+def test_rule1_six_points_confirm_at_once():
+    slam = EkfSlam(quiet_config())
+    rep = slam.update(scan(1, blob([10.0, 3.0], 6)))
+    assert len(slam.landmarks) == 1 and rep.confirmed == [0]
+    # Initialised at the nearest detection (h.13), not the mean.
+    nearest = blob([10.0, 3.0], 6)[np.argmin(np.linalg.norm(blob([10.0, 3.0], 6), axis=1))]
+    assert np.allclose(slam.landmark_positions[0], nearest, atol=1e-9)
+
+
+def test_five_points_only_start_a_tentative():
+    slam = EkfSlam(quiet_config())
+    slam.update(scan(1, blob([10.0, 3.0], 5)))
+    assert len(slam.landmarks) == 0 and len(slam.tentatives) == 1
+
+
+@pytest.mark.parametrize("hits,confirmed_at", [((1, 2, 3), 3), ((1, 3, 5), 5), ((1, 2, 5), 5), ((1, 4, 5), 5), ((2, 3, 7), None),
+                                               ((1, 5, 6), None), ((1, 2), None)])
+def test_rule2_three_hits_within_five_scans(hits, confirmed_at):
+    slam = EkfSlam(quiet_config())
+    first = None
+    for k in range(1, 8):
+        pts = [blob([12.0, -4.0], 3, seed=k)] if k in hits else []
+        slam.update(scan(k, *pts))
+        if slam.landmarks and first is None:
+            first = k
+    assert first == confirmed_at
+
+
+def test_mn_deletes_landmark_missed_in_9_of_10_scans():
+    slam = EkfSlam(quiet_config())
+    slam.update(scan(1, blob([8.0, 0.0], 6)))
+    assert len(slam.landmarks) == 1
+    for k in range(2, 10):
+        rep = slam.update(scan(k))
+        assert len(slam.landmarks) == 1, k  # not yet old enough (k - M + 1 < created)
+    rep = slam.update(scan(10))
+    assert len(slam.landmarks) == 0 and rep.removed == [0] and slam.x.shape == (3,)
+
+
+def test_mn_keeps_landmark_associated_in_3_of_10_scans():
+    slam = EkfSlam(quiet_config())
+    slam.update(scan(1, blob([8.0, 0.0], 6)))
+    for k in range(2, 15):
+        pts = [blob([8.0, 0.0], 2, seed=k)] if k % 3 == 0 else []  # >= 3 hits in every 10-scan window
+        slam.update(scan(k, *pts))
+    assert len(slam.landmarks) == 1
+
+
+def test_mn_deletes_landmark_with_2_hits_in_window():
+    slam = EkfSlam(quiet_config())
+    slam.update(scan(1, blob([8.0, 0.0], 6)))
+    for k in range(2, 12):
+        pts = [blob([8.0, 0.0], 2, seed=k)] if k in (4, 8) else []
+        slam.update(scan(k, *pts))
+        if k < 11:
+            assert len(slam.landmarks) == 1, k  # the window 1..10 holds 3 hits (creation, 4, 8)
+    assert len(slam.landmarks) == 0  # window 2..11 holds 2 hits
+
+
+def test_mn_keeps_landmark_out_of_range():
+    slam = EkfSlam(quiet_config())
+    slam.update(scan(1, blob([19.5, 0.0], 6)))
+    slam.x = slam.x.copy()
+    slam.x[3] = 25.0  # now beyond R_max: misses do not count against it
+    for k in range(2, 20):
+        slam.update(scan(k))
+    assert len(slam.landmarks) == 1
+
+
+def _two_landmarks(cfg, p1, p2):
+    slam = EkfSlam(cfg)
+    for i, p in enumerate([p1, p2]):
+        slam.x, slam.P = ekf.augment(slam.x, slam.P, xy_to_polar(POSE, np.array([p]))[0], slam.R)
+        slam.landmarks.append(LandmarkRecord(i, created=i + 1))
+    slam._next_id = 2
+    return slam
+
+
+def test_merge_two_landmarks_closer_than_merge_distance():
+    slam = _two_landmarks(quiet_config(), [10.0, 0.0], [10.0, 1.2])
+    rep = slam.update(scan(3))
+    assert [r.id for r in slam.landmarks] == [0] and rep.merged == [(0, 1)]
+    assert np.allclose(slam.landmark_positions[0], [10.0, 0.0], atol=1e-9)  # the older one survives, no fusion
+
+
+def test_no_merge_beyond_merge_distance():
+    slam = _two_landmarks(quiet_config(), [10.0, 0.0], [10.0, 1.6])
+    slam.update(scan(3))
+    assert len(slam.landmarks) == 2
+
+
+@pytest.mark.parametrize("p2,merged", [([10.5, 2.5], True), ([11.8, 1.8], False)])
+def test_reference_profile_merge_rule(p2, merged):
+    """Reference: closer than 3 m and |dx| <= 0.8 or |dy| <= 0.8."""
+    slam = _two_landmarks(quiet_config("reference"), [10.0, 0.0], p2)
+    slam.update(scan(3))
+    assert len(slam.landmarks) == (1 if merged else 2)
+
+
+def test_merge_transfers_initialised_extent_to_survivor():
+    slam = _two_landmarks(quiet_config(), [10.0, 0.0], [10.0, 1.0])
+    slam.landmarks[1].extent.X = np.diag([4.0, 1.0])
+    slam.landmarks[1].extent.alpha = 50.0
+    slam.update(scan(3))
+    assert slam.landmarks[0].id == 0 and np.allclose(slam.landmarks[0].extent.X, np.diag([4.0, 1.0]))
+
+
+def test_clutter_far_from_everything_never_becomes_a_landmark():
+    """Isolated points (no neighbour within eps) are DBSCAN noise; scattered pairs never repeat."""
+    slam = EkfSlam(quiet_config())
+    r = np.random.default_rng(11)
+    for k in range(1, 40):
+        pts = r.uniform(-19, 19, (6, 2))
+        pts = pts[np.linalg.norm(pts, axis=1) < 19.5]
+        slam.update(scan(k, pts))
+    assert len(slam.landmarks) == 0
+
+
+def test_alpha_test_discards_cluster_close_to_landmark_in_log_distance():
+    slam = EkfSlam(quiet_config())
+    slam.update(scan(1, blob([10.0, 0.0], 6)))
+    # 4.5 m further in range on the same bearing: Mahalanobis^2 ~ (4.5/0.5)^2 = 81, log distance ~ 35 < 500.
+    slam.update(scan(2, blob([14.5, 0.0], 6, spread=0.2)))
+    assert len(slam.landmarks) == 1
+    # The same cluster at 90 degrees is far in log distance and is confirmed.
+    slam.update(scan(3, blob([0.0, 14.5], 6, spread=0.2)))
+    assert len(slam.landmarks) == 2
+
+
+def test_association_updates_state_and_sifting_radius():
+    slam = EkfSlam(quiet_config())
+    slam.update(scan(1, blob([10.0, 0.0], 6)))
+    P0 = slam.P.copy()
+    rep = slam.update(scan(2, blob([10.0, 0.0], 3, seed=5), np.array([[10.0, 3.5]])))
+    assert rep.n_candidates == 3 and rep.n_associated == 3
+    assert np.trace(slam.P[3:, 3:]) < np.trace(P0[3:, 3:])
+
+
+def test_beta_rejects_far_candidate():
+    """A candidate within gamma_s but with log distance >= beta is discarded, not clustered."""
+    slam = EkfSlam(quiet_config())
+    slam.update(scan(1, blob([10.0, 0.0], 6, spread=0.05)))
+    # 2.9 m lateral at 10 m range is ~16.6 deg, Mahalanobis^2 ~ 276 with R alone: D >> 20.
+    rep = slam.update(scan(2, np.array([[10.0, 2.9]])))
+    assert rep.n_candidates == 1 and rep.n_associated == 0
+
+
+def test_empty_scan_is_a_noop_for_the_state():
+    slam = EkfSlam(quiet_config())
+    slam.update(scan(1, blob([10.0, 0.0], 6)))
+    x, P = slam.x.copy(), slam.P.copy()
+    rep = slam.update(Scan(0.16, 2, np.empty((0, 2))))
+    assert rep.n_detections == 0 and np.array_equal(slam.x, x) and np.array_equal(slam.P, P)
+    rep = slam.update(Scan(0.32, 3, np.zeros((0,))))
+    assert rep.n_detections == 0
+
+
+@pytest.mark.parametrize("polar,match", [
+    (np.array([[5.0, np.nan]]), "scan.polar"),
+    (np.array([[np.inf, 0.1]]), "scan.polar"),
+    (np.ones((4, 3)), "scan.polar"),
+    (np.array([[-1.0, 0.1]]), "scan.polar"),
+])
+def test_bad_scan_raises_value_error_naming_argument(polar, match):
+    slam = EkfSlam(quiet_config())
+    with pytest.raises(ValueError, match=match) as ei:
+        slam.update(Scan(0.0, 1, polar))
+    assert isinstance(ei.value, InputError)
+    with pytest.raises(InputError, match=match):
+        Scan.checked(0.0, 1, polar)
+
+
+@pytest.mark.parametrize("control,dt,match", [
+    (np.array([np.nan, 0.0]), 0.16, "odometry.control"),
+    (np.array([1.0, 0.0, 3.0]), 0.16, "odometry.control"),
+    (np.array([1.0, 0.0]), float("inf"), "odometry.dt"),
+    (np.array([1.0, 0.0]), -0.1, "odometry.dt"),
+])
+def test_bad_odometry_raises(control, dt, match):
+    slam = EkfSlam(quiet_config())
+    with pytest.raises(InputError, match=match):
+        slam.predict(Odometry(0.0, dt, control))
+
+
+def test_non_finite_initial_pose_is_refused():
+    from radarslam.config import validate
+    from radarslam.core.errors import ConfigError
+
+    cfg = profile_config()
+    with pytest.raises(ConfigError, match="filter.initial_pose"):
+        validate(replace(cfg, filter=replace(cfg.filter, initial_pose=[0.0, float("nan"), 0.0])))
+
+
+def test_orchestrator_equals_functions_called_by_hand():
+    """EkfSlam.update on a scan = sift + ekf.update per associated detection, by hand."""
+    cfg = quiet_config()
+    slam = EkfSlam(cfg)
+    slam.update(scan(1, blob([10.0, 2.0], 6)))
+    slam.predict(Odometry(0.16, 0.16, np.array([4.0, 0.1])))
+    x, P = slam.x.copy(), slam.P.copy()
+    pts = blob([10.0, 2.0], 4, seed=9)
+    s = scan(2, pts)
+    rep = slam.update(s)
+    for z in s.polar:
+        h, Hs, idx = ekf.landmark_measurement(x, 0)
+        e = ekf.innovation(z, h)
+        assert ekf.log_distance(e, ekf.innovation_cov(P, Hs, idx, slam.R)) < cfg.landmarks.beta
+        x, P = ekf.update(x, P, e, Hs, idx, slam.R)
+    assert rep.n_associated == 4
+    assert np.allclose(slam.x, x, atol=1e-12) and np.allclose(slam.P, P, atol=1e-12)
+
+
+def test_mn_helpers():
+    w = 0
+    for b in [1, 0, 1, 1]:
+        w = push_bit(w, b, 3)
+    assert w == 0b011 and w.bit_count() == 2
+    assert should_remove(10, 1, 0b11, (1 << 10) - 1, window=10, max_hits=2)
+    assert not should_remove(9, 1, 0b11, (1 << 10) - 1, window=10, max_hits=2)
+    assert not should_remove(10, 1, 0b111, (1 << 10) - 1, window=10, max_hits=2)
+
+
+def test_next_merge_keeps_older():
+    pos = np.array([[0.0, 0.0], [0.0, 1.0], [5.0, 5.0]])
+    assert next_merge(pos, np.array([3, 1, 1]), np.array([0, 1, 2]), 1.5) == (1, 0)
+    assert next_merge(pos, np.array([3, 1, 1]), np.array([0, 1, 2]), 0.5) is None
+
+
+def test_dbscan_shortcut_agrees_with_sklearn():
+    from sklearn.cluster import DBSCAN
+
+    r = np.random.default_rng(4)
+    for trial in range(200):
+        pts = r.uniform(0, 15, (int(r.integers(0, 12)), 2))
+        ours = dbscan_labels(pts, 2.5, 2)
+        if pts.shape[0] == 0:
+            assert ours.size == 0
+            continue
+        ref = DBSCAN(eps=2.5, min_samples=2).fit(pts).labels_
+        assert np.array_equal(ours, ref)
+
+
+def test_profiles_differ_only_in_decision1_values():
+    a, b = to_dict(profile_config("apsipa")), to_dict(profile_config("reference"))
+    diff = {(sec, k) for sec in a if isinstance(a[sec], dict) for k in a[sec] if a[sec][k] != b[sec][k]}
+    assert diff == {("landmarks", k) for k in PROFILES["reference"]["landmarks"]}
+    assert b["landmarks"]["beta"] == 3.0 and a["landmarks"]["beta"] == 20.0
+    assert math.isinf(a["landmarks"]["merge_axis_tol_m"]) and b["landmarks"]["merge_axis_tol_m"] == 0.8
