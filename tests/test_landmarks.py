@@ -18,25 +18,7 @@ from radarslam.models.radar import xy_to_polar
 from radarslam.slam import ekf
 from radarslam.slam.filter import EkfSlam, LandmarkRecord
 
-POSE = np.array([0.0, 0.0, 0.0])
-
-
-def quiet_config(profile: str = "apsipa", **landmarks):
-    """Filter that starts at the true pose with tiny uncertainty; extents off unless asked."""
-    cfg = profile_config(profile)
-    f = replace(cfg.filter, initial_pose=[0.0, 0.0, 0.0], initial_pose_std=[1e-3, 1e-3, 1e-4])
-    return replace(cfg, filter=f, landmarks=replace(cfg.landmarks, **landmarks))
-
-
-def blob(center, n: int, spread: float = 0.3, seed: int = 0) -> np.ndarray:
-    """``n`` world points within ``spread`` of ``center`` (one DBSCAN cluster)."""
-    r = np.random.default_rng(seed)
-    return np.asarray(center) + r.uniform(-spread, spread, (n, 2))
-
-
-def scan(k: int, *point_sets) -> Scan:
-    pts = np.concatenate(point_sets) if point_sets else np.empty((0, 2))
-    return Scan(t=0.16 * (k - 1), index=k, polar=xy_to_polar(POSE, pts) if pts.size else np.empty((0, 2)))
+from helpers import POSE, blob, quiet_config, scan
 
 
 def test_rule1_six_points_confirm_at_once():

@@ -9,6 +9,7 @@ import numpy as np
 
 from radarslam.config import Config, validate
 from radarslam.core.types import Odometry, Scan
+from radarslam.metrics.extent import extent_metrics
 from radarslam.metrics.landmarks import landmark_metrics
 from radarslam.metrics.pose import avg_rmse, pose_errors, pose_nees
 from radarslam.simulation.scenario import Scenario, generate_scenario
@@ -66,6 +67,8 @@ def evaluate(config: Config, scenario: Scenario, rec: FilterRecord) -> dict:
     centers = vehicle_centers(truth.vehicles)
     lm = landmark_metrics([m.positions for m in rec.maps], truth.poses, centers, truth.present,
                           config.radar.max_range_m, config.metrics.match_gate_m, config.metrics.missed_grace_scans)
+    ext = (extent_metrics(rec.maps, truth.vehicles, truth.present, config.metrics.match_gate_m,
+                          config.metrics.include_stale) if config.extent.track else {})
     return {
         "position_avg_rmse_m": avg_rmse(pos_err),
         "heading_avg_rmse_deg": float(np.degrees(avg_rmse(head_err))),
@@ -76,6 +79,7 @@ def evaluate(config: Config, scenario: Scenario, rec: FilterRecord) -> dict:
         "heading_error_rad": head_err,
         "nees": pose_nees(rec.poses, rec.pose_covs, truth.poses),
         **lm,
+        **ext,
     }
 
 
