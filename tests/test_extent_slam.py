@@ -144,3 +144,23 @@ def test_extent_inflated_noise_admits_far_side_detection():
     D_eff = ekf.log_distance(e, ekf.innovation_cov(slam.P, Hs, idx, R_eff))
     assert np.allclose(R_eff, slam.R + 0.25 * Hs[:, 3:] @ X @ Hs[:, 3:].T)
     assert D_eff < slam.config.landmarks.beta < D_plain
+
+
+def test_ablation_switches_select_each_half_of_with_extent():
+    """contour_sifting / inflate_noise switch the two uses of a.7 independently."""
+    from dataclasses import replace
+
+    base = quiet_config(use_extent=True)
+    no_contour = replace(base, extent=replace(base.extent, contour_sifting=False))
+    no_inflate = replace(base, extent=replace(base.extent, inflate_noise=False))
+    s1, s2, s3 = (run_scans(c, 6) for c in (base, no_contour, no_inflate))
+    c = s1.x[3:5]
+    lam, U = np.linalg.eigh(s1.landmarks[0].extent.X)
+    outside = (c + U[:, 0] * math.sqrt(lam[0]) * 1.5)[None, :]
+    assert s1.update(scan(7, outside)).n_candidates == 0
+    assert s2.update(scan(7, outside)).n_candidates == 1  # radius sifting instead
+    assert s3.update(scan(7, outside)).n_candidates == 0
+    Hp = np.eye(2)
+    assert np.array_equal(s3._noise(0, Hp), s3.R)
+    assert not np.array_equal(s2._noise(0, Hp), s2.R)
+    assert np.array_equal(s1._noise(0, Hp, extent=False), s1.R)  # the alpha test always uses R

@@ -159,6 +159,8 @@ class ExtentConfig:
 
     track: bool = param(True, "estimate RMA and EFA extents for every landmark")
     use_in_slam: bool = param(False, "'With extent' (Decision 6): contour sifting + extent-inflated noise")
+    contour_sifting: bool = param(True, "with use_in_slam: sift by the extent contour (a.7.1); for ablations")
+    inflate_noise: bool = param(True, "with use_in_slam: R_eff = R + H_p gamma X H_p^T (a.7.2); for ablations")
     n_init: int = param(20, "N_i: initialise once more than this many detections are buffered", low=1)
     alpha0: float = param(50.0, "alpha_0 at initialisation", low=2.0, low_open=True)
     tau_s: float = param(100.0, "tau: extent decay constant (s)", low=0.0, low_open=True)

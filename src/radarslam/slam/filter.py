@@ -197,7 +197,7 @@ class EkfSlam:
         L = self.x[3:].reshape(-1, 2)
         xy_pred = polar_to_xy(self.x[:3], polar)
         ext_inv, has_ext = None, None
-        if use_ext and self.landmarks:
+        if use_ext and ec.contour_sifting and self.landmarks:
             has_ext = np.array([r.extent.initialized for r in self.landmarks])
             ext_inv = np.array([np.linalg.inv(r.extent.X) if r.extent.initialized else np.eye(2)
                                 for r in self.landmarks])
@@ -269,11 +269,15 @@ class EkfSlam:
                           len(clusters), len(self.tentatives))
 
     # ------------------------------------------------------------------ pieces
-    def _noise(self, j: int, Hp: np.ndarray) -> np.ndarray:
-        """R, or R_eff = R + H_p (gamma_z X) H_p^T for a landmark with extent (a.7.2)."""
+    def _noise(self, j: int, Hp: np.ndarray, extent: bool = True) -> np.ndarray:
+        """R, or R_eff = R + H_p (gamma_z X) H_p^T for a landmark with extent (a.7.2).
+
+        ``extent=False`` forces R: the new-cluster alpha test (c.6) is not part of a.7.2, which
+        inflates the noise only in the association test and the EKF update.
+        """
         ec = self.config.extent
         X = self.landmarks[j].extent.X
-        if ec.use_in_slam and X is not None:
+        if extent and ec.use_in_slam and ec.inflate_noise and X is not None:
             return self.R + ec.gamma_z * (Hp @ X @ Hp.T)
         return self.R
 
@@ -289,7 +293,7 @@ class EkfSlam:
         near = np.argpartition(d2, count)[:count]
         return near[np.argsort(d2[near])]
 
-    def _best_match(self, s: np.ndarray, count: int):
+    def _best_match(self, s: np.ndarray, count: int, extent: bool = True):
         """Landmark of smallest log distance among the ``count`` nearest (c.4), with its update terms."""
         best = (-1, math.inf, None, None, None, None)
         if not self.landmarks:
@@ -297,15 +301,18 @@ class EkfSlam:
         for j in self._nearest(s, count):
             h, Hs, idx = ekf.landmark_measurement(self.x, int(j))
             e = ekf.innovation(s, h)
-            Rj = self._noise(int(j), Hs[:, 3:])
+            Rj = self._noise(int(j), Hs[:, 3:], extent)
             D = ekf.log_distance(e, ekf.innovation_cov(self.P, Hs, idx, Rj))
             if D < best[1]:
                 best = (int(j), D, e, Hs, idx, Rj)
         return best
 
     def _min_log_distance(self, s: np.ndarray, count: int) -> float:
-        """Smallest log distance of detection ``s`` to its ``count`` nearest landmarks; inf if none."""
-        return self._best_match(s, count)[1]
+        """Smallest log distance of detection ``s`` to its ``count`` nearest landmarks; inf if none.
+
+        Used by the alpha test of c.6, always with the plain R (see :meth:`_noise`).
+        """
+        return self._best_match(s, count, extent=False)[1]
 
     def _extent_step(self, r: LandmarkRecord, polar: np.ndarray, centroid: np.ndarray,
                      centroid_cov: np.ndarray, dt: float, k: int) -> None:
