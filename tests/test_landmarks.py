@@ -249,17 +249,21 @@ def test_next_merge_keeps_older():
     assert next_merge(pos, np.array([3, 1, 1]), np.array([0, 1, 2]), 0.5) is None
 
 
-def test_dbscan_shortcut_agrees_with_sklearn():
+@pytest.mark.parametrize("min_samples", [1, 2, 3, 5])
+def test_dbscan_labels_equal_sklearn_dbscan(min_samples):
+    """Same labels as the public estimator, on random sets and on the 0.2 m clutter grid."""
     from sklearn.cluster import DBSCAN
 
-    r = np.random.default_rng(4)
-    for trial in range(200):
-        pts = r.uniform(0, 15, (int(r.integers(0, 12)), 2))
-        ours = dbscan_labels(pts, 2.5, 2)
+    r = np.random.default_rng(4 + min_samples)
+    for trial in range(300):
+        pts = r.uniform(0, 15, (int(r.integers(0, 30)), 2))
+        if trial % 3 == 0:
+            pts = np.round(pts / 0.2) * 0.2 + 0.1  # grid points: distance ties are possible
+        ours = dbscan_labels(pts, 2.5, min_samples)
         if pts.shape[0] == 0:
             assert ours.size == 0
             continue
-        ref = DBSCAN(eps=2.5, min_samples=2).fit(pts).labels_
+        ref = DBSCAN(eps=2.5, min_samples=min_samples).fit(pts).labels_
         assert np.array_equal(ours, ref)
 
 

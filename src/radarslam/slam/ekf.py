@@ -86,19 +86,107 @@ def update(x: np.ndarray, P: np.ndarray, e: np.ndarray, Hs: np.ndarray, idx: np.
            R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """EKF update with a sparse measurement Jacobian, Joseph form (method.md c.4).
 
-    ``K = P H^T S^-1``, ``x <- x + K e``,
-    ``P <- (I - K H) P (I - K H)^T + K R K^T``; with H non-zero on the 5 columns ``idx`` every
-    product is O(N^2), so the stable Joseph form costs no more than ``P - K S K^T``.
+    ``K = P H^T S^-1``, ``x <- x + K e`` and the Joseph form
+    ``P <- (I - K H) P (I - K H)^T + K R K^T``, which for any gain K expands to
+    ``P - T - T^T + K S K^T`` with ``T = K (P H^T)^T`` and ``S = H P H^T + R``. With H non-zero
+    on the 5 columns ``idx`` that costs two n x n outer products, no more than ``P - K S K^T``,
+    and is symmetric by construction.
     """
     PHt = P[:, idx] @ Hs.T                                  # (n, 2)
     S = Hs @ PHt[idx] + R                                   # H P H^T + R
-    K = np.linalg.solve(S, PHt.T).T                         # P H^T S^-1 (S symmetric)
+    a, b, d = S[0, 0], 0.5 * (S[0, 1] + S[1, 0]), S[1, 1]
+    det = a * d - b * b
+    K = PHt @ np.array([[d, -b], [-b, a]]) / det           # P H^T S^-1
     x_new = x + K @ e
     x_new[2] = wrap_2pi_scalar(x_new[2])
-    A = P - K @ PHt.T                                       # (I - K H) P, since H P = PHt^T
-    P_new = A - (A[:, idx] @ Hs.T) @ K.T + K @ R @ K.T      # A (I - K H)^T + K R K^T
-    P_new = 0.5 * (P_new + P_new.T)
+    # Joseph form P - (T + T^T) + K S K^T, with K S K^T = (K L)(K L)^T for S = L L^T (2 x 2
+    # Cholesky): every term is symmetric bit for bit, so P stays exactly symmetric.
+    l00 = math.sqrt(a)
+    l10 = b / l00
+    KL = K @ np.array([[l00, 0.0], [l10, math.sqrt(d - l10 * l10)]])
+    T = K @ PHt.T
+    P_new = P - (T + T.T)
+    P_new += KL @ KL.T
     return x_new, P_new
+
+
+def score_landmarks(x: np.ndarray, P: np.ndarray, z: np.ndarray, js: list[int], R: np.ndarray,
+                    gX: list | None = None) -> tuple[int, float, tuple[float, float]]:
+    """Smallest log distance (APSIPA eq. 9) of detection ``z`` over the landmarks ``js``.
+
+    The hot path of association, on plain floats (numpy's per-call overhead dominates 2 x 2 work).
+    It is :func:`landmark_measurement` + :func:`innovation` + :func:`innovation_cov` +
+    :func:`log_distance` per landmark (tested equal), rewritten on the relative vector
+    ``delta = p - [x, y]``: with ``g1 = [dx, dy] / r``, ``g2 = [-dy, dx] / r^2``,
+    ``C = cov(delta)`` and ``c = cov(delta, theta)``,
+
+        S = [[g1 C g1', g1 C g2' - g1.c], [., g2 C g2' - 2 g2.c + P_tt]] + R_j,
+
+    with ``R_j = R + g (gamma_z X_j) g'`` (method.md a.7.2) where ``gX[k]`` is ``gamma_z X_j``.
+
+    Returns
+    -------
+    j : int
+        The landmark of smallest log distance (-1 if ``js`` is empty).
+    D : float
+    e : tuple of float
+        Its innovation ``[range, wrapped azimuth]``.
+    """
+    best_j, best_D, best_e = -1, math.inf, (0.0, 0.0)
+    if not js:
+        return best_j, best_D, best_e
+    rows = [r for j in js for r in (3 + 2 * j, 4 + 2 * j)]
+    blk = P[rows].tolist()  # the landmarks' rows: pose columns 0-2 and their own 2 x 2 blocks
+    (pxx, pxy, pxt), (_, pyy, pyt), (_, _, ptt) = P[:3, :3].tolist()
+    x0, y0, th = x[0], x[1], x[2]
+    xs = x.tolist()
+    r00, r01, r11 = R[0, 0], R[0, 1], R[1, 1]
+    z0, z1 = float(z[0]), float(z[1])
+    for k, j in enumerate(js):
+        i = 3 + 2 * j
+        rx, ry = blk[2 * k], blk[2 * k + 1]
+        # cov(delta) and cov(delta, theta)
+        cxx = rx[i] - 2.0 * rx[0] + pxx
+        cxy = rx[i + 1] - rx[1] - ry[0] + pxy
+        cyy = ry[i + 1] - 2.0 * ry[1] + pyy
+        ctx = rx[2] - pxt
+        cty = ry[2] - pyt
+        dx = xs[i] - x0
+        dy = xs[i + 1] - y0
+        q = dx * dx + dy * dy
+        r = math.sqrt(q)
+        a1, b1 = dx / r, dy / r
+        a2, b2 = -dy / q, dx / q
+        Ca1 = cxx * a1 + cxy * b1
+        Cb1 = cxy * a1 + cyy * b1
+        s00 = a1 * Ca1 + b1 * Cb1 + r00
+        s01 = a2 * Ca1 + b2 * Cb1 - (a1 * ctx + b1 * cty) + r01
+        s11 = (a2 * (cxx * a2 + cxy * b2) + b2 * (cxy * a2 + cyy * b2)
+               - 2.0 * (a2 * ctx + b2 * cty) + ptt + r11)
+        if gX is not None and gX[k] is not None:
+            (g00, g01), (_, g11) = gX[k]
+            s00 += a1 * (g00 * a1 + g01 * b1) + b1 * (g01 * a1 + g11 * b1)
+            s01 += a2 * (g00 * a1 + g01 * b1) + b2 * (g01 * a1 + g11 * b1)
+            s11 += a2 * (g00 * a2 + g01 * b2) + b2 * (g01 * a2 + g11 * b2)
+        det = s00 * s11 - s01 * s01
+        if det <= 0.0:
+            continue
+        e0 = z0 - r
+        e1 = wrap_pi_scalar(z1 - (math.atan2(dy, dx) - th))
+        D = 0.5 * (s11 * e0 * e0 - 2.0 * s01 * e0 * e1 + s00 * e1 * e1) / det + 0.5 * (LOG_2PI_SQ + math.log(det))
+        if D < best_D:
+            best_j, best_D, best_e = j, D, (e0, e1)
+    return best_j, best_D, best_e
+
+
+def sparse_jacobian(x: np.ndarray, j: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(Hs (2, 5), idx (5,))`` of landmark ``j``, as in :func:`landmark_measurement`."""
+    i = 3 + 2 * j
+    dx, dy = x[i] - x[0], x[i + 1] - x[1]
+    q = dx * dx + dy * dy
+    r = math.sqrt(q)
+    return (np.array([[-dx / r, -dy / r, 0.0, dx / r, dy / r], [dy / q, -dx / q, -1.0, -dy / q, dx / q]]),
+            np.array([0, 1, 2, i, i + 1]))
 
 
 def augment(x: np.ndarray, P: np.ndarray, s: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -281,31 +281,33 @@ class EkfSlam:
             return self.R + ec.gamma_z * (Hp @ X @ Hp.T)
         return self.R
 
-    def _nearest(self, s: np.ndarray, count: int) -> np.ndarray:
+    def _nearest(self, s: np.ndarray, count: int) -> list[int]:
         """Indices of the ``count`` landmarks Euclidean-nearest to detection ``s`` (current pose)."""
-        n = len(self.landmarks)
-        a = self.x[2] + s[1]
-        zx, zy = self.x[0] + s[0] * math.cos(a), self.x[1] + s[0] * math.sin(a)
-        L = self.x[3:].reshape(-1, 2)
-        d2 = (L[:, 0] - zx) ** 2 + (L[:, 1] - zy) ** 2
-        if n <= count:
-            return np.argsort(d2)
-        near = np.argpartition(d2, count)[:count]
-        return near[np.argsort(d2[near])]
+        xs = self.x.tolist()
+        a = xs[2] + s[1]
+        zx, zy = xs[0] + s[0] * math.cos(a), xs[1] + s[0] * math.sin(a)
+        d2 = [(lx - zx) ** 2 + (ly - zy) ** 2 for lx, ly in zip(xs[3::2], xs[4::2])]
+        return sorted(range(len(d2)), key=d2.__getitem__)[:count]
 
     def _best_match(self, s: np.ndarray, count: int, extent: bool = True):
-        """Landmark of smallest log distance among the ``count`` nearest (c.4), with its update terms."""
-        best = (-1, math.inf, None, None, None, None)
+        """Landmark of smallest log distance among the ``count`` nearest (c.4), with its update terms.
+
+        Returns ``(j, D, e, Hs, idx, R_j)``; ``j = -1`` and ``D = inf`` without landmarks.
+        """
         if not self.landmarks:
-            return best
-        for j in self._nearest(s, count):
-            h, Hs, idx = ekf.landmark_measurement(self.x, int(j))
-            e = ekf.innovation(s, h)
-            Rj = self._noise(int(j), Hs[:, 3:], extent)
-            D = ekf.log_distance(e, ekf.innovation_cov(self.P, Hs, idx, Rj))
-            if D < best[1]:
-                best = (int(j), D, e, Hs, idx, Rj)
-        return best
+            return (-1, math.inf, None, None, None, None)
+        js = self._nearest(s, count)
+        ec = self.config.extent
+        gX = None
+        if extent and ec.use_in_slam and ec.inflate_noise:
+            gX = [None if self.landmarks[j].extent.X is None else (ec.gamma_z * self.landmarks[j].extent.X).tolist()
+                  for j in js]
+        j, D, e = ekf.score_landmarks(self.x, self.P, s, js, self.R, gX)
+        if j < 0:
+            return (-1, math.inf, None, None, None, None)
+        Hs, idx = ekf.sparse_jacobian(self.x, j)
+        Rj = self._noise(j, Hs[:, 3:], extent)
+        return (j, D, np.array(e), Hs, idx, Rj)
 
     def _min_log_distance(self, s: np.ndarray, count: int) -> float:
         """Smallest log distance of detection ``s`` to its ``count`` nearest landmarks; inf if none.
