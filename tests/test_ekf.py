@@ -206,3 +206,36 @@ def test_covariance_stays_symmetric_psd(seed, n_lm, ops):
         assert np.allclose(P, P.T, atol=1e-12)
         assert is_psd(P, tol=1e-9)
         assert 0.0 <= x[2] < 2 * math.pi
+
+
+@pytest.mark.parametrize("with_extent", [False, True])
+def test_score_landmarks_equals_per_landmark_functions(with_extent):
+    """The fast association kernel equals landmark_measurement + innovation_cov + log_distance."""
+    r = np.random.default_rng(17)
+    R = np.diag([0.25, math.radians(1) ** 2])
+    for trial in range(200):
+        n_lm = int(r.integers(1, 8))
+        n = 3 + 2 * n_lm
+        x = np.concatenate([[r.uniform(-5, 5), r.uniform(-5, 5), r.uniform(0, 2 * math.pi)], r.uniform(-20, 20, n - 3)])
+        A = r.standard_normal((n, n))
+        P = A @ A.T / n + 0.01 * np.eye(n)
+        js = sorted(r.choice(n_lm, size=min(3, n_lm), replace=False).tolist())
+        z = np.array([r.uniform(1, 20), r.uniform(-math.pi, math.pi)])
+        if trial % 5 == 0:  # azimuth residuals near +-pi
+            h, _, _ = ekf.landmark_measurement(x, js[0])
+            z = np.array([h[0], wrap_pi(h[1] + math.pi - 1e-6)])
+        gX = None
+        if with_extent:
+            Xs = [None if k % 2 else np.diag(r.uniform(0.1, 2.0, 2)) for k in range(len(js))]
+            gX = [None if X is None else (0.25 * X).tolist() for X in Xs]
+        ref = []
+        for k, j in enumerate(js):
+            h, Hs, idx = ekf.landmark_measurement(x, j)
+            Rj = R if gX is None or gX[k] is None else R + Hs[:, 3:] @ np.array(gX[k]) @ Hs[:, 3:].T
+            ref.append(ekf.log_distance(ekf.innovation(z, h), ekf.innovation_cov(P, Hs, idx, Rj)))
+        j, D, e = ekf.score_landmarks(x, P, z, js, R, gX)
+        assert j == js[int(np.argmin(ref))]
+        assert math.isclose(D, min(ref), rel_tol=1e-9, abs_tol=1e-9)
+        h, _, _ = ekf.landmark_measurement(x, j)
+        assert np.allclose(e, ekf.innovation(z, h), atol=1e-12)
+    assert ekf.score_landmarks(x, P, z, [], R)[0] == -1

@@ -37,24 +37,33 @@ def ground_truth_extents(vehicles, convention: str = "moment") -> np.ndarray:
                      for v in vehicles]).reshape(-1, 2, 2)
 
 
-def gwd_per_step(maps, centers: np.ndarray, present: np.ndarray, gt_extents: np.ndarray, gate: float,
-                 include_stale: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def gwd_per_step(maps, centers: np.ndarray, present: np.ndarray, gt_extents: np.ndarray | dict[str, np.ndarray],
+                 gate: float, include_stale: bool = False):
     """Mean GWD over the matched landmarks with an initialised extent, per scan (method.md e).
 
     Landmarks are matched one-to-one to the vehicles present at the scan (Hungarian, ``gate``);
     with ``include_stale`` departed vehicles take part too (h.10). The estimate's centre is the
     EKF centroid for both RMA and EFA.
 
+    Parameters
+    ----------
+    gt_extents : ndarray (V, 2, 2) or dict of them
+        Ground-truth extents; with a dict (convention -> extents) the matching is done once per
+        scan and every convention is evaluated on it.
+
     Returns
     -------
     rma, efa : ndarray, shape (K,)
-        ``g_bar_k`` of the RMA and EFA estimates; NaN where no landmark qualifies.
+        ``g_bar_k`` of the RMA and EFA estimates; NaN where no landmark qualifies (dicts keyed
+        like ``gt_extents`` when it is a dict).
     count : ndarray of int, shape (K,)
         Number of landmarks averaged.
     """
+    single = not isinstance(gt_extents, dict)
+    gts = {"_": gt_extents} if single else gt_extents
     K = len(maps)
-    rma = np.full(K, np.nan)
-    efa = np.full(K, np.nan)
+    rma = {c: np.full(K, np.nan) for c in gts}
+    efa = {c: np.full(K, np.nan) for c in gts}
     count = np.zeros(K, dtype=int)
     for k, mp in enumerate(maps):
         cand = np.arange(centers.shape[0]) if include_stale else np.flatnonzero(present[k])
@@ -63,9 +72,12 @@ def gwd_per_step(maps, centers: np.ndarray, present: np.ndarray, gt_extents: np.
         if not np.any(ok):
             continue
         v = cand[a[ok]]
-        rma[k] = float(np.mean(_gwds(mp.positions[ok], mp.rma[ok], centers[v], gt_extents[v])))
-        efa[k] = float(np.mean(_gwds(mp.positions[ok], mp.efa[ok], centers[v], gt_extents[v])))
         count[k] = int(ok.sum())
+        for c, gt in gts.items():
+            rma[c][k] = float(np.mean(_gwds(mp.positions[ok], mp.rma[ok], centers[v], gt[v])))
+            efa[c][k] = float(np.mean(_gwds(mp.positions[ok], mp.efa[ok], centers[v], gt[v])))
+    if single:
+        return rma["_"], efa["_"], count
     return rma, efa, count
 
 
@@ -75,13 +87,13 @@ def extent_metrics(maps, vehicles, present: np.ndarray, gate: float, include_sta
     from radarslam.simulation.world import vehicle_centers
 
     centers = vehicle_centers(vehicles)
-    out: dict = {}
+    gts = {c: ground_truth_extents(vehicles, c) for c in conventions}
+    rma, efa, count = gwd_per_step(maps, centers, present, gts, gate, include_stale)
+    out: dict = {"gwd_count": count}
     for conv in conventions:
-        rma, efa, count = gwd_per_step(maps, centers, present, ground_truth_extents(vehicles, conv), gate,
-                                       include_stale)
-        out[f"gwd_rma_{conv}"] = rma
-        out[f"gwd_efa_{conv}"] = efa
-        out[f"gwd_rma_final_{conv}"] = float(rma[-1]) if len(rma) else float("nan")
-        out[f"gwd_efa_final_{conv}"] = float(efa[-1]) if len(efa) else float("nan")
-        out["gwd_count"] = count
+        out[f"gwd_rma_{conv}"] = rma[conv]
+        out[f"gwd_efa_{conv}"] = efa[conv]
+        out[f"gwd_rma_final_{conv}"] = float(rma[conv][-1]) if len(rma[conv]) else float("nan")
+        out[f"gwd_efa_final_{conv}"] = float(efa[conv][-1]) if len(efa[conv]) else float("nan")
     return out
+

@@ -111,7 +111,7 @@ def update(x: np.ndarray, P: np.ndarray, e: np.ndarray, Hs: np.ndarray, idx: np.
 
 
 def score_landmarks(x: np.ndarray, P: np.ndarray, z: np.ndarray, js: list[int], R: np.ndarray,
-                    gX: list | None = None) -> tuple[int, float, tuple[float, float]]:
+                    gX: list | None = None, xs: list[float] | None = None) -> tuple[int, float, tuple[float, float]]:
     """Smallest log distance (APSIPA eq. 9) of detection ``z`` over the landmarks ``js``.
 
     The hot path of association, on plain floats (numpy's per-call overhead dominates 2 x 2 work).
@@ -123,6 +123,7 @@ def score_landmarks(x: np.ndarray, P: np.ndarray, z: np.ndarray, js: list[int], 
         S = [[g1 C g1', g1 C g2' - g1.c], [., g2 C g2' - 2 g2.c + P_tt]] + R_j,
 
     with ``R_j = R + g (gamma_z X_j) g'`` (method.md a.7.2) where ``gX[k]`` is ``gamma_z X_j``.
+    ``xs`` may pass ``x.tolist()`` when the caller already has it.
 
     Returns
     -------
@@ -135,22 +136,29 @@ def score_landmarks(x: np.ndarray, P: np.ndarray, z: np.ndarray, js: list[int], 
     best_j, best_D, best_e = -1, math.inf, (0.0, 0.0)
     if not js:
         return best_j, best_D, best_e
-    rows = [r for j in js for r in (3 + 2 * j, 4 + 2 * j)]
-    blk = P[rows].tolist()  # the landmarks' rows: pose columns 0-2 and their own 2 x 2 blocks
-    (pxx, pxy, pxt), (_, pyy, pyt), (_, _, ptt) = P[:3, :3].tolist()
-    x0, y0, th = x[0], x[1], x[2]
-    xs = x.tolist()
+    # One flat gather of the 9 entries each landmark needs (its rows at the pose columns and its
+    # own 2 x 2 block) and the 6 of the pose block: a whole-row copy costs more than the maths.
+    n = P.shape[0]
+    flat = [0, 1, 2, n + 1, n + 2, 2 * n + 2]
+    for j in js:
+        i = 3 + 2 * j
+        flat += [i * n, i * n + 1, i * n + 2, i * n + i, i * n + i + 1,
+                 (i + 1) * n, (i + 1) * n + 1, (i + 1) * n + 2, (i + 1) * n + i + 1]
+    v = P.take(flat).tolist()
+    pxx, pxy, pxt, pyy, pyt, ptt = v[:6]
+    xs = x.tolist() if xs is None else xs
+    x0, y0, th = xs[0], xs[1], xs[2]
     r00, r01, r11 = R[0, 0], R[0, 1], R[1, 1]
     z0, z1 = float(z[0]), float(z[1])
     for k, j in enumerate(js):
         i = 3 + 2 * j
-        rx, ry = blk[2 * k], blk[2 * k + 1]
+        lx0, lx1, lx2, lxx, lxy, ly0, ly1, ly2, lyy = v[6 + 9 * k: 15 + 9 * k]
         # cov(delta) and cov(delta, theta)
-        cxx = rx[i] - 2.0 * rx[0] + pxx
-        cxy = rx[i + 1] - rx[1] - ry[0] + pxy
-        cyy = ry[i + 1] - 2.0 * ry[1] + pyy
-        ctx = rx[2] - pxt
-        cty = ry[2] - pyt
+        cxx = lxx - 2.0 * lx0 + pxx
+        cxy = lxy - lx1 - ly0 + pxy
+        cyy = lyy - 2.0 * ly1 + pyy
+        ctx = lx2 - pxt
+        cty = ly2 - pyt
         dx = xs[i] - x0
         dy = xs[i + 1] - y0
         q = dx * dx + dy * dy

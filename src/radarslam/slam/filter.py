@@ -281,9 +281,9 @@ class EkfSlam:
             return self.R + ec.gamma_z * (Hp @ X @ Hp.T)
         return self.R
 
-    def _nearest(self, s: np.ndarray, count: int) -> list[int]:
+    def _nearest(self, s: np.ndarray, count: int, xs: list[float] | None = None) -> list[int]:
         """Indices of the ``count`` landmarks Euclidean-nearest to detection ``s`` (current pose)."""
-        xs = self.x.tolist()
+        xs = self.x.tolist() if xs is None else xs
         a = xs[2] + s[1]
         zx, zy = xs[0] + s[0] * math.cos(a), xs[1] + s[0] * math.sin(a)
         d2 = [(lx - zx) ** 2 + (ly - zy) ** 2 for lx, ly in zip(xs[3::2], xs[4::2])]
@@ -296,13 +296,14 @@ class EkfSlam:
         """
         if not self.landmarks:
             return (-1, math.inf, None, None, None, None)
-        js = self._nearest(s, count)
+        xs = self.x.tolist()
+        js = self._nearest(s, count, xs)
         ec = self.config.extent
         gX = None
         if extent and ec.use_in_slam and ec.inflate_noise:
             gX = [None if self.landmarks[j].extent.X is None else (ec.gamma_z * self.landmarks[j].extent.X).tolist()
                   for j in js]
-        j, D, e = ekf.score_landmarks(self.x, self.P, s, js, self.R, gX)
+        j, D, e = ekf.score_landmarks(self.x, self.P, s, js, self.R, gX, xs)
         if j < 0:
             return (-1, math.inf, None, None, None, None)
         Hs, idx = ekf.sparse_jacobian(self.x, j)

@@ -1,0 +1,271 @@
+"""The Monte Carlo experiment of the seed paper (Table 1, Figs. 2-3).
+
+Trial ``t`` (1-based) draws everything from ``SeedSequence(seed).spawn(n)[t - 1]``, i.e.
+``SeedSequence(seed, spawn_key=(t - 1,))``, simulates one car park and runs, on that same data,
+"No extent" and "With extent" SLAM (both tracking RMA and EFA extents). A trial depends on nothing
+but the configuration, the seed and its number, so results are identical bit for bit whatever runs
+them: one process, a local pool, or a Dask cluster. Each finished trial is stored at once
+(:mod:`.store`); a rerun resumes.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from radarslam.config import Config, from_dict, to_dict, validate
+from radarslam.core.errors import InputError, RadarSlamError
+from radarslam.experiments.single import evaluate, run_filter
+from radarslam.experiments.store import TrialStore, decode_trial, encode_trial
+from radarslam.simulation.scenario import generate_scenario
+
+#: The two configurations of seed Table 1 run on every trial's data.
+CONFIGURATIONS = {"noext": False, "ext": True}
+CONFIG_LABELS = {"noext": "No extent", "ext": "With extent"}
+
+PER_STEP = ("position_error_m", "heading_error_rad", "nees", "false_per_scan", "missed_per_scan",
+            "stale_per_scan", "gwd_count") + tuple(
+    f"gwd_{a}_{c}" for a in ("rma", "efa") for c in ("moment", "full", "inscribed", "enclosing"))
+PER_VEHICLE = ("final_errors", "inclusion_delay", "removal_delay")
+SCALARS = ("position_avg_rmse_m", "heading_avg_rmse_deg", "landmark_mae_m", "mean_inclusion_delay",
+           "mean_removal_delay", "mean_false", "max_false", "mean_missed", "max_missed", "final_false",
+           "final_missed", "n_landmarks_final")
+
+
+def trial_seed(seed: int, trial: int) -> np.random.SeedSequence:
+    """The stream of trial ``trial`` (1-based): ``SeedSequence(seed).spawn(n)[trial - 1]``."""
+    return np.random.SeedSequence(seed, spawn_key=(trial - 1,))
+
+
+def compute_trial(config: Config | dict, seed: int, trial: int) -> bytes:
+    """Run trial ``trial`` and return its encoded result (a picklable, top-level worker function)."""
+    cfg = from_dict(config) if isinstance(config, dict) else config
+    t0 = time.perf_counter()
+    scenario = generate_scenario(cfg, np.random.default_rng(trial_seed(seed, trial)))
+    arrays: dict[str, np.ndarray] = {"true_poses": scenario.truth.poses}
+    seconds = {}
+    for name, use in CONFIGURATIONS.items():
+        c = replace(cfg, extent=replace(cfg.extent, use_in_slam=use))
+        rec = run_filter(c, scenario.events)
+        m = evaluate(c, scenario, rec)
+        arrays[f"{name}/poses"] = rec.poses
+        arrays[f"{name}/n_landmarks"] = rec.n_landmarks
+        for key in PER_STEP + PER_VEHICLE:
+            if key in m:
+                arrays[f"{name}/{key}"] = np.asarray(m[key])
+        arrays[f"{name}/scalars"] = np.array([float(m[k]) for k in SCALARS])
+        seconds[name] = rec.seconds
+    meta = {"trial": trial, "seed": seed, "spawn_key": [trial - 1], "seconds": time.perf_counter() - t0,
+            "filter_seconds": seconds, "scalar_names": list(SCALARS)}
+    return encode_trial(arrays, meta)
+
+
+def _limit_threads() -> None:
+    """One BLAS thread per worker process (the matrices are tiny; oversubscription only hurts)."""
+    try:
+        from threadpoolctl import threadpool_limits
+
+        threadpool_limits(1)
+    except ImportError:  # pragma: no cover
+        pass
+
+
+class Progress:
+    """A one-line progress bar on stderr: trials done, rate and ETA."""
+
+    def __init__(self, total: int, done: int = 0, stream=None, enabled: bool = True):
+        self.total, self.done, self.start_done = total, done, done
+        self.stream = stream or sys.stderr
+        self.enabled = enabled
+        self.t0 = time.perf_counter()
+        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
+        self._last = 0.0
+        self._last_decile = -1
+
+    def update(self, n: int = 1) -> None:
+        self.done += n
+        if not self.enabled:
+            return
+        now = time.perf_counter()
+        decile = int(10 * self.done / max(self.total, 1))
+        if self.tty and (now - self._last > 0.2 or self.done == self.total):
+            self.stream.write("\r" + self.line(now))
+            self.stream.flush()
+            self._last = now
+        elif not self.tty and (decile != self._last_decile or self.done == self.total):
+            self.stream.write(self.line(now) + "\n")
+            self._last_decile = decile
+        if self.done == self.total and self.tty:
+            self.stream.write("\n")
+
+    def line(self, now: float | None = None) -> str:
+        now = now or time.perf_counter()
+        el = now - self.t0
+        new = self.done - self.start_done
+        rate = new / el if el > 0 else 0.0
+        eta = (self.total - self.done) / rate if rate > 0 else math.inf
+        width = 30
+        fill = int(width * self.done / max(self.total, 1))
+        eta_s = "--" if not math.isfinite(eta) else f"{int(eta // 60)}m{int(eta % 60):02d}s"
+        return (f"[{'#' * fill}{'.' * (width - fill)}] {self.done}/{self.total} trials  "
+                f"{rate:.2f} trials/s  ETA {eta_s}")
+
+
+@dataclass
+class MonteCarloSummary:
+    out: Path
+    n_trials: int
+    computed: int
+    resumed: int
+    recomputed_corrupt: int
+    seconds: float
+
+
+def run_montecarlo(config: Config, seed: int, n_trials: int, out: str | Path, *, jobs: int = 1,
+                   scheduler: str | None = None, dask_local: int | None = None, progress: bool = True,
+                   log: Callable[[str], None] | None = None) -> MonteCarloSummary:
+    """Run (or resume) ``n_trials`` trials into ``out``.
+
+    Parameters
+    ----------
+    jobs : int
+        Local worker processes (1 = in this process).
+    scheduler : str, optional
+        Address ``tcp://HOST:PORT`` of a running Dask distributed scheduler.
+    dask_local : int, optional
+        Start a Dask ``LocalCluster`` with this many single-threaded worker processes on loopback.
+    """
+    log = log or (lambda s: print(s, file=sys.stderr))
+    config = validate(config)
+    if n_trials < 1:
+        raise InputError(f"--trials: expected an integer >= 1, got {n_trials}")
+    if jobs < 1:
+        raise InputError(f"--jobs: expected an integer >= 1, got {jobs}")
+    if scheduler is not None and dask_local is not None:
+        raise InputError("--scheduler and --dask-local: give one or the other")
+    store = TrialStore.open(out, config, seed)
+    good, bad = store.inventory(n_trials)
+    for t, why in bad.items():
+        log(f"montecarlo: trial {t} file is corrupt ({why}); recomputing it")
+        store.path(t).unlink(missing_ok=True)
+    todo = [t for t in range(1, n_trials + 1) if t not in set(good)]
+    if good:
+        log(f"montecarlo: resuming {out}: {len(good)} of {n_trials} trials already stored")
+    bar = Progress(n_trials, len(good), enabled=progress)
+    t0 = time.perf_counter()
+    cfg_dict = to_dict(config)
+
+    def finish(t: int, data: bytes) -> None:
+        decode_trial(data, expect_trial=t)  # never store what we could not read back
+        store.save(t, data)
+        bar.update()
+
+    if todo:
+        if scheduler is not None or dask_local is not None:
+            _run_dask(cfg_dict, seed, todo, finish, scheduler, dask_local)
+        elif jobs == 1:
+            for t in todo:
+                finish(t, compute_trial(config, seed, t))
+        else:
+            _run_pool(cfg_dict, seed, todo, finish, jobs)
+    return MonteCarloSummary(Path(out), n_trials, len(todo), len(good), len(bad), time.perf_counter() - t0)
+
+
+def _run_pool(cfg_dict: dict, seed: int, todo: list[int], finish, jobs: int) -> None:
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures.process import BrokenProcessPool
+
+    ex = ProcessPoolExecutor(max_workers=jobs, initializer=_limit_threads)
+    try:
+        pending = {ex.submit(compute_trial, cfg_dict, seed, t): t for t in todo}
+        while pending:
+            done, _ = wait(pending, return_when=FIRST_COMPLETED)
+            for f in done:
+                t = pending.pop(f)
+                try:
+                    data = f.result()
+                except BrokenProcessPool:
+                    raise RadarSlamError("a worker process died; every finished trial is stored, "
+                                         "rerun the same command to resume") from None
+                finish(t, data)
+    except BaseException:
+        ex.shutdown(wait=False, cancel_futures=True)
+        raise
+    ex.shutdown(wait=True)
+
+
+def _run_dask(cfg_dict: dict, seed: int, todo: list[int], finish, scheduler: str | None,
+              dask_local: int | None) -> None:
+    try:
+        from dask.distributed import Client, LocalCluster, as_completed
+    except ImportError:
+        raise InputError("--scheduler/--dask-local: Dask is not installed; pip install 'radarslam[dask]'") from None
+    cluster = None
+    if dask_local is not None:
+        if dask_local < 1:
+            raise InputError(f"--dask-local: expected an integer >= 1, got {dask_local}")
+        cluster = LocalCluster(n_workers=dask_local, threads_per_worker=1, processes=True, host="127.0.0.1",
+                               dashboard_address=None)
+    try:
+        try:
+            client = Client(cluster if cluster is not None else scheduler, timeout="20s")
+        except OSError as exc:
+            raise InputError(f"--scheduler: cannot reach {scheduler} ({exc})") from None
+        try:
+            client.run(_limit_threads)
+            futures = [client.submit(compute_trial, cfg_dict, seed, t, key=f"radarslam-trial-{seed}-{t}", pure=False)
+                       for t in todo]
+            index = {f.key: t for f, t in zip(futures, todo)}
+            for f in as_completed(futures):
+                finish(index[f.key], f.result())
+        finally:
+            client.close()
+    finally:
+        if cluster is not None:
+            cluster.close()
+
+
+def load_results(out: str | Path, n_trials: int | None = None) -> dict:
+    """Stack every valid stored trial of ``out``.
+
+    Returns
+    -------
+    dict
+        ``config``, ``seed``, ``trials`` (numbers, ascending), ``true_poses`` (N, K, 3), and per
+        configuration name (``"noext"``, ``"ext"``) a dict of stacked arrays: per-step ``(N, K)``,
+        per-vehicle ``(N, V)``, ``poses`` ``(N, K, 3)`` and ``scalars`` as a dict of ``(N,)``.
+        ``corrupt`` maps skipped trial numbers to the reason.
+    """
+    store = TrialStore.read(out)
+    numbers = store.stored() if n_trials is None else list(range(1, n_trials + 1))
+    loaded, corrupt = [], {}
+    for t in numbers:
+        if not store.path(t).exists():
+            continue
+        try:
+            arrays, meta = store.load(t)
+        except RadarSlamError as exc:
+            corrupt[t] = str(exc)
+            continue
+        loaded.append((t, arrays, meta))
+    if not loaded:
+        raise InputError(f"DIR: {out} holds no valid trial")
+    res: dict = {"config": store.config, "seed": store.seed, "trials": np.array([t for t, _, _ in loaded]),
+                 "corrupt": corrupt, "seconds": np.array([m["seconds"] for _, _, m in loaded])}
+    res["true_poses"] = np.stack([a["true_poses"] for _, a, _ in loaded])
+    names = loaded[0][2]["scalar_names"]
+    for cname in CONFIGURATIONS:
+        d = {}
+        for key in loaded[0][1]:
+            if key.startswith(cname + "/") and not key.endswith("/scalars"):
+                d[key.split("/", 1)[1]] = np.stack([a[key] for _, a, _ in loaded])
+        sc = np.stack([a[f"{cname}/scalars"] for _, a, _ in loaded])
+        d["scalars"] = {n: sc[:, i] for i, n in enumerate(names)}
+        res[cname] = d
+    return res
