@@ -182,3 +182,52 @@ def test_progress_line_format():
     p = mc.Progress(10, 2, stream=buf)
     p.update()
     assert "3/10 trials" in buf.getvalue() and "trials/s" in buf.getvalue() and "ETA" in buf.getvalue()
+
+
+def test_cli_montecarlo_and_report(tmp_path, capsys):
+    from radarslam.cli.main import main
+
+    cfg = tmp_path / "short.toml"
+    cfg.write_text("[trajectory]\nn_steps = 30\n")
+    out = tmp_path / "mc"
+    args = ["montecarlo", "--trials", "3", "--seed", "5", "--jobs", "2", "--config", str(cfg), "--out", str(out),
+            "--quiet"]
+    assert main(args) == 0
+    captured = capsys.readouterr()
+    assert "## Table 1" in captured.out and "3 trials" in captured.err
+    assert (out / "report" / "table1.md").is_file() and (out / "report" / "report.json").is_file()
+    assert main(args) == 0  # resume: nothing to compute
+    assert "0 computed, 3 resumed" in capsys.readouterr().err
+    assert main(["montecarlo", "--trials", "3", "--seed", "6", "--out", str(out), "--quiet", "--no-report"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "seed 5, not 6" in err
+
+
+def test_cli_reproduce_small(tmp_path, capsys, monkeypatch):
+    """reproduce = montecarlo + report with the paper's (apsipa) settings; a short run here."""
+    from radarslam.cli.main import main
+
+    out = tmp_path / "rep"
+    assert main(["reproduce", "--trials", "2", "--jobs", "1", "--out", str(out), "--quiet", "--no-report"]) == 0
+    man = (out / "manifest.json").read_text()
+    assert '"seed": 1' in man and "apsipa" in man
+    res = load_results(out)
+    assert res["noext"]["position_error_m"].shape == (2, 120)
+
+
+def test_cli_montecarlo_interrupt_reports_stored_trials(tmp_path, capsys, monkeypatch):
+    from radarslam.cli.main import main
+
+    real = mc.compute_trial
+
+    def interrupted_at_2(config, seed, trial):
+        if trial == 2:
+            raise KeyboardInterrupt
+        return real(config, seed, trial)
+
+    monkeypatch.setattr(mc, "compute_trial", interrupted_at_2)
+    cfg = tmp_path / "short.toml"
+    cfg.write_text("[trajectory]\nn_steps = 20\n")
+    rc = main(["montecarlo", "--trials", "3", "--config", str(cfg), "--out", str(tmp_path / "o"), "--quiet"])
+    assert rc == 130
+    assert "1 finished trials are stored" in capsys.readouterr().err

@@ -98,6 +98,10 @@ class TrialStore:
     def open(cls, root: str | Path, config: Config, seed: int) -> "TrialStore":
         """Create ``root`` or reopen it; refuse a directory made with another config or seed."""
         root = Path(root)
+        if not root.exists():
+            if not root.parent.exists():
+                raise InputError(f"--out: parent directory {root.parent} does not exist")
+            root.mkdir()
         man = root / "manifest.json"
         if man.exists():
             try:
