@@ -92,3 +92,28 @@ def floor2(a: float, b: float, c: float, floor: float) -> tuple[float, float, fl
 def det2(a: float, b: float, c: float) -> float:
     """Determinant ``a c - b^2``."""
     return a * c - b * b
+
+
+def mean_and_scatter(pts: list) -> tuple[float, float, float, float, float]:
+    """Mean ``(zx, zy)`` and scatter sum ``(s11, s12, s22)`` of points given as ``[[x, y], ...]``.
+
+    The scatter is ``sum (z - zbar)(z - zbar)^T`` (not divided by anything): seed eqs. (10)-(11),
+    and ``(m - 1)`` times the sample covariance of the EFA (method.md d.3). Two passes, for
+    accuracy when the points are far from the origin.
+    """
+    m = len(pts)
+    sx = 0.0
+    sy = 0.0
+    for px, py in pts:
+        sx += px
+        sy += py
+    zx = sx / m
+    zy = sy / m
+    s11 = s12 = s22 = 0.0
+    for px, py in pts:
+        dx = px - zx
+        dy = py - zy
+        s11 += dx * dx
+        s12 += dx * dy
+        s22 += dy * dy
+    return zx, zy, s11, s12, s22

@@ -21,7 +21,7 @@ import numpy as np
 
 from radarslam.core.errors import InputError
 from radarslam.core.validation import as_points, as_spd
-from radarslam.extent._sym2 import from_spectral, spectral
+from radarslam.extent._sym2 import from_spectral, mean_and_scatter, spectral
 
 #: Returned by :func:`fit_ellipse` when no ellipse can be fitted (falsy; a success is a 2-tuple).
 FIT_FAILED = None
@@ -91,20 +91,7 @@ def _fit_ellipse(points: np.ndarray, upper_bound: bool = True,
     m = len(pts)
     if m < FIT_MIN_POINTS:
         return FIT_FAILED
-    sx = 0.0
-    sy = 0.0
-    for px, py in pts:
-        sx += px
-        sy += py
-    zx = sx / m
-    zy = sy / m
-    c11 = c12 = c22 = 0.0
-    for px, py in pts:
-        dx = px - zx
-        dy = py - zy
-        c11 += dx * dx
-        c12 += dx * dy
-        c22 += dy * dy
+    zx, zy, c11, c12, c22 = mean_and_scatter(pts)
     k = 1.0 / (m - 1)
     c11 *= k
     c12 *= k

@@ -24,7 +24,7 @@ import numpy as np
 
 from radarslam.core.errors import InputError
 from radarslam.core.validation import as_points, as_scalar, as_spd, as_array
-from radarslam.extent._sym2 import EIG_CLIP, floor2, inv_sqrt2, sqrt2
+from radarslam.extent._sym2 import EIG_CLIP, floor2, inv_sqrt2, mean_and_scatter, sqrt2
 
 #: Extent scaling factor for a uniform spread over an ellipse (method.md d.4).
 GAMMA_Z = 0.25
@@ -142,22 +142,8 @@ def _rm_update(X: np.ndarray, alpha: float, centroid: np.ndarray, centroid_cov: 
     x11, x12, _, x22 = X.ravel().tolist()
     pts = points.tolist()
     m = len(pts)
-    # seed eq. (10): mean of the detections
-    sx = 0.0
-    sy = 0.0
-    for px, py in pts:
-        sx += px
-        sy += py
-    zx = sx / m
-    zy = sy / m
-    # seed eq. (11): scatter sum Zbar (not divided by m); zero for m = 1
-    z11 = z12 = z22 = 0.0
-    for px, py in pts:
-        dx = px - zx
-        dy = py - zy
-        z11 += dx * dx
-        z12 += dx * dy
-        z22 += dy * dy
+    # seed eqs. (10)-(11): mean of the detections and the scatter sum Zbar (zero for m = 1)
+    zx, zy, z11, z12, z22 = mean_and_scatter(pts)
     w11, w12, _, w22 = W.ravel().tolist()
     p11, p12, _, p22 = centroid_cov.ravel().tolist()
     cx, cy = centroid.tolist()
