@@ -2,6 +2,7 @@
 
 import argparse
 import time
+from dataclasses import replace
 
 import _common  # noqa: F401  (single-threaded BLAS)
 import numpy as np
@@ -14,8 +15,11 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--trials", type=int, default=30)
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--backend", choices=("python", "numba"), default="python",
+                    help="filter.backend (numba needs the [fast] extra)")
     a = ap.parse_args()
     cfg = profile_config()
+    cfg = replace(cfg, filter=replace(cfg.filter, backend=a.backend))
     compute_trial(cfg, a.seed, 1)  # warm-up: imports, caches
     t = []
     for k in range(1, a.trials + 1):
@@ -23,7 +27,8 @@ def main() -> None:
         compute_trial(cfg, a.seed, k)
         t.append(time.perf_counter() - t0)
     t = np.array(t)
-    print(f"complete trial (simulation + No extent + With extent + RMA/EFA + evaluation), {a.trials} trials, one core:")
+    print(f"complete trial (simulation + No extent + With extent + RMA/EFA + evaluation), backend {a.backend}, "
+          f"{a.trials} trials, one core:")
     print(f"  median {np.median(t):.3f} s   p10 {np.percentile(t, 10):.3f} s   p90 {np.percentile(t, 90):.3f} s"
           f"   min {t.min():.3f} s   max {t.max():.3f} s")
 

@@ -231,3 +231,36 @@ def test_cli_montecarlo_interrupt_reports_stored_trials(tmp_path, capsys, monkey
     rc = main(["montecarlo", "--trials", "3", "--config", str(cfg), "--out", str(tmp_path / "o"), "--quiet"])
     assert rc == 130
     assert "1 finished trials are stored" in capsys.readouterr().err
+
+
+def test_numba_backend_agrees_with_python_backend():
+    """Same associations on every scan; poses and maps agree to rounding (not bit for bit)."""
+    require("numba")
+    from radarslam.experiments.single import run_trial
+
+    base = profile_config()
+    fast = replace(base, filter=replace(base.filter, backend="numba"))
+    for seed in (1, 2, 3):
+        for ext in (False, True):
+            a, b = run_trial(base, seed, use_extent=ext), run_trial(fast, seed, use_extent=ext)
+            assert np.array_equal(a.record.n_associated, b.record.n_associated)
+            assert np.array_equal(a.record.n_landmarks, b.record.n_landmarks)
+            assert np.allclose(a.record.poses, b.record.poses, atol=1e-9, rtol=0)
+            assert np.allclose(a.record.pose_covs, b.record.pose_covs, atol=1e-12, rtol=1e-9)
+            assert np.allclose(a.record.maps[-1].positions, b.record.maps[-1].positions, atol=1e-9)
+
+
+def test_numba_backend_monte_carlo_is_deterministic_across_jobs(tmp_path):
+    require("numba")
+    cfg = short_config()
+    cfg = replace(cfg, filter=replace(cfg.filter, backend="numba"))
+    run_montecarlo(cfg, 3, 3, tmp_path / "a", jobs=1, progress=False)
+    run_montecarlo(cfg, 3, 3, tmp_path / "b", jobs=2, progress=False)
+    assert_same_results(tmp_path / "a", tmp_path / "b", range(1, 4))
+
+
+def test_backend_is_part_of_the_directory_identity(reference_run):
+    cfg = short_config()
+    with pytest.raises(InputError, match="different configuration"):
+        run_montecarlo(replace(cfg, filter=replace(cfg.filter, backend="numba")), 11, 4, reference_run,
+                       progress=False)

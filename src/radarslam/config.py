@@ -104,7 +104,9 @@ class WorldConfig:
 class FilterConfig:
     """EKF-SLAM noise models and initialisation (method.md b.5). Defaults equal the simulation's."""
 
-    motion_model: str = param("unicycle", "motion model of the platform", choices=("unicycle",))
+    motion_model: str = param("unicycle", "motion model of the platform", choices=("unicycle", "ackermann"))
+    backend: str = param("python", "association loop: 'python' (reference) or 'numba' (compiled; the [fast] extra)",
+                         choices=("python", "numba"))
     initial_pose: list[float] = param([0.1, 0.1, math.pi / 180.0], "initial estimate [x_m, y_m, theta_rad]", length=3)
     initial_pose_std: list[float] = param([0.15, 0.15, math.pi / 180.0], "initial std [x_m, y_m, theta_rad]", length=3)
     range_std_m: float = param(0.5, "R: range std (m)", low=0.0, low_open=True)

@@ -13,8 +13,24 @@ def add_config_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--config", metavar="FILE.toml", default=None, help="configuration overrides (TOML)")
 
 
+def add_backend_arg(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--backend", choices=("python", "numba"), default=None,
+                   help="association loop: python (reference, default) or numba (compiled; the [fast] extra)")
+
+
+def with_backend(config: Config, args: argparse.Namespace) -> Config:
+    """``--backend`` overrides ``filter.backend``."""
+    import dataclasses
+
+    if getattr(args, "backend", None):
+        config = dataclasses.replace(config, filter=dataclasses.replace(config.filter, backend=args.backend))
+    return config
+
+
 def config_from_args(args: argparse.Namespace) -> Config:
     """Profile defaults, overlaid by ``--config``; ``--profile`` wins over the file's profile key."""
     if args.config:
-        return load_config(args.config, profile=args.profile)
-    return validate(profile_config(args.profile or "apsipa"))
+        cfg = load_config(args.config, profile=args.profile)
+    else:
+        cfg = validate(profile_config(args.profile or "apsipa"))
+    return with_backend(cfg, args)

@@ -6,7 +6,7 @@ import argparse
 import os
 import sys
 
-from radarslam.cli.common import add_config_args, config_from_args
+from radarslam.cli.common import add_backend_arg, add_config_args, config_from_args, with_backend
 from radarslam.config import profile_config, validate
 from radarslam.core.errors import InputError
 from radarslam.io.results import prepare_out_dir
@@ -20,6 +20,7 @@ def _add_exec_args(p: argparse.ArgumentParser, default_jobs: int) -> None:
     g.add_argument("--dask-local", type=int, metavar="N", help="start a local Dask cluster of N worker processes")
     p.add_argument("--no-report", action="store_true", help="do not write the report at the end")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_backend_arg(p)
 
 
 def add_parser(sub) -> None:
@@ -71,4 +72,4 @@ def run_montecarlo_cmd(args: argparse.Namespace) -> int:
 
 def run_reproduce_cmd(args: argparse.Namespace) -> int:
     # The paper's settings: the default (apsipa, APSIPA Table I) profile, seed Section 4 extents.
-    return _execute(validate(profile_config("apsipa")), args)
+    return _execute(with_backend(validate(profile_config("apsipa")), args), args)

@@ -10,7 +10,7 @@ import time
 import numpy as np
 
 from radarslam import __version__
-from radarslam.cli.common import add_config_args, config_from_args
+from radarslam.cli.common import add_backend_arg, add_config_args, config_from_args
 from radarslam.config import to_dict, to_toml
 from radarslam.core.errors import InputError
 from radarslam.io.results import atomic_write_text, prepare_out_dir, write_json, write_trajectory_csv, write_tum
@@ -26,6 +26,7 @@ def add_parser(sub) -> None:
     ext.add_argument("--no-extent", dest="extent", action="store_false", help="'No extent' (the default)")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory (created; its parent must exist)")
     p.add_argument("--no-plot", action="store_true", help="skip the figure even if matplotlib is installed")
+    add_backend_arg(p)
     p.set_defaults(func=run)
 
 

@@ -64,8 +64,9 @@ def dbscan_labels(points: np.ndarray, eps: float, min_samples: int) -> np.ndarra
 
         return DBSCAN(eps=eps, min_samples=min_samples, algorithm="kd_tree").fit(points).labels_
     neighborhoods = np.empty(m, dtype=object)
-    for i in range(m):
-        neighborhoods[i] = np.flatnonzero(near[i])
+    cols = np.nonzero(near)[1]  # row-major: each row's neighbours, ascending, as radius_neighbors sorts them
+    for i, nb in enumerate(np.split(cols, np.cumsum(counts)[:-1])):
+        neighborhoods[i] = nb
     labels = np.full(m, -1, dtype=np.intp)
     _DBSCAN_CORE(np.asarray(counts >= min_samples, dtype=np.uint8), neighborhoods, labels)
     return labels

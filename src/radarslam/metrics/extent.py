@@ -72,10 +72,16 @@ def gwd_per_step(maps, centers: np.ndarray, present: np.ndarray, gt_extents: np.
         if not np.any(ok):
             continue
         v = cand[a[ok]]
-        count[k] = int(ok.sum())
-        for c, gt in gts.items():
-            rma[c][k] = float(np.mean(_gwds(mp.positions[ok], mp.rma[ok], centers[v], gt[v])))
-            efa[c][k] = float(np.mean(_gwds(mp.positions[ok], mp.efa[ok], centers[v], gt[v])))
+        n = int(ok.sum())
+        count[k] = n
+        # One vectorised GWD call per scan: (RMA, EFA) x every convention, stacked.
+        nc = len(gts)
+        est = np.concatenate([mp.rma[ok], mp.efa[ok]] * nc)
+        ref = np.concatenate([g[v] for g in gts.values() for _ in (0, 1)])
+        pos = np.tile(mp.positions[ok], (2 * nc, 1))
+        d = _gwds(pos, est, np.tile(centers[v], (2 * nc, 1)), ref).reshape(nc, 2, n).mean(axis=2)
+        for ci, c in enumerate(gts):
+            rma[c][k], efa[c][k] = float(d[ci, 0]), float(d[ci, 1])
     if single:
         return rma["_"], efa["_"], count
     return rma, efa, count

@@ -123,6 +123,13 @@ class EkfSlam:
         self._next_id = 0
         self._dt_since_scan = 0.0
         self._scans = 0
+        self._associate_compiled = None
+        if f.backend == "numba":
+            try:
+                from radarslam.slam._numba import associate_scan
+            except ImportError:
+                raise InputError("filter.backend: 'numba' needs numba; pip install 'radarslam[fast]'") from None
+            self._associate_compiled = associate_scan
 
     # ------------------------------------------------------------------ views
     @property
@@ -199,17 +206,23 @@ class EkfSlam:
         ext_inv, has_ext = None, None
         if use_ext and ec.contour_sifting and self.landmarks:
             has_ext = np.array([r.extent.initialized for r in self.landmarks])
-            ext_inv = np.array([np.linalg.inv(r.extent.X) if r.extent.initialized else np.eye(2)
-                                for r in self.landmarks])
+            Xs = np.array([r.extent.X if r.extent.initialized else np.eye(2) for r in self.landmarks])
+            # closed-form 2 x 2 inverses (X is SPD with eigenvalues >= eig_floor)
+            det = Xs[:, 0, 0] * Xs[:, 1, 1] - Xs[:, 0, 1] * Xs[:, 1, 0]
+            ext_inv = np.stack([np.stack([Xs[:, 1, 1], -Xs[:, 0, 1]], -1),
+                                np.stack([-Xs[:, 1, 0], Xs[:, 0, 0]], -1)], 1) / det[:, None, None]
         cand = sift(xy_pred, L, lc.sift_radius_m, ext_inv, has_ext, ec.kappa)
 
         # 4. Sequential association and EKF point updates.
         assoc: list[list[int]] = [[] for _ in self.landmarks]
-        for i in np.flatnonzero(cand):
-            j, D, e, Hs, idx, Rj = self._best_match(polar[i], lc.n_nearest_assoc)
-            if j >= 0 and D < lc.beta:
-                self.x, self.P = ekf.update(self.x, self.P, e, Hs, idx, Rj)
-                assoc[j].append(int(i))
+        if self._associate_compiled is not None and self.landmarks:
+            self._associate_compiled_scan(polar, np.flatnonzero(cand), assoc)
+        else:
+            for i in np.flatnonzero(cand):
+                j, D, e, Hs, idx, Rj = self._best_match(polar[i], lc.n_nearest_assoc)
+                if j >= 0 and D < lc.beta:
+                    self.x, self.P = ekf.update(self.x, self.P, e, Hs, idx, Rj)
+                    assoc[j].append(int(i))
         n_assoc = sum(len(a) for a in assoc)
         associations = {r.id: np.array(a, dtype=int) for r, a in zip(self.landmarks, assoc) if a}
 
@@ -269,6 +282,24 @@ class EkfSlam:
                           len(clusters), len(self.tentatives))
 
     # ------------------------------------------------------------------ pieces
+    def _associate_compiled_scan(self, polar: np.ndarray, cand: np.ndarray, assoc: list[list[int]]) -> None:
+        """Step 4 with the compiled loop (``filter.backend = "numba"``)."""
+        ec, lc = self.config.extent, self.config.landmarks
+        N = len(self.landmarks)
+        gX = np.zeros((N, 2, 2))
+        has = np.zeros(N, dtype=np.bool_)
+        if ec.use_in_slam and ec.inflate_noise:
+            for j, r in enumerate(self.landmarks):
+                if r.extent.X is not None:
+                    gX[j] = ec.gamma_z * r.extent.X
+                    has[j] = True
+        x, P = self.x.copy(), self.P.copy()
+        out = self._associate_compiled(x, P, polar, cand, self.R, gX, has, lc.n_nearest_assoc, lc.beta)
+        self.x, self.P = x, P
+        for i, j in zip(cand.tolist(), out.tolist()):
+            if j >= 0:
+                assoc[j].append(i)
+
     def _noise(self, j: int, Hp: np.ndarray, extent: bool = True) -> np.ndarray:
         """R, or R_eff = R + H_p (gamma_z X) H_p^T for a landmark with extent (a.7.2).
 
