@@ -54,6 +54,8 @@ class UnicycleModel:
 
 
 _MODELS: dict[str, type] = {"unicycle": UnicycleModel}
+#: Models living in their own module, imported on first use (they register themselves).
+_LAZY_MODELS = {"ackermann": "radarslam.models.ackermann"}
 
 
 def register_motion_model(name: str, cls: type) -> None:
@@ -63,6 +65,10 @@ def register_motion_model(name: str, cls: type) -> None:
 
 def get_motion_model(name: str, **kwargs) -> MotionModel:
     """The motion model registered under ``name``."""
+    if name not in _MODELS and name in _LAZY_MODELS:
+        import importlib
+
+        importlib.import_module(_LAZY_MODELS[name])
     try:
         return _MODELS[name](**kwargs)
     except KeyError:

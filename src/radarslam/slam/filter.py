@@ -244,6 +244,9 @@ class EkfSlam:
             self.landmarks = [self.landmarks[j] for j in keep]
             assoc = [assoc[j] for j in keep]
 
+        # The scan in the world frame with the updated pose, for steps 6-9 (seed eq. 3).
+        xy_upd = polar_to_xy(self.x[:3], polar)
+
         # 6. Extent step.
         if ec.track:
             for j, r in enumerate(self.landmarks):
@@ -253,13 +256,13 @@ class EkfSlam:
                     c, C = self.x[3 + 2 * j: 5 + 2 * j], self.P[3 + 2 * j: 5 + 2 * j, 3 + 2 * j: 5 + 2 * j]
                 else:
                     c, C = x_prior[ip: ip + 2], P_prior[ip: ip + 2, ip: ip + 2]
-                self._extent_step(r, polar[assoc[j]], c, C, dt_ext, k)
+                self._extent_step(r, polar[assoc[j]], xy_upd[assoc[j]], c, C, dt_ext, k)
 
         # 7. Clustering of Z \ Z^s and the alpha test.
         rest = np.flatnonzero(~cand)
         clusters = []
         if rest.size >= lc.cluster_min_samples:
-            xy_rest = polar_to_xy(self.x[:3], polar[rest])
+            xy_rest = xy_upd[rest]
             labels = dbscan_labels(xy_rest, lc.cluster_eps_m, lc.cluster_min_samples)
             clusters = clusters_of(polar[rest], xy_rest, labels, rest)
         fresh = [c for c in clusters if self._min_log_distance(c.centre_polar, lc.n_nearest_new) > lc.alpha]
@@ -348,13 +351,13 @@ class EkfSlam:
         """
         return self._best_match(s, count, extent=False)[1]
 
-    def _extent_step(self, r: LandmarkRecord, polar: np.ndarray, centroid: np.ndarray,
+    def _extent_step(self, r: LandmarkRecord, polar: np.ndarray, pts: np.ndarray, centroid: np.ndarray,
                      centroid_cov: np.ndarray, dt: float, k: int) -> None:
-        """a.3-a.5 for one landmark; ``polar`` are this scan's associated detections."""
+        """a.3-a.5 for one landmark; ``polar`` are this scan's associated detections and ``pts``
+        the same converted with the updated pose."""
         ec = self.config.extent
         st = r.extent
         m = polar.shape[0]
-        pts = polar_to_xy(self.x[:3], polar) if m else None
         if not st.initialized:
             if m:
                 st.buffer.append(pts)
