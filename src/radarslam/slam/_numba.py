@@ -38,6 +38,75 @@ def _wrap_2pi(a):
 
 
 @njit(cache=True)
+def _best_landmark(x, P, z0, z1, n_nearest, R, gX, has_gX, d2):  # pragma: no cover - compiled
+    """Smallest log distance of detection (z0, z1) over its n_nearest landmarks (ekf.score_landmarks).
+
+    Returns ``(j, D, e0, e1)``; ``j = -1`` when no landmark scores.
+    """
+    n = x.shape[0]
+    N = (n - 3) // 2
+    r00, r01, r11 = R[0, 0], R[0, 1], R[1, 1]
+    x0, y0, th = x[0], x[1], x[2]
+    a = th + z1
+    zx = x0 + z0 * math.cos(a)
+    zy = y0 + z0 * math.sin(a)
+    for j in range(N):
+        d2[j] = (x[3 + 2 * j] - zx) ** 2 + (x[4 + 2 * j] - zy) ** 2
+    order = np.argsort(d2[:N], kind="mergesort")
+    count = min(n_nearest, N)
+    pxx, pxy, pxt = P[0, 0], P[0, 1], P[0, 2]
+    pyy, pyt, ptt = P[1, 1], P[1, 2], P[2, 2]
+    best_j = -1
+    best_D = math.inf
+    be0 = 0.0
+    be1 = 0.0
+    for k in range(count):
+        j = order[k]
+        i = 3 + 2 * j
+        cxx = P[i, i] - 2.0 * P[i, 0] + pxx
+        cxy = P[i, i + 1] - P[i, 1] - P[i + 1, 0] + pxy
+        cyy = P[i + 1, i + 1] - 2.0 * P[i + 1, 1] + pyy
+        ctx = P[i, 2] - pxt
+        cty = P[i + 1, 2] - pyt
+        dx = x[i] - x0
+        dy = x[i + 1] - y0
+        q = dx * dx + dy * dy
+        r = math.sqrt(q)
+        a1, b1 = dx / r, dy / r
+        a2, b2 = -dy / q, dx / q
+        Ca1 = cxx * a1 + cxy * b1
+        Cb1 = cxy * a1 + cyy * b1
+        s00 = a1 * Ca1 + b1 * Cb1 + r00
+        s01 = a2 * Ca1 + b2 * Cb1 - (a1 * ctx + b1 * cty) + r01
+        s11 = (a2 * (cxx * a2 + cxy * b2) + b2 * (cxy * a2 + cyy * b2)
+               - 2.0 * (a2 * ctx + b2 * cty) + ptt + r11)
+        if has_gX[j]:
+            g00, g01, g11 = gX[j, 0, 0], gX[j, 0, 1], gX[j, 1, 1]
+            s00 += a1 * (g00 * a1 + g01 * b1) + b1 * (g01 * a1 + g11 * b1)
+            s01 += a2 * (g00 * a1 + g01 * b1) + b2 * (g01 * a1 + g11 * b1)
+            s11 += a2 * (g00 * a2 + g01 * b2) + b2 * (g01 * a2 + g11 * b2)
+        det = s00 * s11 - s01 * s01
+        if det <= 0.0:
+            continue
+        e0 = z0 - r
+        e1 = _wrap_pi(z1 - (math.atan2(dy, dx) - th))
+        D = 0.5 * (s11 * e0 * e0 - 2.0 * s01 * e0 * e1 + s00 * e1 * e1) / det + 0.5 * (LOG_2PI_SQ + math.log(det))
+        if D < best_D:
+            best_j, best_D, be0, be1 = j, D, e0, e1
+    return best_j, best_D, be0, be1
+
+
+@njit(cache=True)
+def min_log_distance(x, P, z0, z1, n_nearest, R):  # pragma: no cover - compiled
+    """The alpha test's smallest log distance (plain R, c.6); inf without landmarks."""
+    N = (x.shape[0] - 3) // 2
+    if N == 0:
+        return math.inf
+    return _best_landmark(x, P, z0, z1, n_nearest, R, np.zeros((N, 2, 2)), np.zeros(N, dtype=np.bool_),
+                          np.empty(N))[1]
+
+
+@njit(cache=True)
 def associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta):  # pragma: no cover - compiled
     """Sequential association + EKF updates of the detections ``polar[cand]`` (in place on x, P).
 
@@ -57,53 +126,8 @@ def associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta):  # pragma
     for c in range(cand.shape[0]):
         z0 = polar[cand[c], 0]
         z1 = polar[cand[c], 1]
-        x0, y0, th = x[0], x[1], x[2]
-        a = th + z1
-        zx = x0 + z0 * math.cos(a)
-        zy = y0 + z0 * math.sin(a)
-        for j in range(N):
-            d2[j] = (x[3 + 2 * j] - zx) ** 2 + (x[4 + 2 * j] - zy) ** 2
-        order = np.argsort(d2, kind="mergesort")
-        count = min(n_nearest, N)
-        pxx, pxy, pxt = P[0, 0], P[0, 1], P[0, 2]
-        pyy, pyt, ptt = P[1, 1], P[1, 2], P[2, 2]
-        best_j = -1
-        best_D = math.inf
-        be0 = 0.0
-        be1 = 0.0
-        for k in range(count):
-            j = order[k]
-            i = 3 + 2 * j
-            cxx = P[i, i] - 2.0 * P[i, 0] + pxx
-            cxy = P[i, i + 1] - P[i, 1] - P[i + 1, 0] + pxy
-            cyy = P[i + 1, i + 1] - 2.0 * P[i + 1, 1] + pyy
-            ctx = P[i, 2] - pxt
-            cty = P[i + 1, 2] - pyt
-            dx = x[i] - x0
-            dy = x[i + 1] - y0
-            q = dx * dx + dy * dy
-            r = math.sqrt(q)
-            a1, b1 = dx / r, dy / r
-            a2, b2 = -dy / q, dx / q
-            Ca1 = cxx * a1 + cxy * b1
-            Cb1 = cxy * a1 + cyy * b1
-            s00 = a1 * Ca1 + b1 * Cb1 + r00
-            s01 = a2 * Ca1 + b2 * Cb1 - (a1 * ctx + b1 * cty) + r01
-            s11 = (a2 * (cxx * a2 + cxy * b2) + b2 * (cxy * a2 + cyy * b2)
-                   - 2.0 * (a2 * ctx + b2 * cty) + ptt + r11)
-            if has_gX[j]:
-                g00, g01, g11 = gX[j, 0, 0], gX[j, 0, 1], gX[j, 1, 1]
-                s00 += a1 * (g00 * a1 + g01 * b1) + b1 * (g01 * a1 + g11 * b1)
-                s01 += a2 * (g00 * a1 + g01 * b1) + b2 * (g01 * a1 + g11 * b1)
-                s11 += a2 * (g00 * a2 + g01 * b2) + b2 * (g01 * a2 + g11 * b2)
-            det = s00 * s11 - s01 * s01
-            if det <= 0.0:
-                continue
-            e0 = z0 - r
-            e1 = _wrap_pi(z1 - (math.atan2(dy, dx) - th))
-            D = 0.5 * (s11 * e0 * e0 - 2.0 * s01 * e0 * e1 + s00 * e1 * e1) / det + 0.5 * (LOG_2PI_SQ + math.log(det))
-            if D < best_D:
-                best_j, best_D, be0, be1 = j, D, e0, e1
+        best_j, best_D, be0, be1 = _best_landmark(x, P, z0, z1, n_nearest, R, gX, has_gX, d2)
+        x0, y0 = x[0], x[1]
         if best_j < 0 or not best_D < beta:
             continue
         out[c] = best_j

@@ -124,12 +124,14 @@ class EkfSlam:
         self._dt_since_scan = 0.0
         self._scans = 0
         self._associate_compiled = None
+        self._min_log_distance_compiled = None
         if f.backend == "numba":
             try:
-                from radarslam.slam._numba import associate_scan
+                from radarslam.slam._numba import associate_scan, min_log_distance
             except ImportError:
                 raise InputError("filter.backend: 'numba' needs numba; pip install 'radarslam[fast]'") from None
             self._associate_compiled = associate_scan
+            self._min_log_distance_compiled = min_log_distance
 
     # ------------------------------------------------------------------ views
     @property
@@ -349,6 +351,8 @@ class EkfSlam:
 
         Used by the alpha test of c.6, always with the plain R (see :meth:`_noise`).
         """
+        if self._min_log_distance_compiled is not None:
+            return float(self._min_log_distance_compiled(self.x, self.P, float(s[0]), float(s[1]), count, self.R))
         return self._best_match(s, count, extent=False)[1]
 
     def _extent_step(self, r: LandmarkRecord, polar: np.ndarray, pts: np.ndarray, centroid: np.ndarray,
