@@ -112,7 +112,7 @@ class EkfSlam:
     def __init__(self, config: Config, motion_model: MotionModel | None = None):
         self.config = config
         f = config.filter
-        self.model = motion_model or get_motion_model(f.motion_model)
+        self.model = motion_model or get_motion_model(f.motion_model, **f.motion_model_kwargs())
         self.R = f.R
         self.U = f.U
         self.Q = f.Q

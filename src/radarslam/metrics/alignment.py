@@ -1,0 +1,73 @@
+"""Trajectory alignment and error against position fixes (GPS)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def rigid_align_2d(est: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Least-squares rotation ``R`` (2, 2) and translation ``t`` (2,) with ``R est + t ~ ref``.
+
+    Kabsch / Umeyama without scale: the SVD of the cross-covariance, with the reflection removed.
+    ``est`` and ``ref`` are matched point sets ``(n, 2)``, ``n >= 2``.
+    """
+    mu_e, mu_r = est.mean(axis=0), ref.mean(axis=0)
+    H = (est - mu_e).T @ (ref - mu_r)
+    U, _, Vt = np.linalg.svd(H)
+    D = np.diag([1.0, np.sign(np.linalg.det(Vt.T @ U.T)) or 1.0])
+    R = Vt.T @ D @ U.T
+    return R, mu_r - R @ mu_e
+
+
+def robust_rigid_align_2d(est: np.ndarray, ref: np.ndarray, *, k: float = 4.0, floor: float = 2.0,
+                          max_iter: int = 20) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`rigid_align_2d` with iterative outlier rejection.
+
+    Pairs whose residual exceeds ``max(floor, k * 1.4826 * MAD)`` (m) are dropped and the fit is
+    repeated until the inlier set stops changing. Returns ``(R, t, inliers)``.
+    """
+    inl = np.ones(est.shape[0], dtype=bool)
+    for _ in range(max_iter):
+        R, t = rigid_align_2d(est[inl], ref[inl])
+        res = np.linalg.norm(est @ R.T + t - ref, axis=1)
+        med = np.median(res[inl])
+        thr = max(floor, k * 1.4826 * np.median(np.abs(res[inl] - med)) + med)
+        new = res <= thr
+        if np.array_equal(new, inl) or new.sum() < 3:
+            break
+        inl = new
+    return R, t, inl
+
+
+def error_against_fixes(times: np.ndarray, positions: np.ndarray, fix_t: np.ndarray, fix_xy: np.ndarray,
+                        robust: bool = True) -> dict:
+    """Align an estimated track to position fixes and report the error.
+
+    The track (``times`` (K,), ``positions`` (K, 2)) is linearly interpolated at each fix time
+    within its span; the fixes are then aligned by a 2-D rigid transform (robust by default).
+    """
+    m = (fix_t >= times[0]) & (fix_t <= times[-1])
+    ft, fxy = fix_t[m], fix_xy[m]
+    est = np.column_stack([np.interp(ft, times, positions[:, 0]), np.interp(ft, times, positions[:, 1])])
+    if ft.size < 3:
+        return {"n_fixes": int(ft.size), "rmse_m": float("nan"), "max_m": float("nan")}
+    if robust:
+        R, t, inl = robust_rigid_align_2d(est, fxy)
+    else:
+        R, t = rigid_align_2d(est, fxy)
+        inl = np.ones(ft.size, dtype=bool)
+    err = np.linalg.norm(est @ R.T + t - fxy, axis=1)
+    return {
+        "n_fixes": int(ft.size),
+        "n_inliers": int(inl.sum()),
+        "rmse_m": float(np.sqrt(np.mean(err[inl] ** 2))),
+        "max_m": float(err[inl].max()),
+        "median_m": float(np.median(err[inl])),
+        "rmse_all_m": float(np.sqrt(np.mean(err**2))),
+        "rotation_deg": float(np.degrees(np.arctan2(R[1, 0], R[0, 0]))),
+        "translation_m": t,
+        "fix_t": ft,
+        "errors_m": err,
+        "inliers": inl,
+        "R": R,
+    }

@@ -1,0 +1,49 @@
+"""Rigid 2-D alignment against fixes: analytic oracle, outlier rejection, negative control."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from radarslam.metrics.alignment import error_against_fixes, rigid_align_2d, robust_rigid_align_2d
+
+
+def _rot(a):
+    return np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+
+
+def test_rigid_align_recovers_known_transform():
+    r = np.random.default_rng(0)
+    est = r.uniform(-50, 50, (200, 2))
+    R0, t0 = _rot(0.7), np.array([12.0, -3.0])
+    R, t = rigid_align_2d(est, est @ R0.T + t0)
+    assert np.allclose(R, R0, atol=1e-12) and np.allclose(t, t0, atol=1e-10)
+
+
+def test_no_reflection_for_mirrored_data():
+    r = np.random.default_rng(1)
+    est = r.uniform(-10, 10, (50, 2))
+    R, _ = rigid_align_2d(est, est * [1, -1])
+    assert math.isclose(np.linalg.det(R), 1.0)
+
+
+def test_robust_alignment_rejects_gps_jumps():
+    r = np.random.default_rng(2)
+    est = np.cumsum(r.normal(0, 1, (400, 2)), axis=0)
+    R0, t0 = _rot(-1.1), np.array([100.0, 40.0])
+    ref = est @ R0.T + t0 + r.normal(0, 0.5, (400, 2))
+    ref[100:130] += 140.0  # a burst of 140 m jumps, as in the Victoria Park GPS
+    R, t, inl = robust_rigid_align_2d(est, ref)
+    assert np.allclose(R, R0, atol=1e-2) and not inl[100:130].any() and inl.sum() >= 360
+    Rn, tn = rigid_align_2d(est, ref)  # negative control: the plain fit is pulled away
+    assert np.linalg.norm(tn - t0) > 5.0
+
+
+def test_error_against_fixes_interpolates_track():
+    t = np.linspace(0, 100, 101)
+    pos = np.column_stack([t, 0.5 * t])
+    ft = np.array([0.5, 10.25, 50.0, 99.9, 120.0])  # the last is outside the span
+    fxy = np.column_stack([ft, 0.5 * ft]) @ _rot(0.3).T + [5.0, 5.0]
+    res = error_against_fixes(t, pos, ft, fxy)
+    assert res["n_fixes"] == 4 and res["rmse_m"] < 1e-9 and math.isclose(res["rotation_deg"], math.degrees(0.3))
