@@ -79,8 +79,9 @@ def _limit_threads() -> None:
 class Progress:
     """A one-line progress bar on stderr: trials done, rate and ETA."""
 
-    def __init__(self, total: int, done: int = 0, stream=None, enabled: bool = True):
+    def __init__(self, total: int, done: int = 0, stream=None, enabled: bool = True, unit: str = "trials"):
         self.total, self.done, self.start_done = total, done, done
+        self.unit = unit
         self.stream = stream or sys.stderr
         self.enabled = enabled
         self.t0 = time.perf_counter()
@@ -113,8 +114,8 @@ class Progress:
         width = 30
         fill = int(width * self.done / max(self.total, 1))
         eta_s = "--" if not math.isfinite(eta) else f"{int(eta // 60)}m{int(eta % 60):02d}s"
-        return (f"[{'#' * fill}{'.' * (width - fill)}] {self.done}/{self.total} trials  "
-                f"{rate:.2f} trials/s  ETA {eta_s}")
+        return (f"[{'#' * fill}{'.' * (width - fill)}] {self.done}/{self.total} {self.unit}  "
+                f"{rate:.2f} {self.unit}/s  ETA {eta_s}")
 
 
 @dataclass
