@@ -47,3 +47,25 @@ def test_error_against_fixes_interpolates_track():
     fxy = np.column_stack([ft, 0.5 * ft]) @ _rot(0.3).T + [5.0, 5.0]
     res = error_against_fixes(t, pos, ft, fxy)
     assert res["n_fixes"] == 4 and res["rmse_m"] < 1e-9 and math.isclose(res["rotation_deg"], math.degrees(0.3))
+
+
+def test_gps_speed_outliers_flag_jumps_only():
+    t = np.arange(0.0, 100.0, 0.5)
+    xy = np.column_stack([3.0 * t, np.zeros_like(t)])  # 3 m/s
+    xy[40:44] += [0.0, 140.0]  # a 140 m jump for 2 s
+    from radarslam.metrics.alignment import gps_speed_outliers
+
+    bad = gps_speed_outliers(t, xy, 8.0)
+    assert bad[40:44].all() and bad.sum() == 4
+
+
+def test_error_against_fixes_does_not_hide_drift():
+    """The default evaluation keeps every consistent fix: drift in the estimate shows in the RMSE."""
+    t = np.linspace(0, 100, 201)
+    truth = np.column_stack([3 * t, np.sin(t / 10) * 20])
+    est = truth.copy()
+    est[150:] += [15.0, 0.0]  # the estimate drifts 15 m at the end
+    res = error_against_fixes(t, est, t, truth, max_speed=8.0)
+    assert res["n_fixes"] == 201 and res["rmse_m"] > 5.0
+    flattering = error_against_fixes(t, est, t, truth, robust=True)
+    assert flattering["rmse_m"] < res["rmse_m"]  # what residual-based rejection would report

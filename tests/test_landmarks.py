@@ -273,3 +273,21 @@ def test_profiles_differ_only_in_decision1_values():
     assert diff == {("landmarks", k) for k in PROFILES["reference"]["landmarks"]}
     assert b["landmarks"]["beta"] == 3.0 and a["landmarks"]["beta"] == 20.0
     assert math.isinf(a["landmarks"]["merge_axis_tol_m"]) and b["landmarks"]["merge_axis_tol_m"] == 0.8
+
+
+def test_mn_ignores_misses_outside_the_field_of_view():
+    """A 180-degree sensor does not count a landmark behind it as missed (M/N in-range test)."""
+    cfg = quiet_config()
+    cfg = replace(cfg, filter=replace(cfg.filter, field_of_view_deg=180.0))
+    slam = EkfSlam(cfg)
+    slam.update(scan(1, blob([8.0, 0.0], 6)))
+    slam.x = slam.x.copy()
+    slam.x[3] = -8.0  # now behind the platform
+    for k in range(2, 20):
+        slam.update(scan(k))
+    assert len(slam.landmarks) == 1
+    slam.x = slam.x.copy()
+    slam.x[3] = 8.0  # in front again: misses count, deleted after M scans
+    for k in range(20, 30):
+        slam.update(scan(k))
+    assert len(slam.landmarks) == 0

@@ -116,6 +116,8 @@ class FilterConfig:
     process_var_xy_m2: float = param(1.5e-3, "Q: variance on x and y (m^2)", low=0.0)
     process_var_heading_rad2: float = param(5e-5, "Q: variance on the heading (rad^2)", low=0.0)
     max_range_m: float = param(20.0, "sensor range used by the M/N in-range test (m)", low=0.0, low_open=True)
+    field_of_view_deg: float = param(360.0, "sensor field of view centred on the heading, for the M/N in-range test (deg)",
+                                     low=0.0, low_open=True, high=360.0)
     vehicle_L_m: float = param(2.83, "ackermann: wheelbase L (m)", low=0.0, low_open=True)
     vehicle_H_m: float = param(0.76, "ackermann: lateral offset H of the encoder wheel (m)")
     sensor_a_m: float = param(0.95, "ackermann: sensor ahead of the FRONT axle, a (m)")
@@ -227,7 +229,7 @@ PROFILES: dict[str, dict[str, dict[str, Any]]] = {
         "filter": {"motion_model": "ackermann", "initial_pose": [0.0, 0.0, 0.0],
                    "initial_pose_std": [0.01, 0.01, 0.001], "range_std_m": 0.15, "azimuth_std_deg": 1.0,
                    "speed_std_mps": 0.1, "turn_rate_std_deg_s": 2.0, "process_var_xy_m2": 1e-6,
-                   "process_var_heading_rad2": 1e-7, "max_range_m": 30.0},
+                   "process_var_heading_rad2": 1e-7, "max_range_m": 30.0, "field_of_view_deg": 180.0},
         "landmarks": {"alpha": 30.0, "beta": 8.0, "sift_radius_m": 1.0, "cluster_eps_m": 0.6,
                       "tentative_gate_m": 1.0, "merge_distance_m": 0.8, "confirm_points": 4},
     },

@@ -149,7 +149,7 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
     metrics = {"dataset": name, "scans": int(res.times.size), "landmarks_final": int(mp.ids.size),
                "gps_aligned_rmse_m": ev["rmse_m"], "gps_aligned_max_m": ev["max_m"],
                "gps_aligned_median_m": ev.get("median_m"), "gps_rmse_all_fixes_m": ev.get("rmse_all_m"),
-               "gps_fixes": ev["n_fixes"], "gps_inliers": ev.get("n_inliers"),
+               "gps_fixes": ev["n_fixes"], "gps_jumps_removed": ev.get("n_gps_jumps_removed"),
                "alignment_rotation_deg": ev.get("rotation_deg"), "alignment_translation_m": ev.get("translation_m"),
                "filter_seconds": res.seconds, "load_seconds": res.load_seconds, "wall_seconds": wall}
     write_json(out / "metrics.json", metrics)
@@ -164,7 +164,7 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
 
         plot_dataset_run(out / "map.png", res, ev)
     print(f"radarslam run --dataset {name}: {metrics['scans']} scans, {metrics['landmarks_final']} landmarks, "
-          f"GPS-aligned RMSE {ev['rmse_m']:.2f} m (max {ev['max_m']:.2f} m, {ev.get('n_inliers')} of {ev['n_fixes']} "
-          f"fixes after outlier rejection), filter {res.seconds:.1f} s")
+          f"GPS-aligned RMSE {ev['rmse_m']:.2f} m (max {ev['max_m']:.2f} m over {ev['n_fixes']} fixes; "
+          f"{ev.get('n_gps_jumps_removed', 0)} GPS jumps left out), filter {res.seconds:.1f} s")
     print(f"wrote {out}/")
     return 0

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from radarslam.config import Config
+from radarslam.core.angles import wrap_pi_scalar
 from radarslam.core.errors import InputError
 from radarslam.core.types import Odometry, Scan
 from radarslam.core.validation import as_array
@@ -231,10 +232,14 @@ class EkfSlam:
         # 5. M/N windows and removal (every scan, Decision 8).
         pos = self.x[:2]
         L = self.x[3:].reshape(-1, 2)
+        half_fov = math.radians(self.config.filter.field_of_view_deg) / 2.0
         drop = []
         for j, r in enumerate(self.landmarks):
             hit = bool(assoc[j])
-            near = hit or math.hypot(L[j, 0] - pos[0], L[j, 1] - pos[1]) <= self.config.filter.max_range_m
+            dx, dy = L[j, 0] - pos[0], L[j, 1] - pos[1]
+            # in range: within R_max and, for a sensor that does not see all around, within its field of view
+            near = hit or (math.hypot(dx, dy) <= self.config.filter.max_range_m
+                           and (half_fov >= math.pi or abs(wrap_pi_scalar(math.atan2(dy, dx) - self.x[2])) <= half_fov))
             r.assoc = push_bit(r.assoc, hit, lc.removal_window)
             r.in_range = push_bit(r.in_range, near, lc.removal_window)
             if should_remove(k, r.created, r.assoc, r.in_range, window=lc.removal_window, max_hits=lc.removal_max_hits):

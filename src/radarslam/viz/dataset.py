@@ -20,12 +20,14 @@ def plot_dataset_run(path: str | Path, run, gps_eval: dict, *, title: str | None
     R, t = gps_eval["R"], gps_eval["translation_m"]
     gps = run.data.gps
     fig, ax = plt.subplots(figsize=(9, 8))
-    inl = gps_eval["inliers"]
+    from radarslam.metrics.alignment import gps_speed_outliers
+
     m = (gps.t >= run.times[0]) & (gps.t <= run.times[-1])
     gxy = np.asarray(gps.xy)[m]
-    ax.plot(gxy[inl, 0], gxy[inl, 1], ".", color="tab:green", ms=2, label="GPS fixes")
-    if (~inl).any():
-        ax.plot(gxy[~inl, 0], gxy[~inl, 1], "x", color="0.6", ms=3, label="GPS outliers (rejected)")
+    jump = gps_speed_outliers(np.asarray(gps.t)[m], gxy, 8.0)
+    ax.plot(gxy[~jump, 0], gxy[~jump, 1], ".", color="tab:green", ms=2, label="GPS fixes")
+    if jump.any():
+        ax.plot(gxy[jump, 0], gxy[jump, 1], "x", color="0.6", ms=3, label="GPS jumps (> 8 m/s, left out)")
     p = run.poses[:, :2] @ R.T + t
     ax.plot(p[:, 0], p[:, 1], "-", color="m", lw=0.8, label="estimated laser path")
     mp = run.final_map
