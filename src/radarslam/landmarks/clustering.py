@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,6 +22,7 @@ class Cluster:
     members: np.ndarray  # indices into the scan's detections
 
 
+@functools.cache
 def _sklearn_dbscan_core():
     """scikit-learn's compiled DBSCAN expansion (``DBSCAN.fit`` calls it after its neighbour search).
 
@@ -33,10 +35,6 @@ def _sklearn_dbscan_core():
     return dbscan_inner
 
 
-_DBSCAN_CORE = None
-_DBSCAN_CORE_LOADED = False
-
-
 def dbscan_labels(points: np.ndarray, eps: float, min_samples: int) -> np.ndarray:
     """DBSCAN labels ``(m,)`` (-1 = noise); the point itself counts towards ``min_samples``.
 
@@ -47,7 +45,6 @@ def dbscan_labels(points: np.ndarray, eps: float, min_samples: int) -> np.ndarra
     to the same compiled routine (~25 us). ``tests/test_landmarks.py`` checks the labels equal
     ``sklearn.cluster.DBSCAN(eps, min_samples).fit(points).labels_``.
     """
-    global _DBSCAN_CORE, _DBSCAN_CORE_LOADED
     m = points.shape[0]
     if m < min_samples or m == 0:
         # No point can have min_samples neighbours: everything is noise (exact shortcut).
@@ -57,9 +54,8 @@ def dbscan_labels(points: np.ndarray, eps: float, min_samples: int) -> np.ndarra
     counts = near.sum(axis=1)
     if counts.max() < min_samples:
         return np.full(m, -1)  # no core point: all noise (exact)
-    if not _DBSCAN_CORE_LOADED:
-        _DBSCAN_CORE, _DBSCAN_CORE_LOADED = _sklearn_dbscan_core(), True
-    if _DBSCAN_CORE is None:  # pragma: no cover
+    core = _sklearn_dbscan_core()
+    if core is None:  # pragma: no cover
         from sklearn.cluster import DBSCAN
 
         return DBSCAN(eps=eps, min_samples=min_samples, algorithm="kd_tree").fit(points).labels_
@@ -68,7 +64,7 @@ def dbscan_labels(points: np.ndarray, eps: float, min_samples: int) -> np.ndarra
     for i, nb in enumerate(np.split(cols, np.cumsum(counts)[:-1])):
         neighborhoods[i] = nb
     labels = np.full(m, -1, dtype=np.intp)
-    _DBSCAN_CORE(np.asarray(counts >= min_samples, dtype=np.uint8), neighborhoods, labels)
+    core(np.asarray(counts >= min_samples, dtype=np.uint8), neighborhoods, labels)
     return labels
 
 

@@ -16,6 +16,18 @@ def _ellipse_xy(center: np.ndarray, X: np.ndarray, n: int = 60) -> np.ndarray:
     return (center[:, None] + (U * np.sqrt(np.maximum(lam, 0.0))) @ circ).T
 
 
+def draw_extents(ax, centers: np.ndarray, Xs: np.ndarray, *, color: str, label: str, lw: float = 1.0,
+                 n: int = 60) -> None:
+    """Draw the ellipse contour of every finite extent ``Xs[i]`` (N, 2, 2) centred at ``centers[i]``,
+    labelling the first one only; landmarks without an extent (NaN) are skipped."""
+    first = True
+    for c, X in zip(centers, Xs):
+        if np.all(np.isfinite(X)):
+            e = _ellipse_xy(c, X, n)
+            ax.plot(e[:, 0], e[:, 1], "-", color=color, lw=lw, label=label if first else None)
+            first = False
+
+
 def plot_carpark_run(path: str | Path, result, k: int | None = None, *, show_extents: bool = True,
                      title: str | None = None) -> None:
     """Save the map after scan ``k`` (default: the last) of a car-park :class:`TrialResult`.
@@ -53,16 +65,8 @@ def plot_carpark_run(path: str | Path, result, k: int | None = None, *, show_ext
     m = rec.maps[k - 1]
     ax.plot(m.positions[:, 0], m.positions[:, 1], "D", color="k", mfc="gold", ms=6, label="landmarks")
     if show_extents:
-        first_r = first_e = True
-        for c, Xr, Xe in zip(m.positions, m.rma, m.efa):
-            if np.all(np.isfinite(Xr)):
-                e = _ellipse_xy(c, Xr)
-                ax.plot(e[:, 0], e[:, 1], "-", color="red", lw=1.3, label="RMA" if first_r else None)
-                first_r = False
-            if np.all(np.isfinite(Xe)):
-                e = _ellipse_xy(c, Xe)
-                ax.plot(e[:, 0], e[:, 1], "-", color="blue", lw=1.0, label="EFA" if first_e else None)
-                first_e = False
+        draw_extents(ax, m.positions, m.rma, color="red", label="RMA", lw=1.3)
+        draw_extents(ax, m.positions, m.efa, color="blue", label="EFA", lw=1.0)
     ax.set_aspect("equal")
     ax.set_xlim(-20, 40)
     ax.set_ylim(-15, 40)

@@ -15,7 +15,7 @@ def plot_dataset_run(path: str | Path, run, gps_eval: dict, *, title: str | None
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from radarslam.viz.carpark import _ellipse_xy
+    from radarslam.viz.carpark import draw_extents
 
     R, t = gps_eval["R"], gps_eval["translation_m"]
     gps = run.data.gps
@@ -33,12 +33,7 @@ def plot_dataset_run(path: str | Path, run, gps_eval: dict, *, title: str | None
     mp = run.final_map
     L = mp.positions @ R.T + t
     ax.plot(L[:, 0], L[:, 1], "+", color="k", ms=3, label=f"landmarks ({len(L)})")
-    first = True
-    for c, X in zip(L, mp.rma):
-        if np.all(np.isfinite(X)):
-            e = _ellipse_xy(c, R @ X @ R.T, 24)
-            ax.plot(e[:, 0], e[:, 1], "-", color="red", lw=0.6, label="RMA extent" if first else None)
-            first = False
+    draw_extents(ax, L, R @ mp.rma @ R.T, color="red", label="RMA extent", lw=0.6, n=24)
     ax.set_aspect("equal")
     ax.set_xlabel("east (m)")
     ax.set_ylabel("north (m)")
