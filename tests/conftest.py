@@ -8,6 +8,7 @@ CI sets it below 1 to keep its run short while still executing them.
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -49,3 +50,18 @@ def default_config():
     from radarslam.config import profile_config
 
     return profile_config("apsipa")
+
+
+VICTORIA_PARK = Path(__file__).resolve().parents[2] / "shared" / "data" / "victoria_park"
+
+
+@pytest.fixture(scope="session")
+def victoria_park_dir() -> Path:
+    """The real Victoria Park files (``../shared/data/victoria_park``): skip locally without them,
+    but FAIL under CI (CI=true), whose environment provides ``../shared``."""
+    if not VICTORIA_PARK.is_dir():
+        msg = f"Victoria Park data not found at {VICTORIA_PARK}"
+        if os.environ.get("CI"):
+            pytest.fail(msg + " (CI must provide ../shared)")
+        pytest.skip(msg)
+    return VICTORIA_PARK

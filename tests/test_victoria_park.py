@@ -25,7 +25,6 @@ from radarslam.io.datasets import get_dataset, list_datasets, register_dataset
 from radarslam.io.datasets import victoria_park as vp
 from radarslam.models.ackermann import AckermannModel
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "victoria_park"
 FILES = [vp.FILE_NPZ, vp.FILE_ZIP, vp.FILE_DR, vp.FILE_GPS, vp.FILE_TREES, vp.FILE_TLSR]
 
 # Numbers documented in SOURCE.md.
@@ -35,13 +34,8 @@ T_DR_FIRST, T_DR_LAST = (21940 - 20967) / 1000, (1570540 - 20967) / 1000
 
 
 @pytest.fixture(scope="module")
-def data_dir() -> Path:
-    if not DATA.is_dir():
-        msg = f"Victoria Park data not found at {DATA}"
-        if os.environ.get("CI"):
-            pytest.fail(msg + " (CI must provide ../shared)")
-        pytest.skip(msg)
-    return DATA
+def data_dir(victoria_park_dir) -> Path:
+    return victoria_park_dir
 
 
 @pytest.fixture(scope="module")
@@ -382,14 +376,14 @@ def test_missing_file(copy_dir, fname):
     _raises(copy_dir, fname, "file not found")
 
 
-def test_missing_laser_and_directory(copy_dir, tmp_path):
+def test_missing_laser_and_directory(copy_dir, data_dir, tmp_path):
     (copy_dir / vp.FILE_NPZ).unlink()
     (copy_dir / vp.FILE_ZIP).unlink()
     _raises(copy_dir, vp.FILE_NPZ, re.escape(vp.FILE_ZIP))
     _raises(tmp_path / "nowhere", "nowhere", "directory not found")
     # trees=False does not need lidar_measurements.mat
     (copy_dir / vp.FILE_TREES).unlink()
-    shutil.copyfile(DATA / vp.FILE_NPZ, copy_dir / vp.FILE_NPZ)
+    shutil.copyfile(data_dir / vp.FILE_NPZ, copy_dir / vp.FILE_NPZ)
     assert vp.load_victoria_park(copy_dir, n_scans=5, trees=False).trees is None
 
 
@@ -429,8 +423,8 @@ def test_wrong_shapes_and_values(copy_dir):
     _raises(copy_dir, vp.FILE_DR, r"'speed': expected a numeric vector")
 
 
-def test_bad_laser_npz(copy_dir):
-    with np.load(DATA / vp.FILE_NPZ) as z:
+def test_bad_laser_npz(copy_dir, data_dir):
+    with np.load(data_dir / vp.FILE_NPZ) as z:
         laser, t = z["LASER"], z["TLsr"]
     npz = copy_dir / vp.FILE_NPZ
     np.savez_compressed(npz, LASER=laser[:, :360], TLsr=t)

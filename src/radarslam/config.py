@@ -112,7 +112,8 @@ class FilterConfig:
     range_std_m: float = param(0.5, "R: range std (m)", low=0.0, low_open=True)
     azimuth_std_deg: float = param(1.0, "R: azimuth std (deg)", low=0.0, low_open=True)
     speed_std_mps: float = param(0.02, "U: speed std (m/s)", low=0.0)
-    turn_rate_std_deg_s: float = param(0.008, "U: turn-rate std (deg/s)", low=0.0)
+    turn_rate_std_deg_s: float = param(0.008, "U: turn-rate std (deg/s); unicycle control", low=0.0)
+    steering_std_deg: float = param(2.0, "U: steering-angle std (deg); ackermann control [v_e, alpha]", low=0.0)
     process_var_xy_m2: float = param(1.5e-3, "Q: variance on x and y (m^2)", low=0.0)
     process_var_heading_rad2: float = param(5e-5, "Q: variance on the heading (rad^2)", low=0.0)
     max_range_m: float = param(20.0, "sensor range used by the M/N in-range test (m)", low=0.0, low_open=True)
@@ -136,8 +137,10 @@ class FilterConfig:
 
     @property
     def U(self) -> np.ndarray:
-        """Odometer noise covariance diag(sigma_v^2, sigma_psi^2)."""
-        return np.diag([self.speed_std_mps**2, math.radians(self.turn_rate_std_deg_s) ** 2])
+        """Odometer noise covariance on the control: diag(sigma_v^2, sigma_psi^2) for the unicycle
+        (speed, turn rate); diag(sigma_v^2, sigma_alpha^2) for ackermann (wheel speed, steering)."""
+        second = self.steering_std_deg if self.motion_model == "ackermann" else self.turn_rate_std_deg_s
+        return np.diag([self.speed_std_mps**2, math.radians(second) ** 2])
 
     @property
     def Q(self) -> np.ndarray:
@@ -228,7 +231,7 @@ PROFILES: dict[str, dict[str, dict[str, Any]]] = {
     "victoria-park": {
         "filter": {"motion_model": "ackermann", "initial_pose": [0.0, 0.0, 0.0],
                    "initial_pose_std": [0.01, 0.01, 0.001], "range_std_m": 0.15, "azimuth_std_deg": 1.0,
-                   "speed_std_mps": 0.1, "turn_rate_std_deg_s": 2.0, "process_var_xy_m2": 1e-6,
+                   "speed_std_mps": 0.1, "steering_std_deg": 2.0, "process_var_xy_m2": 1e-6,
                    "process_var_heading_rad2": 1e-7, "max_range_m": 30.0, "field_of_view_deg": 180.0},
         "landmarks": {"alpha": 30.0, "beta": 8.0, "sift_radius_m": 1.0, "cluster_eps_m": 0.6,
                       "tentative_gate_m": 1.0, "merge_distance_m": 0.8, "confirm_points": 4},

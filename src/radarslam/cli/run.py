@@ -123,7 +123,7 @@ def write_outputs(out, res, wall: float, argv=None) -> None:
 
 def run_dataset_cmd(args: argparse.Namespace) -> int:
     """``radarslam run --dataset NAME PATH``: the whole recording, evaluated against its GPS."""
-    from radarslam.experiments.dataset import evaluate_against_gps, run_dataset
+    from radarslam.experiments.dataset import compare_tree_diameters, dead_reckoning, evaluate_against_gps, run_dataset
     from radarslam.io.datasets import list_datasets
 
     name, path = args.dataset
@@ -138,6 +138,9 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     res = run_dataset(name, path, config, first_scan=args.first_scan, n_scans=args.scans)
     ev = evaluate_against_gps(res)
+    dr_poses = dead_reckoning(res.data, res.config)[1]
+    dr_ev = evaluate_against_gps(res, dr_poses)
+    diam = compare_tree_diameters(res) if res.reference_hits is not None else None
     wall = time.perf_counter() - t0
     mp = res.final_map
     write_trajectory_csv(out / "trajectory.csv", res.times, res.poses)
@@ -151,6 +154,9 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
                "gps_aligned_median_m": ev.get("median_m"), "gps_rmse_all_fixes_m": ev.get("rmse_all_m"),
                "gps_fixes": ev["n_fixes"], "gps_jumps_removed": ev.get("n_gps_jumps_removed"),
                "alignment_rotation_deg": ev.get("rotation_deg"), "alignment_translation_m": ev.get("translation_m"),
+               "odometry_only_rmse_m": dr_ev["rmse_m"], "odometry_only_max_m": dr_ev["max_m"],
+               "trunk_diameters": None if diam is None else {
+                   k: v for k, v in diam.items() if not isinstance(v, np.ndarray)},
                "filter_seconds": res.seconds, "load_seconds": res.load_seconds, "wall_seconds": wall}
     write_json(out / "metrics.json", metrics)
     atomic_write_text(out / "config.toml", to_toml(res.config))
@@ -162,9 +168,14 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
     if have_matplotlib() and not args.no_plot:
         from radarslam.viz.dataset import plot_dataset_run
 
-        plot_dataset_run(out / "map.png", res, ev)
+        plot_dataset_run(out / "map.png", res, ev, dead_reckoning=(dr_poses, dr_ev), diameters=diam)
     print(f"radarslam run --dataset {name}: {metrics['scans']} scans, {metrics['landmarks_final']} landmarks, "
           f"GPS-aligned RMSE {ev['rmse_m']:.2f} m (max {ev['max_m']:.2f} m over {ev['n_fixes']} fixes; "
-          f"{ev.get('n_gps_jumps_removed', 0)} GPS jumps left out), filter {res.seconds:.1f} s")
+          f"{ev.get('n_gps_jumps_removed', 0)} GPS jumps left out; odometry alone {dr_ev['rmse_m']:.2f} m), "
+          f"filter {res.seconds:.1f} s")
+    if diam is not None and diam["n_matched"]:
+        print(f"trunk diameters: {diam['n_matched']} matched trees, median |RMA - reference| "
+              f"{diam['median_abs_diff_m']:.3f} m (median ratio {diam['median_ratio']:.2f}, "
+              f"Spearman {diam['spearman']:.2f})")
     print(f"wrote {out}/")
     return 0

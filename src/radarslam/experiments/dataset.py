@@ -9,8 +9,15 @@ import numpy as np
 
 from radarslam.config import Config, validate
 from radarslam.core.types import Odometry, Scan
+from radarslam.core.errors import InputError
 from radarslam.metrics.alignment import error_against_fixes
+from radarslam.models.radar import polar_to_xy
 from radarslam.slam.filter import EkfSlam, MapSnapshot
+
+#: Radius (m) within which a reference trunk detection is attributed to the nearest landmark.
+#: Trunks in the park stand metres apart; a landmark centroid sits about pi d / 8 (< 0.4 m for
+#: d < 1 m) in front of the trunk centre (the visible-arc mean), so 0.6 m keeps neighbours apart.
+REFERENCE_GATE_M = 0.6
 
 
 @dataclass
@@ -31,6 +38,7 @@ class DatasetRun:
     final_map: MapSnapshot
     seconds: float
     load_seconds: float
+    reference_hits: np.ndarray | None = None  # (n, 3): landmark id, reference diameter (m), distance (m)
 
 
 def run_dataset(name: str, path, config: Config, *, first_scan: int | None = None, n_scans: int | None = None,
@@ -47,6 +55,9 @@ def run_dataset(name: str, path, config: Config, *, first_scan: int | None = Non
     slam = EkfSlam(config)
     bar = Progress(n, 0, enabled=progress, unit="scans")
     times, poses, covs, nlm, nas = [], [], [], [], []
+    trees = getattr(data, "trees", None)
+    tree_rows = {int(i): r for r, i in enumerate(trees.index)} if trees is not None else {}
+    hits: list[np.ndarray] = []
     t0 = time.perf_counter()
     for ev in data.events:
         if isinstance(ev, Odometry):
@@ -58,18 +69,133 @@ def run_dataset(name: str, path, config: Config, *, first_scan: int | None = Non
         covs.append(slam.P[:3, :3].copy())
         nlm.append(len(slam.landmarks))
         nas.append(rep.n_associated)
+        row = tree_rows.get(int(ev.index))
+        if row is not None and slam.landmarks:
+            h = _attribute_reference(slam, trees.row(row), config.filter.max_range_m)
+            if h.size:
+                hits.append(h)
         bar.update()
+    ref = (np.concatenate(hits) if hits else np.empty((0, 3))) if trees is not None else None
     return DatasetRun(name, config, data, np.array(times), np.array(poses).reshape(-1, 3),
                       np.array(covs).reshape(-1, 3, 3), np.array(nlm), np.array(nas), slam.snapshot(),
-                      time.perf_counter() - t0, load_s)
+                      time.perf_counter() - t0, load_s, ref)
 
 
-def evaluate_against_gps(run: DatasetRun) -> dict:
+def dead_reckoning(data, config: Config) -> tuple[np.ndarray, np.ndarray]:
+    """Odometry alone through the filter's motion model: ``(scan times (K,), poses (K, 3))``.
+
+    The baseline SLAM has to beat; it starts from ``config.filter.initial_pose``.
+    """
+    from radarslam.models.motion import get_motion_model
+
+    f = config.filter
+    model = get_motion_model(f.motion_model, **f.motion_model_kwargs())
+    pose = np.array(f.initial_pose, dtype=float)
+    times, poses = [], []
+    for ev in data.events:
+        if isinstance(ev, Odometry):
+            pose = model.step(pose, np.asarray(ev.control, dtype=float), ev.dt)
+        else:
+            times.append(ev.t)
+            poses.append(pose.copy())
+    return np.array(times), np.array(poses).reshape(-1, 3)
+
+
+def _attribute_reference(slam: EkfSlam, det: np.ndarray, max_range: float) -> np.ndarray:
+    """Attribute one scan's reference trunk detections ``[range, bearing, diameter]`` to the nearest
+    current landmark, in the world frame of the current estimate (where pose and map agree).
+
+    Returns rows ``[landmark id, diameter, distance]`` for detections within :data:`REFERENCE_GATE_M`.
+    """
+    det = det[det[:, 0] < max_range]
+    if not det.size:
+        return np.empty((0, 3))
+    pts = polar_to_xy(slam.x[:3], det[:, :2])
+    lm = slam.x[3:].reshape(-1, 2)
+    d2 = ((pts[:, None, :] - lm[None, :, :]) ** 2).sum(axis=-1)
+    j = np.argmin(d2, axis=1)
+    dist = np.sqrt(d2[np.arange(j.size), j])
+    ok = dist <= REFERENCE_GATE_M
+    ids = np.array([slam.landmarks[k].id for k in j[ok]], dtype=float)
+    return np.column_stack([ids, det[ok, 2], dist[ok]])
+
+
+def trunk_diameter(X: np.ndarray, gamma_z: float = 0.25) -> np.ndarray:
+    """Trunk diameter (m) implied by extent matrices ``X (..., 2, 2)`` of the RMA model.
+
+    The RMA measurement model spreads detections with covariance ``gamma_z X`` about the centroid
+    (seed eq. (4); ``gamma_z = 1/4`` for a uniformly filled ellipse). A laser does not see a filled
+    disc: beams equally spaced in bearing hit the visible half of a trunk of radius ``rho`` at
+    offsets across the line of sight that are uniform on ``[-rho, rho]`` (variance ``rho^2 / 3``),
+    while the spread along the line of sight is small (``(2/3 - pi^2/16) rho^2 = 0.05 rho^2``). So
+    the major eigenvalue ``lambda`` of ``X`` is the across-sight one and ``gamma_z lambda = rho^2 / 3``,
+    i.e. ``d = 2 rho = 2 sqrt(3 gamma_z lambda)`` (``sqrt(3 lambda)`` for ``gamma_z = 1/4``), not the
+    filled-disc ``2 sqrt(lambda)``. This is the far-field limit: at range ``r`` the rays diverge
+    across the trunk and the visible arc is less than a half, so ``d`` comes out small by about
+    ``0.6 rho / r`` (1.5% at ``r = 40 rho``, i.e. a 0.5 m trunk at 10 m; 8% at ``r = 7.5 rho``).
+    """
+    X = np.asarray(X, dtype=float)
+    if X.shape[-2:] != (2, 2):
+        raise InputError(f"X: expected shape (..., 2, 2), got {X.shape}")
+    if not gamma_z > 0:
+        raise InputError(f"gamma_z: expected a positive number, got {gamma_z!r}")
+    lam = np.linalg.eigvalsh(X)[..., -1]
+    return 2.0 * np.sqrt(3.0 * gamma_z * np.maximum(lam, 0.0))
+
+
+def compare_tree_diameters(run: DatasetRun, *, min_detections: int = 3) -> dict:
+    """RMA trunk diameters of the final map against a reference tree detector (ACFR's ``detectTreesI16``).
+
+    Every reference detection was attributed online to its nearest landmark (:func:`run_dataset`);
+    a final-map landmark with an initialised RMA extent and at least ``min_detections`` attributed
+    detections is a matched tree, and its reference diameter is their median. Landmarks merged away
+    take their attributions with them.
+
+    Returns
+    -------
+    dict
+        ``n_matched``, ``median_abs_diff_m``, ``mean_abs_diff_m``, ``median_ratio`` (RMA / reference),
+        ``spearman`` (rank correlation), ``median_reference_m``, ``median_rma_m``, and per-tree
+        arrays ``ids``, ``rma_m``, ``reference_m``, ``n_detections``.
+    """
+    if run.reference_hits is None:
+        raise InputError(f"run: expected a dataset run with reference tree detections, got none for {run.name!r}")
+    if min_detections < 1:
+        raise InputError(f"min_detections: expected an integer >= 1, got {min_detections!r}")
+    mp = run.final_map
+    ok = np.all(np.isfinite(mp.rma.reshape(-1, 4)), axis=1)
+    d_rma = dict(zip(mp.ids[ok].tolist(), trunk_diameter(mp.rma[ok], run.config.extent.gamma_z).tolist()))
+    hits = run.reference_hits
+    ids, rma, ref, cnt = [], [], [], []
+    for i in np.unique(hits[:, 0]).astype(int):
+        if i not in d_rma:
+            continue
+        d = hits[hits[:, 0] == i, 1]
+        if d.size >= min_detections:
+            ids.append(i), rma.append(d_rma[i]), ref.append(float(np.median(d))), cnt.append(d.size)
+    rma, ref = np.array(rma), np.array(ref)
+    out = {"n_matched": len(ids), "n_landmarks_with_extent": int(ok.sum()), "min_detections": min_detections,
+           "gate_m": REFERENCE_GATE_M, "ids": np.array(ids, dtype=int), "rma_m": rma, "reference_m": ref,
+           "n_detections": np.array(cnt, dtype=int)}
+    if ids:
+        from scipy.stats import spearmanr
+
+        err = np.abs(rma - ref)
+        out.update(median_abs_diff_m=float(np.median(err)), mean_abs_diff_m=float(err.mean()),
+                   median_ratio=float(np.median(rma / ref)), median_reference_m=float(np.median(ref)),
+                   median_rma_m=float(np.median(rma)),
+                   spearman=float(spearmanr(rma, ref).statistic) if len(ids) > 2 else float("nan"))
+    return out
+
+
+def evaluate_against_gps(run: DatasetRun, poses: np.ndarray | None = None) -> dict:
     """GPS-aligned position error of the estimated sensor track (the antenna sits at the laser).
 
     GPS jumps are removed by the fixes' own implied speed (> 8 m/s; the car's top speed is about
     6.6 m/s); the remaining fixes are aligned by least squares with no residual-based rejection.
+    ``poses (K, 3)`` at the run's scan times replaces the estimate (e.g. :func:`dead_reckoning`).
     """
     gps = run.data.gps
-    return error_against_fixes(run.times, run.poses[:, :2], np.asarray(gps.t), np.asarray(gps.xy),
+    poses = run.poses if poses is None else np.asarray(poses)
+    return error_against_fixes(run.times, poses[:, :2], np.asarray(gps.t), np.asarray(gps.xy),
                                robust=False, max_speed=8.0)

@@ -1,0 +1,99 @@
+"""The dataset runner's evaluation pieces: trunk diameters from RMA extents, the reference-detection
+attribution and the diameter comparison (synthetic oracles; the real-data runs are in
+``test_victoria_park_slam.py``)."""
+
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from radarslam.config import profile_config
+from radarslam.core.errors import InputError
+from radarslam.experiments.dataset import (REFERENCE_GATE_M, DatasetRun, _attribute_reference,
+                                           compare_tree_diameters, trunk_diameter)
+from radarslam.slam.filter import MapSnapshot
+
+
+def _laser_on_trunk(d: float, r: float, step_deg: float = 0.5) -> np.ndarray:
+    """Points where beams ``step_deg`` apart, from the origin, hit a trunk of diameter ``d`` centred at
+    ``(r, 0)`` (the first intersection of each ray with the circle)."""
+    rho = d / 2
+    half = math.asin(rho / r)
+    th = np.arange(-half, half, math.radians(step_deg)) + (half % math.radians(step_deg)) / 2
+    # ray t (cos th, sin th) meets |p - (r, 0)| = rho at the smaller root
+    b = r * np.cos(th)
+    t = b - np.sqrt(np.maximum(b * b - (r * r - rho * rho), 0.0))
+    return np.column_stack([t * np.cos(th), t * np.sin(th)])
+
+
+@pytest.mark.parametrize("d,r", [(0.3, 10.0), (0.6, 15.0), (1.0, 25.0), (0.4, 25.0)])
+def test_trunk_diameter_inverts_the_laser_arc(d, r):
+    pts = _laser_on_trunk(d, r, step_deg=0.01)  # dense beams: the continuous limit of the model
+    C = np.cov(pts.T, bias=True)
+    X = C / 0.25  # what the RMA converges to when the scatter is gamma_z X (seed eq. 4)
+    assert trunk_diameter(X, 0.25) == pytest.approx(d, rel=0.03)
+    # negative control: the filled-disc reading 2 sqrt(lambda) is 15% too large
+    assert 2 * math.sqrt(np.linalg.eigvalsh(X)[-1]) == pytest.approx(d * 2 / math.sqrt(3), rel=0.03)
+
+
+def test_trunk_diameter_near_field_bias_is_small_and_negative():
+    # documented: about 0.6 rho / r too small; 8% at r = 7.5 rho
+    for ratio, lo, hi in [(7.5, 0.90, 0.94), (40.0, 0.975, 0.995)]:
+        pts = _laser_on_trunk(1.0, ratio * 0.5, step_deg=0.01)
+        assert lo < trunk_diameter(np.cov(pts.T, bias=True) / 0.25) < hi
+
+
+def test_trunk_diameter_scales_with_gamma_and_batches():
+    X = np.array([[[3.0, 0.0], [0.0, 0.1]], [[0.1, 0.0], [0.0, 0.12]]])
+    got = trunk_diameter(X, 0.25)
+    np.testing.assert_allclose(got, [math.sqrt(9.0), math.sqrt(0.36)])
+    np.testing.assert_allclose(trunk_diameter(X, 1.0), 2 * got)
+    with pytest.raises(InputError, match="X: expected shape"):
+        trunk_diameter(np.eye(3))
+    with pytest.raises(InputError, match="gamma_z"):
+        trunk_diameter(np.eye(2), 0.0)
+
+
+def _run_with(ids, rma, hits) -> DatasetRun:
+    n = len(ids)
+    snap = MapSnapshot(ids=np.array(ids), positions=np.zeros((n, 2)), covs=np.zeros((n, 2, 2)),
+                       rma=np.asarray(rma, dtype=float), efa=np.full((n, 2, 2), np.nan), created=np.zeros(n, int))
+    e = np.empty(0)
+    return DatasetRun("x", profile_config("victoria-park"), None, e, e.reshape(0, 3), e.reshape(0, 3, 3), e, e,
+                      snap, 0.0, 0.0, None if hits is None else np.asarray(hits, dtype=float))
+
+
+def test_compare_tree_diameters_matches_by_id_and_counts():
+    X = lambda d: np.diag([d * d / 3, 1e-3])  # noqa: E731 - extent of diameter d
+    nan = np.full((2, 2), np.nan)
+    hits = [[1, 0.5, 0.1]] * 3 + [[1, 0.9, 0.1]] + [[2, 0.3, 0.2]] * 2 + [[3, 0.4, 0.1]] * 5 + [[9, 1.0, 0.1]] * 4
+    run = _run_with([1, 2, 3, 4], [X(0.4), X(0.3), nan, X(0.7)], hits)
+    c = compare_tree_diameters(run, min_detections=3)
+    # id 1: 4 detections, median 0.5 vs 0.4; id 2: too few; id 3: no extent; id 9: not in the map
+    assert c["n_matched"] == 1 and c["ids"].tolist() == [1]
+    assert c["median_abs_diff_m"] == pytest.approx(0.1)
+    assert c["reference_m"][0] == pytest.approx(0.5) and c["rma_m"][0] == pytest.approx(0.4)
+    c2 = compare_tree_diameters(run, min_detections=2)
+    assert c2["n_matched"] == 2 and c2["median_abs_diff_m"] == pytest.approx(0.05)
+    assert c2["median_ratio"] == pytest.approx(0.9)
+    with pytest.raises(InputError, match="min_detections"):
+        compare_tree_diameters(run, min_detections=0)
+    with pytest.raises(InputError, match="reference tree detections"):
+        compare_tree_diameters(_run_with([1], [X(0.4)], None))
+
+
+def test_attribute_reference_gate_and_nearest():
+    lm = [SimpleNamespace(id=7), SimpleNamespace(id=8)]
+    # sensor at the origin facing +y; landmarks at (0, 10) and (2, 10)
+    slam = SimpleNamespace(x=np.array([0.0, 0.0, math.pi / 2, 0.0, 10.0, 2.0, 10.0]), landmarks=lm)
+    det = np.array([[10.3, 0.0, 0.5],                    # 0.3 m beyond landmark 7
+                    [math.hypot(1.8, 10), -math.atan2(1.8, 10), 0.6],   # 0.2 m from landmark 8
+                    [10.0, -math.atan2(1.0, 10), 0.7],   # between: 1 m from both -> outside the gate
+                    [40.0, 0.0, 0.8]])                   # beyond max range
+    h = _attribute_reference(slam, det, max_range=30.0)
+    np.testing.assert_allclose(h[:, :2], [[7, 0.5], [8, 0.6]])
+    np.testing.assert_allclose(h[:, 2], [0.3, 0.2], atol=1e-9)
+    assert REFERENCE_GATE_M < 1.0
