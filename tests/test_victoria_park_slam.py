@@ -1,0 +1,94 @@
+"""EKF-SLAM with extents on the real Victoria Park data: the first 500 scans against GPS, the trunk
+diameters against ACFR's detector, and the CLI end to end.
+
+Needs ``../shared/data/victoria_park``: skips locally without it, FAILS under CI (``CI`` set).
+
+The bound on the 500-scan GPS-aligned RMSE (``RMSE_BOUND_500``) was measured, not guessed:
+
+- the victoria-park profile gives 1.046 m over the first 500 scans (302 GPS fixes, 100 s of
+  driving; the same under the python and numba backends);
+- odometry alone through the same Ackermann model gives 1.507 m over the same fixes;
+- the GPS's own white jitter is only about 0.1 m per axis (robust std of second differences of
+  consecutive 5 Hz fixes), so most of the 1 m is slowly varying GPS error and map-relative drift.
+
+The bound, 1.3 m, lies between the two: it fails if SLAM loses a quarter of its accuracy or no
+longer beats odometry, and the odometry-only track is asserted to exceed it (negative control).
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from radarslam.config import profile_config
+from radarslam.experiments.dataset import compare_tree_diameters, dead_reckoning, evaluate_against_gps, run_dataset
+
+N_SCANS = 500
+RMSE_BOUND_500 = 1.3
+
+
+@pytest.fixture(scope="module")
+def run500(victoria_park_dir):
+    return run_dataset("victoria-park", victoria_park_dir, profile_config("victoria-park"), n_scans=N_SCANS,
+                       progress=False)
+
+
+def test_first_500_scans_beat_odometry_and_stay_below_the_bound(run500):
+    ev = evaluate_against_gps(run500)
+    dr = evaluate_against_gps(run500, dead_reckoning(run500.data, run500.config)[1])
+    assert ev["n_fixes"] >= 290
+    assert ev["rmse_m"] < RMSE_BOUND_500, ev["rmse_m"]
+    assert ev["max_m"] < 2.5
+    # negative control: odometry alone does not meet the bound
+    assert dr["rmse_m"] > RMSE_BOUND_500, dr["rmse_m"]
+    # a healthy map: the trunks along 100 s of driving, not a landmark per detection
+    assert 60 <= run500.final_map.ids.size <= 130
+    assert np.all(np.isfinite(run500.poses)) and np.all(np.isfinite(run500.final_map.positions))
+    assert np.all(np.linalg.eigvalsh(run500.pose_covs) > 0)
+    assert np.median(run500.n_associated) >= 5
+
+
+def test_trunk_diameters_agree_with_acfr_detector(run500):
+    c = compare_tree_diameters(run500)
+    assert c["n_matched"] >= 30
+    assert c["median_abs_diff_m"] < 0.25
+    assert c["spearman"] > 0.4
+    # negative control: shuffling the pairing destroys the agreement
+    rng = np.random.default_rng(0)
+    shuffled = rng.permutation(c["reference_m"])
+    from scipy.stats import spearmanr
+
+    assert abs(spearmanr(c["rma_m"], shuffled).statistic) < 0.3
+
+
+def test_cli_run_dataset_writes_every_output(victoria_park_dir, tmp_path):
+    out = tmp_path / "vp"
+    r = subprocess.run([sys.executable, "-m", "radarslam", "run", "--dataset", "victoria-park", str(victoria_park_dir),
+                        "--scans", "150", "--out", str(out)], capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    assert "GPS-aligned RMSE" in r.stdout
+    for f in ["trajectory.csv", "trajectory_tum.txt", "map.json", "metrics.json", "config.toml", "run.json", "map.png"]:
+        assert (out / f).stat().st_size > 0, f
+    tum = np.loadtxt(out / "trajectory_tum.txt")
+    assert tum.shape == (150, 8)
+    np.testing.assert_allclose(np.linalg.norm(tum[:, 4:], axis=1), 1.0, atol=1e-9)  # unit quaternions
+    m = json.loads((out / "metrics.json").read_text())
+    assert m["scans"] == 150 and m["gps_aligned_rmse_m"] < m["odometry_only_rmse_m"] + 0.5
+    assert m["landmarks_final"] == len(json.loads((out / "map.json").read_text())["landmarks"])
+    assert 'profile = "victoria-park"' in (out / "config.toml").read_text()
+
+
+def test_cli_run_dataset_bad_inputs(victoria_park_dir, tmp_path):
+    def run(*a):
+        return subprocess.run([sys.executable, "-m", "radarslam", "run", *a, "--out", str(tmp_path / "o")],
+                              capture_output=True, text=True, timeout=120)
+
+    r = run("--dataset", "no-such-set", str(victoria_park_dir))
+    assert r.returncode != 0 and "--dataset" in r.stderr and "victoria-park" in r.stderr
+    r = run("--dataset", "victoria-park", str(tmp_path / "missing"))
+    assert r.returncode != 0 and "directory not found" in r.stderr
+    assert "Traceback" not in r.stderr
