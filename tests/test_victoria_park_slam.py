@@ -53,10 +53,12 @@ def test_first_500_scans_beat_odometry_and_stay_below_the_bound(run500):
 
 
 def test_trunk_diameters_agree_with_acfr_detector(run500):
+    # measured: 45 matched, median |diff| 0.120 m, median ratio 0.84, Spearman 0.72 (ACFR median 0.48 m)
     c = compare_tree_diameters(run500)
-    assert c["n_matched"] >= 30
-    assert c["median_abs_diff_m"] < 0.25
-    assert c["spearman"] > 0.4
+    assert c["n_matched"] >= 35
+    assert c["median_abs_diff_m"] < 0.18
+    assert 0.65 < c["median_ratio"] < 1.2
+    assert c["spearman"] > 0.5
     # negative control: shuffling the pairing destroys the agreement
     rng = np.random.default_rng(0)
     shuffled = rng.permutation(c["reference_m"])

@@ -155,8 +155,9 @@ def compare_tree_diameters(run: DatasetRun, *, min_detections: int = 3) -> dict:
     -------
     dict
         ``n_matched``, ``median_abs_diff_m``, ``mean_abs_diff_m``, ``median_ratio`` (RMA / reference),
-        ``spearman`` (rank correlation), ``median_reference_m``, ``median_rma_m``, and per-tree
-        arrays ``ids``, ``rma_m``, ``reference_m``, ``n_detections``.
+        ``spearman`` (rank correlation), ``median_reference_m``, ``median_rma_m``, the EFA baseline's
+        ``efa_median_abs_diff_m`` and ``efa_spearman``, and per-tree arrays ``ids``, ``rma_m``,
+        ``efa_m``, ``reference_m``, ``n_detections``.
     """
     if run.reference_hits is None:
         raise InputError(f"run: expected a dataset run with reference tree detections, got none for {run.name!r}")
@@ -165,17 +166,21 @@ def compare_tree_diameters(run: DatasetRun, *, min_detections: int = 3) -> dict:
     mp = run.final_map
     ok = np.all(np.isfinite(mp.rma.reshape(-1, 4)), axis=1)
     d_rma = dict(zip(mp.ids[ok].tolist(), trunk_diameter(mp.rma[ok], run.config.extent.gamma_z).tolist()))
+    # EFA baseline: X = 4 C of the last scan's detections (Decision 4), the same scatter model
+    d_efa = dict(zip(mp.ids[ok].tolist(), trunk_diameter(np.where(np.isfinite(mp.efa[ok]), mp.efa[ok], 0.0),
+                                                        0.25).tolist()))
     hits = run.reference_hits
-    ids, rma, ref, cnt = [], [], [], []
+    ids, rma, efa, ref, cnt = [], [], [], [], []
     for i in np.unique(hits[:, 0]).astype(int):
         if i not in d_rma:
             continue
         d = hits[hits[:, 0] == i, 1]
         if d.size >= min_detections:
-            ids.append(i), rma.append(d_rma[i]), ref.append(float(np.median(d))), cnt.append(d.size)
-    rma, ref = np.array(rma), np.array(ref)
+            ids.append(i), rma.append(d_rma[i]), efa.append(d_efa[i]), ref.append(float(np.median(d)))
+            cnt.append(d.size)
+    rma, efa, ref = np.array(rma), np.array(efa), np.array(ref)
     out = {"n_matched": len(ids), "n_landmarks_with_extent": int(ok.sum()), "min_detections": min_detections,
-           "gate_m": REFERENCE_GATE_M, "ids": np.array(ids, dtype=int), "rma_m": rma, "reference_m": ref,
+           "gate_m": REFERENCE_GATE_M, "ids": np.array(ids, dtype=int), "rma_m": rma, "efa_m": efa, "reference_m": ref,
            "n_detections": np.array(cnt, dtype=int)}
     if ids:
         from scipy.stats import spearmanr
@@ -183,8 +188,9 @@ def compare_tree_diameters(run: DatasetRun, *, min_detections: int = 3) -> dict:
         err = np.abs(rma - ref)
         out.update(median_abs_diff_m=float(np.median(err)), mean_abs_diff_m=float(err.mean()),
                    median_ratio=float(np.median(rma / ref)), median_reference_m=float(np.median(ref)),
-                   median_rma_m=float(np.median(rma)),
-                   spearman=float(spearmanr(rma, ref).statistic) if len(ids) > 2 else float("nan"))
+                   median_rma_m=float(np.median(rma)), efa_median_abs_diff_m=float(np.median(np.abs(efa - ref))),
+                   spearman=float(spearmanr(rma, ref).statistic) if len(ids) > 2 else float("nan"),
+                   efa_spearman=float(spearmanr(efa, ref).statistic) if len(ids) > 2 else float("nan"))
     return out
 
 

@@ -115,6 +115,7 @@ class EkfSlam:
         f = config.filter
         self.model = motion_model or get_motion_model(f.motion_model, **f.motion_model_kwargs())
         self.R = f.R
+        self.R_extent = config.extent.R(self.R)
         self.U = f.U
         self.Q = f.Q
         self.x = np.array(f.initial_pose, dtype=float)
@@ -388,7 +389,7 @@ class EkfSlam:
             st.X, st.alpha = _rm_predict(st.X, st.alpha, dt, ec.tau_s)
         if m == 0:
             return
-        W = _scan_W(self.x[:3], self.P[:3, :3], polar, self.R, ec.w_mode)  # seed eq. (5), h.3
+        W = _scan_W(self.x[:3], self.P[:3, :3], polar, self.R_extent, ec.w_mode)  # seed eq. (5), h.3
         st.X, st.alpha = _rm_update(st.X, st.alpha, centroid, centroid_cov, pts, W, ec.gamma_z, ec.eig_floor_m2)
         if ec.efa_mode == "sliding":
             data = np.concatenate(st.efa_buffer + [pts])[-ec.efa_window:]
