@@ -141,3 +141,18 @@ def test_cli_refuses_out_that_is_a_file(tmp_path, capsys):
 def test_cli_negative_seed(tmp_path, capsys):
     assert main(["run", "--seed", "-2", "--out", str(tmp_path / "o")]) == 1
     assert "--seed" in capsys.readouterr().err
+
+
+def test_extent_noise_defaults_to_the_filter_R_and_can_be_its_own():
+    import math
+
+    from radarslam.config import profile_config
+
+    cfg = profile_config("apsipa")
+    np.testing.assert_array_equal(cfg.extent.R(cfg.filter.R), cfg.filter.R)
+    vp = profile_config("victoria-park")
+    np.testing.assert_allclose(vp.extent.R(vp.filter.R), np.diag([0.05**2, math.radians(0.5) ** 2]))
+    assert vp.filter.R[0, 0] == pytest.approx(0.15**2)  # SLAM keeps the inflated point-landmark R
+    # ackermann control noise: wheel speed and steering angle
+    np.testing.assert_allclose(vp.filter.U, np.diag([0.1**2, math.radians(2.0) ** 2]))
+    np.testing.assert_allclose(cfg.filter.U, np.diag([0.02**2, math.radians(0.008) ** 2]))
