@@ -3,7 +3,7 @@
 The same computation as the Python path of :meth:`radarslam.slam.filter.EkfSlam.update` step 4
 (nearest landmarks, log distance of :func:`radarslam.slam.ekf.score_landmarks`, Joseph update of
 :func:`radarslam.slam.ekf.update`), compiled as one loop over the scan's candidate detections.
-The log-distance arithmetic is written in the same order as the Python kernel; the covariance
+The log-distance arithmetic is the Python kernel's scalar functions, compiled; the covariance
 update sums in a different order than numpy's matmul, so the two backends agree to rounding
 (tested), not bit for bit. A run's backend is part of its configuration.
 """
@@ -15,8 +15,13 @@ import math
 import numpy as np
 from numba import njit
 
+from radarslam.slam import ekf
+
 TWO_PI = 2.0 * math.pi
-LOG_2PI_SQ = 2.0 * math.log(2.0 * math.pi)
+
+# The log-distance arithmetic is the Python backend's own scalar kernels, compiled.
+_innovation_cov_terms = njit(cache=True)(ekf.innovation_cov_terms)
+_gaussian_log_distance = njit(cache=True)(ekf.gaussian_log_distance)
 
 
 @njit(cache=True)
@@ -70,27 +75,11 @@ def _best_landmark(x, P, z0, z1, n_nearest, R, gX, has_gX, d2):  # pragma: no co
         cty = P[i + 1, 2] - pyt
         dx = x[i] - x0
         dy = x[i + 1] - y0
-        q = dx * dx + dy * dy
-        r = math.sqrt(q)
-        a1, b1 = dx / r, dy / r
-        a2, b2 = -dy / q, dx / q
-        Ca1 = cxx * a1 + cxy * b1
-        Cb1 = cxy * a1 + cyy * b1
-        s00 = a1 * Ca1 + b1 * Cb1 + r00
-        s01 = a2 * Ca1 + b2 * Cb1 - (a1 * ctx + b1 * cty) + r01
-        s11 = (a2 * (cxx * a2 + cxy * b2) + b2 * (cxy * a2 + cyy * b2)
-               - 2.0 * (a2 * ctx + b2 * cty) + ptt + r11)
-        if has_gX[j]:
-            g00, g01, g11 = gX[j, 0, 0], gX[j, 0, 1], gX[j, 1, 1]
-            s00 += a1 * (g00 * a1 + g01 * b1) + b1 * (g01 * a1 + g11 * b1)
-            s01 += a2 * (g00 * a1 + g01 * b1) + b2 * (g01 * a1 + g11 * b1)
-            s11 += a2 * (g00 * a2 + g01 * b2) + b2 * (g01 * a2 + g11 * b2)
-        det = s00 * s11 - s01 * s01
-        if det <= 0.0:
-            continue
+        s00, s01, s11, r = _innovation_cov_terms(cxx, cxy, cyy, ctx, cty, ptt, dx, dy, r00, r01, r11,
+                                                 has_gX[j], gX[j, 0, 0], gX[j, 0, 1], gX[j, 1, 1])
         e0 = z0 - r
         e1 = _wrap_pi(z1 - (math.atan2(dy, dx) - th))
-        D = 0.5 * (s11 * e0 * e0 - 2.0 * s01 * e0 * e1 + s00 * e1 * e1) / det + 0.5 * (LOG_2PI_SQ + math.log(det))
+        D = _gaussian_log_distance(s00, s01, s11, e0, e1)
         if D < best_D:
             best_j, best_D, be0, be1 = j, D, e0, e1
     return best_j, best_D, be0, be1

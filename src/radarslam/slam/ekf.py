@@ -74,12 +74,7 @@ def innovation_cov(P: np.ndarray, Hs: np.ndarray, idx: np.ndarray, R: np.ndarray
 
 def log_distance(e: np.ndarray, S: np.ndarray) -> float:
     """APSIPA eq. (9): ``-log N(e; 0, S) = e^T S^-1 e / 2 + log((2 pi)^2 |S|) / 2`` for 2-D ``e``."""
-    a, b, d = S[0, 0], S[0, 1], S[1, 1]
-    det = a * d - b * b
-    if det <= 0.0:
-        return math.inf
-    maha = (d * e[0] * e[0] - 2.0 * b * e[0] * e[1] + a * e[1] * e[1]) / det
-    return 0.5 * maha + 0.5 * (LOG_2PI_SQ + math.log(det))
+    return gaussian_log_distance(float(S[0, 0]), float(S[0, 1]), float(S[1, 1]), float(e[0]), float(e[1]))
 
 
 def update(x: np.ndarray, P: np.ndarray, e: np.ndarray, Hs: np.ndarray, idx: np.ndarray,
@@ -161,30 +156,53 @@ def score_landmarks(x: np.ndarray, P: np.ndarray, z: np.ndarray, js: list[int], 
         cty = ly2 - pyt
         dx = xs[i] - x0
         dy = xs[i + 1] - y0
-        q = dx * dx + dy * dy
-        r = math.sqrt(q)
-        a1, b1 = dx / r, dy / r
-        a2, b2 = -dy / q, dx / q
-        Ca1 = cxx * a1 + cxy * b1
-        Cb1 = cxy * a1 + cyy * b1
-        s00 = a1 * Ca1 + b1 * Cb1 + r00
-        s01 = a2 * Ca1 + b2 * Cb1 - (a1 * ctx + b1 * cty) + r01
-        s11 = (a2 * (cxx * a2 + cxy * b2) + b2 * (cxy * a2 + cyy * b2)
-               - 2.0 * (a2 * ctx + b2 * cty) + ptt + r11)
         if gX is not None and gX[k] is not None:
             (g00, g01), (_, g11) = gX[k]
-            s00 += a1 * (g00 * a1 + g01 * b1) + b1 * (g01 * a1 + g11 * b1)
-            s01 += a2 * (g00 * a1 + g01 * b1) + b2 * (g01 * a1 + g11 * b1)
-            s11 += a2 * (g00 * a2 + g01 * b2) + b2 * (g01 * a2 + g11 * b2)
-        det = s00 * s11 - s01 * s01
-        if det <= 0.0:
-            continue
+            s00, s01, s11, r = innovation_cov_terms(cxx, cxy, cyy, ctx, cty, ptt, dx, dy, r00, r01, r11,
+                                                    True, g00, g01, g11)
+        else:
+            s00, s01, s11, r = innovation_cov_terms(cxx, cxy, cyy, ctx, cty, ptt, dx, dy, r00, r01, r11,
+                                                    False, 0.0, 0.0, 0.0)
         e0 = z0 - r
         e1 = wrap_pi_scalar(z1 - (math.atan2(dy, dx) - th))
-        D = 0.5 * (s11 * e0 * e0 - 2.0 * s01 * e0 * e1 + s00 * e1 * e1) / det + 0.5 * (LOG_2PI_SQ + math.log(det))
+        D = gaussian_log_distance(s00, s01, s11, e0, e1)
         if D < best_D:
             best_j, best_D, best_e = j, D, (e0, e1)
     return best_j, best_D, best_e
+
+
+def innovation_cov_terms(cxx, cxy, cyy, ctx, cty, ptt, dx, dy, r00, r01, r11, has_g, g00, g01, g11):
+    """Scalar kernel of :func:`score_landmarks`: ``(S00, S01, S11, r)`` of one landmark.
+
+    ``c..`` are ``cov(delta)`` and ``cov(delta, theta)``, ``ptt`` the heading variance, ``(dx, dy)``
+    the landmark relative to the pose, ``r..`` the entries of R and, when ``has_g``, ``g..`` those
+    of ``gamma_z X_j`` (method.md a.7.2). Plain floats, so the numba backend compiles this very
+    function (:mod:`radarslam.slam._numba`).
+    """
+    q = dx * dx + dy * dy
+    r = math.sqrt(q)
+    a1, b1 = dx / r, dy / r
+    a2, b2 = -dy / q, dx / q
+    Ca1 = cxx * a1 + cxy * b1
+    Cb1 = cxy * a1 + cyy * b1
+    s00 = a1 * Ca1 + b1 * Cb1 + r00
+    s01 = a2 * Ca1 + b2 * Cb1 - (a1 * ctx + b1 * cty) + r01
+    s11 = (a2 * (cxx * a2 + cxy * b2) + b2 * (cxy * a2 + cyy * b2)
+           - 2.0 * (a2 * ctx + b2 * cty) + ptt + r11)
+    if has_g:
+        s00 += a1 * (g00 * a1 + g01 * b1) + b1 * (g01 * a1 + g11 * b1)
+        s01 += a2 * (g00 * a1 + g01 * b1) + b2 * (g01 * a1 + g11 * b1)
+        s11 += a2 * (g00 * a2 + g01 * b2) + b2 * (g01 * a2 + g11 * b2)
+    return s00, s01, s11, r
+
+
+def gaussian_log_distance(s00, s01, s11, e0, e1):
+    """APSIPA eq. (9) on scalars: ``S = [[s00, s01], [s01, s11]]``, ``e = [e0, e1]``; ``inf`` unless
+    ``S`` is positive definite."""
+    det = s00 * s11 - s01 * s01
+    if det <= 0.0:
+        return math.inf
+    return 0.5 * (s11 * e0 * e0 - 2.0 * s01 * e0 * e1 + s00 * e1 * e1) / det + 0.5 * (LOG_2PI_SQ + math.log(det))
 
 
 def sparse_jacobian(x: np.ndarray, j: int) -> tuple[np.ndarray, np.ndarray]:
