@@ -171,11 +171,10 @@ def compare_tree_diameters(run: DatasetRun, *, min_detections: int = 3) -> dict:
                                                         0.25).tolist()))
     hits = run.reference_hits
     ids, rma, efa, ref, cnt = [], [], [], [], []
-    for i in np.unique(hits[:, 0]).astype(int):
-        if i not in d_rma:
-            continue
-        d = hits[hits[:, 0] == i, 1]
-        if d.size >= min_detections:
+    order = np.argsort(hits[:, 0], kind="stable")
+    uid, start = np.unique(hits[order, 0], return_index=True)
+    for i, d in zip(uid.astype(int).tolist(), np.split(hits[order, 1], start[1:])):
+        if i in d_rma and d.size >= min_detections:
             ids.append(i), rma.append(d_rma[i]), efa.append(d_efa[i]), ref.append(float(np.median(d)))
             cnt.append(d.size)
     rma, efa, ref = np.array(rma), np.array(efa), np.array(ref)
