@@ -113,10 +113,18 @@ def test_cli_missing_config_file(tmp_path, capsys):
     assert "no such file" in capsys.readouterr().err
 
 
-def test_cli_refuses_missing_parent(tmp_path, capsys):
-    assert main(["run", "--out", str(tmp_path / "a" / "b")]) == 1
+def test_cli_creates_missing_parents(tmp_path, capsys):
+    """--out a/b/c on a fresh checkout works as mkdir -p (the README writes under out/)."""
+    out = tmp_path / "a" / "b" / "c"
+    assert main(["run", "--out", str(out), "--no-plot"]) == 0
+    assert (out / "metrics.json").is_file()
+
+
+def test_cli_out_through_a_file_is_one_line(tmp_path, capsys):
+    (tmp_path / "f").write_text("x")
+    assert main(["run", "--out", str(tmp_path / "f" / "b")]) == 1
     err = capsys.readouterr().err
-    assert "--out" in err and "does not exist" in err and err.count("\n") == 1
+    assert "--out" in err and "is a file" in err and err.count("\n") == 1
 
 
 def test_cli_refuses_unwritable_dir_via_access(tmp_path, capsys, monkeypatch):

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import argparse
 
-from radarslam.config import Config, load_config, profile_config, validate
+from radarslam.config import PROFILES, Config, load_config, profile_config, validate
 
 
 def add_config_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--profile", choices=("apsipa", "reference"), default=None,
+    p.add_argument("--profile", choices=sorted(PROFILES), default=None,
                    help="parameter profile (default: the config file's, else apsipa)")
     p.add_argument("--config", metavar="FILE.toml", default=None, help="configuration overrides (TOML)")
 

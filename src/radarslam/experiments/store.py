@@ -26,7 +26,7 @@ import numpy as np
 from radarslam import __version__
 from radarslam.config import Config, from_dict, to_dict, to_toml
 from radarslam.core.errors import InputError, RadarSlamError
-from radarslam.io.results import atomic_write_bytes, atomic_write_text, to_jsonable, write_json
+from radarslam.io.results import atomic_write_bytes, atomic_write_text, make_dir, to_jsonable, write_json
 
 FORMAT = 1
 
@@ -98,10 +98,7 @@ class TrialStore:
     def open(cls, root: str | Path, config: Config, seed: int) -> "TrialStore":
         """Create ``root`` or reopen it; refuse a directory made with another config or seed."""
         root = Path(root)
-        if not root.exists():
-            if not root.parent.exists():
-                raise InputError(f"--out: parent directory {root.parent} does not exist")
-            root.mkdir()
+        make_dir(root)
         man = root / "manifest.json"
         if man.exists():
             try:

@@ -57,19 +57,28 @@ def write_json(path: str | Path, obj: Any) -> None:
     atomic_write_text(path, json.dumps(to_jsonable(obj), indent=2, allow_nan=False) + "\n")
 
 
-def prepare_out_dir(out: str | Path) -> Path:
-    """Create ``out`` if needed; refuse a missing parent or an unwritable directory."""
+def make_dir(out: str | Path, what: str = "--out") -> Path:
+    """Create ``out`` with its missing parents (as ``mkdir -p``); refuse a path through a file."""
     out = Path(out)
     if out.exists():
         if not out.is_dir():
-            raise InputError(f"--out: expected a directory, got an existing file {out}")
-    else:
-        if not out.parent.exists():
-            raise InputError(f"--out: parent directory {out.parent} does not exist")
-        try:
-            out.mkdir()
-        except OSError as exc:
-            raise InputError(f"--out: cannot create {out} ({exc.strerror})") from None
+            raise InputError(f"{what}: expected a directory, got an existing file {out}")
+        return out
+    for parent in out.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise InputError(f"{what}: expected a directory path, but {parent} is a file")
+            break
+    try:
+        out.mkdir(parents=True)
+    except OSError as exc:
+        raise InputError(f"{what}: cannot create {out} ({exc.strerror})") from None
+    return out
+
+
+def prepare_out_dir(out: str | Path) -> Path:
+    """Create ``out`` and its missing parents if needed; refuse a file or an unwritable directory."""
+    out = make_dir(out)
     if not os.access(out, os.W_OK | os.X_OK):
         raise InputError(f"--out: directory {out} is not writable")
     return out
