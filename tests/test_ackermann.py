@@ -11,7 +11,7 @@ import pytest
 
 from radarslam.core.errors import InputError
 from radarslam.models.ackermann import AckermannModel, centre_speed
-from radarslam.models.motion import get_motion_model
+from radarslam.models.motion import motion_model_from_config
 
 from test_ekf import JAC_TOL, numjac
 
@@ -150,11 +150,19 @@ def test_laser_lever_arm_is_measured_from_the_front_axle():
     assert math.isclose(nxt[0], DT * (v_c - omega * B), rel_tol=1e-12)
 
 
-def test_registered_and_importable_on_its_own():
-    assert isinstance(get_motion_model("ackermann"), AckermannModel)
-    assert get_motion_model("ackermann", a=0.0).lever == L
-    code = ("import radarslam.models.ackermann as a, radarslam.models.motion as m; "
-            "assert isinstance(m.get_motion_model('ackermann'), a.AckermannModel)")
+def test_built_from_the_filter_section_by_name():
+    """filter.motion_model = "ackermann" builds the model from the filter section's geometry, also
+    in a fresh interpreter that has not imported the module (lazy registration)."""
+    from dataclasses import replace
+
+    from radarslam.config import profile_config
+
+    f = profile_config("victoria-park").filter
+    m = motion_model_from_config(f)
+    assert isinstance(m, AckermannModel) and m.lever == f.vehicle_L_m + f.sensor_a_m and m.b == f.sensor_b_m
+    assert motion_model_from_config(replace(f, sensor_a_m=0.0)).lever == f.vehicle_L_m
+    code = ("from radarslam.config import profile_config; import radarslam.models.motion as m; "
+            "assert type(m.motion_model_from_config(profile_config('victoria-park').filter)).__name__ == 'AckermannModel'")
     subprocess.run([sys.executable, "-c", code], check=True)
 
 

@@ -161,6 +161,10 @@ def test_extent_noise_defaults_to_the_filter_R_and_can_be_its_own():
     vp = profile_config("victoria-park")
     np.testing.assert_allclose(vp.extent.R(vp.filter.R), np.diag([0.05**2, math.radians(0.5) ** 2]))
     assert vp.filter.R[0, 0] == pytest.approx(0.15**2)  # SLAM keeps the inflated point-landmark R
-    # ackermann control noise: wheel speed and steering angle
-    np.testing.assert_allclose(vp.filter.U, np.diag([0.1**2, math.radians(2.0) ** 2]))
-    np.testing.assert_allclose(cfg.filter.U, np.diag([0.02**2, math.radians(0.008) ** 2]))
+    # the motion model owns its control noise: ackermann wheel speed and steering, unicycle speed and turn rate
+    from radarslam.models.motion import motion_model_from_config
+
+    np.testing.assert_allclose(motion_model_from_config(vp.filter).control_cov(vp.filter),
+                               np.diag([0.1**2, math.radians(2.0) ** 2]))
+    np.testing.assert_allclose(motion_model_from_config(cfg.filter).control_cov(cfg.filter),
+                               np.diag([0.02**2, math.radians(0.008) ** 2]))

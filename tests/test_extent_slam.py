@@ -7,7 +7,6 @@ import math
 import numpy as np
 import pytest
 
-from radarslam.core.types import Odometry
 from radarslam.extent.ellipse_fit import _fit_ellipse
 from radarslam.extent.measurement import converted_measurement_covs, select_scan_W
 from radarslam.extent.random_matrix import rm_predict, rm_update
@@ -140,7 +139,9 @@ def test_extent_inflated_noise_admits_far_side_detection():
     h, Hs, idx = ekf.landmark_measurement(slam.x, j)
     e = ekf.innovation(s, h)
     D_plain = ekf.log_distance(e, ekf.innovation_cov(slam.P, Hs, idx, slam.R))
-    R_eff = slam._noise(j, Hs[:, 3:])
+    gX, has = slam.extent.spreads([r.extent for r in slam.landmarks])
+    assert has[j]
+    R_eff = ekf.r_eff(slam.R, Hs, gX[j])
     D_eff = ekf.log_distance(e, ekf.innovation_cov(slam.P, Hs, idx, R_eff))
     assert np.allclose(R_eff, slam.R + 0.25 * Hs[:, 3:] @ X @ Hs[:, 3:].T)
     assert D_eff < slam.config.landmarks.beta < D_plain
@@ -160,7 +161,18 @@ def test_ablation_switches_select_each_half_of_with_extent():
     assert s1.update(scan(7, outside)).n_candidates == 0
     assert s2.update(scan(7, outside)).n_candidates == 1  # radius sifting instead
     assert s3.update(scan(7, outside)).n_candidates == 0
-    Hp = np.eye(2)
-    assert np.array_equal(s3._noise(0, Hp), s3.R)
-    assert not np.array_equal(s2._noise(0, Hp), s2.R)
-    assert np.array_equal(s1._noise(0, Hp, extent=False), s1.R)  # the alpha test always uses R
+    # the spread that inflates R: none without inflate_noise, gamma_z X with it
+    gX3, has3 = s3.extent.spreads([r.extent for r in s3.landmarks])
+    gX2, has2 = s2.extent.spreads([r.extent for r in s2.landmarks])
+    assert not has3.any() and np.array_equal(gX3, np.zeros_like(gX3))
+    assert has2[0] and np.array_equal(gX2[0], 0.25 * s2.landmarks[0].extent.X)
+    # the alpha test always uses the plain R: its log distance ignores the extent
+    from radarslam.slam import ekf
+    from radarslam.slam.association import nearest_landmarks
+
+    s = scan(8, outside).polar[0]
+    js = nearest_landmarks(s1.x.tolist(), s, s1.config.landmarks.n_nearest_new)
+    gX1, _ = s1.extent.spreads([r.extent for r in s1.landmarks])
+    plain = ekf.score_landmarks(s1.x, s1.P, s, js, s1.R)[1]
+    inflated = ekf.score_landmarks(s1.x, s1.P, s, js, s1.R, [gX1[j].tolist() for j in js])[1]
+    assert s1.associator.min_log_distance(s1.state, s, s1.R) == plain != inflated

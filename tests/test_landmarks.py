@@ -16,7 +16,7 @@ from radarslam.landmarks.confirmation import push_bit, should_remove
 from radarslam.landmarks.merging import next_merge
 from radarslam.models.radar import xy_to_polar
 from radarslam.slam import ekf
-from radarslam.slam.filter import EkfSlam, LandmarkRecord
+from radarslam.slam.filter import EkfSlam
 
 from helpers import POSE, blob, quiet_config, scan
 
@@ -83,19 +83,22 @@ def test_mn_deletes_landmark_with_2_hits_in_window():
 def test_mn_keeps_landmark_out_of_range():
     slam = EkfSlam(quiet_config())
     slam.update(scan(1, blob([19.5, 0.0], 6)))
-    slam.x = slam.x.copy()
-    slam.x[3] = 25.0  # now beyond R_max: misses do not count against it
+    _move_landmark(slam, 0, 25.0)  # now beyond R_max: misses do not count against it
     for k in range(2, 20):
         slam.update(scan(k))
     assert len(slam.landmarks) == 1
 
 
+def _move_landmark(slam, j, px):
+    x = slam.state.x.copy()
+    x[slam.state.index(j)] = px
+    slam.state.set(x, slam.state.P)
+
+
 def _two_landmarks(cfg, p1, p2):
     slam = EkfSlam(cfg)
     for i, p in enumerate([p1, p2]):
-        slam.x, slam.P = ekf.augment(slam.x, slam.P, xy_to_polar(POSE, np.array([p]))[0], slam.R)
-        slam.landmarks.append(LandmarkRecord(i, created=i + 1))
-    slam._next_id = 2
+        assert slam.state.add_landmark(xy_to_polar(POSE, np.array([p]))[0], slam.R, i + 1, slam.extent.new()) == i
     return slam
 
 
@@ -281,13 +284,11 @@ def test_mn_ignores_misses_outside_the_field_of_view():
     cfg = replace(cfg, filter=replace(cfg.filter, field_of_view_deg=180.0))
     slam = EkfSlam(cfg)
     slam.update(scan(1, blob([8.0, 0.0], 6)))
-    slam.x = slam.x.copy()
-    slam.x[3] = -8.0  # now behind the platform
+    _move_landmark(slam, 0, -8.0)  # now behind the platform
     for k in range(2, 20):
         slam.update(scan(k))
     assert len(slam.landmarks) == 1
-    slam.x = slam.x.copy()
-    slam.x[3] = 8.0  # in front again: misses count, deleted after M scans
+    _move_landmark(slam, 0, 8.0)  # in front again: misses count, deleted after M scans
     for k in range(20, 30):
         slam.update(scan(k))
     assert len(slam.landmarks) == 0

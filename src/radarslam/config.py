@@ -22,12 +22,26 @@ from typing import Any
 import numpy as np
 
 from radarslam.core.errors import ConfigError
+from radarslam.core.registry import (
+    ASSOCIATORS,
+    BACKENDS,
+    EXTENT_ESTIMATORS,
+    MEASUREMENT_MODELS,
+    MOTION_MODELS,
+    Registry,
+)
 
 
 def param(default: Any, doc: str, *, low: float | None = None, high: float | None = None,
-          low_open: bool = False, choices: tuple[str, ...] | None = None, length: int | None = None) -> Any:
-    """A config field with its documentation and admissible range (checked by :func:`validate`)."""
-    meta = {"doc": doc, "low": low, "high": high, "low_open": low_open, "choices": choices, "length": length}
+          low_open: bool = False, choices: tuple[str, ...] | None = None, length: int | None = None,
+          registry: Registry | None = None) -> Any:
+    """A config field with its documentation and admissible range (checked by :func:`validate`).
+
+    ``registry``: the value names a component of that registry (checked against its names at
+    validation time, so a component registered by any code is accepted).
+    """
+    meta = {"doc": doc, "low": low, "high": high, "low_open": low_open, "choices": choices, "length": length,
+            "registry": registry}
     if isinstance(default, list):
         return field(default_factory=lambda d=default: list(d), metadata=meta)
     return field(default=default, metadata=meta)
@@ -104,9 +118,11 @@ class WorldConfig:
 class FilterConfig:
     """EKF-SLAM noise models and initialisation (method.md b.5). Defaults equal the simulation's."""
 
-    motion_model: str = param("unicycle", "motion model of the platform", choices=("unicycle", "ackermann"))
-    backend: str = param("python", "association loop: 'python' (reference) or 'numba' (compiled; the [fast] extra)",
-                         choices=("python", "numba"))
+    motion_model: str = param("unicycle", "motion model of the platform (a registered name)", registry=MOTION_MODELS)
+    measurement_model: str = param("range-azimuth", "sensor measurement model (a registered name)",
+                                   registry=MEASUREMENT_MODELS)
+    backend: str = param("python", "implementation of the components: 'python' (reference) or 'numba' "
+                         "(compiled; the [fast] extra)", choices=BACKENDS)
     initial_pose: list[float] = param([0.1, 0.1, math.pi / 180.0], "initial estimate [x_m, y_m, theta_rad]", length=3)
     initial_pose_std: list[float] = param([0.15, 0.15, math.pi / 180.0], "initial std [x_m, y_m, theta_rad]", length=3)
     range_std_m: float = param(0.5, "R: range std (m)", low=0.0, low_open=True)
@@ -124,23 +140,10 @@ class FilterConfig:
     sensor_a_m: float = param(0.95, "ackermann: sensor ahead of the FRONT axle, a (m)")
     sensor_b_m: float = param(0.5, "ackermann: sensor to the left of the centre line, b (m)")
 
-    def motion_model_kwargs(self) -> dict:
-        """Constructor arguments of the selected motion model."""
-        if self.motion_model == "ackermann":
-            return {"L": self.vehicle_L_m, "H": self.vehicle_H_m, "a": self.sensor_a_m, "b": self.sensor_b_m}
-        return {}
-
     @property
     def R(self) -> np.ndarray:
         """Radar noise covariance diag(sigma_r^2, sigma_phi^2)."""
         return np.diag([self.range_std_m**2, math.radians(self.azimuth_std_deg) ** 2])
-
-    @property
-    def U(self) -> np.ndarray:
-        """Odometer noise covariance on the control: diag(sigma_v^2, sigma_psi^2) for the unicycle
-        (speed, turn rate); diag(sigma_v^2, sigma_alpha^2) for ackermann (wheel speed, steering)."""
-        second = self.steering_std_deg if self.motion_model == "ackermann" else self.turn_rate_std_deg_s
-        return np.diag([self.speed_std_mps**2, math.radians(second) ** 2])
 
     @property
     def Q(self) -> np.ndarray:
@@ -152,6 +155,7 @@ class FilterConfig:
 class LandmarkConfig:
     """Landmark management (method.md c.1; APSIPA Table I unless marked)."""
 
+    associator: str = param("nearest-neighbour", "data association (a registered name; c.4)", registry=ASSOCIATORS)
     alpha: float = param(500.0, "log-distance threshold a new cluster must exceed to every landmark")
     beta: float = param(20.0, "log-distance association threshold (profile-dependent)")
     sift_radius_m: float = param(3.0, "gamma_s: sifting radius (m)", low=0.0, low_open=True)
@@ -174,6 +178,7 @@ class LandmarkConfig:
 class ExtentConfig:
     """Landmark extents (method.md a.3-a.7, d; Decisions 3-6)."""
 
+    estimator: str = param("rma-efa", "extent estimator (a registered name; a.3-a.5)", registry=EXTENT_ESTIMATORS)
     track: bool = param(True, "estimate RMA and EFA extents for every landmark")
     use_in_slam: bool = param(False, "'With extent' (Decision 6): contour sifting + extent-inflated noise")
     contour_sifting: bool = param(True, "with use_in_slam: sift by the extent contour (a.7.1); for ablations")
@@ -213,6 +218,18 @@ class MetricsConfig:
     missed_grace_scans: int = param(5, "[PROP] scans in range before an unmapped vehicle counts as missed", low=0)
 
 
+@dataclass(frozen=True)
+class EstimatorConfig:
+    """The sections the estimator receives (config by owner): ``filter``, ``landmarks``, ``extent``.
+
+    The simulation, world and metrics sections never reach :class:`~radarslam.slam.EkfSlam`.
+    """
+
+    filter: FilterConfig
+    landmarks: LandmarkConfig
+    extent: ExtentConfig
+
+
 @dataclass
 class Config:
     """Everything a run needs apart from the seed."""
@@ -227,6 +244,11 @@ class Config:
     landmarks: LandmarkConfig = field(default_factory=LandmarkConfig)
     extent: ExtentConfig = field(default_factory=ExtentConfig)
     metrics: MetricsConfig = field(default_factory=MetricsConfig)
+
+    @property
+    def estimator(self) -> EstimatorConfig:
+        """The estimator's own sections (shared, not copied)."""
+        return EstimatorConfig(self.filter, self.landmarks, self.extent)
 
 
 #: Profile overrides (Decision 1). Everything not listed is shared.
@@ -302,6 +324,8 @@ def _check_value(key: str, typ: Any, meta: dict, value: Any) -> Any:
             raise ConfigError(f"{key}: expected a string, got {value!r}")
         if meta.get("choices") and value not in meta["choices"]:
             raise ConfigError(f"{key}: expected one of {list(meta['choices'])}, got {value!r}")
+        if meta.get("registry") is not None and value not in meta["registry"].names():
+            raise ConfigError(f"{key}: expected one of {meta['registry'].names()}, got {value!r}")
         return value
     elif origin is list:
         (inner,) = typing.get_args(typ)

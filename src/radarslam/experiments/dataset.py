@@ -86,10 +86,10 @@ def dead_reckoning(data, config: Config) -> tuple[np.ndarray, np.ndarray]:
 
     The baseline SLAM has to beat; it starts from ``config.filter.initial_pose``.
     """
-    from radarslam.models.motion import get_motion_model
+    from radarslam.models.motion import motion_model_from_config
 
     f = config.filter
-    model = get_motion_model(f.motion_model, **f.motion_model_kwargs())
+    model = motion_model_from_config(f)
     pose = np.array(f.initial_pose, dtype=float)
     times, poses = [], []
     for ev in data.events:

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
+from radarslam.core.angles import wrap_pi_scalar
 from radarslam.landmarks.clustering import Cluster
 
 
@@ -88,3 +90,35 @@ def should_remove(k: int, created: int, assoc: int, in_range: int, *, window: in
     """M/N removal (c.5): old enough, in range in all of the last M scans, associated in <= N."""
     return (k - window + 1 >= created and in_range.bit_count() == window
             and assoc.bit_count() <= max_hits)
+
+
+def in_sensor_view(positions: np.ndarray, pose: np.ndarray, max_range: float, field_of_view_deg: float) -> np.ndarray:
+    """Which landmarks ``(N, 2)`` the sensor at ``pose`` covers: within ``max_range`` and, for a
+    sensor that does not see all around, within the field of view centred on the heading (the
+    "in range" of the M/N removal, c.5). Boolean ``(N,)``."""
+    half_fov = math.radians(field_of_view_deg) / 2.0
+    x0, y0, th = float(pose[0]), float(pose[1]), float(pose[2])
+    out = np.zeros(positions.shape[0], dtype=bool)
+    for j, (lx, ly) in enumerate(positions.tolist()):
+        dx, dy = lx - x0, ly - y0
+        out[j] = (math.hypot(dx, dy) <= max_range
+                  and (half_fov >= math.pi or abs(wrap_pi_scalar(math.atan2(dy, dx) - th)) <= half_fov))
+    return out
+
+
+def removal_step(records: list, hit: np.ndarray, in_view: np.ndarray, k: int, *, window: int,
+                 max_hits: int) -> list[int]:
+    """One scan of the M/N removal windows (c.5, every scan, Decision 8).
+
+    Each record (``.assoc``, ``.in_range``, ``.created``) pushes whether it was associated and
+    whether it was in range (an associated landmark counts as in range); returns the positions of
+    the records to remove, ascending.
+    """
+    drop = []
+    for j, r in enumerate(records):
+        h = bool(hit[j])
+        r.assoc = push_bit(r.assoc, h, window)
+        r.in_range = push_bit(r.in_range, h or bool(in_view[j]), window)
+        if should_remove(k, r.created, r.assoc, r.in_range, window=window, max_hits=max_hits):
+            drop.append(j)
+    return drop

@@ -10,7 +10,7 @@ The model of Guivant & Nebot (IEEE T-RA 17(3), 2001) as documented with the data
 - geometry: wheelbase ``L``, lateral offset ``H`` of the encoder wheel from the centre line,
   laser ``a`` ahead of the FRONT axle (``L + a`` ahead of the rear axle) and ``b`` to the side.
 
-Importing this module registers the model as ``"ackermann"`` (:func:`register_motion_model`).
+Importing this module registers the model as ``"ackermann"`` in :data:`radarslam.core.registry.MOTION_MODELS`.
 
 Derivation (rigid-body kinematics)
 ----------------------------------
@@ -58,7 +58,7 @@ import numpy as np
 
 from radarslam.core.angles import wrap_2pi_scalar
 from radarslam.core.validation import as_scalar
-from radarslam.models.motion import register_motion_model
+from radarslam.core.registry import MOTION_MODELS
 
 
 def centre_speed(v_e: float, alpha: float, L: float, H: float) -> float:
@@ -133,5 +133,14 @@ class AckermannModel:
                        [dt * dw_de, dt * dw_da]])
         return Fx, Fu
 
+    def control_cov(self, filter_config) -> np.ndarray:
+        """diag(sigma_v^2, sigma_alpha^2): wheel-speed and steering-angle noise."""
+        return np.diag([filter_config.speed_std_mps ** 2, math.radians(filter_config.steering_std_deg) ** 2])
 
-register_motion_model("ackermann", AckermannModel)
+
+def _make_ackermann(f) -> AckermannModel:
+    """From the ``filter`` section: ``vehicle_L_m``, ``vehicle_H_m``, ``sensor_a_m``, ``sensor_b_m``."""
+    return AckermannModel(L=f.vehicle_L_m, H=f.vehicle_H_m, a=f.sensor_a_m, b=f.sensor_b_m)
+
+
+MOTION_MODELS.register("ackermann", _make_ackermann)

@@ -1,7 +1,9 @@
 """Platform motion models.
 
 A motion model maps ``(pose, control, dt)`` to the next pose and provides the Jacobians with
-respect to the pose and the control. The filter picks one by name (:func:`get_motion_model`).
+respect to the pose and the control, and the covariance U of its control from the ``filter``
+section. The filter picks one by ``filter.motion_model`` through the registry
+:data:`radarslam.core.registry.MOTION_MODELS`; a model registered there from any code is selectable.
 """
 
 from __future__ import annotations
@@ -12,7 +14,7 @@ from typing import Protocol
 import numpy as np
 
 from radarslam.core.angles import wrap_2pi_scalar
-from radarslam.core.errors import InputError
+from radarslam.core.registry import MOTION_MODELS
 
 
 class MotionModel(Protocol):
@@ -25,6 +27,9 @@ class MotionModel(Protocol):
 
     def jacobians(self, pose: np.ndarray, u: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """``(F_x (3, 3), F_u (3, 2))`` evaluated at ``(pose, u)``."""
+
+    def control_cov(self, filter_config) -> np.ndarray:
+        """U: covariance (2, 2) of the control noise, from the ``filter`` config section."""
 
 
 class UnicycleModel:
@@ -52,24 +57,19 @@ class UnicycleModel:
         Fu = np.array([[dt * B, -0.5 * dt * dt * v * A], [dt * A, 0.5 * dt * dt * v * B], [0.0, dt]])
         return Fx, Fu
 
-
-_MODELS: dict[str, type] = {"unicycle": UnicycleModel}
-#: Models living in their own module, imported on first use (they register themselves).
-_LAZY_MODELS = {"ackermann": "radarslam.models.ackermann"}
-
-
-def register_motion_model(name: str, cls: type) -> None:
-    """Make a motion model selectable by ``filter.motion_model = name``."""
-    _MODELS[name] = cls
+    def control_cov(self, filter_config) -> np.ndarray:
+        """diag(sigma_v^2, sigma_psi^2): speed and turn-rate noise (APSIPA Table I)."""
+        return np.diag([filter_config.speed_std_mps ** 2, math.radians(filter_config.turn_rate_std_deg_s) ** 2])
 
 
-def get_motion_model(name: str, **kwargs) -> MotionModel:
-    """The motion model registered under ``name``."""
-    if name not in _MODELS and name in _LAZY_MODELS:
-        import importlib
+def _make_unicycle(filter_config) -> UnicycleModel:
+    return UnicycleModel()
 
-        importlib.import_module(_LAZY_MODELS[name])
-    try:
-        return _MODELS[name](**kwargs)
-    except KeyError:
-        raise InputError(f"motion_model: expected one of {sorted(_MODELS)}, got {name!r}") from None
+
+MOTION_MODELS.register("unicycle", _make_unicycle)
+
+
+def motion_model_from_config(filter_config) -> MotionModel:
+    """The model named by ``filter.motion_model``, built by its registered factory from the
+    ``filter`` section (:data:`radarslam.core.registry.MOTION_MODELS`)."""
+    return MOTION_MODELS.create(filter_config.motion_model, filter_config)

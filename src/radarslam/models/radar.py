@@ -11,6 +11,7 @@ import math
 import numpy as np
 
 from radarslam.core.angles import wrap_pi, wrap_pi_scalar
+from radarslam.core.registry import MEASUREMENT_MODELS
 
 
 def range_azimuth(pose: np.ndarray, p: np.ndarray) -> np.ndarray:
@@ -55,3 +56,32 @@ def inverse_jacobians(pose: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.n
     Gx = np.array([[1.0, 0.0, -r * sn], [0.0, 1.0, r * c]])
     Gs = np.array([[c, -r * sn], [sn, r * c]])
     return Gx, Gs
+
+
+class RangeAzimuthModel:
+    """The range-azimuth sensor as a component (:data:`radarslam.core.registry.MEASUREMENT_MODELS`,
+    ``filter.measurement_model = "range-azimuth"``): the measurement function, its Jacobians and
+    the polar <-> world conversions of this module, bound to one object the filter holds.
+
+    The EKF kernels of :mod:`radarslam.slam.ekf` (sparse Jacobian, log distance) are written for
+    this model; an associator for another sensor model brings its own.
+    """
+
+    name = "range-azimuth"
+
+    measure = staticmethod(range_azimuth)
+    jacobians = staticmethod(range_azimuth_jacobians)
+    to_world = staticmethod(polar_to_xy)
+    to_sensor = staticmethod(xy_to_polar)
+    inverse_jacobians = staticmethod(inverse_jacobians)
+
+    def noise(self, filter_config) -> np.ndarray:
+        """R = diag(sigma_r^2, sigma_phi^2) of the ``filter`` section (APSIPA Table I)."""
+        return filter_config.R
+
+
+def _make_range_azimuth(filter_config) -> RangeAzimuthModel:
+    return RangeAzimuthModel()
+
+
+MEASUREMENT_MODELS.register("range-azimuth", _make_range_azimuth)

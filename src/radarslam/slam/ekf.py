@@ -1,7 +1,15 @@
 """EKF-SLAM maths on the augmented state ``x = [x, y, theta, p1x, p1y, ..., pNx, pNy]``.
 
 Pure functions: every function returns new arrays and leaves its inputs untouched. Landmark ``j``
-(0-based) occupies ``x[3 + 2j : 5 + 2j]``. The heading is kept in ``[0, 2 pi)`` (method.md a.1).
+(0-based) occupies ``x[i : i + 2]`` with ``i = landmark_index(j)`` (:mod:`.layout`). The heading is
+kept in ``[0, 2 pi)`` (docs/method.md a.1).
+
+One source for each kernel: :func:`sparse_jacobian` (the range-azimuth measurement Jacobian),
+:func:`r_eff` (the extent-inflated noise), :func:`update` (the Joseph update),
+:func:`innovation_cov_terms` and :func:`gaussian_log_distance` (the log distance) and the angle wraps
+of :mod:`radarslam.core.angles` are plain functions in a subset of Python and numpy that numba
+compiles as they are: the compiled associator (:mod:`radarslam.slam._numba`) runs these very
+functions, not copies of them.
 """
 
 from __future__ import annotations
@@ -13,13 +21,9 @@ import numpy as np
 from radarslam.core.angles import wrap_2pi_scalar, wrap_pi_scalar
 from radarslam.models.motion import MotionModel
 from radarslam.models.radar import inverse_jacobians
+from radarslam.slam.layout import landmark_index
 
 LOG_2PI_SQ = 2.0 * math.log(2.0 * math.pi)  # log((2 pi)^2)
-
-
-def n_landmarks(x: np.ndarray) -> int:
-    """Number of landmarks in the state vector."""
-    return (x.shape[0] - 3) // 2
 
 
 def predict(x: np.ndarray, P: np.ndarray, u: np.ndarray, dt: float, model: MotionModel,
@@ -52,14 +56,11 @@ def landmark_measurement(x: np.ndarray, j: int) -> tuple[np.ndarray, np.ndarray,
     idx : ndarray, shape (5,)
         The state indices of those columns.
     """
-    i = 3 + 2 * j
+    i = landmark_index(j)
     dx, dy = x[i] - x[0], x[i + 1] - x[1]
-    q = dx * dx + dy * dy
-    r = math.sqrt(q)
-    h = np.array([r, wrap_pi_scalar(math.atan2(dy, dx) - x[2])])
-    Hs = np.array([[-dx / r, -dy / r, 0.0, dx / r, dy / r],
-                   [dy / q, -dx / q, -1.0, -dy / q, dx / q]])
-    return h, Hs, np.array([0, 1, 2, i, i + 1])
+    h = np.array([math.sqrt(dx * dx + dy * dy), wrap_pi_scalar(math.atan2(dy, dx) - x[2])])
+    Hs, idx = sparse_jacobian(x, j)
+    return h, Hs, idx
 
 
 def innovation(z: np.ndarray, h: np.ndarray) -> np.ndarray:
@@ -136,7 +137,7 @@ def score_landmarks(x: np.ndarray, P: np.ndarray, z: np.ndarray, js: list[int], 
     n = P.shape[0]
     flat = [0, 1, 2, n + 1, n + 2, 2 * n + 2]
     for j in js:
-        i = 3 + 2 * j
+        i = landmark_index(j)
         flat += [i * n, i * n + 1, i * n + 2, i * n + i, i * n + i + 1,
                  (i + 1) * n, (i + 1) * n + 1, (i + 1) * n + 2, (i + 1) * n + i + 1]
     v = P.take(flat).tolist()
@@ -146,7 +147,7 @@ def score_landmarks(x: np.ndarray, P: np.ndarray, z: np.ndarray, js: list[int], 
     r00, r01, r11 = R[0, 0], R[0, 1], R[1, 1]
     z0, z1 = float(z[0]), float(z[1])
     for k, j in enumerate(js):
-        i = 3 + 2 * j
+        i = landmark_index(j)
         lx0, lx1, lx2, lxx, lxy, ly0, ly1, ly2, lyy = v[6 + 9 * k: 15 + 9 * k]
         # cov(delta) and cov(delta, theta)
         cxx = lxx - 2.0 * lx0 + pxx
@@ -206,13 +207,24 @@ def gaussian_log_distance(s00, s01, s11, e0, e1):
 
 
 def sparse_jacobian(x: np.ndarray, j: int) -> tuple[np.ndarray, np.ndarray]:
-    """``(Hs (2, 5), idx (5,))`` of landmark ``j``, as in :func:`landmark_measurement`."""
-    i = 3 + 2 * j
+    """``(Hs (2, 5), idx (5,))`` of landmark ``j`` (APSIPA App. B): the non-zero columns of the
+    range-azimuth Jacobian, pose ``(x, y, theta)`` then landmark ``(px, py)``, and their state indices.
+    A kernel (numba compiles it as it is)."""
+    i = landmark_index(j)
     dx, dy = x[i] - x[0], x[i + 1] - x[1]
     q = dx * dx + dy * dy
     r = math.sqrt(q)
     return (np.array([[-dx / r, -dy / r, 0.0, dx / r, dy / r], [dy / q, -dx / q, -1.0, -dy / q, dx / q]]),
             np.array([0, 1, 2, i, i + 1]))
+
+
+def r_eff(R: np.ndarray, Hs: np.ndarray, spread: np.ndarray) -> np.ndarray:
+    """Extent-inflated noise ``R_eff = R + H_p (gamma_z X) H_p^T`` (docs/method.md a.7.2).
+
+    ``Hs`` is the sparse Jacobian of :func:`sparse_jacobian` (its last two columns are ``H_p``) and
+    ``spread`` the landmark's ``gamma_z X``. A kernel (numba compiles it as it is)."""
+    Hp = np.ascontiguousarray(Hs[:, 3:])
+    return R + Hp @ spread @ Hp.T
 
 
 def augment(x: np.ndarray, P: np.ndarray, s: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -239,6 +251,6 @@ def remove_landmarks(x: np.ndarray, P: np.ndarray, js: list[int] | np.ndarray) -
     """Delete landmarks ``js`` (their 2 rows and 2 columns each) from the state."""
     if len(js) == 0:
         return x.copy(), P.copy()
-    drop = np.concatenate([[3 + 2 * j, 4 + 2 * j] for j in js])
+    drop = np.concatenate([[landmark_index(j), landmark_index(j) + 1] for j in js])
     keep = np.setdiff1d(np.arange(x.shape[0]), drop)
     return x[keep], P[np.ix_(keep, keep)]

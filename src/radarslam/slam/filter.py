@@ -1,73 +1,40 @@
-"""The EKF-SLAM orchestrator with APSIPA landmark management and landmark extents.
+"""The EKF-SLAM orchestrator: the steps of the method, one named call each.
 
-:class:`EkfSlam` holds the state and calls the pure functions of :mod:`radarslam.slam.ekf`,
-:mod:`radarslam.landmarks` and :mod:`radarslam.extent` in the order of method.md a.8:
+:class:`EkfSlam` holds a :class:`~radarslam.slam.state.SlamState` and its components, each built by
+its registered factory from the configuration (docs/architecture.md):
 
-1. prediction with the odometer (:meth:`EkfSlam.predict`);
-2-4. sifting, then sequential log-distance association and EKF point updates;
-5. M/N windows and removal;
-6. the extent step (RM prediction + update, EFA refit; or buffering until initialisation);
-7. DBSCAN of the unsifted detections, alpha test;
-8-9. Rule 2 / Rule 1 confirmation and state augmentation;
-10. merging.
+- the motion model (``filter.motion_model``) and the measurement model (``filter.measurement_model``);
+- the associator (``landmarks.associator``, in the ``filter.backend`` implementation);
+- the extent estimator (``extent.estimator``).
+
+:meth:`EkfSlam.update` runs docs/method.md a.8 on one scan: sift; associate and update; M/N
+bookkeeping and removal; extent step; cluster; alpha test; confirm and augment; merge. The
+arithmetic lives in the modules that own it (:mod:`.ekf`, :mod:`radarslam.landmarks`,
+:mod:`radarslam.extent`), not here.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
-from radarslam.config import Config
-from radarslam.core.angles import wrap_pi_scalar
+from radarslam.config import Config, EstimatorConfig
 from radarslam.core.errors import InputError
+from radarslam.core.registry import ASSOCIATORS, EXTENT_ESTIMATORS, MEASUREMENT_MODELS
 from radarslam.core.types import Odometry, Scan
 from radarslam.core.validation import as_array
-# The SLAM loop calls the extent kernels directly: its inputs are already validated, and the
-# public wrappers' PSD checks cost 30-75 us per call (an eigen-solve per matrix).
-from radarslam.extent.ellipse_fit import _fit_ellipse
-from radarslam.extent.measurement import _scan_W
-from radarslam.extent.random_matrix import _rm_predict, _rm_update
-from radarslam.landmarks.clustering import clusters_of, dbscan_labels
-from radarslam.landmarks.confirmation import Tentative, push_bit, rule2_step, should_remove
+from radarslam.landmarks.clustering import Cluster, clusters_of, dbscan_labels
+from radarslam.landmarks.confirmation import in_sensor_view, removal_step, rule2_step
 from radarslam.landmarks.merging import next_merge
 from radarslam.landmarks.sifting import sift
-from radarslam.models.motion import MotionModel, get_motion_model
-from radarslam.models.radar import polar_to_xy
+from radarslam.models.motion import MotionModel, motion_model_from_config
 from radarslam.slam import ekf
+from radarslam.slam.association import Associator, Spreads
+from radarslam.slam.state import LandmarkRecord, SlamState
 
-
-@dataclass
-class ExtentState:
-    """Extent record of one landmark, kept outside the EKF state (method.md a.1).
-
-    Before initialisation only ``buffer`` is used; afterwards ``X``/``alpha`` are the RMA estimate
-    and ``X_efa`` the EFA baseline.
-    """
-
-    buffer: list[np.ndarray] = field(default_factory=list)
-    n_buffered: int = 0
-    X: np.ndarray | None = None
-    alpha: float = 0.0
-    X_efa: np.ndarray | None = None
-    efa_buffer: list[np.ndarray] = field(default_factory=list)
-    initialized_at: int | None = None
-
-    @property
-    def initialized(self) -> bool:
-        return self.X is not None
-
-
-@dataclass
-class LandmarkRecord:
-    """Bookkeeping of one confirmed landmark (its centroid lives in the EKF state)."""
-
-    id: int
-    created: int
-    assoc: int = 1  # M/N windows, newest-first bits; [1, 0, ..., 0] at creation (c.5)
-    in_range: int = 1
-    extent: ExtentState = field(default_factory=ExtentState)
+__all__ = ["EkfSlam", "LandmarkRecord", "MapSnapshot", "ScanReport"]
 
 
 @dataclass(frozen=True)
@@ -104,66 +71,78 @@ class EkfSlam:
 
     Parameters
     ----------
-    config : Config
-        Uses ``filter``, ``landmarks`` and ``extent``.
-    motion_model : MotionModel, optional
-        Defaults to ``get_motion_model(config.filter.motion_model)``.
+    config : EstimatorConfig or Config
+        The ``filter``, ``landmarks`` and ``extent`` sections (a full :class:`Config` is accepted
+        and only those sections are kept).
+    motion_model, measurement_model, associator, extent_estimator : optional
+        Components to use instead of the ones the configuration names.
     """
 
-    def __init__(self, config: Config, motion_model: MotionModel | None = None):
+    def __init__(self, config: EstimatorConfig | Config, *, motion_model: MotionModel | None = None,
+                 measurement_model=None, associator: Associator | None = None, extent_estimator=None):
+        if isinstance(config, Config):
+            config = config.estimator
+        if not isinstance(config, EstimatorConfig):
+            raise InputError(f"config: expected an EstimatorConfig or Config, got {type(config).__name__}")
         self.config = config
         f = config.filter
-        self.model = motion_model or get_motion_model(f.motion_model, **f.motion_model_kwargs())
-        self.R = f.R
-        self.R_extent = config.extent.R(self.R)
-        self.U = f.U
+        self.model = motion_model or motion_model_from_config(f)
+        self.measurement = measurement_model or MEASUREMENT_MODELS.create(f.measurement_model, f)
+        try:
+            self.associator = associator or ASSOCIATORS.create(config.landmarks.associator, config, backend=f.backend)
+        except ImportError:
+            raise InputError("filter.backend: 'numba' needs numba; pip install 'radarslam[fast]'") from None
+        self.extent = extent_estimator or EXTENT_ESTIMATORS.create(config.extent.estimator, config)
+        self.R = self.measurement.noise(f)
+        self.U = self.model.control_cov(f)
         self.Q = f.Q
-        self.x = np.array(f.initial_pose, dtype=float)
-        self.P = np.diag(np.square(f.initial_pose_std))
-        self.landmarks: list[LandmarkRecord] = []
-        self.tentatives: list[Tentative] = []
-        self._next_id = 0
+        self.state = SlamState.initial(f.initial_pose, f.initial_pose_std)
         self._dt_since_scan = 0.0
         self._scans = 0
-        self._associate_compiled = None
-        self._min_log_distance_compiled = None
-        if f.backend == "numba":
-            try:
-                from radarslam.slam._numba import associate_scan, min_log_distance
-            except ImportError:
-                raise InputError("filter.backend: 'numba' needs numba; pip install 'radarslam[fast]'") from None
-            self._associate_compiled = associate_scan
-            self._min_log_distance_compiled = min_log_distance
 
     # ------------------------------------------------------------------ views
     @property
+    def x(self) -> np.ndarray:
+        """The state mean (read-only view; change it through :attr:`state`)."""
+        return _readonly(self.state.x)
+
+    @property
+    def P(self) -> np.ndarray:
+        """The state covariance (read-only view)."""
+        return _readonly(self.state.P)
+
+    @property
+    def landmarks(self) -> list[LandmarkRecord]:
+        return self.state.landmarks
+
+    @property
+    def tentatives(self):
+        return self.state.tentatives
+
+    @property
     def pose(self) -> np.ndarray:
-        return self.x[:3].copy()
+        return self.state.pose
 
     @property
     def pose_cov(self) -> np.ndarray:
-        return self.P[:3, :3].copy()
+        return self.state.pose_cov
 
     @property
     def landmark_positions(self) -> np.ndarray:
-        return self.x[3:].reshape(-1, 2).copy()
+        return self.state.positions
 
     def snapshot(self) -> MapSnapshot:
         """The current map (copies)."""
-        n = len(self.landmarks)
-        idx = 3 + 2 * np.arange(n)
-        covs = np.empty((n, 2, 2))
-        covs[:, 0, 0] = self.P[idx, idx]
-        covs[:, 0, 1] = covs[:, 1, 0] = self.P[idx, idx + 1]
-        covs[:, 1, 1] = self.P[idx + 1, idx + 1]
+        st, ext = self.state, self.extent
         nan = np.full((2, 2), np.nan)
+        n = st.n_landmarks
+        rma = [ext.matrix(r.extent) for r in st.landmarks]
+        efa = [ext.baseline(r.extent) for r in st.landmarks]
         return MapSnapshot(
-            ids=np.array([r.id for r in self.landmarks], dtype=int),
-            positions=self.landmark_positions,
-            covs=covs,
-            rma=np.array([r.extent.X if r.extent.X is not None else nan for r in self.landmarks]).reshape(n, 2, 2),
-            efa=np.array([r.extent.X_efa if r.extent.X_efa is not None else nan for r in self.landmarks]).reshape(n, 2, 2),
-            created=np.array([r.created for r in self.landmarks], dtype=int),
+            ids=st.ids(), positions=st.positions, covs=st.position_covs(),
+            rma=np.array([nan if X is None else X for X in rma]).reshape(n, 2, 2),
+            efa=np.array([nan if X is None else X for X in efa]).reshape(n, 2, 2),
+            created=st.created(),
         )
 
     # ------------------------------------------------------------------ events
@@ -177,247 +156,140 @@ class EkfSlam:
         raise InputError(f"event: expected Odometry or Scan, got {type(event).__name__}")
 
     def predict(self, odo: Odometry) -> None:
-        """EKF prediction with one odometer reading (method.md c.2)."""
+        """EKF prediction with one odometer reading (docs/method.md c.2)."""
         u = as_array("odometry.control", odo.control, (2,))
         if not (math.isfinite(odo.dt) and odo.dt > 0):
             raise InputError(f"odometry.dt: expected a finite value > 0, got {odo.dt!r}")
-        self.x, self.P = ekf.predict(self.x, self.P, u, odo.dt, self.model, self.U, self.Q)
+        self.state.set(*ekf.predict(self.state.x, self.state.P, u, odo.dt, self.model, self.U, self.Q))
         self._dt_since_scan += odo.dt
 
     def update(self, scan: Scan) -> ScanReport:
-        """Process one scan (method.md a.8 steps 2-10). An empty scan still ages the M/N windows."""
-        polar = np.asarray(scan.polar, dtype=float)
-        if polar.size == 0:
-            polar = np.empty((0, 2))
-        polar = as_array("scan.polar", polar, (None, 2))
-        if np.any(polar[:, 0] < 0):
-            raise InputError(f"scan.polar: expected ranges >= 0, got min {polar[:, 0].min()}")
+        """Process one scan (docs/method.md a.8 steps 2-10). An empty scan still ages the M/N windows."""
+        polar = _scan_polar(scan)
         k = scan.index
-        lc, ec = self.config.landmarks, self.config.extent
-        use_ext = ec.use_in_slam
-        dt_ext = self._dt_since_scan if self._scans else 0.0
+        dt = self._take_scan_interval()
+        prior = (self.state.x, self.state.P, self.state.rows_by_id())    # Decision 3
+        cand = self._sift(polar)                                          # 3
+        assoc = self._associate_and_update(polar, cand)                   # 4
+        associations = {r.id: np.array(a, dtype=int) for r, a in zip(self.state.landmarks, assoc) if a}
+        removed, assoc = self._remove_unseen(assoc, k)                    # 5
+        xy = self.measurement.to_world(self.state.pose, polar)            # seed eq. (3), updated pose
+        self._extent_step(polar, xy, assoc, prior, dt, k)                 # 6
+        clusters = self._cluster(polar, xy, cand)                         # 7
+        fresh = self._alpha_test(clusters)                                # 7
+        confirmed = self._confirm_and_augment(fresh, k)                   # 8-9
+        merged = self._merge()                                            # 10
+        n_assoc = sum(a.size for a in associations.values())
+        return ScanReport(k, polar.shape[0], int(cand.sum()), n_assoc, associations, removed,
+                          confirmed, merged, len(clusters), len(self.state.tentatives))
+
+    # ------------------------------------------------------------------ the steps
+    def _take_scan_interval(self) -> float:
+        """Time since the previous scan (0 at the first), for the extent prediction (a.4)."""
+        dt = self._dt_since_scan if self._scans else 0.0
         self._dt_since_scan = 0.0
         self._scans += 1
+        return dt
 
-        # Snapshot of the prior (Decision 3); the pure ekf functions never mutate x or P.
-        x_prior, P_prior = self.x, self.P
-        ids_prior = {r.id: j for j, r in enumerate(self.landmarks)}
+    def _sift(self, polar: np.ndarray) -> np.ndarray:
+        """Step 3: candidates for association, with the predicted pose (c.3; a.7.1)."""
+        st = self.state
+        shapes = self.extent.sifting([r.extent for r in st.landmarks])
+        ext_inv, has = shapes if shapes is not None else (None, None)
+        xy = self.measurement.to_world(st.pose, polar)
+        return sift(xy, st.positions, self.config.landmarks.sift_radius_m, ext_inv, has,
+                    self.config.extent.kappa)
 
-        # 3. Sifting with the predicted pose.
-        m = polar.shape[0]
-        L = self.x[3:].reshape(-1, 2)
-        xy_pred = polar_to_xy(self.x[:3], polar)
-        ext_inv, has_ext = None, None
-        if use_ext and ec.contour_sifting and self.landmarks:
-            has_ext = np.array([r.extent.initialized for r in self.landmarks])
-            Xs = np.array([r.extent.X if r.extent.initialized else np.eye(2) for r in self.landmarks])
-            # closed-form 2 x 2 inverses (X is SPD with eigenvalues >= eig_floor)
-            det = Xs[:, 0, 0] * Xs[:, 1, 1] - Xs[:, 0, 1] * Xs[:, 1, 0]
-            ext_inv = np.stack([np.stack([Xs[:, 1, 1], -Xs[:, 0, 1]], -1),
-                                np.stack([-Xs[:, 1, 0], Xs[:, 0, 0]], -1)], 1) / det[:, None, None]
-        cand = sift(xy_pred, L, lc.sift_radius_m, ext_inv, has_ext, ec.kappa)
-
-        # 4. Sequential association and EKF point updates.
-        assoc: list[list[int]] = [[] for _ in self.landmarks]
-        if self._associate_compiled is not None and self.landmarks:
-            self._associate_compiled_scan(polar, np.flatnonzero(cand), assoc)
-        else:
-            for i in np.flatnonzero(cand):
-                j, D, e, Hs, idx, Rj = self._best_match(polar[i], lc.n_nearest_assoc)
-                if j >= 0 and D < lc.beta:
-                    self.x, self.P = ekf.update(self.x, self.P, e, Hs, idx, Rj)
-                    assoc[j].append(int(i))
-        n_assoc = sum(len(a) for a in assoc)
-        associations = {r.id: np.array(a, dtype=int) for r, a in zip(self.landmarks, assoc) if a}
-
-        # 5. M/N windows and removal (every scan, Decision 8).
-        pos = self.x[:2]
-        L = self.x[3:].reshape(-1, 2)
-        half_fov = math.radians(self.config.filter.field_of_view_deg) / 2.0
-        drop = []
-        for j, r in enumerate(self.landmarks):
-            hit = bool(assoc[j])
-            dx, dy = L[j, 0] - pos[0], L[j, 1] - pos[1]
-            # in range: within R_max and, for a sensor that does not see all around, within its field of view
-            near = hit or (math.hypot(dx, dy) <= self.config.filter.max_range_m
-                           and (half_fov >= math.pi or abs(wrap_pi_scalar(math.atan2(dy, dx) - self.x[2])) <= half_fov))
-            r.assoc = push_bit(r.assoc, hit, lc.removal_window)
-            r.in_range = push_bit(r.in_range, near, lc.removal_window)
-            if should_remove(k, r.created, r.assoc, r.in_range, window=lc.removal_window, max_hits=lc.removal_max_hits):
-                drop.append(j)
-        removed = [self.landmarks[j].id for j in drop]
-        if drop:
-            self.x, self.P = ekf.remove_landmarks(self.x, self.P, drop)
-            keep = [j for j in range(len(self.landmarks)) if j not in set(drop)]
-            self.landmarks = [self.landmarks[j] for j in keep]
-            assoc = [assoc[j] for j in keep]
-
-        # The scan in the world frame with the updated pose, for steps 6-9 (seed eq. 3).
-        xy_upd = polar_to_xy(self.x[:3], polar)
-
-        # 6. Extent step.
-        if ec.track:
-            for j, r in enumerate(self.landmarks):
-                jp = ids_prior[r.id]
-                ip = 3 + 2 * jp
-                if ec.use_posterior_landmark:
-                    c, C = self.x[3 + 2 * j: 5 + 2 * j], self.P[3 + 2 * j: 5 + 2 * j, 3 + 2 * j: 5 + 2 * j]
-                else:
-                    c, C = x_prior[ip: ip + 2], P_prior[ip: ip + 2, ip: ip + 2]
-                self._extent_step(r, polar[assoc[j]], xy_upd[assoc[j]], c, C, dt_ext, k)
-
-        # 7. Clustering of Z \ Z^s and the alpha test.
-        rest = np.flatnonzero(~cand)
-        clusters = []
-        if rest.size >= lc.cluster_min_samples:
-            xy_rest = xy_upd[rest]
-            labels = dbscan_labels(xy_rest, lc.cluster_eps_m, lc.cluster_min_samples)
-            clusters = clusters_of(polar[rest], xy_rest, labels, rest)
-        fresh = [c for c in clusters if self._min_log_distance(c.centre_polar, lc.n_nearest_new) > lc.alpha]
-
-        # 8-9. Rule 2 / Rule 1 confirmation and augmentation.
-        confirmed, self.tentatives = rule2_step(
-            self.tentatives, fresh, gate=lc.tentative_gate_m, confirm_points=lc.confirm_points,
-            window=lc.confirm_window, hits=lc.confirm_hits)
-        new_ids = []
-        for c in confirmed:
-            self.x, self.P = ekf.augment(self.x, self.P, c.centre_polar, self.R)
-            self.landmarks.append(LandmarkRecord(self._next_id, k))
-            new_ids.append(self._next_id)
-            self._next_id += 1
-
-        # 10. Merging.
-        merged = self._merge()
-
-        return ScanReport(k, m, int(cand.sum()), n_assoc, associations, removed, new_ids, merged,
-                          len(clusters), len(self.tentatives))
-
-    # ------------------------------------------------------------------ pieces
-    def _associate_compiled_scan(self, polar: np.ndarray, cand: np.ndarray, assoc: list[list[int]]) -> None:
-        """Step 4 with the compiled loop (``filter.backend = "numba"``)."""
-        ec, lc = self.config.extent, self.config.landmarks
-        N = len(self.landmarks)
-        gX = np.zeros((N, 2, 2))
-        has = np.zeros(N, dtype=np.bool_)
-        if ec.use_in_slam and ec.inflate_noise:
-            for j, r in enumerate(self.landmarks):
-                if r.extent.X is not None:
-                    gX[j] = ec.gamma_z * r.extent.X
-                    has[j] = True
-        x, P = self.x.copy(), self.P.copy()
-        out = self._associate_compiled(x, P, polar, cand, self.R, gX, has, lc.n_nearest_assoc, lc.beta)
-        self.x, self.P = x, P
-        for i, j in zip(cand.tolist(), out.tolist()):
+    def _associate_and_update(self, polar: np.ndarray, cand: np.ndarray) -> list[list[int]]:
+        """Step 4: the associator scores the candidates and updates the state (c.4; a.7.2)."""
+        st = self.state
+        assoc: list[list[int]] = [[] for _ in st.landmarks]
+        if not st.landmarks:
+            return assoc
+        candidates = np.flatnonzero(cand)
+        spreads = Spreads(*self.extent.spreads([r.extent for r in st.landmarks]))
+        out = self.associator.associate(st, polar, candidates, self.R, spreads)
+        for i, j in zip(candidates.tolist(), np.asarray(out).tolist()):
             if j >= 0:
                 assoc[j].append(i)
+        return assoc
 
-    def _noise(self, j: int, Hp: np.ndarray, extent: bool = True) -> np.ndarray:
-        """R, or R_eff = R + H_p (gamma_z X) H_p^T for a landmark with extent (a.7.2).
+    def _remove_unseen(self, assoc: list[list[int]], k: int) -> tuple[list[int], list[list[int]]]:
+        """Step 5: M/N windows of every landmark and removal (c.5, Decision 8)."""
+        st, f, lc = self.state, self.config.filter, self.config.landmarks
+        in_view = in_sensor_view(st.positions, st.pose, f.max_range_m, f.field_of_view_deg)
+        hit = np.array([bool(a) for a in assoc], dtype=bool)
+        drop = removal_step(st.landmarks, hit, in_view, k, window=lc.removal_window, max_hits=lc.removal_max_hits)
+        removed = [r.id for r in st.remove(drop)]
+        gone = set(drop)
+        return removed, [a for j, a in enumerate(assoc) if j not in gone]
 
-        ``extent=False`` forces R: the new-cluster alpha test (c.6) is not part of a.7.2, which
-        inflates the noise only in the association test and the EKF update.
-        """
-        ec = self.config.extent
-        X = self.landmarks[j].extent.X
-        if extent and ec.use_in_slam and ec.inflate_noise and X is not None:
-            return self.R + ec.gamma_z * (Hp @ X @ Hp.T)
-        return self.R
+    def _extent_step(self, polar: np.ndarray, xy: np.ndarray, assoc: list[list[int]], prior, dt: float,
+                     k: int) -> None:
+        """Step 6: each landmark's extent with this scan's associated detections (a.3-a.5)."""
+        st, ext = self.state, self.extent
+        x_prior, P_prior, rows_prior = prior
+        pose, pose_cov = st.pose, st.pose_cov
+        for j, r in enumerate(st.landmarks):
+            if ext.posterior_centroid:
+                c, C = st.position(j), st.position_cov(j)
+            else:
+                i = st.index(rows_prior[r.id])
+                c, C = x_prior[i:i + 2], P_prior[i:i + 2, i:i + 2]
+            ext.step(r.extent, polar[assoc[j]], xy[assoc[j]], c, C, pose, pose_cov, dt, k)
 
-    def _nearest(self, s: np.ndarray, count: int, xs: list[float] | None = None) -> list[int]:
-        """Indices of the ``count`` landmarks Euclidean-nearest to detection ``s`` (current pose)."""
-        xs = self.x.tolist() if xs is None else xs
-        a = xs[2] + s[1]
-        zx, zy = xs[0] + s[0] * math.cos(a), xs[1] + s[0] * math.sin(a)
-        d2 = [(lx - zx) ** 2 + (ly - zy) ** 2 for lx, ly in zip(xs[3::2], xs[4::2])]
-        return sorted(range(len(d2)), key=d2.__getitem__)[:count]
+    def _cluster(self, polar: np.ndarray, xy: np.ndarray, cand: np.ndarray) -> list[Cluster]:
+        """Step 7: DBSCAN of the detections no landmark claimed (c.6)."""
+        lc = self.config.landmarks
+        rest = np.flatnonzero(~cand)
+        if rest.size < lc.cluster_min_samples:
+            return []
+        labels = dbscan_labels(xy[rest], lc.cluster_eps_m, lc.cluster_min_samples)
+        return clusters_of(polar[rest], xy[rest], labels, rest)
 
-    def _best_match(self, s: np.ndarray, count: int, extent: bool = True):
-        """Landmark of smallest log distance among the ``count`` nearest (c.4), with its update terms.
+    def _alpha_test(self, clusters: list[Cluster]) -> list[Cluster]:
+        """Step 7: keep the clusters farther than ``alpha`` in log distance from every landmark
+        (c.6; always with the plain R: a.7.2 inflates only association and update)."""
+        alpha = self.config.landmarks.alpha
+        return [c for c in clusters if self.associator.min_log_distance(self.state, c.centre_polar, self.R) > alpha]
 
-        Returns ``(j, D, e, Hs, idx, R_j)``; ``j = -1`` and ``D = inf`` without landmarks.
-        """
-        if not self.landmarks:
-            return (-1, math.inf, None, None, None, None)
-        xs = self.x.tolist()
-        js = self._nearest(s, count, xs)
-        ec = self.config.extent
-        gX = None
-        if extent and ec.use_in_slam and ec.inflate_noise:
-            gX = [None if self.landmarks[j].extent.X is None else (ec.gamma_z * self.landmarks[j].extent.X).tolist()
-                  for j in js]
-        j, D, e = ekf.score_landmarks(self.x, self.P, s, js, self.R, gX, xs)
-        if j < 0:
-            return (-1, math.inf, None, None, None, None)
-        Hs, idx = ekf.sparse_jacobian(self.x, j)
-        Rj = self._noise(j, Hs[:, 3:], extent)
-        return (j, D, np.array(e), Hs, idx, Rj)
-
-    def _min_log_distance(self, s: np.ndarray, count: int) -> float:
-        """Smallest log distance of detection ``s`` to its ``count`` nearest landmarks; inf if none.
-
-        Used by the alpha test of c.6, always with the plain R (see :meth:`_noise`).
-        """
-        if self._min_log_distance_compiled is not None:
-            return float(self._min_log_distance_compiled(self.x, self.P, float(s[0]), float(s[1]), count, self.R))
-        return self._best_match(s, count, extent=False)[1]
-
-    def _extent_step(self, r: LandmarkRecord, polar: np.ndarray, pts: np.ndarray, centroid: np.ndarray,
-                     centroid_cov: np.ndarray, dt: float, k: int) -> None:
-        """a.3-a.5 for one landmark; ``polar`` are this scan's associated detections and ``pts``
-        the same converted with the updated pose."""
-        ec = self.config.extent
-        st = r.extent
-        m = polar.shape[0]
-        if not st.initialized:
-            if m:
-                st.buffer.append(pts)
-                st.n_buffered += m
-            if st.n_buffered > ec.n_init:
-                fit = _fit_ellipse(np.concatenate(st.buffer), upper_bound=True)
-                if fit:
-                    st.X = fit[1]
-                    st.alpha = ec.alpha0
-                    st.X_efa = fit[1].copy()
-                    st.initialized_at = k
-                    st.efa_buffer = [np.concatenate(st.buffer)[-ec.efa_window:]]
-                    st.buffer = []
-                else:  # degenerate geometry: keep only the newest points and wait
-                    st.buffer = [np.concatenate(st.buffer)[-ec.n_init:]]
-                    st.n_buffered = st.buffer[0].shape[0]
-            return
-        if dt > 0.0:
-            st.X, st.alpha = _rm_predict(st.X, st.alpha, dt, ec.tau_s)
-        if m == 0:
-            return
-        W = _scan_W(self.x[:3], self.P[:3, :3], polar, self.R_extent, ec.w_mode)  # seed eq. (5), h.3
-        st.X, st.alpha = _rm_update(st.X, st.alpha, centroid, centroid_cov, pts, W, ec.gamma_z, ec.eig_floor_m2)
-        if ec.efa_mode == "sliding":
-            data = np.concatenate(st.efa_buffer + [pts])[-ec.efa_window:]
-            st.efa_buffer = [data]
-        else:
-            data = pts
-        if data.shape[0] >= 3:
-            fit = _fit_ellipse(data, not ec.efa_noise_correct, W if ec.efa_noise_correct else None)
-            if fit:
-                st.X_efa = fit[1]
+    def _confirm_and_augment(self, fresh: list[Cluster], k: int) -> list[int]:
+        """Steps 8-9: Rule 2 / Rule 1 and state augmentation (c.7, c.8); the new ids."""
+        st, lc = self.state, self.config.landmarks
+        confirmed, st.tentatives = rule2_step(st.tentatives, fresh, gate=lc.tentative_gate_m,
+                                              confirm_points=lc.confirm_points, window=lc.confirm_window,
+                                              hits=lc.confirm_hits)
+        return [st.add_landmark(c.centre_polar, self.R, k, self.extent.new()) for c in confirmed]
 
     def _merge(self) -> list[tuple[int, int]]:
-        """c.9: repeatedly drop the later-created landmark of the closest eligible pair."""
-        lc = self.config.landmarks
+        """Step 10 (c.9): repeatedly drop the later-created landmark of the closest eligible pair."""
+        st, lc = self.state, self.config.landmarks
         merged: list[tuple[int, int]] = []
-        while len(self.landmarks) >= 2 and (lc.merge_max_per_scan == 0 or len(merged) < lc.merge_max_per_scan):
-            pair = next_merge(self.x[3:].reshape(-1, 2), np.array([r.created for r in self.landmarks]),
-                              np.array([r.id for r in self.landmarks]), lc.merge_distance_m, lc.merge_axis_tol_m)
+        while st.n_landmarks >= 2 and (lc.merge_max_per_scan == 0 or len(merged) < lc.merge_max_per_scan):
+            pair = next_merge(st.positions, st.created(), st.ids(), lc.merge_distance_m,
+                              lc.merge_axis_tol_m)
             if pair is None:
                 break
             keep, drop = pair
-            survivor, gone = self.landmarks[keep], self.landmarks[drop]
-            if not survivor.extent.initialized and gone.extent.initialized:
-                survivor.extent = gone.extent  # c.9 [PROP]: the extent follows the merge
-            elif not survivor.extent.initialized and not gone.extent.initialized:
-                survivor.extent.buffer += gone.extent.buffer  # [PROP]: pool the pre-init detections
-                survivor.extent.n_buffered += gone.extent.n_buffered
-            self.x, self.P = ekf.remove_landmarks(self.x, self.P, [drop])
-            del self.landmarks[drop]
+            survivor = st.landmarks[keep]
+            (gone,) = st.remove([drop])
+            survivor.extent = self.extent.merge(survivor.extent, gone.extent)
             merged.append((survivor.id, gone.id))
         return merged
+
+
+def _readonly(a: np.ndarray) -> np.ndarray:
+    v = a.view()
+    v.flags.writeable = False
+    return v
+
+
+def _scan_polar(scan: Scan) -> np.ndarray:
+    """The scan's detections as a checked ``(m, 2)`` float array."""
+    polar = np.asarray(scan.polar, dtype=float)
+    if polar.size == 0:
+        polar = np.empty((0, 2))
+    polar = as_array("scan.polar", polar, (None, 2))
+    if np.any(polar[:, 0] < 0):
+        raise InputError(f"scan.polar: expected ranges >= 0, got min {polar[:, 0].min()}")
+    return polar

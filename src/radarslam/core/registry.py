@@ -1,0 +1,117 @@
+"""Named component registries: how configuration selects an implementation by name.
+
+Every injectable part of the estimator (motion model, measurement model, associator, extent
+estimator) has a :class:`Registry`. An implementation registers a *factory* under a name and a
+backend (``"python"`` unless said otherwise); the factory receives the configuration section that
+owns the component and returns the component. The built-in implementations are registered lazily
+(by module path), so listing the names imports nothing heavy, and code outside the package adds
+its own with :meth:`Registry.register` before building a filter::
+
+    from radarslam.core.registry import ASSOCIATORS
+
+    @ASSOCIATORS.register("my-associator")
+    def make(config):            # config: the EstimatorConfig (filter, landmarks, extent)
+        return MyAssociator(config.landmarks.beta)
+
+then ``landmarks.associator = "my-associator"`` in a TOML file selects it
+(``docs/architecture.md`` has the complete example).
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable
+from typing import Any
+
+from radarslam.core.errors import ConfigError
+
+DEFAULT_BACKEND = "python"
+
+
+class Registry:
+    """Factories by ``(name, backend)``.
+
+    Parameters
+    ----------
+    kind : str
+        What is registered ("associator", ...), for messages.
+    key : str
+        The config key that selects it (``"landmarks.associator"``), for messages.
+    """
+
+    def __init__(self, kind: str, key: str):
+        self.kind = kind
+        self.key = key
+        self._factories: dict[tuple[str, str], Callable[..., Any]] = {}
+        self._lazy: dict[tuple[str, str], str] = {}
+
+    def register(self, name: str, factory: Callable[..., Any] | None = None, *, backend: str = DEFAULT_BACKEND,
+                 replace: bool = False):
+        """Register ``factory`` under ``name`` (usable as a decorator when ``factory`` is omitted).
+
+        A name already taken by another factory is refused unless ``replace=True``.
+        """
+        if not isinstance(name, str) or not name:
+            raise ConfigError(f"{self.kind} name: expected a non-empty string, got {name!r}")
+
+        def add(f: Callable[..., Any]) -> Callable[..., Any]:
+            key = (name, backend)
+            if not replace and self._factories.get(key, f) is not f:
+                raise ConfigError(f"{self.key}: {self.kind} {name!r} ({backend}) is already registered; "
+                                  "pass replace=True to override it")
+            self._factories[key] = f
+            self._lazy.pop(key, None)
+            return f
+
+        return add if factory is None else add(factory)
+
+    def register_lazy(self, name: str, module: str, *, backend: str = DEFAULT_BACKEND) -> None:
+        """Declare that importing ``module`` registers ``name`` (for the built-ins)."""
+        if (name, backend) not in self._factories:
+            self._lazy[(name, backend)] = module
+
+    def unregister(self, name: str, *, backend: str = DEFAULT_BACKEND) -> None:
+        """Remove ``name`` (tests and plug-ins that clean up after themselves)."""
+        self._factories.pop((name, backend), None)
+        self._lazy.pop((name, backend), None)
+
+    def names(self) -> list[str]:
+        """Every registered name (any backend), sorted."""
+        return sorted({n for n, _ in self._factories} | {n for n, _ in self._lazy})
+
+    def backends(self, name: str) -> list[str]:
+        """The backends that implement ``name``."""
+        return sorted({b for n, b in self._factories if n == name} | {b for n, b in self._lazy if n == name})
+
+    def factory(self, name: str, backend: str = DEFAULT_BACKEND) -> Callable[..., Any]:
+        """The factory of ``(name, backend)``; a :class:`ConfigError` naming the key otherwise."""
+        key = (name, backend)
+        if key not in self._factories and key in self._lazy:
+            importlib.import_module(self._lazy[key])  # registers itself
+        if key in self._factories:
+            return self._factories[key]
+        if name not in self.names():
+            raise ConfigError(f"{self.key}: expected one of {self.names()}, got {name!r}")
+        raise ConfigError(f"{self.key}: {self.kind} {name!r} has no {backend!r} implementation "
+                          f"(filter.backend; it has {self.backends(name)})")
+
+    def create(self, name: str, *args: Any, backend: str = DEFAULT_BACKEND, **kwargs: Any) -> Any:
+        """Build the component: ``factory(name, backend)(*args, **kwargs)``."""
+        return self.factory(name, backend)(*args, **kwargs)
+
+
+MOTION_MODELS = Registry("motion model", "filter.motion_model")
+MEASUREMENT_MODELS = Registry("measurement model", "filter.measurement_model")
+ASSOCIATORS = Registry("associator", "landmarks.associator")
+EXTENT_ESTIMATORS = Registry("extent estimator", "extent.estimator")
+
+# The built-ins register themselves when their module is imported.
+MOTION_MODELS.register_lazy("unicycle", "radarslam.models.motion")
+MOTION_MODELS.register_lazy("ackermann", "radarslam.models.ackermann")
+MEASUREMENT_MODELS.register_lazy("range-azimuth", "radarslam.models.radar")
+ASSOCIATORS.register_lazy("nearest-neighbour", "radarslam.slam.association")
+ASSOCIATORS.register_lazy("nearest-neighbour", "radarslam.slam._numba", backend="numba")
+EXTENT_ESTIMATORS.register_lazy("rma-efa", "radarslam.extent.estimator")
+
+#: Every backend some built-in implements (``filter.backend``).
+BACKENDS = ("python", "numba")

@@ -1,0 +1,194 @@
+"""Extent-estimator components (docs/method.md a.3-a.7; docs/architecture.md "Extent estimator").
+
+An extent estimator owns every landmark's extent state and its life cycle: a fresh state when the
+landmark is born (:meth:`~ExtentEstimator.new`), buffering and initialisation, prediction and
+update with the detections associated in a scan (:meth:`~ExtentEstimator.step`), and the fusion
+of two states when landmarks merge (:meth:`~ExtentEstimator.merge`). It answers what SLAM needs
+from an extent: the sifting shapes (a.7.1), the spread ``gamma_z X`` that inflates the
+measurement noise (a.7.2), and a 2 x 2 matrix for snapshots and the GWD (plus a baseline matrix,
+EFA for the default).
+
+The default, ``"rma-efa"``, is the seed paper's random-matrix approach (RMA) initialised by ellipse
+fitting, with the per-scan EFA baseline tracked beside it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+
+from radarslam.core.registry import EXTENT_ESTIMATORS
+from radarslam.extent.ellipse_fit import _fit_ellipse
+from radarslam.extent.measurement import _scan_W
+from radarslam.extent.random_matrix import _rm_predict, _rm_update
+
+
+class ExtentEstimator(Protocol):
+    """What the orchestrator needs from an extent estimator (per-landmark states are opaque)."""
+
+    #: True: the update uses the landmark's posterior centroid of this scan; False: the prior (h.4).
+    posterior_centroid: bool
+
+    def new(self) -> Any:
+        """The extent state of a newborn landmark."""
+
+    def step(self, st: Any, polar: np.ndarray, pts: np.ndarray, centroid: np.ndarray, centroid_cov: np.ndarray,
+             pose: np.ndarray, pose_cov: np.ndarray, dt: float, k: int) -> None:
+        """One scan for one landmark: ``polar`` its associated detections (m, 2), ``pts`` the same in
+        the world frame (updated pose), ``dt`` the time since the last scan (0 at the first)."""
+
+    def merge(self, survivor: Any, gone: Any) -> Any:
+        """The extent state of the landmark that survives a merge (c.9)."""
+
+    def sifting(self, states: list[Any]) -> tuple[np.ndarray, np.ndarray] | None:
+        """``(X^-1 (N, 2, 2), has (N,))`` for the contour test of a.7.1, or None: radius test only."""
+
+    def spreads(self, states: list[Any]) -> tuple[np.ndarray, np.ndarray]:
+        """``(gamma_z X (N, 2, 2), has (N,))``: the extent part of R_eff (a.7.2); has all False: R."""
+
+    def matrix(self, st: Any) -> np.ndarray | None:
+        """The estimated extent (2, 2), or None before initialisation."""
+
+    def baseline(self, st: Any) -> np.ndarray | None:
+        """A second estimate for comparison (EFA for the default), or None."""
+
+
+@dataclass
+class RmaEfaState:
+    """Extent of one landmark: the buffer before initialisation; afterwards ``X``/``alpha`` (RMA)
+    and ``X_efa`` (the EFA baseline)."""
+
+    buffer: list[np.ndarray] = field(default_factory=list)
+    n_buffered: int = 0
+    X: np.ndarray | None = None
+    alpha: float = 0.0
+    X_efa: np.ndarray | None = None
+    efa_buffer: list[np.ndarray] = field(default_factory=list)
+    initialized_at: int | None = None
+
+    @property
+    def initialized(self) -> bool:
+        return self.X is not None
+
+
+def _inverse_2x2(Xs: np.ndarray) -> np.ndarray:
+    """Closed-form inverses of a stack ``(N, 2, 2)`` of non-singular matrices."""
+    det = Xs[:, 0, 0] * Xs[:, 1, 1] - Xs[:, 0, 1] * Xs[:, 1, 0]
+    return np.stack([np.stack([Xs[:, 1, 1], -Xs[:, 0, 1]], -1),
+                     np.stack([-Xs[:, 1, 0], Xs[:, 0, 0]], -1)], 1) / det[:, None, None]
+
+
+class RmaEfaEstimator:
+    """Random-matrix extents (seed eqs. 4-5; a.3-a.5) initialised by EFA, with the EFA baseline.
+
+    Parameters
+    ----------
+    extent_config : ExtentConfig
+        The ``extent`` section.
+    R_extent : ndarray (2, 2)
+        Detection noise of the extent step (``ExtentConfig.R``: the sensor's own).
+    """
+
+    name = "rma-efa"
+
+    def __init__(self, extent_config, R_extent: np.ndarray):
+        self.c = extent_config
+        self.R_extent = R_extent
+        self.posterior_centroid = bool(extent_config.use_posterior_landmark)
+        self.in_slam = bool(extent_config.use_in_slam)
+
+    def new(self) -> RmaEfaState:
+        return RmaEfaState()
+
+    # ------------------------------------------------------------------ what SLAM asks
+    def sifting(self, states: list[RmaEfaState]) -> tuple[np.ndarray, np.ndarray] | None:
+        if not (self.in_slam and self.c.contour_sifting and states):
+            return None
+        has = np.array([s.initialized for s in states])
+        Xs = np.array([s.X if s.initialized else np.eye(2) for s in states])
+        return _inverse_2x2(Xs), has
+
+    def spreads(self, states: list[RmaEfaState]) -> tuple[np.ndarray, np.ndarray]:
+        n = len(states)
+        gX, has = np.zeros((n, 2, 2)), np.zeros(n, dtype=np.bool_)
+        if self.in_slam and self.c.inflate_noise:
+            for j, s in enumerate(states):
+                if s.X is not None:
+                    gX[j] = self.c.gamma_z * s.X
+                    has[j] = True
+        return gX, has
+
+    def matrix(self, st: RmaEfaState) -> np.ndarray | None:
+        return st.X
+
+    def baseline(self, st: RmaEfaState) -> np.ndarray | None:
+        return st.X_efa
+
+    # ------------------------------------------------------------------ life cycle
+    def step(self, st: RmaEfaState, polar: np.ndarray, pts: np.ndarray, centroid: np.ndarray,
+             centroid_cov: np.ndarray, pose: np.ndarray, pose_cov: np.ndarray, dt: float, k: int) -> None:
+        """a.3 (buffer, then EFA initialisation), a.4 (RM prediction), a.5 (RM update) and the EFA
+        baseline (Decision 5) for one landmark and one scan."""
+        if not self.c.track:
+            return
+        if not st.initialized:
+            self._buffer(st, pts, k)
+            return
+        ec = self.c
+        if dt > 0.0:
+            st.X, st.alpha = _rm_predict(st.X, st.alpha, dt, ec.tau_s)
+        if polar.shape[0] == 0:
+            return
+        W = _scan_W(pose, pose_cov, polar, self.R_extent, ec.w_mode)  # seed eq. (5), h.3
+        st.X, st.alpha = _rm_update(st.X, st.alpha, centroid, centroid_cov, pts, W, ec.gamma_z, ec.eig_floor_m2)
+        if ec.efa_mode == "sliding":
+            data = np.concatenate(st.efa_buffer + [pts])[-ec.efa_window:]
+            st.efa_buffer = [data]
+        else:
+            data = pts
+        if data.shape[0] >= 3:
+            fit = _fit_ellipse(data, not ec.efa_noise_correct, W if ec.efa_noise_correct else None)
+            if fit:
+                st.X_efa = fit[1]
+
+    def _buffer(self, st: RmaEfaState, pts: np.ndarray, k: int) -> None:
+        """a.3: buffer detections; once more than ``n_init`` are held, initialise X by EFA (upper
+        bound) with ``alpha_0``; a degenerate fit keeps only the newest ``n_init`` and waits."""
+        ec = self.c
+        if pts.shape[0]:
+            st.buffer.append(pts)
+            st.n_buffered += pts.shape[0]
+        if st.n_buffered <= ec.n_init:
+            return
+        data = np.concatenate(st.buffer)
+        fit = _fit_ellipse(data, upper_bound=True)
+        if fit:
+            st.X = fit[1]
+            st.alpha = ec.alpha0
+            st.X_efa = fit[1].copy()
+            st.initialized_at = k
+            st.efa_buffer = [data[-ec.efa_window:]]
+            st.buffer = []
+        else:
+            st.buffer = [data[-ec.n_init:]]
+            st.n_buffered = st.buffer[0].shape[0]
+
+    def merge(self, survivor: RmaEfaState, gone: RmaEfaState) -> RmaEfaState:
+        """c.9 [PROP]: the surviving landmark keeps its own extent; it takes the other's when it has
+        none yet, and two uninitialised landmarks pool their buffered detections."""
+        if not survivor.initialized and gone.initialized:
+            return gone
+        if not survivor.initialized and not gone.initialized:
+            survivor.buffer += gone.buffer
+            survivor.n_buffered += gone.n_buffered
+        return survivor
+
+
+def _make_rma_efa(config) -> RmaEfaEstimator:
+    """From the ``extent`` section, with the extent step's noise from ``extent`` or ``filter``."""
+    return RmaEfaEstimator(config.extent, config.extent.R(config.filter.R))
+
+
+EXTENT_ESTIMATORS.register("rma-efa", _make_rma_efa)

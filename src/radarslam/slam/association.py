@@ -1,0 +1,129 @@
+"""Data association components (docs/method.md c.4, c.6; docs/architecture.md "Associator").
+
+An associator takes the scan's candidate detections (those that passed sifting), decides which
+landmark each belongs to and applies the EKF updates to the state; it also answers the alpha
+test's question "how far, in log distance, is this detection from the map?". The default is the
+paper's sequential nearest-neighbour scheme: each candidate in scan order is scored against its
+``N_s`` Euclidean-nearest landmarks by the log distance of APSIPA eq. (9) and, when the smallest
+is below ``beta``, updates the state at once (the next candidate sees the updated state).
+
+Two implementations of the same scheme are registered under ``"nearest-neighbour"``: this module's
+(``filter.backend = "python"``, the reference) and the compiled one of :mod:`._numba`
+(``"numba"``). Both run the kernels of :mod:`.ekf`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+from radarslam.core.registry import ASSOCIATORS
+from radarslam.slam import ekf
+from radarslam.slam.state import SlamState
+
+
+@dataclass(frozen=True)
+class Spreads:
+    """What the extent contributes to the measurement noise (docs/method.md a.7.2).
+
+    ``gX[j]`` is landmark ``j``'s ``gamma_z X_j`` where ``has[j]``; ``R_eff = R + H_p gX_j H_p^T``.
+    """
+
+    gX: np.ndarray  # (N, 2, 2)
+    has: np.ndarray  # (N,) bool
+
+    @classmethod
+    def none(cls, n: int) -> "Spreads":
+        return cls(np.zeros((n, 2, 2)), np.zeros(n, dtype=np.bool_))
+
+
+class Associator(Protocol):
+    """What the orchestrator needs from data association."""
+
+    def associate(self, state: SlamState, polar: np.ndarray, candidates: np.ndarray, R: np.ndarray,
+                  spreads: Spreads) -> np.ndarray:
+        """Associate ``polar[candidates]`` and update ``state`` (through ``state.set``).
+
+        Returns the landmark position ``j`` of each candidate, ``-1`` where none (shape
+        ``candidates.shape``).
+        """
+
+    def min_log_distance(self, state: SlamState, s: np.ndarray, R: np.ndarray) -> float:
+        """The smallest log distance of detection ``s = [r, phi]`` to the map (the alpha test of
+        c.6, with the plain ``R``); ``inf`` without landmarks."""
+
+
+def nearest_landmarks(xs: list[float], s, count: int) -> list[int]:
+    """Positions of the ``count`` landmarks Euclidean-nearest to detection ``s`` seen from the pose
+    of ``xs`` (the state as a list), nearest first, ties by position."""
+    a = xs[2] + s[1]
+    zx, zy = xs[0] + s[0] * math.cos(a), xs[1] + s[0] * math.sin(a)
+    d2 = [(lx - zx) ** 2 + (ly - zy) ** 2 for lx, ly in zip(xs[3::2], xs[4::2])]
+    return sorted(range(len(d2)), key=d2.__getitem__)[:count]
+
+
+class NearestNeighbourAssociator:
+    """Sequential nearest-neighbour association by the log distance (APSIPA eq. 9), Python.
+
+    Parameters
+    ----------
+    beta : float
+        Association threshold on the log distance.
+    n_nearest : int
+        ``N_s``: landmarks scored per detection.
+    n_nearest_new : int
+        ``N_a``: landmarks scored by the alpha test.
+    """
+
+    name = "nearest-neighbour"
+    backend = "python"
+
+    def __init__(self, beta: float, n_nearest: int, n_nearest_new: int):
+        self.beta = float(beta)
+        self.n_nearest = int(n_nearest)
+        self.n_nearest_new = int(n_nearest_new)
+
+    def best_match(self, state: SlamState, s: np.ndarray, count: int, R: np.ndarray,
+                   spreads: Spreads | None = None):
+        """The landmark of smallest log distance among the ``count`` nearest, with its update terms.
+
+        Returns ``(j, D, e, Hs, idx, R_j)``; ``j = -1`` and ``D = inf`` without landmarks.
+        """
+        if not state.landmarks:
+            return (-1, math.inf, None, None, None, None)
+        xs = state.x.tolist()
+        js = nearest_landmarks(xs, s, count)
+        gX = None
+        if spreads is not None and spreads.has.any():
+            gX = [spreads.gX[j].tolist() if spreads.has[j] else None for j in js]
+        j, D, e = ekf.score_landmarks(state.x, state.P, s, js, R, gX, xs)
+        if j < 0:
+            return (-1, math.inf, None, None, None, None)
+        Hs, idx = ekf.sparse_jacobian(state.x, j)
+        Rj = ekf.r_eff(R, Hs, spreads.gX[j]) if spreads is not None and spreads.has[j] else R
+        return (j, D, np.array(e), Hs, idx, Rj)
+
+    def associate(self, state: SlamState, polar: np.ndarray, candidates: np.ndarray, R: np.ndarray,
+                  spreads: Spreads) -> np.ndarray:
+        out = np.full(candidates.shape[0], -1, dtype=int)
+        for c, i in enumerate(candidates.tolist()):
+            j, D, e, Hs, idx, Rj = self.best_match(state, polar[i], self.n_nearest, R, spreads)
+            if j >= 0 and D < self.beta:
+                state.set(*ekf.update(state.x, state.P, e, Hs, idx, Rj))
+                out[c] = j
+        return out
+
+    def min_log_distance(self, state: SlamState, s: np.ndarray, R: np.ndarray) -> float:
+        return self.best_match(state, s, self.n_nearest_new, R)[1]
+
+
+def _make_nearest_neighbour(config) -> NearestNeighbourAssociator:
+    """From the ``landmarks`` section: ``beta``, ``n_nearest_assoc``, ``n_nearest_new``."""
+    lc = config.landmarks
+    return NearestNeighbourAssociator(lc.beta, lc.n_nearest_assoc, lc.n_nearest_new)
+
+
+ASSOCIATORS.register("nearest-neighbour", _make_nearest_neighbour)

@@ -1,0 +1,124 @@
+"""The estimator's state: the EKF mean and covariance, the landmark records and the tentatives.
+
+:class:`SlamState` owns ``x``, ``P`` and the bookkeeping beside them, and is the only object that
+maps a landmark to its rows of ``x`` and ``P`` (through :mod:`.layout`). The orchestrator
+(:class:`~radarslam.slam.filter.EkfSlam`) and the components (associator, extent estimator) read
+and replace ``x``/``P`` through it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from radarslam.landmarks.confirmation import Tentative
+from radarslam.slam import ekf
+from radarslam.slam.layout import POSE_DIM, landmark_index
+
+
+@dataclass
+class LandmarkRecord:
+    """Bookkeeping of one confirmed landmark (its centroid lives in the EKF state).
+
+    ``extent`` is the per-landmark state of the extent estimator (its own type, see
+    :mod:`radarslam.extent.estimator`).
+    """
+
+    id: int
+    created: int
+    assoc: int = 1  # M/N windows, newest-first bits; [1, 0, ..., 0] at creation (docs/method.md c.5)
+    in_range: int = 1
+    extent: Any = None
+
+
+@dataclass
+class SlamState:
+    """``x = [x, y, theta, p_1, ..., p_N]`` and ``P``, with one :class:`LandmarkRecord` per landmark
+    in state order, the unconfirmed landmarks of Rule 2, and the next landmark id."""
+
+    x: np.ndarray
+    P: np.ndarray
+    landmarks: list[LandmarkRecord] = field(default_factory=list)
+    tentatives: list[Tentative] = field(default_factory=list)
+    next_id: int = 0
+
+    @classmethod
+    def initial(cls, pose, pose_std) -> "SlamState":
+        """No landmarks; the pose ``N(pose, diag(pose_std^2))`` (docs/method.md b.5)."""
+        return cls(np.array(pose, dtype=float), np.diag(np.square(np.asarray(pose_std, dtype=float))))
+
+    # ---------------------------------------------------------------- index arithmetic
+    @staticmethod
+    def index(j: int) -> int:
+        """First row of landmark ``j`` in ``x`` and ``P``."""
+        return landmark_index(j)
+
+    @property
+    def n_landmarks(self) -> int:
+        return len(self.landmarks)
+
+    # ---------------------------------------------------------------- views (copies)
+    @property
+    def pose(self) -> np.ndarray:
+        return self.x[:POSE_DIM].copy()
+
+    @property
+    def pose_cov(self) -> np.ndarray:
+        return self.P[:POSE_DIM, :POSE_DIM].copy()
+
+    @property
+    def positions(self) -> np.ndarray:
+        """Landmark centroids ``(N, 2)``."""
+        return self.x[POSE_DIM:].reshape(-1, 2).copy()
+
+    def position(self, j: int) -> np.ndarray:
+        i = self.index(j)
+        return self.x[i:i + 2].copy()
+
+    def position_cov(self, j: int) -> np.ndarray:
+        i = self.index(j)
+        return self.P[i:i + 2, i:i + 2].copy()
+
+    def position_covs(self) -> np.ndarray:
+        """The landmarks' 2 x 2 marginal covariances ``(N, 2, 2)``."""
+        idx = np.array([self.index(j) for j in range(self.n_landmarks)], dtype=int)
+        covs = np.empty((idx.size, 2, 2))
+        covs[:, 0, 0] = self.P[idx, idx]
+        covs[:, 0, 1] = covs[:, 1, 0] = self.P[idx, idx + 1]
+        covs[:, 1, 1] = self.P[idx + 1, idx + 1]
+        return covs
+
+    def ids(self) -> np.ndarray:
+        return np.array([r.id for r in self.landmarks], dtype=int)
+
+    def created(self) -> np.ndarray:
+        return np.array([r.created for r in self.landmarks], dtype=int)
+
+    def rows_by_id(self) -> dict[int, int]:
+        """Landmark id -> its position ``j`` in the state."""
+        return {r.id: j for j, r in enumerate(self.landmarks)}
+
+    # ---------------------------------------------------------------- changes
+    def set(self, x: np.ndarray, P: np.ndarray) -> None:
+        """Replace the mean and covariance (same dimension)."""
+        self.x, self.P = x, P
+
+    def add_landmark(self, s: np.ndarray, R: np.ndarray, created: int, extent: Any = None) -> int:
+        """Augment the state with a landmark seen at ``s = [r, phi]`` (APSIPA eqs. 10-11); its id."""
+        self.x, self.P = ekf.augment(self.x, self.P, s, R)
+        lid = self.next_id
+        self.landmarks.append(LandmarkRecord(lid, created, extent=extent))
+        self.next_id += 1
+        return lid
+
+    def remove(self, js: list[int]) -> list[LandmarkRecord]:
+        """Delete landmarks ``js`` (state positions) from ``x``, ``P`` and the records; the removed records."""
+        if not js:
+            return []
+        gone = set(js)
+        self.x, self.P = ekf.remove_landmarks(self.x, self.P, list(js))
+        removed = [r for j, r in enumerate(self.landmarks) if j in gone]
+        self.landmarks = [r for j, r in enumerate(self.landmarks) if j not in gone]
+        return removed
