@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from radarslam.core.types import Odometry
 from radarslam.extent.ellipse_fit import _fit_ellipse
 from radarslam.extent.measurement import converted_measurement_covs, select_scan_W
 from radarslam.extent.random_matrix import rm_predict, rm_update
