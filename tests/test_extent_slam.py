@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pytest
 
 from radarslam.core.types import Odometry
 from radarslam.extent.ellipse_fit import _fit_ellipse

@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from radarslam.config import PROFILES, profile_config, to_dict
+from radarslam.config import profile_config, profile_overlay, to_dict
 from radarslam.core.errors import InputError
 from radarslam.core.types import Odometry, Scan
 from radarslam.landmarks.clustering import dbscan_labels
@@ -273,7 +273,7 @@ def test_dbscan_labels_equal_sklearn_dbscan(min_samples):
 def test_profiles_differ_only_in_decision1_values():
     a, b = to_dict(profile_config("apsipa")), to_dict(profile_config("reference"))
     diff = {(sec, k) for sec in a if isinstance(a[sec], dict) for k in a[sec] if a[sec][k] != b[sec][k]}
-    assert diff == {("landmarks", k) for k in PROFILES["reference"]["landmarks"]}
+    assert diff == {("landmarks", k) for k in profile_overlay("reference")["landmarks"]}
     assert b["landmarks"]["beta"] == 3.0 and a["landmarks"]["beta"] == 20.0
     assert math.isinf(a["landmarks"]["merge_axis_tol_m"]) and b["landmarks"]["merge_axis_tol_m"] == 0.8
 

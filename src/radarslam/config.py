@@ -1,9 +1,16 @@
 """Typed, validated configuration: nested dataclasses loaded from TOML.
 
 Every parameter of method.md has a field here with its unit in the name (``_m``, ``_deg``, ...);
-the algorithms read SI/radian values through the ``*_rad`` / covariance properties. Two named
-profiles ship (Decision 1): ``apsipa`` (default, APSIPA Table I) and ``reference`` (the authors'
-published implementation); they differ only in ``beta``, ``gamma_a`` and the merge rule.
+the algorithms read SI/radian values through the ``*_rad`` / covariance properties. Profiles are
+TOML overlays shipped in ``radarslam/profiles/`` whose comments give the reason for each value
+(docs/method.md Decision 1): ``apsipa`` (default, APSIPA Table I), ``reference`` (the authors'
+published implementation; they differ only in ``beta``, ``gamma_a`` and the merge rule) and
+``victoria-park`` (the real laser data).
+
+Each section has one owner: ``trajectory``, ``odometer``, ``radar`` and ``world`` the simulator;
+``filter``, ``landmarks`` and ``extent`` the estimator (:class:`EstimatorConfig`); ``metrics`` the
+evaluation. Component choices (``filter.motion_model``, ``filter.measurement_model``,
+``landmarks.associator``, ``extent.estimator``) are names in :mod:`radarslam.core.registry`.
 
 Fields marked [PROP] in their doc are assumptions where the papers are silent (method.md tags).
 """
@@ -15,6 +22,7 @@ import dataclasses
 import math
 import tomllib
 import typing
+from importlib import resources
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -34,14 +42,14 @@ from radarslam.core.registry import (
 
 def param(default: Any, doc: str, *, low: float | None = None, high: float | None = None,
           low_open: bool = False, choices: tuple[str, ...] | None = None, length: int | None = None,
-          registry: Registry | None = None) -> Any:
+          registry: Registry | None = None, profiles: bool = False) -> Any:
     """A config field with its documentation and admissible range (checked by :func:`validate`).
 
     ``registry``: the value names a component of that registry (checked against its names at
     validation time, so a component registered by any code is accepted).
     """
     meta = {"doc": doc, "low": low, "high": high, "low_open": low_open, "choices": choices, "length": length,
-            "registry": registry}
+            "registry": registry, "profiles": profiles}
     if isinstance(default, list):
         return field(default_factory=lambda d=default: list(d), metadata=meta)
     return field(default=default, metadata=meta)
@@ -211,8 +219,6 @@ class ExtentConfig:
 class MetricsConfig:
     """Evaluation (method.md e, f; Decision 7)."""
 
-    gt_convention: str = param("moment", "ground-truth ellipse of a car (Decision 7)",
-                               choices=("moment", "inscribed", "enclosing", "full"))
     match_gate_m: float = param(5.0, "[PROP] landmark <-> vehicle matching gate (m)", low=0.0, low_open=True)
     include_stale: bool = param(False, "match landmarks of departed vehicles in the GWD (h.10)")
     missed_grace_scans: int = param(5, "[PROP] scans in range before an unmapped vehicle counts as missed", low=0)
@@ -235,7 +241,7 @@ class Config:
     """Everything a run needs apart from the seed."""
 
     profile: str = param("apsipa", "parameter profile (Decision 1; victoria-park for the real data)",
-                         choices=("apsipa", "reference", "victoria-park"))
+                         profiles=True)
     trajectory: TrajectoryConfig = field(default_factory=TrajectoryConfig)
     odometer: OdometerConfig = field(default_factory=OdometerConfig)
     radar: RadarConfig = field(default_factory=RadarConfig)
@@ -251,48 +257,29 @@ class Config:
         return EstimatorConfig(self.filter, self.landmarks, self.extent)
 
 
-#: Profile overrides (Decision 1). Everything not listed is shared.
-PROFILES: dict[str, dict[str, dict[str, Any]]] = {
-    "apsipa": {"landmarks": {"beta": 20.0, "tentative_gate_m": 3.5, "merge_distance_m": 1.5,
-                             "merge_axis_tol_m": math.inf, "merge_max_per_scan": 0}},
-    "reference": {"landmarks": {"beta": 3.0, "tentative_gate_m": 5.0, "merge_distance_m": 3.0,
-                                "merge_axis_tol_m": 0.8, "merge_max_per_scan": 1}},
-    # Victoria Park (SICK LMS laser, tree trunks; issue 5). Values reasoned from the sensor and the
-    # scene, not searched against the GPS; the README gives the full-run sensitivity to them.
-    # - Ackermann model with ACFR's geometry (info.txt); the map frame is the first scan's pose.
-    # - R: one beam's noise about the trunk surface is 0.05 m / 0.5 deg (io.datasets NOISE, measured
-    #   against ACFR's fitted circles). SLAM uses point landmarks, so R must also hold a detection's
-    #   spread about the centroid: across the line of sight a trunk of radius rho spreads returns
-    #   uniformly over [-rho, rho] (std rho/sqrt(3) = 0.12 m for the median 0.42 m trunk, 0.7 deg at
-    #   10 m), along it by ~0.22 rho plus the visible-arc bias: 0.15 m / 1 deg.
-    # - U per 25 ms DR sample: wheel speed 0.1 m/s; steering 2 deg, the size of the correction ACFR's
-    #   own ASCII export applies to the potentiometer (up to 0.036 rad). Q ~ 0: slip is in U.
-    # - The sensor's 180 deg field of view and a 30 m range (the loader's max_range: beyond it a
-    #   trunk gets 1-2 beams). Gates scaled from cars (2-5 m) to trunks (0.1-1 m, metres apart):
-    #   sifting 1 m, DBSCAN eps 0.6 m (> 2 beam spacings at 30 m), tentative gate 1 m, merging 0.8 m;
-    #   alpha 30 so neighbouring trunks are not swallowed by the new-landmark test (alpha 500 blocks
-    #   anything within ~30 deg); beta 8; a cluster needs 4 detections.
-    # - The extent step's R is the sensor's own 0.05 m / 0.5 deg (see below).
-    "victoria-park": {
-        "filter": {"motion_model": "ackermann", "initial_pose": [0.0, 0.0, 0.0],
-                   "initial_pose_std": [0.01, 0.01, 0.001], "range_std_m": 0.15, "azimuth_std_deg": 1.0,
-                   "speed_std_mps": 0.1, "steering_std_deg": 2.0, "process_var_xy_m2": 1e-6,
-                   "process_var_heading_rad2": 1e-7, "max_range_m": 30.0, "field_of_view_deg": 180.0},
-        "landmarks": {"alpha": 30.0, "beta": 8.0, "sift_radius_m": 1.0, "cluster_eps_m": 0.6,
-                      "tentative_gate_m": 1.0, "merge_distance_m": 0.8, "confirm_points": 4},
-        # The extent step models the trunk's spread itself (gamma_z X), so its W takes the sensor's
-        # own noise; with the inflated SLAM R it would subtract the spread and shrink every trunk.
-        "extent": {"range_std_m": 0.05, "azimuth_std_deg": 0.5},
-    },
-}
+#: Where the profiles live: one TOML overlay per profile, its comments giving the reasons.
+PROFILE_DIR = "profiles"
+
+
+def list_profiles() -> list[str]:
+    """The shipped profiles (``src/radarslam/profiles/*.toml``), sorted."""
+    return sorted(p.name[:-5] for p in resources.files("radarslam").joinpath(PROFILE_DIR).iterdir()
+                  if p.name.endswith(".toml"))
+
+
+def profile_overlay(name: str) -> dict:
+    """The overrides of profile ``name`` as a nested dict (the TOML file's content)."""
+    if name not in list_profiles():
+        raise ConfigError(f"profile: expected one of {list_profiles()}, got {name!r}")
+    with resources.files("radarslam").joinpath(PROFILE_DIR, f"{name}.toml").open("rb") as fh:
+        return tomllib.load(fh)
 
 
 def profile_config(name: str = "apsipa") -> Config:
-    """The default :class:`Config` of profile ``name``."""
-    if name not in PROFILES:
-        raise ConfigError(f"profile: expected one of {sorted(PROFILES)}, got {name!r}")
+    """The default :class:`Config` of profile ``name`` (the defaults overlaid by its TOML file)."""
+    overlay = profile_overlay(name)
     cfg = Config(profile=name)
-    _apply(cfg, PROFILES[name], "")
+    _apply(cfg, overlay, "")
     return cfg
 
 
@@ -324,6 +311,8 @@ def _check_value(key: str, typ: Any, meta: dict, value: Any) -> Any:
             raise ConfigError(f"{key}: expected a string, got {value!r}")
         if meta.get("choices") and value not in meta["choices"]:
             raise ConfigError(f"{key}: expected one of {list(meta['choices'])}, got {value!r}")
+        if meta.get("profiles") and value not in list_profiles():
+            raise ConfigError(f"{key}: expected one of {list_profiles()}, got {value!r}")
         if meta.get("registry") is not None and value not in meta["registry"].names():
             raise ConfigError(f"{key}: expected one of {meta['registry'].names()}, got {value!r}")
         return value

@@ -4,17 +4,18 @@ from __future__ import annotations
 
 import argparse
 
-from radarslam.config import PROFILES, Config, load_config, profile_config, validate
+from radarslam.config import Config, list_profiles, load_config, profile_config, validate
+from radarslam.core.registry import BACKENDS
 
 
 def add_config_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--profile", choices=sorted(PROFILES), default=None,
+    p.add_argument("--profile", choices=list_profiles(), default=None,
                    help="parameter profile (default: the config file's, else apsipa)")
     p.add_argument("--config", metavar="FILE.toml", default=None, help="configuration overrides (TOML)")
 
 
 def add_backend_arg(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--backend", choices=("python", "numba"), default=None,
+    p.add_argument("--backend", choices=BACKENDS, default=None,
                    help="association loop: python (reference, default) or numba (compiled; the [fast] extra)")
 
 

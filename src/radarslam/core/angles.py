@@ -17,15 +17,8 @@ def wrap_pi(angle):
     return float(a) if np.ndim(a) == 0 else a
 
 
-def wrap_2pi(angle):
-    """Wrap to ``[0, 2 pi)``, the heading convention of the state (method.md a.1)."""
-    a = np.mod(np.asarray(angle, dtype=np.float64), TWO_PI)
-    a = np.where(a >= TWO_PI, 0.0, a)  # np.mod of a tiny negative can round up to exactly 2 pi
-    return float(a) if np.ndim(a) == 0 else a
-
-
 def wrap_pi_scalar(a: float) -> float:
-    """Fast scalar :func:`wrap_pi` for the inner loops (no array round trip)."""
+    """Scalar :func:`wrap_pi` for the inner loops (no array round trip). A kernel: numba compiles it."""
     a = math.fmod(a + math.pi, TWO_PI)
     if a <= 0.0:
         a += TWO_PI
@@ -33,7 +26,9 @@ def wrap_pi_scalar(a: float) -> float:
 
 
 def wrap_2pi_scalar(a: float) -> float:
-    """Fast scalar :func:`wrap_2pi`."""
+    """Wrap to ``[0, 2 pi)``, the heading convention of the state (docs/method.md a.1).
+
+    A kernel: numba compiles it as it is (:mod:`radarslam.slam._numba`)."""
     a = math.fmod(a, TWO_PI)
     if a < 0.0:
         a += TWO_PI

@@ -14,18 +14,43 @@ its own with :meth:`Registry.register` before building a filter::
         return MyAssociator(config.landmarks.beta)
 
 then ``landmarks.associator = "my-associator"`` in a TOML file selects it
-(``docs/architecture.md`` has the complete example).
+(``docs/architecture.md`` has the complete example). For the command line, a plug-in module is
+imported before any name is looked up when it is named in the environment variable
+``RADARSLAM_PLUGINS`` (comma-separated module names) or declared by an installed package as an
+entry point of the group ``radarslam.plugins``.
 """
 
 from __future__ import annotations
 
 import importlib
+import os
 from collections.abc import Callable
 from typing import Any
 
 from radarslam.core.errors import ConfigError
 
 DEFAULT_BACKEND = "python"
+PLUGIN_ENV = "RADARSLAM_PLUGINS"
+PLUGIN_GROUP = "radarslam.plugins"
+_plugins_loaded = False
+
+
+def load_plugins() -> None:
+    """Import the plug-in modules of ``RADARSLAM_PLUGINS`` and of the ``radarslam.plugins`` entry
+    points (once); each registers its components when imported."""
+    global _plugins_loaded
+    if _plugins_loaded:
+        return
+    _plugins_loaded = True
+    from importlib.metadata import entry_points
+
+    for name in filter(None, (m.strip() for m in os.environ.get(PLUGIN_ENV, "").split(","))):
+        try:
+            importlib.import_module(name)
+        except ImportError as exc:
+            raise ConfigError(f"{PLUGIN_ENV}: cannot import plug-in module {name!r} ({exc})") from None
+    for ep in entry_points(group=PLUGIN_GROUP):
+        ep.load()
 
 
 class Registry:
@@ -77,6 +102,7 @@ class Registry:
 
     def names(self) -> list[str]:
         """Every registered name (any backend), sorted."""
+        load_plugins()
         return sorted({n for n, _ in self._factories} | {n for n, _ in self._lazy})
 
     def backends(self, name: str) -> list[str]:
@@ -85,6 +111,7 @@ class Registry:
 
     def factory(self, name: str, backend: str = DEFAULT_BACKEND) -> Callable[..., Any]:
         """The factory of ``(name, backend)``; a :class:`ConfigError` naming the key otherwise."""
+        load_plugins()
         key = (name, backend)
         if key not in self._factories and key in self._lazy:
             importlib.import_module(self._lazy[key])  # registers itself

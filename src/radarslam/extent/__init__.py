@@ -11,8 +11,6 @@ first never forms an import cycle.
 
 from __future__ import annotations
 
-from typing import Any
-
 from radarslam.extent.ellipse import ellipse_to_matrix, li_orientation, matrix_to_ellipse
 from radarslam.extent.ellipse_fit import FIT_FAILED, fit_ellipse
 from radarslam.extent.measurement import (
@@ -23,7 +21,6 @@ from radarslam.extent.measurement import (
 )
 from radarslam.extent.random_matrix import rm_predict, rm_update
 
-_LAZY = {"gaussian_wasserstein_distance", "gaussian_wasserstein_distances"}
 
 __all__ = [
     "FIT_FAILED",
@@ -32,19 +29,9 @@ __all__ = [
     "converted_measurement_covs",
     "ellipse_to_matrix",
     "fit_ellipse",
-    "gaussian_wasserstein_distance",
-    "gaussian_wasserstein_distances",
     "li_orientation",
     "matrix_to_ellipse",
     "rm_predict",
     "rm_update",
     "select_scan_W",
 ]
-
-
-def __getattr__(name: str) -> Any:
-    if name in _LAZY:
-        from radarslam.metrics import gwd
-
-        return getattr(gwd, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

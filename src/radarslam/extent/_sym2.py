@@ -21,14 +21,14 @@ an unclipped PSD matrix ``g = sqrt`` reproduces ``(A + sqrt(det A) I) / sqrt(tr 
 
 Measured with timeit on the development machine (CPython 3.11, numpy 2.4, scipy 1.17):
 :func:`spectral` 0.16 us and :func:`sqrt2` 0.4 us, against 4.4 us for ``np.linalg.eigh``,
-2.6 us for ``scipy.linalg.sqrtm`` and 9 us for ``core.linalg.spd_sqrt`` on a 2 x 2 array.
+2.6 us for ``scipy.linalg.sqrtm`` and 9 us for an eigendecomposition-based square root on a 2 x 2 array.
 """
 
 from __future__ import annotations
 
 import math
 
-#: Eigenvalue clip inside (inverse) square roots (method.md h.6); equals ``core.linalg.SQRT_EIG_CLIP``.
+#: Eigenvalue clip inside (inverse) square roots (method.md h.6).
 EIG_CLIP = 1e-12
 
 
@@ -61,11 +61,6 @@ def from_spectral(g1: float, g2: float, p: float, q: float) -> tuple[float, floa
     s = 0.5 * (g1 + g2)
     d = 0.5 * (g1 - g2)
     return s + d * p, d * q, s - d * p
-
-
-def major_angle(p: float, q: float) -> float:
-    """Angle in ``(-pi/2, pi/2]`` of the major eigenvector, from ``(p, q)`` of :func:`spectral`."""
-    return 0.5 * math.atan2(q, p)
 
 
 def sqrt2(a: float, b: float, c: float, clip: float = EIG_CLIP) -> tuple[float, float, float]:

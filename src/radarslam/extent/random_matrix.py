@@ -136,8 +136,8 @@ def _rm_update(X: np.ndarray, alpha: float, centroid: np.ndarray, centroid_cov: 
     ``eig_floor >= 0``. Inputs are never modified; returns a new (2, 2) array and a float.
 
     Written on plain floats with the closed-form 2 x 2 square roots of :mod:`._sym2`:
-    4.7 us for m = 6, against 59 us for the same equations on numpy arrays with the eigh-based
-    ``core.linalg`` roots (61 us with ``scipy.linalg.sqrtm``).
+    4.7 us for m = 6, against 59 us for the same equations on numpy arrays with
+    eigendecomposition-based roots (61 us with ``scipy.linalg.sqrtm``).
     """
     x11, x12, _, x22 = X.ravel().tolist()
     pts = points.tolist()

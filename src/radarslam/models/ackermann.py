@@ -100,7 +100,7 @@ class AckermannModel:
         v_e, alpha = float(u[0]), float(u[1])
         phi = float(pose[2])
         t = math.tan(alpha)
-        v_c = v_e / (1.0 - t * self.H / self.L)
+        v_c = centre_speed(v_e, alpha, self.L, self.H)
         w = v_c * t / self.L
         c, s = math.cos(phi), math.sin(phi)
         l, b = self.lever, self.b

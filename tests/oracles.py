@@ -1,4 +1,6 @@
-"""Small dense linear-algebra helpers for symmetric positive (semi-)definite matrices."""
+"""Reference linear algebra for the tests: general eigendecomposition-based square roots, eigenvalue
+floors and a PSD check, independent of the closed-form 2 x 2 kernels of ``radarslam.extent._sym2``
+that the package uses."""
 
 from __future__ import annotations
 
