@@ -10,7 +10,6 @@ import scipy.linalg
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import radarslam.extent as extent
 from radarslam.core.errors import InputError
 from radarslam.extent import ellipse_to_matrix
 from radarslam.metrics.gwd import _gwd, _gwds, gaussian_wasserstein_distance, gaussian_wasserstein_distances
@@ -32,16 +31,6 @@ def random_ellipse(rng: np.random.Generator):
     center = rng.normal(scale=10, size=2)
     X = ellipse_to_matrix(rng.uniform(0.1, 5.0, 2), rng.uniform(0, math.pi))
     return center, X
-
-
-def test_reexported_from_extent():
-    assert extent.gaussian_wasserstein_distance is gaussian_wasserstein_distance
-    assert extent.gaussian_wasserstein_distances is gaussian_wasserstein_distances
-    from radarslam.extent import gaussian_wasserstein_distance as g
-
-    assert g is gaussian_wasserstein_distance
-    with pytest.raises(AttributeError):
-        extent.no_such_name  # noqa: B018
 
 
 def test_identical_ellipses_give_zero():
