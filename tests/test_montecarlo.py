@@ -1,8 +1,10 @@
-"""The Monte Carlo runner: determinism across executors, resume, refusal, corruption, crashes."""
+"""The Monte Carlo runner: determinism across executors, resume, refusal, corruption, crashes, variants."""
 
 from __future__ import annotations
 
+import json
 import os
+import re
 from dataclasses import replace
 
 import numpy as np
@@ -10,9 +12,15 @@ import pytest
 
 import radarslam.experiments.montecarlo as mc
 from radarslam.config import profile_config
-from radarslam.core.errors import InputError, RadarSlamError
+from radarslam.core.errors import ConfigError, InputError, RadarSlamError
 from radarslam.experiments.montecarlo import load_results, run_montecarlo, trial_seed
-from radarslam.experiments.store import TrialStore, decode_trial
+from radarslam.experiments.single import run_trial
+from radarslam.experiments.store import TrialStore, config_hash, decode_trial, encode_trial
+from radarslam.experiments.variants import DEFAULT_VARIANTS, Variant, apply_variant
+
+#: A third variant: the extent in SLAM without its contour sifting (an ablation).
+NOSIFT = Variant("nosift", "With extent, no contour sifting", {"extent": {"use_in_slam": True, "contour_sifting": False}})
+THREE = DEFAULT_VARIANTS + (NOSIFT,)
 
 from conftest import require
 
@@ -130,11 +138,11 @@ def test_corrupt_trial_is_detected_and_recomputed(reference_run, tmp_path, damag
 _REAL_COMPUTE = mc.compute_trial
 
 
-def _dies_on_trial_3(config, seed, trial):
+def _dies_on_trial_3(config, seed, trial, variants=DEFAULT_VARIANTS):
     """Module level, so the pool pickles it by name; forked workers resolve it."""
     if trial == 3:
         os._exit(9)  # a worker killed mid-trial
-    return _REAL_COMPUTE(config, seed, trial)
+    return _REAL_COMPUTE(config, seed, trial, variants)
 
 
 def test_killed_worker_keeps_finished_trials(reference_run, tmp_path, monkeypatch):
@@ -153,10 +161,10 @@ def test_killed_worker_keeps_finished_trials(reference_run, tmp_path, monkeypatc
 def test_ctrl_c_keeps_finished_trials(reference_run, tmp_path, monkeypatch):
     real = mc.compute_trial
 
-    def interrupted_at_3(config, seed, trial):
+    def interrupted_at_3(config, seed, trial, variants=DEFAULT_VARIANTS):
         if trial == 3:
             raise KeyboardInterrupt
-        return real(config, seed, trial)
+        return real(config, seed, trial, variants)
 
     monkeypatch.setattr(mc, "compute_trial", interrupted_at_3)
     with pytest.raises(KeyboardInterrupt):
@@ -175,13 +183,31 @@ def test_bad_arguments(tmp_path, kw, match):
         run_montecarlo(short_config(), 1, args.pop("n_trials"), tmp_path, progress=False, **args)
 
 
-def test_progress_line_format():
+def _parse_progress(line):
+    m = re.fullmatch(r"\[(#*)(\.*)\] (\d+)/(\d+) trials  ([\d.]+) trials/s  ETA (\d+)m(\d\d)s", line)
+    assert m, line
+    return len(m[1]), len(m[2]), int(m[3]), int(m[4]), float(m[5]), 60 * int(m[6]) + int(m[7])
+
+
+def test_progress_line_counts_rate_and_eta():
+    p = mc.Progress(10, 2, enabled=False)
+    p.t0 = 100.0
+    p.update(3)  # 5 of 10 done, 3 new in 1.5 s: 2 trials/s, 5 left: ETA 2.5 s
+    fill, empty, done, total, rate, eta = _parse_progress(p.line(now=101.5))
+    assert (fill, empty, done, total) == (15, 15, 5, 10)
+    assert rate == 2.0 and eta == 2
+
+
+def test_progress_without_tty_writes_a_first_line_then_one_per_decile():
     import io
 
     buf = io.StringIO()
-    p = mc.Progress(10, 2, stream=buf)
-    p.update()
-    assert "3/10 trials" in buf.getvalue() and "trials/s" in buf.getvalue() and "ETA" in buf.getvalue()
+    p = mc.Progress(20, 0, stream=buf)
+    for _ in range(20):
+        p.update()
+    lines = buf.getvalue().splitlines()
+    done = [_parse_progress(ln)[2] for ln in lines]
+    assert done == [1, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20]  # the first, then a new decile every 2 of 20
 
 
 def test_cli_montecarlo_and_report(tmp_path, capsys):
@@ -194,13 +220,20 @@ def test_cli_montecarlo_and_report(tmp_path, capsys):
             "--quiet"]
     assert main(args) == 0
     captured = capsys.readouterr()
-    assert "## Table 1" in captured.out and "3 trials" in captured.err
-    assert (out / "report" / "table1.md").is_file() and (out / "report" / "report.json").is_file()
+    assert captured.out == (out / "report" / "report.md").read_text()  # the report is what is printed
+    res = load_results(out)
+    assert res["trials"].tolist() == [1, 2, 3] and res["seed"] == 5
+    assert res["noext"]["position_error_m"].shape == (3, 30)
+    rep = json.loads((out / "report" / "report.json").read_text())
+    assert rep["table1"]["n_runs"] == 3 and rep["meta"]["trials"] == [1, 2, 3]
+    stamps = {t: os.stat(TrialStore.read(out).path(t)).st_mtime_ns for t in (1, 2, 3)}
     assert main(args) == 0  # resume: nothing to compute
-    assert "0 computed, 3 resumed" in capsys.readouterr().err
+    assert {t: os.stat(TrialStore.read(out).path(t)).st_mtime_ns for t in (1, 2, 3)} == stamps
+    capsys.readouterr()
     assert main(["montecarlo", "--trials", "3", "--seed", "6", "--out", str(out), "--quiet", "--no-report"]) == 1
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "seed 5, not 6" in err
+    assert err.count("\n") == 1 and str(out) in err
+    assert json.loads((out / "manifest.json").read_text())["seed"] == 5  # refused, not overwritten
 
 
 def test_cli_reproduce_small(tmp_path, capsys, monkeypatch):
@@ -208,11 +241,18 @@ def test_cli_reproduce_small(tmp_path, capsys, monkeypatch):
     from radarslam.cli.main import main
 
     out = tmp_path / "rep"
-    assert main(["reproduce", "--trials", "2", "--jobs", "1", "--out", str(out), "--quiet", "--no-report"]) == 0
-    man = (out / "manifest.json").read_text()
-    assert '"seed": 1' in man and "apsipa" in man
+    ov = tmp_path / "noinfl.toml"
+    ov.write_text("[extent]\nuse_in_slam = true\ninflate_noise = false\n")
+    assert main(["reproduce", "--trials", "2", "--jobs", "1", "--out", str(out), "--quiet", "--no-report",
+                 "--variant", f"noinfl={ov}"]) == 0
+    man = json.loads((out / "manifest.json").read_text())
+    assert man["seed"] == 1 and man["config"]["profile"] == "apsipa"
+    assert [(v["name"], v["label"]) for v in man["variants"]] == [("noext", "No extent"), ("ext", "With extent"),
+                                                                  ("noinfl", "noinfl")]
     res = load_results(out)
-    assert res["noext"]["position_error_m"].shape == (2, 120)
+    assert res["noext"]["position_error_m"].shape == (2, 120) and res["noinfl"]["poses"].shape == (2, 120, 3)
+    np.testing.assert_array_equal(res["noinfl"]["poses"][1], run_trial(
+        apply_variant(res["config"], res["variants"][2]), trial_seed(1, 2)).record.poses)
 
 
 def test_cli_montecarlo_interrupt_reports_stored_trials(tmp_path, capsys, monkeypatch):
@@ -220,34 +260,20 @@ def test_cli_montecarlo_interrupt_reports_stored_trials(tmp_path, capsys, monkey
 
     real = mc.compute_trial
 
-    def interrupted_at_2(config, seed, trial):
+    def interrupted_at_2(config, seed, trial, variants=DEFAULT_VARIANTS):
         if trial == 2:
             raise KeyboardInterrupt
-        return real(config, seed, trial)
+        return real(config, seed, trial, variants)
 
     monkeypatch.setattr(mc, "compute_trial", interrupted_at_2)
     cfg = tmp_path / "short.toml"
     cfg.write_text("[trajectory]\nn_steps = 20\n")
     rc = main(["montecarlo", "--trials", "3", "--config", str(cfg), "--out", str(tmp_path / "o"), "--quiet"])
     assert rc == 130
-    assert "1 finished trials are stored" in capsys.readouterr().err
-
-
-def test_numba_backend_agrees_with_python_backend():
-    """Same associations on every scan; poses and maps agree to rounding (not bit for bit)."""
-    require("numba")
-    from radarslam.experiments.single import run_trial
-
-    base = profile_config()
-    fast = replace(base, filter=replace(base.filter, backend="numba"))
-    for seed in (1, 2, 3):
-        for ext in (False, True):
-            a, b = run_trial(base, seed, use_extent=ext), run_trial(fast, seed, use_extent=ext)
-            assert np.array_equal(a.record.n_associated, b.record.n_associated)
-            assert np.array_equal(a.record.n_landmarks, b.record.n_landmarks)
-            assert np.allclose(a.record.poses, b.record.poses, atol=1e-9, rtol=0)
-            assert np.allclose(a.record.pose_covs, b.record.pose_covs, atol=1e-12, rtol=1e-9)
-            assert np.allclose(a.record.maps[-1].positions, b.record.maps[-1].positions, atol=1e-9)
+    good, bad = TrialStore.read(tmp_path / "o").inventory(3)
+    assert good == [1] and not bad
+    said = re.search(r"(\d+) finished trials are stored in (\S+);", capsys.readouterr().err)
+    assert said and int(said[1]) == len(good) and said[2] == str(tmp_path / "o")
 
 
 def test_numba_backend_monte_carlo_is_deterministic_across_jobs(tmp_path):
@@ -264,3 +290,148 @@ def test_backend_is_part_of_the_directory_identity(reference_run):
     with pytest.raises(InputError, match="different configuration"):
         run_montecarlo(replace(cfg, filter=replace(cfg.filter, backend="numba")), 11, 4, reference_run,
                        progress=False)
+
+
+# --------------------------------------------------------------------------------------------- variants
+
+
+@pytest.fixture(scope="module")
+def three_variant_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("mc_three")
+    run_montecarlo(short_config(), 11, 3, out, jobs=1, progress=False, variants=THREE)
+    return out
+
+
+def test_variants_run_on_the_same_data(reference_run, three_variant_run):
+    """The default two of a 3-variant run equal, bit for bit, a 2-variant run of the same seed; the
+    third is the filter of its own configuration on that same simulated trial."""
+    for t in (1, 2, 3):
+        a, b = arrays_of(reference_run, t), arrays_of(three_variant_run, t)
+        assert set(a) < set(b) and {k.split("/")[0] for k in set(b) - set(a)} == {"nosift"}
+        for k in a:
+            assert np.array_equal(a[k], b[k], equal_nan=True), (t, k)
+    tr = run_trial(apply_variant(short_config(), NOSIFT), trial_seed(11, 2))
+    b = arrays_of(three_variant_run, 2)
+    assert np.array_equal(tr.scenario.truth.poses, b["true_poses"])
+    assert np.array_equal(tr.record.poses, b["nosift/poses"])
+    assert np.array_equal(tr.metrics["position_error_m"], b["nosift/position_error_m"])
+    assert not np.array_equal(b["nosift/poses"], b["ext/poses"])  # the overlay changed the estimate
+
+
+def test_load_results_has_every_variant_in_order(three_variant_run):
+    res = load_results(three_variant_run)
+    assert res["variants"] == THREE
+    for v in THREE:
+        assert res[v.name]["poses"].shape == (3, 40, 3) and res[v.name]["nees"].shape == (3, 40)
+        assert res[v.name]["scalars"]["position_avg_rmse_m"].shape == (3,)
+    _, meta = decode_trial(TrialStore.read(three_variant_run).path(1))
+    assert meta["variants"] == ["noext", "ext", "nosift"] and set(meta["filter_seconds"]) == {"noext", "ext", "nosift"}
+    man = json.loads((three_variant_run / "manifest.json").read_text())
+    assert [(v["name"], v["label"], v["overlay"]) for v in man["variants"]] == \
+        [(v.name, v.label, v.overlay) for v in THREE]
+
+
+@pytest.mark.parametrize("variants", [DEFAULT_VARIANTS, THREE[::-1],
+                                      DEFAULT_VARIANTS + (Variant("nosift", "renamed", NOSIFT.overlay),),
+                                      DEFAULT_VARIANTS + (Variant("nosift", NOSIFT.label, {"extent": {"kappa": 2.0}}),)])
+def test_another_variant_list_is_refused(three_variant_run, variants):
+    before = {p.name: p.stat().st_mtime_ns for p in (three_variant_run / "trials").iterdir()}
+    with pytest.raises(InputError) as ei:
+        run_montecarlo(short_config(), 11, 3, three_variant_run, progress=False, variants=variants)
+    msg = str(ei.value)
+    assert msg.startswith(f"--out: {three_variant_run} holds a Monte Carlo with") and "\n" not in msg
+    assert {p.name: p.stat().st_mtime_ns for p in (three_variant_run / "trials").iterdir()} == before
+
+
+def test_same_variant_list_resumes(three_variant_run, tmp_path):
+    import shutil
+
+    shutil.copytree(three_variant_run, tmp_path / "d")
+    s = run_montecarlo(short_config(), 11, 4, tmp_path / "d", progress=False, variants=list(THREE))
+    assert (s.resumed, s.computed) == (3, 1)
+    assert load_results(tmp_path / "d")["nosift"]["poses"].shape == (4, 40, 3)
+
+
+def test_trial_file_missing_a_variant_is_recomputed(three_variant_run, tmp_path):
+    """A valid, checksummed file that lacks one variant of the manifest is corrupt for this directory."""
+    import shutil
+
+    out = tmp_path / "d"
+    shutil.copytree(three_variant_run, out)
+    store = TrialStore.read(out)
+    arrays, meta = decode_trial(store.path(2))
+    partial = {k: v for k, v in arrays.items() if not k.startswith("nosift/")}
+    for listed in (["noext", "ext"], ["noext", "ext", "nosift"]):  # meta honest, or claiming all three
+        store.save(2, encode_trial(partial, dict(meta, variants=listed)))
+        decode_trial(store.path(2))  # a sound file in itself
+        good, bad = store.inventory(3)
+        assert good == [1, 3] and list(bad) == [2] and "nosift" in bad[2]
+        assert list(load_results(out)["corrupt"]) == [2]
+    logs = []
+    s = run_montecarlo(short_config(), 11, 3, out, progress=False, log=logs.append, variants=THREE)
+    assert (s.recomputed_corrupt, s.computed) == (1, 1) and any("trial 2" in ln for ln in logs)
+    assert decode_trial(store.path(2))[0].keys() == arrays.keys()
+    for k, v in decode_trial(store.path(2))[0].items():
+        assert np.array_equal(v, arrays[k], equal_nan=True), k
+
+
+def test_bad_variant_is_refused_before_anything_is_written(tmp_path):
+    bad = Variant("bad", "Bad", {"extent": {"use_in_slm": True}})
+    with pytest.raises(ConfigError) as ei:
+        run_montecarlo(short_config(), 1, 1, tmp_path / "x", progress=False, variants=DEFAULT_VARIANTS + (bad,))
+    assert str(ei.value).startswith("variant 'bad': extent.use_in_slm: unknown key")
+    assert not (tmp_path / "x").exists()
+    with pytest.raises(InputError, match="'ext' twice"):
+        run_montecarlo(short_config(), 1, 1, tmp_path / "y", progress=False,
+                       variants=DEFAULT_VARIANTS + (Variant("ext", "again", {}),))
+    assert not (tmp_path / "y").exists()
+
+
+def test_directory_written_before_variants_resumes_with_the_default_two(reference_run, tmp_path):
+    """A manifest without variants (hash of the configuration alone) and trial files whose meta lists
+    none are the default two: they resume and load; any other variant list is refused."""
+    import shutil
+
+    out = tmp_path / "old"
+    shutil.copytree(reference_run, out)
+    man = json.loads((out / "manifest.json").read_text())
+    del man["variants"]
+    man["config_hash"] = config_hash(short_config())
+    (out / "manifest.json").write_text(json.dumps(man))
+    store = TrialStore.read(out)
+    for t in (1, 2, 3, 4):
+        arrays, meta = decode_trial(store.path(t))
+        del meta["variants"]
+        store.save(t, encode_trial(arrays, meta))
+    assert store.variants == DEFAULT_VARIANTS and store.inventory(4) == ([1, 2, 3, 4], {})
+    s = run_montecarlo(short_config(), 11, 4, out, progress=False)
+    assert (s.resumed, s.computed) == (4, 0)
+    res = load_results(out)
+    assert np.array_equal(res["ext"]["poses"], load_results(reference_run)["ext"]["poses"])
+    with pytest.raises(InputError, match="variants \\['noext', 'ext'\\], not \\['noext', 'ext', 'nosift'\\]"):
+        run_montecarlo(short_config(), 11, 4, out, progress=False, variants=THREE)
+
+
+def test_cli_variant_appends_to_the_default_two(tmp_path, capsys):
+    from radarslam.cli.main import main
+
+    cfg = tmp_path / "short.toml"
+    cfg.write_text("[trajectory]\nn_steps = 20\n")
+    ov = tmp_path / "nosift.toml"
+    ov.write_text('label = "no sifting"\n[extent]\nuse_in_slam = true\ncontour_sifting = false\n')
+    out = tmp_path / "mc"
+    base = ["montecarlo", "--trials", "2", "--config", str(cfg), "--out", str(out), "--quiet", "--no-report"]
+    assert main(base + ["--variant", f"nosift={ov}"]) == 0
+    res = load_results(out)
+    assert [(v.name, v.label) for v in res["variants"]] == [("noext", "No extent"), ("ext", "With extent"),
+                                                           ("nosift", "no sifting")]
+    assert res["nosift"]["poses"].shape == (2, 20, 3)
+    capsys.readouterr()
+    assert main(base) == 1  # the same directory without the variant
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and str(out) in err
+    for arg in (f"ext={ov}", f"Bad={ov}", "nosift", f"x={tmp_path / 'missing.toml'}"):
+        assert main(base[:-4] + ["--out", str(tmp_path / "other"), "--quiet", "--variant", arg]) == 1
+        err = capsys.readouterr().err
+        assert err.startswith("radarslam montecarlo: error: --variant") and err.count("\n") == 1
+    assert not (tmp_path / "other").exists()

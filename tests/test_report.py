@@ -1,4 +1,5 @@
-"""The Monte Carlo report: Table 1 with bootstrap intervals, Fig. 3 curves, Table II, NEES, files, CLI."""
+"""The Monte Carlo report: Table 1 with bootstrap intervals, Fig. 3 curves, Table II, NEES, files, CLI,
+for any number of variants."""
 
 from __future__ import annotations
 
@@ -17,14 +18,18 @@ from scipy.stats import chi2
 from radarslam.config import profile_config
 from radarslam.core.errors import InputError
 from radarslam.experiments.montecarlo import load_results, run_montecarlo
-from radarslam.experiments.report import (GWD_KEY_STEPS, bootstrap_avg_rmse, bootstrap_counts, gwd_curves,
-                                          landmark_table, nees_summary, table1, write_report)
+from radarslam.experiments.report import (GWD_KEY_STEPS, REPORT_CONVENTIONS, gwd_curves, landmark_table, nees_summary,
+                                          table1, write_report)
+from radarslam.experiments.variants import DEFAULT_VARIANTS, Variant
 from radarslam.metrics.pose import avg_rmse, chi2_band
+from radarslam.metrics.statistics import rmse_over_defined
 from radarslam.viz import have_matplotlib
 
 from conftest import require
 
 N_TRIALS, N_STEPS, SEED = 4, 40, 7
+#: A third variant for the "any number of variants" tests.
+NOSIFT = Variant("nosift", "With extent, no contour sifting", {"extent": {"use_in_slam": True, "contour_sifting": False}})
 
 
 @pytest.fixture(scope="module")
@@ -40,6 +45,16 @@ def mc_dir(tmp_path_factory):
 @pytest.fixture(scope="module")
 def res(mc_dir):
     return load_results(mc_dir)
+
+
+@pytest.fixture(scope="module")
+def mc3_dir(tmp_path_factory):
+    """A 3-variant Monte Carlo of 3 short trials with its report."""
+    cfg = profile_config()
+    cfg = replace(cfg, trajectory=replace(cfg.trajectory, n_steps=30))
+    out = tmp_path_factory.mktemp("mc3")
+    run_montecarlo(cfg, 3, 3, out, jobs=1, progress=False, log=lambda s: None, variants=DEFAULT_VARIANTS + (NOSIFT,))
+    return out
 
 
 @pytest.fixture(scope="module")
@@ -86,21 +101,14 @@ def test_table1_point_estimates_are_avg_rmse_of_the_stacked_errors(res):
         assert t1["heading_avg_rmse_deg"][c]["estimate"] == avg_rmse(np.degrees(res[c]["heading_error_rad"]))
     for m in ("position_avg_rmse_m", "heading_avg_rmse_deg"):
         r = t1[m]
-        assert r["change_pct"]["estimate"] == pytest.approx(100 * (r["ext"]["estimate"] / r["noext"]["estimate"] - 1),
-                                                            rel=1e-12)
-        for c in ("noext", "ext", "change_pct"):
-            lo, hi = r[c]["ci"]
-            assert lo <= r[c]["estimate"] <= hi
-
-
-def test_bootstrap_replicates_equal_avg_rmse_of_resampled_trials():
-    rng = np.random.default_rng(5)
-    e = np.abs(rng.standard_normal((9, 6)))
-    idx = np.random.default_rng(11).integers(0, 9, size=(50, 9))
-    counts = bootstrap_counts(9, 50, np.random.default_rng(11))
-    assert np.array_equal(counts, [np.bincount(i, minlength=9) for i in idx])
-    boot = bootstrap_avg_rmse(e, counts)
-    np.testing.assert_allclose(boot, [avg_rmse(e[i]) for i in idx], rtol=1e-13)
+        ch = r["change_pct"]
+        assert list(ch) == ["ext"]  # the baseline has no change against itself
+        assert ch["ext"]["estimate"] == pytest.approx(100 * (r["ext"]["estimate"] / r["noext"]["estimate"] - 1),
+                                                      rel=1e-12)
+        for d in (r["noext"], r["ext"], ch["ext"]):
+            lo, hi = d["ci"]
+            assert lo <= d["estimate"] <= hi
+    assert t1["variants"] == ["noext", "ext"] and t1["baseline"] == "noext"
 
 
 def test_table1_is_reproducible_and_seeded():
@@ -117,8 +125,11 @@ def test_ci_is_narrower_with_more_trials():
     many = table1(synthetic_errors(rng, 250, sigma), 500)
     # Width ~ 1/sqrt(N): expect a factor ~5; ask for 2.
     for m in ("position_avg_rmse_m", "heading_avg_rmse_deg"):
-        for c in ("noext", "ext", "change_pct"):
-            assert width(many[m][c]["ci"]) < 0.5 * width(few[m][c]["ci"])
+        for path in (("noext",), ("ext",), ("change_pct", "ext")):
+            a, b = many[m], few[m]
+            for key in path:
+                a, b = a[key], b[key]
+            assert width(a["ci"]) < 0.5 * width(b["ci"])
 
 
 def test_paired_change_interval_follows_the_pairing():
@@ -128,9 +139,38 @@ def test_paired_change_interval_follows_the_pairing():
     a = rng.standard_normal((30, 5))
     data = {"noext": {"position_error_m": np.abs(a), "heading_error_rad": a},
             "ext": {"position_error_m": 0.9 * np.abs(a), "heading_error_rad": 0.9 * a}}
-    r = table1(data, 300)["position_avg_rmse_m"]["change_pct"]
+    r = table1(data, 300)["position_avg_rmse_m"]["change_pct"]["ext"]
     assert r["estimate"] == pytest.approx(-10.0, abs=1e-9)
     np.testing.assert_allclose(r["ci"], [-10.0, -10.0], atol=1e-9)
+
+
+def test_every_variant_gets_its_paired_change_against_the_first():
+    """Three variants, the third exactly 0.8 x the first on every trial, the second independent noise:
+    the third's paired change is -20 % with a collapsed interval; the second's interval covers its
+    estimate; the baseline is whichever variant comes first."""
+    rng = np.random.default_rng(8)
+    a = rng.standard_normal((40, 5))
+    b = rng.standard_normal((40, 5))
+    data = {"variants": [{"name": "base", "label": "Base"}, {"name": "other", "label": "Other"},
+                         Variant("scaled", "Scaled", {})],
+            "base": {"position_error_m": np.abs(a), "heading_error_rad": a},
+            "other": {"position_error_m": np.abs(b), "heading_error_rad": b},
+            "scaled": {"position_error_m": 0.8 * np.abs(a), "heading_error_rad": 0.8 * a}}
+    t1 = table1(data, 300)
+    assert t1["variants"] == ["base", "other", "scaled"] and t1["baseline"] == "base"
+    assert t1["labels"] == {"base": "Base", "other": "Other", "scaled": "Scaled"}
+    for m in ("position_avg_rmse_m", "heading_avg_rmse_deg"):
+        ch = t1[m]["change_pct"]
+        assert list(ch) == ["other", "scaled"]
+        assert ch["scaled"]["estimate"] == pytest.approx(-20.0, abs=1e-9)
+        np.testing.assert_allclose(ch["scaled"]["ci"], [-20.0, -20.0], atol=1e-9)
+        assert ch["other"]["ci"][0] <= ch["other"]["estimate"] <= ch["other"]["ci"][1]
+        assert width(ch["other"]["ci"]) > 5.0
+    # the same data with "scaled" first: the baseline moves and the change inverts (1 / 0.8 - 1 = +25 %)
+    data["variants"] = data["variants"][::-1]
+    t1r = table1(data, 300)
+    assert t1r["baseline"] == "scaled"
+    assert t1r["position_avg_rmse_m"]["change_pct"]["base"]["estimate"] == pytest.approx(25.0, abs=1e-9)
 
 
 def test_bootstrap_ci_covers_the_true_value_95_percent_of_the_time():
@@ -150,7 +190,7 @@ def test_bootstrap_ci_covers_the_true_value_95_percent_of_the_time():
     for i in range(reps):
         r = table1(synthetic_errors(rng, n_runs, sigma), n_boot, rng_seed=i)["position_avg_rmse_m"]
         hit += r["noext"]["ci"][0] <= true_rmse <= r["noext"]["ci"][1]
-        hit_change += r["change_pct"]["ci"][0] <= true_change <= r["change_pct"]["ci"][1]
+        hit_change += r["change_pct"]["ext"]["ci"][0] <= true_change <= r["change_pct"]["ext"]["ci"][1]
     tol = 3 * math.sqrt(0.95 * 0.05 / reps)
     assert abs(hit / reps - 0.95) < tol, hit / reps
     assert abs(hit_change / reps - 0.95) < tol, hit_change / reps
@@ -159,8 +199,12 @@ def test_bootstrap_ci_covers_the_true_value_95_percent_of_the_time():
 def test_table1_rejects_bad_input(res):
     with pytest.raises(InputError, match="n_boot"):
         table1(res, n_boot=0)
-    with pytest.raises(InputError, match="res"):
+    with pytest.raises(InputError, match="res: expected a load_results dict with a 'ext' variant"):
         table1({"noext": res["noext"]})
+    with pytest.raises(InputError, match="'noext' twice"):
+        table1({"variants": ["noext", "noext"], "noext": res["noext"]})
+    with pytest.raises(InputError, match="at least one"):
+        table1({"variants": []})
 
 
 # --------------------------------------------------------------------------------------------- Fig. 3
@@ -301,6 +345,23 @@ EXPECTED_FILES = {"table1.md", "table1.csv", "table2_landmarks.md", "table2_land
 FIGURES = {"fig3_gwd_moment.png", "fig3_gwd_full.png", "fig2_trial1.png", "nees.png"}
 
 
+def md_sections(text: str) -> dict[str, str]:
+    """``{"## heading": body}`` of a Markdown document."""
+    out, head = {}, None
+    for ln in text.splitlines():
+        if ln.startswith("## "):
+            head = ln
+            out[head] = ""
+        elif head is not None:
+            out[head] += ln + "\n"
+    return out
+
+
+def read_csv(path) -> list[dict]:
+    with open(path, newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
 def test_write_report_writes_every_file(mc_dir, report, res):
     rdir = mc_dir / "report"
     expected = EXPECTED_FILES | (FIGURES if have_matplotlib() else set())
@@ -310,9 +371,12 @@ def test_write_report_writes_every_file(mc_dir, report, res):
 
     rows = check_markdown_table((rdir / "table1.md").read_text())
     assert rows[0] == ["metric", "No extent", "No extent 95% CI", "With extent", "With extent 95% CI",
-                       "change (%)", "change 95% CI (paired)", "paper No / With"]
+                       "change With extent vs No extent (%)", "change With extent 95% CI (paired)",
+                       "paper No / With extent"]
     assert [r[0] for r in rows[1:]] == ["position avg. RMSE (m)", "heading avg. RMSE (deg)"]
     assert float(rows[1][1]) == pytest.approx(avg_rmse(res["noext"]["position_error_m"]), abs=5e-4)
+    assert float(rows[2][5]) == pytest.approx(report["table1"]["heading_avg_rmse_deg"]["change_pct"]["ext"]["estimate"],
+                                              abs=0.05)
     rows2 = check_markdown_table((rdir / "table2_landmarks.md").read_text())
     assert rows2[0] == ["metric", "No extent", "With extent", "APSIPA low / high clutter"] and len(rows2) == 9
 
@@ -320,6 +384,7 @@ def test_write_report_writes_every_file(mc_dir, report, res):
     assert "NaN" not in text and "Infinity" not in text
     rj = json.loads(text)
     assert rj["meta"]["n_trials"] == N_TRIALS and rj["meta"]["seed"] == SEED and rj["meta"]["trials"] == [1, 2, 3, 4]
+    assert [v["name"] for v in rj["meta"]["variants"]] == ["noext", "ext"] and rj["meta"]["baseline"] == "noext"
     pos = report["table1"]["position_avg_rmse_m"]["ext"]["estimate"]
     assert rj["table1"]["position_avg_rmse_m"]["ext"]["estimate"] == pos
     assert rj["landmarks"]["configs"]["ext"]["mean_removal_delay"] is None      # NaN -> null
@@ -335,16 +400,115 @@ def test_write_report_writes_every_file(mc_dir, report, res):
         np.testing.assert_array_equal(g["noext_rma_n_runs"], report["gwd"][conv]["configs"]["noext"]["rma"]["n_runs"])
     nees = np.genfromtxt(rdir / "nees.csv", delimiter=",", names=True)
     np.testing.assert_allclose(nees["ext_avg_nees"], res["ext"]["nees"].mean(axis=0), rtol=1e-15)
-    with open(rdir / "table1.csv", newline="") as fh:
-        t1 = {r["metric"]: r for r in csv.DictReader(fh)}
+    t1 = {r["metric"]: r for r in read_csv(rdir / "table1.csv")}
     assert float(t1["heading_avg_rmse_deg"]["ext"]) == report["table1"]["heading_avg_rmse_deg"]["ext"]["estimate"]
+    assert float(t1["position_avg_rmse_m"]["change_pct_ext_ci_low"]) == \
+        report["table1"]["position_avg_rmse_m"]["change_pct"]["ext"]["ci"][0]
     t2 = np.genfromtxt(rdir / "table2_landmarks.csv", delimiter=",", names=True, dtype=None, encoding=None)
-    assert "mean_false" in list(t2["metric"]) and t2.dtype.names == ("metric", "noext", "ext")
+    assert t2.dtype.names == ("metric", "noext", "ext")
+    assert float(t2["noext"][list(t2["metric"]).index("mean_false")]) == report["landmarks"]["configs"]["noext"]["mean_false"]
 
     md = (rdir / "report.md").read_text()
-    for needle in ("## Table 1", "convention `moment`", "convention `full`", "## Table II", "NEES",
-                   f"trials: {N_TRIALS}", f"seed {SEED}", "corrupt trial files skipped: none"):
-        assert needle in md, needle
+    sec = md_sections(md)
+    assert list(sec) == ["## Variants", "## Table 1: platform pose error (seed Table 1)",
+                         "## Fig. 3: RMSE of the average GWD (m), convention `moment`",
+                         "## Fig. 3: RMSE of the average GWD (m), convention `full`",
+                         "## Table II: landmark management (APSIPA Table II)", "## Pose NEES (3 dof)"] + (
+        ["## Fig. 2"] if have_matplotlib() else [])
+    assert (rdir / "table1.md").read_text().strip() in sec["## Table 1: platform pose error (seed Table 1)"]
+    assert (rdir / "table2_landmarks.md").read_text().strip() in sec["## Table II: landmark management (APSIPA Table II)"]
+    head = re.search(r"- trials: (\d+) \(numbers ([\d, -]+)\), seed (\d+), profile `(\w+)`, K = (\d+) scans", md)
+    assert head and (int(head[1]), head[2], int(head[3]), head[4], int(head[5])) == (N_TRIALS, "1-4", SEED, "apsipa",
+                                                                                     N_STEPS)
+    nees_rows = check_markdown_table(sec["## Pose NEES (3 dof)"])
+    assert [r[0] for r in nees_rows[1:]] == ["No extent", "With extent"]
+    assert [float(r[4]) for r in nees_rows[1:]] == [pytest.approx(report["nees"]["configs"][c]["time_avg"], abs=5e-3)
+                                                    for c in ("noext", "ext")]
+
+
+def test_a_third_variant_appears_in_every_output(mc3_dir):
+    """No code knows "nosift": every table, CSV and figure of the report covers it from the data."""
+    rep = write_report(mc3_dir, n_boot=200)
+    res = load_results(mc3_dir)
+    rdir = mc3_dir / "report"
+    names, labels = ["noext", "ext", "nosift"], ["No extent", "With extent", NOSIFT.label]
+    assert [v.name for v in res["variants"]] == names
+
+    # report.json
+    rj = json.loads((rdir / "report.json").read_text())
+    assert [(v["name"], v["label"]) for v in rj["meta"]["variants"]] == list(zip(names, labels))
+    assert rj["meta"]["variants"][2]["overlay"] == NOSIFT.overlay
+    for m, key, f in (("position_avg_rmse_m", "position_error_m", lambda e: e),
+                      ("heading_avg_rmse_deg", "heading_error_rad", np.degrees)):
+        est = {n: avg_rmse(f(res[n][key])) for n in names}
+        assert [rj["table1"][m][n]["estimate"] for n in names] == [est[n] for n in names]
+        assert list(rj["table1"][m]["change_pct"]) == ["ext", "nosift"]
+        assert rj["table1"][m]["change_pct"]["nosift"]["estimate"] == pytest.approx(
+            100 * (est["nosift"] / est["noext"] - 1), rel=1e-12)
+    assert list(rj["landmarks"]["configs"]) == names and list(rj["nees"]["configs"]) == names
+    assert all(list(rj["gwd"][c]["configs"]) == names for c in REPORT_CONVENTIONS)
+
+    # table1.md / table1.csv
+    rows = check_markdown_table((rdir / "table1.md").read_text())
+    assert rows[0][1::2][:3] == labels and f"change {NOSIFT.label} vs No extent (%)" in rows[0]
+    col = rows[0].index(NOSIFT.label)
+    assert float(rows[1][col]) == pytest.approx(rep["table1"]["position_avg_rmse_m"]["nosift"]["estimate"], abs=5e-4)
+    t1 = {r["metric"]: r for r in read_csv(rdir / "table1.csv")}
+    for m in ("position_avg_rmse_m", "heading_avg_rmse_deg"):
+        r = rep["table1"][m]
+        assert float(t1[m]["nosift"]) == r["nosift"]["estimate"]
+        assert [float(t1[m]["nosift_ci_low"]), float(t1[m]["nosift_ci_high"])] == r["nosift"]["ci"]
+        assert [float(t1[m][f"change_pct_nosift{s}"]) for s in ("", "_ci_low", "_ci_high")] == \
+            [r["change_pct"]["nosift"]["estimate"], *r["change_pct"]["nosift"]["ci"]]
+
+    # table2_landmarks.md / .csv
+    rows2 = check_markdown_table((rdir / "table2_landmarks.md").read_text())
+    assert rows2[0][1:4] == labels
+    t2 = {r["metric"]: r for r in read_csv(rdir / "table2_landmarks.csv")}
+    assert float(t2["mean_false"]["nosift"]) == pytest.approx(res["nosift"]["false_per_scan"].mean(), rel=1e-15)
+    assert float(t2["mean_landmarks_final"]["nosift"]) == pytest.approx(
+        res["nosift"]["scalars"]["n_landmarks_final"].mean(), rel=1e-15)
+
+    # fig3 CSVs and the NEES CSV
+    for conv in REPORT_CONVENTIONS:
+        g = np.genfromtxt(rdir / f"fig3_gwd_{conv}.csv", delimiter=",", names=True)
+        for est in ("rma", "efa"):
+            expect, n = rmse_over_defined(res["nosift"][f"gwd_{est}_{conv}"])
+            np.testing.assert_allclose(g[f"nosift_{est}_rmse_m"], expect, rtol=1e-15, equal_nan=True)
+            np.testing.assert_array_equal(g[f"nosift_{est}_n_runs"], n)
+    nees = np.genfromtxt(rdir / "nees.csv", delimiter=",", names=True)
+    for n in names:
+        np.testing.assert_allclose(nees[f"{n}_avg_nees"], res[n]["nees"].mean(axis=0), rtol=1e-15)
+
+    # report.md: the variants table and a column or row of the variant in every table
+    sec = md_sections((rdir / "report.md").read_text())
+    vrows = check_markdown_table(sec["## Variants"])
+    assert [(r[0], r[1]) for r in vrows[1:]] == [(f"`{n}`", lab) for n, lab in zip(names, labels)]
+    assert json.loads(vrows[3][2].strip("`")) == NOSIFT.overlay
+    for conv in REPORT_CONVENTIONS:
+        body = sec[f"## Fig. 3: RMSE of the average GWD (m), convention `{conv}`"]
+        header = check_markdown_table(body.split("\n\n| curve")[0])[0]
+        assert f"{NOSIFT.label} RMA" in header and f"runs ({NOSIFT.label})" in header
+    nees_rows = check_markdown_table(sec["## Pose NEES (3 dof)"])
+    assert [r[0] for r in nees_rows[1:]] == labels
+
+
+def test_figures_draw_every_variant_distinctly(mc3_dir, tmp_path):
+    require("matplotlib")
+    from radarslam.viz.report import plot_gwd_curves, plot_nees
+
+    res = load_results(mc3_dir)
+    labels = [v.label for v in res["variants"]]
+    curves = gwd_curves(res, "full")
+    entries = plot_gwd_curves(tmp_path / "g.png", curves, "full", reference={"rma": {5: 2.3}, "efa": {5: 2.3}})
+    assert [e[0] for e in entries[:6]] == [f"{est}, {lab}" for lab in labels for est in ("RMA", "EFA")]
+    assert len({(e[1], e[2]) for e in entries[:6]}) == 6            # no two curves look alike
+    assert len({e[1] for e in entries[:6:2]}) == 3                   # one line style per variant
+    ns = nees_summary(res)
+    entries = plot_nees(tmp_path / "n.png", ns)
+    assert [e[0].split(" (")[0] for e in entries[:3]] == labels
+    assert len({(e[1], e[2]) for e in entries[:3]}) == 3
+    assert (tmp_path / "g.png").stat().st_size > 0 and (tmp_path / "n.png").stat().st_size > 0
 
 
 def test_fig2_regenerates_trial_1_exactly(mc_dir, report, res, tmp_path):
@@ -353,7 +517,7 @@ def test_fig2_regenerates_trial_1_exactly(mc_dir, report, res, tmp_path):
     from radarslam.experiments.single import run_trial
     from radarslam.viz.report import plot_fig2
 
-    assert report["fig2"] == {"trial": 1, "configuration": "ext", "matches_stored": True}
+    assert report["fig2"] == {"trial": 1, "variant": "ext", "label": "With extent", "matches_stored": True}
     tr = run_trial(res["config"], trial_seed(res["seed"], 1), use_extent=True)
     plot_fig2(tmp_path / "f.png", tr)
     assert np.array_equal(tr.record.poses, res["ext"]["poses"][0])
@@ -372,8 +536,10 @@ def test_report_skips_corrupt_trials_and_fig2_without_trial_1(mc_dir, tmp_path):
     assert rep["fig2"] is None and "fig2_trial1.png" not in rep["files"]
     assert not (d / "report" / "fig2_trial1.png").exists()
     md = (d / "report" / "report.md").read_text()
-    assert "corrupt trial files skipped: 1" in md and "trial 3:" in md
+    assert re.search(r"^- corrupt trial files skipped: 1$", md, re.M) and re.search(r"^  - trial 3: unreadable", md, re.M)
     assert rep["table1"]["n_runs"] == 2
+    res = load_results(d)
+    assert rep["table1"]["position_avg_rmse_m"]["ext"]["estimate"] == avg_rmse(res["ext"]["position_error_m"])
 
 
 # --------------------------------------------------------------------------------------------- CLI
@@ -393,7 +559,7 @@ def test_cli_report_prints_the_summary(mc_dir, capsys):
     assert args.func(args) == 0
     out = capsys.readouterr().out
     assert out == (mc_dir / "report" / "report.md").read_text()
-    assert "(100 resamples" in out
+    assert json.loads((mc_dir / "report" / "report.json").read_text())["table1"]["n_boot"] == 100
 
 
 def test_cli_report_bad_dir_is_an_input_error(tmp_path):
@@ -421,7 +587,8 @@ def test_cli_main_report(mc_dir, tmp_path, capsys):
     from radarslam.cli.main import main
 
     assert main(["report", str(mc_dir), "--bootstrap", "50"]) == 0
-    assert "## Table 1" in capsys.readouterr().out
+    assert capsys.readouterr().out == (mc_dir / "report" / "report.md").read_text()
+    assert json.loads((mc_dir / "report" / "report.json").read_text())["table1"]["n_boot"] == 50
     assert main(["report", str(tmp_path / "missing")]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("radarslam report: error: DIR")

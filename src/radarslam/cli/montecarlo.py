@@ -1,4 +1,4 @@
-"""``radarslam montecarlo`` and ``radarslam reproduce``: the seed paper's Monte Carlo."""
+"""``radarslam montecarlo`` and ``radarslam reproduce``: the seed paper's Monte Carlo, over named variants."""
 
 from __future__ import annotations
 
@@ -12,7 +12,30 @@ from radarslam.core.errors import InputError
 from radarslam.io.results import prepare_out_dir
 
 
+VARIANT_HELP = """\
+variants:
+  Every trial simulates one car park and runs each variant on that same data. The
+  default variants are 'noext' (No extent: extent.use_in_slam = false, the baseline)
+  and 'ext' (With extent: extent.use_in_slam = true). Each --variant NAME=FILE.toml
+  appends one more: NAME matches [a-z0-9][a-z0-9_-]*, FILE.toml is an overlay over
+  the run's configuration (any section except trajectory, odometer, radar, world and
+  profile, which define the shared simulated data) with an optional top-level
+  label = "..." (default NAME). Example, FILE.toml:
+
+      label = "With extent, no contour sifting"
+      [extent]
+      use_in_slam = true
+      contour_sifting = false
+
+  The report gives every variant its own column, curve and legend entry, and the
+  paired change of each against the first. A result directory is bound to its list of
+  variants: resuming it with another list is refused.
+"""
+
+
 def _add_exec_args(p: argparse.ArgumentParser, default_jobs: int) -> None:
+    p.add_argument("--variant", action="append", default=[], metavar="NAME=FILE.toml",
+                   help="add a variant: a configuration overlay run on the same data (repeatable; see below)")
     p.add_argument("--seed", type=int, default=1, help="master seed S; trial t uses SeedSequence(S).spawn(N)[t-1]")
     p.add_argument("--jobs", "-j", type=int, default=default_jobs, help=f"local worker processes (default {default_jobs})")
     g = p.add_mutually_exclusive_group()
@@ -24,29 +47,42 @@ def _add_exec_args(p: argparse.ArgumentParser, default_jobs: int) -> None:
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser("montecarlo", help="run (or resume) N Monte Carlo trials, No extent and With extent on the same data")
+    p = sub.add_parser("montecarlo", help="run (or resume) N Monte Carlo trials, every variant on the same data",
+                       epilog=VARIANT_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--trials", "-n", type=int, required=True, help="number of trials N")
     add_config_args(p)
     p.add_argument("--out", required=True, metavar="DIR", help="result directory (created; rerun to resume)")
     _add_exec_args(p, 1)
     p.set_defaults(func=run_montecarlo_cmd)
 
-    r = sub.add_parser("reproduce", help="the seed paper's experiment: montecarlo + report with the paper's settings")
+    r = sub.add_parser("reproduce", help="the seed paper's experiment: montecarlo + report with the paper's settings",
+                       epilog=VARIANT_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
     r.add_argument("--trials", "-n", type=int, default=1000, help="number of trials (default 1000, as in the paper)")
     r.add_argument("--out", default="out/reproduce", metavar="DIR", help="result directory (default out/reproduce)")
     _add_exec_args(r, os.cpu_count() or 1)
     r.set_defaults(func=run_reproduce_cmd)
 
 
+def variants_from_args(args: argparse.Namespace) -> tuple:
+    """The default variants followed by every ``--variant NAME=FILE.toml``, names unique."""
+    from radarslam.experiments.variants import DEFAULT_VARIANTS, check_variants, parse_variant_arg
+
+    return check_variants(DEFAULT_VARIANTS + tuple(parse_variant_arg(a) for a in args.variant), what="--variant")
+
+
 def _execute(config, args) -> int:
     from radarslam.experiments.montecarlo import run_montecarlo
+    from radarslam.experiments.variants import apply_variant
 
     if args.seed < 0:
         raise InputError(f"--seed: expected an integer >= 0, got {args.seed}")
+    variants = variants_from_args(args)
+    for v in variants:  # an unknown overlay key fails before the directory is created
+        apply_variant(config, v)
     out = prepare_out_dir(args.out)
     try:
         summary = run_montecarlo(config, args.seed, args.trials, out, jobs=args.jobs, scheduler=args.scheduler,
-                                 dask_local=args.dask_local, progress=not args.quiet)
+                                 dask_local=args.dask_local, progress=not args.quiet, variants=variants)
     except KeyboardInterrupt:
         from radarslam.experiments.store import TrialStore
 
@@ -60,7 +96,7 @@ def _execute(config, args) -> int:
         from radarslam.experiments.report import write_report
 
         rep = write_report(out)
-        print((out / "report" / "report.md").read_text())
+        print((out / "report" / "report.md").read_text(encoding="utf-8"), end="")
         print(f"figures and tables: {out / 'report'}/", file=sys.stderr)
         del rep
     return 0

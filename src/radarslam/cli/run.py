@@ -166,9 +166,10 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
     from radarslam.viz import have_matplotlib
 
     if have_matplotlib() and not args.no_plot:
-        from radarslam.viz.dataset import plot_dataset_run
+        from radarslam.viz.dataset import plot_dataset_map
 
-        plot_dataset_run(out / "map.png", res, ev, dead_reckoning=(dr_poses, dr_ev), diameters=diam)
+        plot_dataset_map(out / "map.png", res.poses, mp.positions, mp.rma, ev, name=res.name,
+                         dead_reckoning=(dr_poses, dr_ev), diameters=diam)
     print(f"radarslam run --dataset {name}: {metrics['scans']} scans, {metrics['landmarks_final']} landmarks, "
           f"GPS-aligned RMSE {ev['rmse_m']:.2f} m (max {ev['max_m']:.2f} m over {ev['n_fixes']} fixes; "
           f"{ev.get('n_gps_jumps_removed', 0)} GPS jumps left out; odometry alone {dr_ev['rmse_m']:.2f} m), "

@@ -1,11 +1,11 @@
-"""The Monte Carlo experiment of the seed paper (Table 1, Figs. 2-3).
+"""The Monte Carlo experiment of the seed paper (Table 1, Figs. 2-3), over any list of variants.
 
 Trial ``t`` (1-based) draws everything from ``SeedSequence(seed).spawn(n)[t - 1]``, i.e.
 ``SeedSequence(seed, spawn_key=(t - 1,))``, simulates one car park and runs, on that same data,
-"No extent" and "With extent" SLAM (both tracking RMA and EFA extents). A trial depends on nothing
-but the configuration, the seed and its number, so results are identical bit for bit whatever runs
-them: one process, a local pool, or a Dask cluster. Each finished trial is stored at once
-(:mod:`.store`); a rerun resumes.
+every configuration variant (:mod:`.variants`; by default "No extent" and "With extent", both
+tracking RMA and EFA extents). A trial depends on nothing but the configuration, the variants, the
+seed and its number, so results are identical bit for bit whatever runs them: one process, a local
+pool, or a Dask cluster. Each finished trial is stored at once (:mod:`.store`); a rerun resumes.
 """
 
 from __future__ import annotations
@@ -13,8 +13,8 @@ from __future__ import annotations
 import math
 import sys
 import time
-from collections.abc import Callable
-from dataclasses import dataclass, replace
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -23,11 +23,8 @@ from radarslam.config import Config, from_dict, to_dict, validate
 from radarslam.core.errors import InputError, RadarSlamError
 from radarslam.experiments.single import evaluate, run_filter
 from radarslam.experiments.store import TrialStore, decode_trial, encode_trial
+from radarslam.experiments.variants import DEFAULT_VARIANTS, Variant, apply_variant, check_variants
 from radarslam.simulation.scenario import generate_scenario
-
-#: The two configurations of seed Table 1 run on every trial's data.
-CONFIGURATIONS = {"noext": False, "ext": True}
-CONFIG_LABELS = {"noext": "No extent", "ext": "With extent"}
 
 PER_STEP = ("position_error_m", "heading_error_rad", "nees", "false_per_scan", "missed_per_scan",
             "stale_per_scan", "gwd_count") + tuple(
@@ -43,26 +40,45 @@ def trial_seed(seed: int, trial: int) -> np.random.SeedSequence:
     return np.random.SeedSequence(seed, spawn_key=(trial - 1,))
 
 
-def compute_trial(config: Config | dict, seed: int, trial: int) -> bytes:
-    """Run trial ``trial`` and return its encoded result (a picklable, top-level worker function)."""
+def _per_step(m: dict, key: str, K: int) -> np.ndarray:
+    """A per-step array of the metrics; a variant that does not track extents has no GWD: NaN (count 0)."""
+    if key in m:
+        return np.asarray(m[key])
+    if key == "gwd_count":
+        return np.zeros(K, dtype=int)
+    return np.full(K, np.nan)
+
+
+def compute_trial(config: Config | dict, seed: int, trial: int,
+                  variants: Sequence[Variant] = DEFAULT_VARIANTS) -> bytes:
+    """Run trial ``trial`` for every variant and return its encoded result (a picklable, top-level worker function).
+
+    The scenario is simulated once from the base ``config``; each variant's configuration
+    (:func:`~.variants.apply_variant`) runs the filter on it. Arrays are stored as
+    ``"{variant}/{key}"`` beside the shared ``true_poses``; the meta lists the variant names in order.
+    """
     cfg = from_dict(config) if isinstance(config, dict) else config
+    variants = check_variants(variants)
     t0 = time.perf_counter()
     scenario = generate_scenario(cfg, np.random.default_rng(trial_seed(seed, trial)))
     arrays: dict[str, np.ndarray] = {"true_poses": scenario.truth.poses}
+    K = scenario.truth.poses.shape[0]
     seconds = {}
-    for name, use in CONFIGURATIONS.items():
-        c = replace(cfg, extent=replace(cfg.extent, use_in_slam=use))
+    for v in variants:
+        c = apply_variant(cfg, v)
         rec = run_filter(c, scenario.events)
         m = evaluate(c, scenario, rec)
+        name = v.name
         arrays[f"{name}/poses"] = rec.poses
         arrays[f"{name}/n_landmarks"] = rec.n_landmarks
-        for key in PER_STEP + PER_VEHICLE:
-            if key in m:
-                arrays[f"{name}/{key}"] = np.asarray(m[key])
+        for key in PER_STEP:
+            arrays[f"{name}/{key}"] = _per_step(m, key, K)
+        for key in PER_VEHICLE:
+            arrays[f"{name}/{key}"] = np.asarray(m[key])
         arrays[f"{name}/scalars"] = np.array([float(m[k]) for k in SCALARS])
         seconds[name] = rec.seconds
     meta = {"trial": trial, "seed": seed, "spawn_key": [trial - 1], "seconds": time.perf_counter() - t0,
-            "filter_seconds": seconds, "scalar_names": list(SCALARS)}
+            "filter_seconds": seconds, "scalar_names": list(SCALARS), "variants": [v.name for v in variants]}
     return encode_trial(arrays, meta)
 
 
@@ -130,11 +146,15 @@ class MonteCarloSummary:
 
 def run_montecarlo(config: Config, seed: int, n_trials: int, out: str | Path, *, jobs: int = 1,
                    scheduler: str | None = None, dask_local: int | None = None, progress: bool = True,
-                   log: Callable[[str], None] | None = None) -> MonteCarloSummary:
+                   log: Callable[[str], None] | None = None,
+                   variants: Sequence[Variant] = DEFAULT_VARIANTS) -> MonteCarloSummary:
     """Run (or resume) ``n_trials`` trials into ``out``.
 
     Parameters
     ----------
+    variants : sequence of Variant
+        The configurations run on every trial's data, in order (the first is the report's
+        baseline); a directory holds one list of variants and refuses another.
     jobs : int
         Local worker processes (1 = in this process).
     scheduler : str, optional
@@ -150,7 +170,10 @@ def run_montecarlo(config: Config, seed: int, n_trials: int, out: str | Path, *,
         raise InputError(f"--jobs: expected an integer >= 1, got {jobs}")
     if scheduler is not None and dask_local is not None:
         raise InputError("--scheduler and --dask-local: give one or the other")
-    store = TrialStore.open(out, config, seed)
+    variants = check_variants(variants)
+    for v in variants:  # every overlay checked before anything is written or run
+        apply_variant(config, v)
+    store = TrialStore.open(out, config, seed, variants)
     good, bad = store.inventory(n_trials)
     for t, why in bad.items():
         log(f"montecarlo: trial {t} file is corrupt ({why}); recomputing it")
@@ -163,28 +186,29 @@ def run_montecarlo(config: Config, seed: int, n_trials: int, out: str | Path, *,
     cfg_dict = to_dict(config)
 
     def finish(t: int, data: bytes) -> None:
-        decode_trial(data, expect_trial=t)  # never store what we could not read back
+        decode_trial(data, expect_trial=t, expect_variants=store.variant_names)  # never store what we could not read back
         store.save(t, data)
         bar.update()
 
     if todo:
         if scheduler is not None or dask_local is not None:
-            _run_dask(cfg_dict, seed, todo, finish, scheduler, dask_local)
+            _run_dask(cfg_dict, seed, variants, todo, finish, scheduler, dask_local)
         elif jobs == 1:
             for t in todo:
-                finish(t, compute_trial(config, seed, t))
+                finish(t, compute_trial(config, seed, t, variants))
         else:
-            _run_pool(cfg_dict, seed, todo, finish, jobs)
+            _run_pool(cfg_dict, seed, variants, todo, finish, jobs)
     return MonteCarloSummary(Path(out), n_trials, len(todo), len(good), len(bad), time.perf_counter() - t0)
 
 
-def _run_pool(cfg_dict: dict, seed: int, todo: list[int], finish, jobs: int) -> None:
+def _run_pool(cfg_dict: dict, seed: int, variants: tuple[Variant, ...], todo: list[int], finish,
+              jobs: int) -> None:
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
     from concurrent.futures.process import BrokenProcessPool
 
     ex = ProcessPoolExecutor(max_workers=jobs, initializer=_limit_threads)
     try:
-        pending = {ex.submit(compute_trial, cfg_dict, seed, t): t for t in todo}
+        pending = {ex.submit(compute_trial, cfg_dict, seed, t, variants): t for t in todo}
         while pending:
             done, _ = wait(pending, return_when=FIRST_COMPLETED)
             for f in done:
@@ -201,8 +225,8 @@ def _run_pool(cfg_dict: dict, seed: int, todo: list[int], finish, jobs: int) -> 
     ex.shutdown(wait=True)
 
 
-def _run_dask(cfg_dict: dict, seed: int, todo: list[int], finish, scheduler: str | None,
-              dask_local: int | None) -> None:
+def _run_dask(cfg_dict: dict, seed: int, variants: tuple[Variant, ...], todo: list[int], finish,
+              scheduler: str | None, dask_local: int | None) -> None:
     try:
         from dask.distributed import Client, LocalCluster, as_completed
     except ImportError:
@@ -220,8 +244,8 @@ def _run_dask(cfg_dict: dict, seed: int, todo: list[int], finish, scheduler: str
             raise InputError(f"--scheduler: cannot reach {scheduler} ({exc})") from None
         try:
             client.run(_limit_threads)
-            futures = [client.submit(compute_trial, cfg_dict, seed, t, key=f"radarslam-trial-{seed}-{t}", pure=False)
-                       for t in todo]
+            futures = [client.submit(compute_trial, cfg_dict, seed, t, variants, key=f"radarslam-trial-{seed}-{t}",
+                                     pure=False) for t in todo]
             index = {f.key: t for f, t in zip(futures, todo)}
             for f in as_completed(futures):
                 finish(index[f.key], f.result())
@@ -238,10 +262,11 @@ def load_results(out: str | Path, n_trials: int | None = None) -> dict:
     Returns
     -------
     dict
-        ``config``, ``seed``, ``trials`` (numbers, ascending), ``true_poses`` (N, K, 3), and per
-        configuration name (``"noext"``, ``"ext"``) a dict of stacked arrays: per-step ``(N, K)``,
+        ``config`` (the base configuration), ``seed``, ``variants`` (tuple of :class:`~.variants.Variant`
+        in the run's order; the first is the baseline), ``trials`` (numbers, ascending),
+        ``true_poses`` (N, K, 3), and per variant name a dict of stacked arrays: per-step ``(N, K)``,
         per-vehicle ``(N, V)``, ``poses`` ``(N, K, 3)`` and ``scalars`` as a dict of ``(N,)``.
-        ``corrupt`` maps skipped trial numbers to the reason.
+        ``corrupt`` maps skipped trial numbers to the reason (a file lacking a variant is one).
     """
     store = TrialStore.read(out)
     numbers = store.stored() if n_trials is None else list(range(1, n_trials + 1))
@@ -257,16 +282,18 @@ def load_results(out: str | Path, n_trials: int | None = None) -> dict:
         loaded.append((t, arrays, meta))
     if not loaded:
         raise InputError(f"DIR: {out} holds no valid trial")
-    res: dict = {"config": store.config, "seed": store.seed, "trials": np.array([t for t, _, _ in loaded]),
+    res: dict = {"config": store.config, "seed": store.seed, "variants": store.variants,
+                 "trials": np.array([t for t, _, _ in loaded]),
                  "corrupt": corrupt, "seconds": np.array([m["seconds"] for _, _, m in loaded])}
     res["true_poses"] = np.stack([a["true_poses"] for _, a, _ in loaded])
     names = loaded[0][2]["scalar_names"]
-    for cname in CONFIGURATIONS:
+    for v in store.variants:
+        prefix = v.name + "/"
         d = {}
         for key in loaded[0][1]:
-            if key.startswith(cname + "/") and not key.endswith("/scalars"):
-                d[key.split("/", 1)[1]] = np.stack([a[key] for _, a, _ in loaded])
-        sc = np.stack([a[f"{cname}/scalars"] for _, a, _ in loaded])
+            if key.startswith(prefix) and key != prefix + "scalars":
+                d[key[len(prefix):]] = np.stack([a[key] for _, a, _ in loaded])
+        sc = np.stack([a[prefix + "scalars"] for _, a, _ in loaded])
         d["scalars"] = {n: sc[:, i] for i, n in enumerate(names)}
-        res[cname] = d
+        res[v.name] = d
     return res

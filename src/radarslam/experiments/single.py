@@ -9,11 +9,10 @@ import numpy as np
 
 from radarslam.config import Config, validate
 from radarslam.core.types import Odometry, Scan
-from radarslam.metrics.extent import extent_metrics
+from radarslam.metrics.extent import extent_metrics, rectangle_centers
 from radarslam.metrics.landmarks import landmark_metrics
 from radarslam.metrics.pose import avg_rmse, pose_errors, pose_nees
 from radarslam.simulation.scenario import Scenario, generate_scenario
-from radarslam.simulation.world import vehicle_centers
 from radarslam.slam.filter import EkfSlam, MapSnapshot
 
 
@@ -60,15 +59,27 @@ def run_filter(config: Config, events: list[Odometry | Scan], slam: EkfSlam | No
                         np.array(ndet), np.array(nass), np.array(nlm), time.perf_counter() - t0)
 
 
+def vehicle_rectangles(vehicles) -> np.ndarray:
+    """``(V, 4)`` array ``[x_left, y_bottom, size_x, size_y]`` of the simulator's vehicles (what metrics take)."""
+    return np.array([[v.x_left, v.y_bottom, v.size_x, v.size_y] for v in vehicles], dtype=float).reshape(-1, 4)
+
+
 def evaluate(config: Config, scenario: Scenario, rec: FilterRecord) -> dict:
-    """Pose and landmark metrics of one run (scalars and per-step arrays)."""
+    """Pose and landmark metrics of one run (scalars and per-step arrays).
+
+    The simulator's objects and the filter's snapshots are turned into plain arrays here; the
+    metrics see nothing else.
+    """
     truth = scenario.truth
     pos_err, head_err = pose_errors(rec.poses, truth.poses)
-    centers = vehicle_centers(truth.vehicles)
-    lm = landmark_metrics([m.positions for m in rec.maps], truth.poses, centers, truth.present,
+    rects = vehicle_rectangles(truth.vehicles)
+    centers = rectangle_centers(rects)
+    present = np.asarray(truth.present, dtype=bool)
+    positions = [m.positions for m in rec.maps]
+    lm = landmark_metrics(positions, truth.poses, centers, present,
                           config.radar.max_range_m, config.metrics.match_gate_m, config.metrics.missed_grace_scans)
-    ext = (extent_metrics(rec.maps, truth.vehicles, truth.present, config.metrics.match_gate_m,
-                          config.metrics.include_stale) if config.extent.track else {})
+    ext = (extent_metrics(positions, [m.rma for m in rec.maps], [m.efa for m in rec.maps], rects, present,
+                          config.metrics.match_gate_m, config.metrics.include_stale) if config.extent.track else {})
     return {
         "position_avg_rmse_m": avg_rmse(pos_err),
         "heading_avg_rmse_deg": float(np.degrees(avg_rmse(head_err))),

@@ -2,14 +2,15 @@
 
 Layout of ``DIR``::
 
-    manifest.json            seed, configuration (and its hash), package version, format
+    manifest.json            seed, configuration, variants (the hash covers both), package version, format
     trials/trial_000001.npz  trial 1 (spawn index 0), written atomically when it finishes
     ...
 
 A trial file is an uncompressed ``.npz`` whose ``__meta__`` entry is UTF-8 JSON holding the trial
-number, its seed stream and a SHA-256 over every other array (name, dtype, shape, bytes). A file
-that fails to open, lacks an entry, or whose checksum or identity does not match is *corrupt*: it
-is reported and recomputed, never read.
+number, its seed stream, the names of the variants it holds (in order) and a SHA-256 over every
+other array (name, dtype, shape, bytes). Each variant's arrays are stored as ``"{variant}/{key}"``.
+A file that fails to open, lacks an entry, whose checksum or identity does not match, or that does
+not hold every variant of the manifest is *corrupt*: it is reported and recomputed, never read.
 """
 
 from __future__ import annotations
@@ -26,6 +27,8 @@ import numpy as np
 from radarslam import __version__
 from radarslam.config import Config, from_dict, to_dict, to_toml
 from radarslam.core.errors import InputError, RadarSlamError
+from radarslam.experiments.variants import (DEFAULT_VARIANTS, Variant, check_variants, variant_hash_data,
+                                            variants_from_json, variants_to_json)
 from radarslam.io.results import atomic_write_bytes, atomic_write_text, make_dir, to_jsonable, write_json
 
 FORMAT = 1
@@ -35,10 +38,20 @@ class CorruptTrial(RadarSlamError):
     """A trial file that cannot be trusted."""
 
 
-def config_hash(config: Config) -> str:
-    """SHA-256 of the canonical JSON of the configuration."""
+#: Arrays every variant of a trial file holds (``"{variant}/{key}"``).
+VARIANT_KEYS = ("poses", "n_landmarks", "scalars")
+
+
+def config_hash(config: Config, variants: tuple[Variant, ...] | None = None) -> str:
+    """SHA-256 of the canonical JSON of the configuration and the variants (names, labels, overlays).
+
+    ``variants=None`` gives the hash of the configuration alone, the identity of directories written
+    before variants existed (they ran :data:`~.variants.DEFAULT_VARIANTS`).
+    """
     # json writes inf as Infinity, so an infinite threshold and a missing one never collide.
-    text = json.dumps(to_dict(config), sort_keys=True, separators=(",", ":"))
+    data = to_dict(config) if variants is None else {"config": to_dict(config),
+                                                      "variants": variant_hash_data(variants)}
+    text = json.dumps(data, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()
 
 
@@ -61,8 +74,14 @@ def encode_trial(arrays: dict[str, np.ndarray], meta: dict) -> bytes:
     return buf.getvalue()
 
 
-def decode_trial(data: bytes | Path, expect_trial: int | None = None) -> tuple[dict[str, np.ndarray], dict]:
-    """Inverse of :func:`encode_trial`; raises :class:`CorruptTrial` on any inconsistency."""
+def decode_trial(data: bytes | Path, expect_trial: int | None = None,
+                 expect_variants: tuple[str, ...] | list[str] | None = None) -> tuple[dict[str, np.ndarray], dict]:
+    """Inverse of :func:`encode_trial`; raises :class:`CorruptTrial` on any inconsistency.
+
+    With ``expect_variants`` (names in order) the file must hold exactly those variants, each with
+    its :data:`VARIANT_KEYS` arrays. A file written before variants existed lists none in its meta;
+    its variants are then the ones it holds arrays of.
+    """
     try:
         # Read the bytes first: np.load on a path leaks its handle when the zip is damaged.
         raw = data if isinstance(data, bytes) else Path(data).read_bytes()
@@ -75,16 +94,35 @@ def decode_trial(data: bytes | Path, expect_trial: int | None = None) -> tuple[d
         raise CorruptTrial("checksum mismatch")
     if expect_trial is not None and meta.get("trial") != expect_trial:
         raise CorruptTrial(f"holds trial {meta.get('trial')}, expected {expect_trial}")
+    if expect_variants is not None:
+        expect = list(expect_variants)
+        held = meta.get("variants")
+        if held is None:  # format of the two fixed configurations: infer from the arrays
+            held = [n for n in expect if f"{n}/scalars" in arrays]
+        if list(held) != expect:
+            missing = [n for n in expect if n not in held]
+            raise CorruptTrial(f"holds variants {list(held)}, expected {expect}"
+                               + (f" (missing {missing[0]!r})" if missing else ""))
+        for n in expect:
+            for key in VARIANT_KEYS:
+                if f"{n}/{key}" not in arrays:
+                    raise CorruptTrial(f"variant {n!r} lacks its {key!r} array")
+        meta = dict(meta, variants=expect)
     return arrays, meta
 
 
 @dataclass
 class TrialStore:
-    """A Monte Carlo result directory bound to one configuration and seed."""
+    """A Monte Carlo result directory bound to one configuration, seed and list of variants."""
 
     root: Path
     config: Config
     seed: int
+    variants: tuple[Variant, ...] = DEFAULT_VARIANTS
+
+    @property
+    def variant_names(self) -> tuple[str, ...]:
+        return tuple(v.name for v in self.variants)
 
     @property
     def trials_dir(self) -> Path:
@@ -95,9 +133,11 @@ class TrialStore:
         return self.trials_dir / f"trial_{trial:06d}.npz"
 
     @classmethod
-    def open(cls, root: str | Path, config: Config, seed: int) -> "TrialStore":
-        """Create ``root`` or reopen it; refuse a directory made with another config or seed."""
+    def open(cls, root: str | Path, config: Config, seed: int,
+             variants: tuple[Variant, ...] = DEFAULT_VARIANTS) -> "TrialStore":
+        """Create ``root`` or reopen it; refuse a directory made with another config, seed or variants."""
         root = Path(root)
+        variants = check_variants(variants)
         make_dir(root)
         man = root / "manifest.json"
         if man.exists():
@@ -108,15 +148,25 @@ class TrialStore:
             if m.get("seed") != seed:
                 raise InputError(f"--out: {root} holds a Monte Carlo with seed {m.get('seed')}, not {seed}; "
                                  "use another directory")
-            if m.get("config_hash") != config_hash(config):
-                raise InputError(f"--out: {root} holds a Monte Carlo with a different configuration "
-                                 f"(see {man}); use another directory")
+            if "variants" in m:
+                listed = m["variants"] if isinstance(m["variants"], list) else []
+                stored = [v.get("name") if isinstance(v, dict) else v for v in listed]
+                same = m.get("config_hash") == config_hash(config, variants)
+            else:  # written before variants existed: it ran the default two
+                stored = [v.name for v in DEFAULT_VARIANTS]
+                same = variants == DEFAULT_VARIANTS and m.get("config_hash") == config_hash(config)
+            if not same:
+                names = [v.name for v in variants]
+                what = (f"variants {stored}, not {names}" if stored != names
+                        else "a different configuration or variant overlays")
+                raise InputError(f"--out: {root} holds a Monte Carlo with {what} (see {man}); use another directory")
         else:
-            write_json(man, {"format": FORMAT, "seed": seed, "config_hash": config_hash(config),
-                             "version": __version__, "config_toml": to_toml(config), "config": to_dict(config)})
+            write_json(man, {"format": FORMAT, "seed": seed, "config_hash": config_hash(config, variants),
+                             "version": __version__, "config_toml": to_toml(config), "config": to_dict(config),
+                             "variants": variants_to_json(variants)})
             atomic_write_text(root / "config.toml", to_toml(config))
         (root / "trials").mkdir(exist_ok=True)
-        return cls(root, config, seed)
+        return cls(root, config, seed, variants)
 
     @classmethod
     def read(cls, root: str | Path) -> "TrialStore":
@@ -126,13 +176,18 @@ class TrialStore:
         if not man.is_file():
             raise InputError(f"DIR: {root} has no manifest.json; is it a montecarlo output directory?")
         m = json.loads(man.read_text())
-        return cls(root, from_dict(tomllib.loads(m["config_toml"])), int(m["seed"]))
+        try:
+            variants = variants_from_json(m["variants"]) if "variants" in m else DEFAULT_VARIANTS
+        except InputError as exc:
+            raise InputError(f"DIR: {man} lists unreadable variants ({exc})") from None
+        return cls(root, from_dict(tomllib.loads(m["config_toml"])), int(m["seed"]), variants)
 
     def save(self, trial: int, data: bytes) -> None:
         atomic_write_bytes(self.path(trial), data)
 
     def load(self, trial: int) -> tuple[dict[str, np.ndarray], dict]:
-        return decode_trial(self.path(trial), expect_trial=trial)
+        """Arrays and meta of trial ``trial``; :class:`CorruptTrial` unless it holds every variant."""
+        return decode_trial(self.path(trial), expect_trial=trial, expect_variants=self.variant_names)
 
     def inventory(self, n_trials: int) -> tuple[list[int], dict[int, str]]:
         """Trials 1..n that are stored and valid, and the corrupt ones with the reason."""

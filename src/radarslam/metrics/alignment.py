@@ -48,14 +48,19 @@ def error_against_fixes(times: np.ndarray, positions: np.ndarray, fix_t: np.ndar
     ``max_speed`` the fixes that the GPS track itself shows to be jumps
     (:func:`gps_speed_outliers`) are left out first. ``robust`` additionally rejects pairs by their
     residual to the estimate; it flatters a drifting estimate and is off by default.
+
+    Besides the errors, the result holds the fixes within the track's span, ``span_xy`` (M, 2), the
+    jump flags over them, ``span_jumps`` (M,) (all False without ``max_speed``), and ``max_speed``,
+    so that a plot can draw them without recomputing anything.
     """
     m = (fix_t >= times[0]) & (fix_t <= times[-1])
     ft, fxy = fix_t[m], fix_xy[m]
     jumps = gps_speed_outliers(ft, fxy, max_speed) if max_speed is not None else np.zeros(ft.size, dtype=bool)
+    span = {"span_xy": fxy, "span_jumps": jumps, "max_speed": max_speed}
     ft, fxy = ft[~jumps], fxy[~jumps]
     est = np.column_stack([np.interp(ft, times, positions[:, 0]), np.interp(ft, times, positions[:, 1])])
     if ft.size < 3:
-        return {"n_fixes": int(ft.size), "rmse_m": float("nan"), "max_m": float("nan")}
+        return {"n_fixes": int(ft.size), "rmse_m": float("nan"), "max_m": float("nan"), **span}
     if robust:
         R, t, inl = robust_rigid_align_2d(est, fxy)
     else:
@@ -76,6 +81,7 @@ def error_against_fixes(times: np.ndarray, positions: np.ndarray, fix_t: np.ndar
         "errors_m": err,
         "inliers": inl,
         "R": R,
+        **span,
     }
 
 

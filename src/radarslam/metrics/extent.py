@@ -1,19 +1,25 @@
 """Extent metrics: ground-truth ellipses of the cars and the per-step GWD (method.md e, Decision 7).
 
+Every input is a plain array: the cars are axis-aligned rectangles ``[x_left, y_bottom, size_x,
+size_y]`` (V, 4), the estimates per scan are centroids (N_k, 2) and extent matrices (N_k, 2, 2).
+
 Ground-truth ellipse of an L x W car, centred on the rectangle, oriented along its long side
 (Decision 7): ``moment`` (L/sqrt 3, W/sqrt 3), the ellipse whose uniform-surface covariance equals
 the rectangle's and what a perfect estimator converges to; ``inscribed`` (L/2, W/2); ``enclosing``
 (L/sqrt 2, W/sqrt 2); ``full`` (L, W), the convention that reproduces the magnitude of the seed's
-Fig. 3 (h.9).
+Fig. 3 (h.9). The extent matrix of semi-axes ``(l1, l2)`` along ``o`` is
+``X = R(o) diag(l1^2, l2^2) R(o)^T`` (method.md d.1), written out below as its three entries.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from radarslam.extent.ellipse import ellipse_to_matrix
+from radarslam.core.errors import InputError
+from radarslam.core.validation import as_array
 from radarslam.metrics.gwd import _gwds
 from radarslam.metrics.landmarks import match
 
@@ -26,49 +32,102 @@ CONVENTIONS: dict[str, float] = {
 }
 
 
-def ground_truth_extents(vehicles, convention: str = "moment") -> np.ndarray:
-    """``(V, 2, 2)`` extent matrices X of the vehicles' ground-truth ellipses."""
-    if convention not in CONVENTIONS:
-        from radarslam.core.errors import InputError
+def _rectangles(rectangles) -> np.ndarray:
+    r = as_array("rectangles", rectangles, (None, 4))
+    if np.any(r[:, 2:] <= 0):
+        raise InputError(f"rectangles: expected sizes size_x, size_y > 0, got {r[:, 2:][np.any(r[:, 2:] <= 0, axis=1)].tolist()}")
+    return r
 
+
+def rectangle_centers(rectangles) -> np.ndarray:
+    """Centres ``(V, 2)`` of rectangles ``[x_left, y_bottom, size_x, size_y]`` ``(V, 4)``."""
+    r = _rectangles(rectangles)
+    return np.column_stack([r[:, 0] + 0.5 * r[:, 2], r[:, 1] + 0.5 * r[:, 3]])
+
+
+def _ellipse_matrix(l1: float, l2: float, o: float) -> np.ndarray:
+    """``R(o) diag(l1^2, l2^2) R(o)^T`` (method.md d.1) from trusted floats."""
+    co, so = math.cos(o), math.sin(o)
+    q1, q2 = l1 * l1, l2 * l2
+    x11 = q1 * co * co + q2 * so * so
+    x22 = q1 * so * so + q2 * co * co
+    x12 = (q1 - q2) * so * co
+    return np.array(((x11, x12), (x12, x22)))
+
+
+def ground_truth_extents(rectangles, convention: str = "moment") -> np.ndarray:
+    """``(V, 2, 2)`` extent matrices X of the ground-truth ellipses of rectangles ``(V, 4)``.
+
+    The long side L = max(size_x, size_y) lies along x (orientation 0) when ``size_x >= size_y``,
+    else along y (pi/2); the semi-axes are ``f L`` and ``f W`` with ``f = CONVENTIONS[convention]``.
+    """
+    if convention not in CONVENTIONS:
         raise InputError(f"convention: expected one of {sorted(CONVENTIONS)}, got {convention!r}")
     f = CONVENTIONS[convention]
-    return np.array([ellipse_to_matrix(np.array([f * v.length, f * v.width]), v.orientation)
-                     for v in vehicles]).reshape(-1, 2, 2)
+    r = _rectangles(rectangles)
+    out = np.empty((r.shape[0], 2, 2))
+    for i, (_, _, sx, sy) in enumerate(r.tolist()):
+        length, width = max(sx, sy), min(sx, sy)
+        out[i] = _ellipse_matrix(f * length, f * width, 0.0 if sx >= sy else 0.5 * math.pi)
+    return out
 
 
-def gwd_per_step(maps, centers: np.ndarray, present: np.ndarray, gt_extents: np.ndarray | dict[str, np.ndarray],
+def gwd_per_step(positions: Sequence[np.ndarray], rma: Sequence[np.ndarray], efa: Sequence[np.ndarray],
+                 centers: np.ndarray, present: np.ndarray, gt_extents: np.ndarray | Mapping[str, np.ndarray],
                  gate: float, include_stale: bool = False):
     """Mean GWD over the matched landmarks with an initialised extent, per scan (method.md e).
 
     Landmarks are matched one-to-one to the vehicles present at the scan (Hungarian, ``gate``);
     with ``include_stale`` departed vehicles take part too (h.10). The estimate's centre is the
-    EKF centroid for both RMA and EFA.
+    EKF centroid for both RMA and EFA; a landmark counts when both its extents are finite.
 
     Parameters
     ----------
-    gt_extents : ndarray (V, 2, 2) or dict of them
-        Ground-truth extents; with a dict (convention -> extents) the matching is done once per
+    positions : sequence of K arrays (N_k, 2)
+        Landmark centroids after each scan.
+    rma, efa : sequence of K arrays (N_k, 2, 2)
+        RMA and EFA extent matrices of the same landmarks (NaN where not initialised).
+    centers : ndarray (V, 2)
+        Vehicle centres (:func:`rectangle_centers`).
+    present : ndarray of bool (K, V)
+    gt_extents : ndarray (V, 2, 2) or mapping of them
+        Ground-truth extents; with a mapping (convention -> extents) the matching is done once per
         scan and every convention is evaluated on it.
+    gate : float
+    include_stale : bool
 
     Returns
     -------
     rma, efa : ndarray, shape (K,)
         ``g_bar_k`` of the RMA and EFA estimates; NaN where no landmark qualifies (dicts keyed
-        like ``gt_extents`` when it is a dict).
+        like ``gt_extents`` when it is a mapping).
     count : ndarray of int, shape (K,)
         Number of landmarks averaged.
     """
-    single = not isinstance(gt_extents, dict)
-    gts = {"_": gt_extents} if single else gt_extents
-    K = len(maps)
-    rma = {c: np.full(K, np.nan) for c in gts}
-    efa = {c: np.full(K, np.nan) for c in gts}
+    K = len(positions)
+    if len(rma) != K or len(efa) != K:
+        raise InputError(f"rma, efa: expected {K} scans like positions, got {len(rma)} and {len(efa)}")
+    present = np.asarray(present, dtype=bool)
+    centers = np.asarray(centers, dtype=float).reshape(-1, 2)
+    if present.shape != (K, centers.shape[0]):
+        raise InputError(f"present: expected shape ({K}, {centers.shape[0]}), got {present.shape}")
+    single = not isinstance(gt_extents, Mapping)
+    gts = {"_": np.asarray(gt_extents, dtype=float)} if single else {c: np.asarray(g, dtype=float)
+                                                                      for c, g in gt_extents.items()}
+    for c, g in gts.items():
+        if g.shape != (centers.shape[0], 2, 2):
+            raise InputError(f"gt_extents: expected shape ({centers.shape[0]}, 2, 2), got {g.shape}"
+                             + ("" if single else f" for {c!r}"))
+    rma_out = {c: np.full(K, np.nan) for c in gts}
+    efa_out = {c: np.full(K, np.nan) for c in gts}
     count = np.zeros(K, dtype=int)
-    for k, mp in enumerate(maps):
+    for k in range(K):
+        pos = np.asarray(positions[k], dtype=float).reshape(-1, 2)
+        xr = np.asarray(rma[k], dtype=float).reshape(-1, 2, 2)
+        xe = np.asarray(efa[k], dtype=float).reshape(-1, 2, 2)
         cand = np.arange(centers.shape[0]) if include_stale else np.flatnonzero(present[k])
-        a = match(mp.positions, centers[cand], gate)
-        ok = (a >= 0) & np.isfinite(mp.rma[:, 0, 0]) & np.isfinite(mp.efa[:, 0, 0])
+        a = match(pos, centers[cand], gate)
+        ok = (a >= 0) & np.isfinite(xr[:, 0, 0]) & np.isfinite(xe[:, 0, 0])
         if not np.any(ok):
             continue
         v = cand[a[ok]]
@@ -76,30 +135,42 @@ def gwd_per_step(maps, centers: np.ndarray, present: np.ndarray, gt_extents: np.
         count[k] = n
         # One vectorised GWD call per scan: (RMA, EFA) x every convention, stacked.
         nc = len(gts)
-        est = np.concatenate([mp.rma[ok], mp.efa[ok]] * nc)
+        est = np.concatenate([xr[ok], xe[ok]] * nc)
         ref = np.concatenate([g[v] for g in gts.values() for _ in (0, 1)])
-        pos = np.tile(mp.positions[ok], (2 * nc, 1))
-        d = _gwds(pos, est, np.tile(centers[v], (2 * nc, 1)), ref).reshape(nc, 2, n).mean(axis=2)
+        p = np.tile(pos[ok], (2 * nc, 1))
+        d = _gwds(p, est, np.tile(centers[v], (2 * nc, 1)), ref).reshape(nc, 2, n).mean(axis=2)
         for ci, c in enumerate(gts):
-            rma[c][k], efa[c][k] = float(d[ci, 0]), float(d[ci, 1])
+            rma_out[c][k], efa_out[c][k] = float(d[ci, 0]), float(d[ci, 1])
     if single:
-        return rma["_"], efa["_"], count
-    return rma, efa, count
+        return rma_out["_"], efa_out["_"], count
+    return rma_out, efa_out, count
 
 
-def extent_metrics(maps, vehicles, present: np.ndarray, gate: float, include_stale: bool = False,
+def extent_metrics(positions: Sequence[np.ndarray], rma: Sequence[np.ndarray], efa: Sequence[np.ndarray],
+                   rectangles, present: np.ndarray, gate: float, include_stale: bool = False,
                    conventions=("moment", "full", "inscribed", "enclosing")) -> dict:
-    """Per-step and final mean GWD of RMA and EFA in each ground-truth convention."""
-    from radarslam.simulation.world import vehicle_centers
+    """Per-step and final mean GWD of RMA and EFA in each ground-truth convention.
 
-    centers = vehicle_centers(vehicles)
-    gts = {c: ground_truth_extents(vehicles, c) for c in conventions}
-    rma, efa, count = gwd_per_step(maps, centers, present, gts, gate, include_stale)
+    Parameters
+    ----------
+    positions, rma, efa : sequences of K arrays
+        As in :func:`gwd_per_step`.
+    rectangles : array_like (V, 4)
+        The vehicles ``[x_left, y_bottom, size_x, size_y]``.
+    present : ndarray of bool (K, V)
+
+    Returns
+    -------
+    dict
+        ``gwd_count`` (K,), ``gwd_{rma,efa}_{convention}`` (K,) and ``gwd_{rma,efa}_final_{convention}``.
+    """
+    centers = rectangle_centers(rectangles)
+    gts = {c: ground_truth_extents(rectangles, c) for c in conventions}
+    g_rma, g_efa, count = gwd_per_step(positions, rma, efa, centers, present, gts, gate, include_stale)
     out: dict = {"gwd_count": count}
     for conv in conventions:
-        out[f"gwd_rma_{conv}"] = rma[conv]
-        out[f"gwd_efa_{conv}"] = efa[conv]
-        out[f"gwd_rma_final_{conv}"] = float(rma[conv][-1]) if len(rma[conv]) else float("nan")
-        out[f"gwd_efa_final_{conv}"] = float(efa[conv][-1]) if len(efa[conv]) else float("nan")
+        out[f"gwd_rma_{conv}"] = g_rma[conv]
+        out[f"gwd_efa_{conv}"] = g_efa[conv]
+        out[f"gwd_rma_final_{conv}"] = float(g_rma[conv][-1]) if len(g_rma[conv]) else float("nan")
+        out[f"gwd_efa_final_{conv}"] = float(g_efa[conv][-1]) if len(g_efa[conv]) else float("nan")
     return out
-

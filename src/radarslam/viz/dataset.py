@@ -1,4 +1,9 @@
-"""The figure of a dataset run: estimated path and map over the GPS track."""
+"""The figure of a dataset run: estimated path and map over the GPS track.
+
+Everything drawn is given: the estimate as arrays and the evaluation as the dict of
+:func:`radarslam.metrics.alignment.error_against_fixes` (alignment, error and the GPS fixes with
+their jump flags); nothing here evaluates anything.
+"""
 
 from __future__ import annotations
 
@@ -6,16 +11,56 @@ from pathlib import Path
 
 import numpy as np
 
+from radarslam.core.errors import InputError
 
-def plot_dataset_run(path: str | Path, run, gps_eval: dict, *, title: str | None = None,
-                     dead_reckoning: tuple[np.ndarray, dict] | None = None, diameters: dict | None = None) -> None:
-    """Save the estimated sensor path and landmarks (RMA ellipses in red), rotated and translated
-    into the GPS frame by the alignment of ``gps_eval``, over the GPS fixes (outliers grey).
+_GPS_EVAL_KEYS = ("R", "translation_m", "rmse_m", "span_xy", "span_jumps")
 
-    ``dead_reckoning = (poses (K, 3), its GPS evaluation)`` adds the odometry-only path (aligned by
-    its own fit); ``diameters`` (:func:`~radarslam.experiments.dataset.compare_tree_diameters`) adds
-    a second panel of RMA against reference trunk diameters.
+
+def _check_eval(name: str, ev) -> None:
+    missing = [k for k in _GPS_EVAL_KEYS if not isinstance(ev, dict) or k not in ev]
+    if missing:
+        raise InputError(f"{name}: expected the dict of metrics.alignment.error_against_fixes with keys "
+                         f"{list(_GPS_EVAL_KEYS)}, got {sorted(ev) if isinstance(ev, dict) else type(ev).__name__}")
+
+
+def plot_dataset_map(path: str | Path, poses: np.ndarray, landmarks: np.ndarray, extents: np.ndarray,
+                     gps_eval: dict, *, name: str = "dataset", title: str | None = None,
+                     dead_reckoning: tuple[np.ndarray, dict] | None = None,
+                     diameters: dict | None = None) -> None:
+    """Save the estimated sensor path and landmarks (extent ellipses in red), rotated and translated
+    into the GPS frame by the alignment of ``gps_eval``, over the GPS fixes (jumps grey).
+
+    Parameters
+    ----------
+    path : str or Path
+    poses : ndarray (K, 3)
+        Estimated sensor poses.
+    landmarks : ndarray (N, 2)
+        Final landmark centroids.
+    extents : ndarray (N, 2, 2)
+        Their extent matrices (NaN where none; drawn as the RMA in the run's figure).
+    gps_eval : dict
+        :func:`~radarslam.metrics.alignment.error_against_fixes` of ``poses``: ``R``,
+        ``translation_m``, ``rmse_m``, ``span_xy``, ``span_jumps`` (and ``max_speed``).
+    name : str
+        Named in the default title.
+    dead_reckoning : (ndarray (K, 3), dict), optional
+        The odometry-only poses and their own ``error_against_fixes`` (aligned by its own fit).
+    diameters : dict, optional
+        :func:`~radarslam.experiments.dataset.compare_tree_diameters`: adds a second panel of
+        ``rma_m`` against ``reference_m``.
     """
+    _check_eval("gps_eval", gps_eval)
+    if dead_reckoning is not None:
+        _check_eval("dead_reckoning[1]", dead_reckoning[1])
+    poses = np.asarray(poses, dtype=float)
+    landmarks = np.asarray(landmarks, dtype=float).reshape(-1, 2)
+    extents = np.asarray(extents, dtype=float).reshape(-1, 2, 2)
+    if poses.ndim != 2 or poses.shape[1] < 2:
+        raise InputError(f"poses: expected shape (K, 3), got {poses.shape}")
+    if extents.shape[0] != landmarks.shape[0]:
+        raise InputError(f"extents: expected {landmarks.shape[0]} matrices (one per landmark), got {extents.shape[0]}")
+
     import matplotlib
 
     matplotlib.use("Agg")
@@ -24,35 +69,32 @@ def plot_dataset_run(path: str | Path, run, gps_eval: dict, *, title: str | None
     from radarslam.viz.carpark import draw_extents
 
     R, t = gps_eval["R"], gps_eval["translation_m"]
-    gps = run.data.gps
     if diameters is not None and diameters.get("n_matched", 0):
         fig, (ax, ax2) = plt.subplots(1, 2, figsize=(15, 7.5), gridspec_kw={"width_ratios": [2, 1]})
     else:
         fig, ax = plt.subplots(figsize=(9, 8))
         ax2 = None
-    from radarslam.metrics.alignment import gps_speed_outliers
-
-    m = (gps.t >= run.times[0]) & (gps.t <= run.times[-1])
-    gxy = np.asarray(gps.xy)[m]
-    jump = gps_speed_outliers(np.asarray(gps.t)[m], gxy, 8.0)
+    gxy = np.asarray(gps_eval["span_xy"], dtype=float).reshape(-1, 2)
+    jump = np.asarray(gps_eval["span_jumps"], dtype=bool)
     ax.plot(gxy[~jump, 0], gxy[~jump, 1], ".", color="tab:green", ms=2, label="GPS fixes")
     if jump.any():
-        ax.plot(gxy[jump, 0], gxy[jump, 1], "x", color="0.6", ms=3, label="GPS jumps (> 8 m/s, left out)")
+        vmax = gps_eval.get("max_speed")
+        ax.plot(gxy[jump, 0], gxy[jump, 1], "x", color="0.6", ms=3,
+                label="GPS jumps" + (f" (> {vmax:g} m/s, left out)" if vmax is not None else ""))
     if dead_reckoning is not None:
         dp, dev = dead_reckoning
-        q = dp[:, :2] @ dev["R"].T + dev["translation_m"]
+        q = np.asarray(dp)[:, :2] @ dev["R"].T + dev["translation_m"]
         ax.plot(q[:, 0], q[:, 1], "-", color="tab:orange", lw=0.6, alpha=0.8,
                 label=f"odometry only (RMSE {dev['rmse_m']:.1f} m)")
-    p = run.poses[:, :2] @ R.T + t
+    p = poses[:, :2] @ R.T + t
     ax.plot(p[:, 0], p[:, 1], "-", color="m", lw=0.8, label="estimated laser path")
-    mp = run.final_map
-    L = mp.positions @ R.T + t
+    L = landmarks @ R.T + t
     ax.plot(L[:, 0], L[:, 1], "+", color="k", ms=3, label=f"landmarks ({len(L)})")
-    draw_extents(ax, L, R @ mp.rma @ R.T, color="red", label="RMA extent", lw=0.6, n=24)
+    draw_extents(ax, L, R @ extents @ R.T, color="red", label="RMA extent", lw=0.6, n=24)
     ax.set_aspect("equal")
     ax.set_xlabel("east (m)")
     ax.set_ylabel("north (m)")
-    ax.set_title(title or f"{run.name}: GPS-aligned RMSE {gps_eval['rmse_m']:.2f} m")
+    ax.set_title(title or f"{name}: GPS-aligned RMSE {gps_eval['rmse_m']:.2f} m")
     ax.legend(loc="best", fontsize=8)
     ax.grid(alpha=0.3)
     if ax2 is not None:

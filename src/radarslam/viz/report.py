@@ -1,4 +1,9 @@
-"""Figures of the Monte Carlo report: seed Fig. 3 (GWD curves), the NEES plot and seed Fig. 2."""
+"""Figures of the Monte Carlo report: seed Fig. 3 (GWD curves), the NEES plot and seed Fig. 2.
+
+Every variant of the report is drawn, each in its own line style (and, on the NEES plot, colour),
+and named in the legend. The plotting functions return the legend entries they drew as
+``(label, linestyle, colour)`` so that callers and tests can check what the figure shows.
+"""
 
 from __future__ import annotations
 
@@ -6,9 +11,13 @@ from pathlib import Path
 
 import numpy as np
 
-#: Line style per configuration: "With extent" solid, "No extent" dashed.
-_STYLE = {"ext": "-", "noext": "--"}
-_COLOR = {"rma": "red", "efa": "blue"}
+#: Line style of the i-th variant (the default two: "No extent" dashed, "With extent" solid).
+LINESTYLES = ("--", "-", ":", "-.", (0, (5, 1, 1, 1, 1, 1)), (0, (1, 3)), (0, (8, 2)), (0, (3, 1, 1, 1)))
+#: Shades of the estimator colour per variant on the GWD figure.
+_GWD_COLORS = {"rma": ("red", "darkred", "salmon", "orangered", "firebrick", "lightcoral", "maroon", "tomato"),
+               "efa": ("blue", "navy", "deepskyblue", "slateblue", "royalblue", "lightblue", "midnightblue", "teal")}
+#: Colour of the i-th variant on the NEES figure.
+_NEES_COLORS = ("tab:purple", "k", "tab:orange", "tab:brown", "tab:olive", "tab:cyan", "tab:pink", "tab:gray")
 
 
 def _pyplot():
@@ -20,8 +29,26 @@ def _pyplot():
     return plt
 
 
-def plot_gwd_curves(path: str | Path, curves: dict, convention: str, *, reference: dict | None = None) -> None:
-    """Save seed Fig. 3: RMSE of the average GWD against the scan k.
+def _style(i: int):
+    return LINESTYLES[i % len(LINESTYLES)]
+
+
+def _entries(ax) -> list[tuple[str, object, str]]:
+    """``(label, linestyle, colour)`` of every legend entry of ``ax``."""
+    from matplotlib.colors import to_hex
+
+    handles, labels = ax.get_legend_handles_labels()
+    out = []
+    for h, lab in zip(handles, labels):
+        ls = h.get_linestyle() if hasattr(h, "get_linestyle") else None
+        col = h.get_color() if hasattr(h, "get_color") else h.get_facecolor()
+        out.append((lab, ls, to_hex(col)))
+    return out
+
+
+def plot_gwd_curves(path: str | Path, curves: dict, convention: str, *,
+                    reference: dict | None = None) -> list[tuple[str, object, str]]:
+    """Save seed Fig. 3: RMSE of the average GWD against the scan k, for every variant.
 
     Parameters
     ----------
@@ -32,19 +59,26 @@ def plot_gwd_curves(path: str | Path, curves: dict, convention: str, *, referenc
         The ground-truth convention, named in the title.
     reference : dict, optional
         ``{"rma": {k: value}, "efa": {k: value}}`` drawn as markers (values read off the paper).
+
+    Returns
+    -------
+    list of (label, linestyle, colour)
+        The legend entries: RMA and EFA of each variant (colour: red shades RMA, blue shades EFA;
+        line style: one per variant), then the reference markers.
     """
     plt = _pyplot()
     k = np.asarray(curves["k"])
     fig, ax = plt.subplots(figsize=(7.0, 4.2))
-    for cname in ("ext", "noext"):
-        c = curves["configs"][cname]
+    cfgs = list(curves["configs"].values())
+    for i, c in enumerate(cfgs):
         for est in ("rma", "efa"):
-            ax.plot(k, c[est]["rmse"], _STYLE[cname], color=_COLOR[est], lw=1.6 if cname == "ext" else 1.1,
-                    label=f"{est.upper()}, {c['label']}")
+            shades = _GWD_COLORS[est]
+            ax.plot(k, c[est]["rmse"], linestyle=_style(i), color=shades[i % len(shades)],
+                    lw=1.6 if i == len(cfgs) - 1 else 1.1, label=f"{est.upper()}, {c['label']}")
     if reference:
         for est, pts in reference.items():
             ks = sorted(x for x in pts if x <= k[-1])
-            ax.plot(ks, [pts[x] for x in ks], "o", mfc="none", color=_COLOR[est], ms=5,
+            ax.plot(ks, [pts[x] for x in ks], "o", mfc="none", color=_GWD_COLORS[est][0], ms=5,
                     label=f"{est.upper()}, paper Fig. 3")
     ax.set_xlabel("scan k")
     ax.set_ylabel("RMSE of the average GWD (m)")
@@ -52,30 +86,36 @@ def plot_gwd_curves(path: str | Path, curves: dict, convention: str, *, referenc
     ax.set_xlim(1, k[-1])
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
+    entries = _entries(ax)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
+    return entries
 
 
-def plot_nees(path: str | Path, summary: dict) -> None:
-    """Save the average pose NEES per scan of both configurations with the chi-square band shaded.
+def plot_nees(path: str | Path, summary: dict) -> list[tuple[str, object, str]]:
+    """Save the average pose NEES per scan of every variant with the chi-square band shaded.
 
     Parameters
     ----------
     path : str or Path
     summary : dict
         From :func:`radarslam.experiments.report.nees_summary`.
+
+    Returns
+    -------
+    list of (label, linestyle, colour)
+        The legend entries: one line per variant, then the band.
     """
     plt = _pyplot()
     lo, hi = summary["band"]
     fig, ax = plt.subplots(figsize=(7.0, 4.2))
     K = None
     ymin, ymax = lo, hi
-    for cname in ("ext", "noext"):
-        c = summary["configs"][cname]
+    for i, c in enumerate(summary["configs"].values()):
         a = np.asarray(c["avg_nees"], dtype=float)
         K = a.shape[0]
-        ax.plot(np.arange(1, K + 1), a, _STYLE[cname], color="k" if cname == "ext" else "tab:purple", lw=1.3,
+        ax.plot(np.arange(1, K + 1), a, linestyle=_style(i), color=_NEES_COLORS[i % len(_NEES_COLORS)], lw=1.3,
                 label=f"{c['label']} ({100 * c['frac_inside']:.0f}% inside)")
         fin = a[np.isfinite(a) & (a > 0)]
         if fin.size:
@@ -91,21 +131,25 @@ def plot_nees(path: str | Path, summary: dict) -> None:
     ax.set_xlim(1, K)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
+    entries = _entries(ax)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
+    return entries
 
 
-def plot_fig2(path: str | Path, trial) -> None:
+def plot_fig2(path: str | Path, trial, label: str = "With extent") -> None:
     """Save the final map of a re-run trial (seed Fig. 2): RMA red, EFA blue.
 
     Parameters
     ----------
     path : str or Path
     trial : TrialResult
-        Trial 1 "With extent", re-run by :func:`radarslam.experiments.report.write_report`.
+        Trial 1 in one variant, re-run by :func:`radarslam.experiments.report.write_report`.
+    label : str
+        The variant's label, named in the title.
     """
     from radarslam.viz.carpark import plot_carpark_run
 
     K = trial.record.poses.shape[0]
-    plot_carpark_run(path, trial, title=f"trial 1, k = {K}, With extent")
+    plot_carpark_run(path, trial, title=f"trial 1, k = {K}, {label}")
