@@ -51,7 +51,10 @@ def carpark_run(profile: str, seed: int, extent: bool, backend: str) -> dict[str
     from radarslam.slam import EkfSlam
 
     cfg = profile_config(profile)
-    cfg = replace(cfg, filter=replace(cfg.filter, backend=backend), extent=replace(cfg.extent, use_in_slam=extent))
+    # Pinned to the configuration of the recording: later defaults (measurement-contour sifting)
+    # must not change what these runs compare.
+    cfg = replace(cfg, filter=replace(cfg.filter, backend=backend),
+                  extent=replace(cfg.extent, use_in_slam=extent, sifting_mode="literal"))
     scenario = generate_scenario(cfg, np.random.default_rng(np.random.SeedSequence(seed)))
     out = _record(EkfSlam(cfg), scenario.events)
     out["position_error"] = np.hypot(*(out["poses"][:, :2] - scenario.truth.poses[:, :2]).T)

@@ -42,7 +42,7 @@ class EuclideanAssociator:
                 h, Hs, idx = ekf.landmark_measurement(state.x, j)
                 state.set(*ekf.update(state.x, state.P, ekf.innovation(polar[i], h), Hs, idx, R))
                 out[c] = j
-        return out
+        return out, np.empty(0)
 
     def min_log_distance(self, state, s, R):
         return math.inf  # every cluster is new to the toy
@@ -69,11 +69,14 @@ class MomentEstimator:
         survivor.points += gone.points
         return survivor
 
-    def sifting(self, states):
+    def sift(self, states, points, polar, centroids, centroid_covs, pose, pose_cov):
         return None
 
     def spreads(self, states):
         return np.zeros((len(states), 2, 2)), np.zeros(len(states), dtype=bool)
+
+    def initial_spread(self):
+        return None
 
     def matrix(self, st):
         pts = np.concatenate(st.points) if st.points else np.empty((0, 2))
@@ -202,9 +205,11 @@ def test_compiled_associator_matches_python_on_random_states(seed):
     beta = float(rng.choice([3.0, 20.0]))
     py = NearestNeighbourAssociator(beta, 3, 5)
     nb = CompiledNearestNeighbourAssociator(beta, 3, 5)
-    out_py = py.associate(st_py, polar, cand, R, spreads)
-    out_nb = nb.associate(st_nb, polar, cand, R, spreads)
+    out_py, nis_py = py.associate(st_py, polar, cand, R, spreads)
+    out_nb, nis_nb = nb.associate(st_nb, polar, cand, R, spreads)
     assert np.array_equal(out_py, out_nb)
+    assert nis_py.shape == ((out_py >= 0).sum(),) and np.all(nis_py >= 0)
+    np.testing.assert_allclose(nis_nb, nis_py, rtol=1e-9)
     assert (out_py >= 0).sum() >= 1  # the case exercised updates
     np.testing.assert_allclose(st_nb.x, st_py.x, rtol=0, atol=1e-12)
     np.testing.assert_allclose(st_nb.P, st_py.P, rtol=0, atol=1e-12)
@@ -217,9 +222,9 @@ def test_compiled_associator_without_landmarks_associates_nothing():
     from radarslam.slam._numba import CompiledNearestNeighbourAssociator
 
     st = SlamState(np.zeros(3), np.eye(3))
-    out = CompiledNearestNeighbourAssociator(20.0, 3, 5).associate(st, np.array([[5.0, 0.1]]), np.array([0]),
-                                                                     np.eye(2), Spreads.none(0))
-    assert out.tolist() == [-1]
+    out, nis = CompiledNearestNeighbourAssociator(20.0, 3, 5).associate(st, np.array([[5.0, 0.1]]), np.array([0]),
+                                                                          np.eye(2), Spreads.none(0))
+    assert out.tolist() == [-1] and nis.size == 0
     assert CompiledNearestNeighbourAssociator(20.0, 3, 5).min_log_distance(st, np.array([5.0, 0.1]), np.eye(2)) \
         == math.inf
 

@@ -3,17 +3,18 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
+import pytest
+from helpers import quiet_config, rect_points, scan
 
 from radarslam.core.types import Odometry
 from radarslam.extent.ellipse_fit import _fit_ellipse
 from radarslam.extent.measurement import converted_measurement_covs, select_scan_W
 from radarslam.extent.random_matrix import rm_predict, rm_update
-from radarslam.models.radar import polar_to_xy
+from radarslam.models.radar import polar_to_xy, xy_to_polar
 from radarslam.slam.filter import EkfSlam
-
-from helpers import quiet_config, rect_points, scan
 
 CAR = (9.0, 2.0, 4.0, 2.0)  # a 4 x 2 car centred at (11, 3)
 
@@ -111,9 +112,14 @@ def test_extent_dropped_with_its_landmark():
     assert snap.rma.shape == (0, 2, 2) and snap.efa.shape == (0, 2, 2)
 
 
-def test_contour_sifting_with_extent():
-    """With extent, a point within gamma_s but outside the kappa-ellipse is not a candidate."""
-    slam_on = run_scans(quiet_config(use_extent=True), 6)
+def literal(cfg):
+    """The paper's literal contour test (kappa = 1), kept for ablations."""
+    return replace(cfg, extent=replace(cfg.extent, sifting_mode="literal"))
+
+
+def test_literal_contour_sifting_with_extent():
+    """Literal mode: a point within gamma_s but outside the kappa-ellipse is not a candidate."""
+    slam_on = run_scans(literal(quiet_config(use_extent=True)), 6)
     slam_off = run_scans(quiet_config(use_extent=False), 6)
     c = slam_on.x[3:5]
     X = slam_on.landmarks[0].extent.X
@@ -123,6 +129,39 @@ def test_contour_sifting_with_extent():
     r_on = slam_on.update(scan(7, outside[None, :]))
     r_off = slam_off.update(scan(7, outside[None, :]))
     assert r_on.n_candidates == 0 and r_off.n_candidates == 1
+
+
+@pytest.mark.parametrize("probability", [0.9, 0.99])
+def test_measurement_contour_gate_is_the_predicted_spread(probability):
+    """Measurement-contour mode (the default): a detection is a candidate exactly when
+    (z - p)^T (gamma_z X + W(z) + P^n)^-1 (z - p) <= -2 log(1 - p), evaluated here by hand; the
+    radius test of 3 m no longer decides (the gate reaches beyond it along the long axis)."""
+    cfg = quiet_config(use_extent=True)
+    cfg = replace(cfg, extent=replace(cfg.extent, gate_probability=probability))
+    assert cfg.extent.sifting_mode == "measurement-contour"
+    slam = run_scans(cfg, 6)
+    g = -2.0 * math.log(1.0 - probability)
+    X = slam.landmarks[0].extent.X
+    p, Pn = slam.x[3:5].copy(), slam.P[3:5, 3:5].copy()
+    lam, U = np.linalg.eigh(X)
+    for axis in (0, 1):
+        # the gate's radius along this axis of X, found by bisection on the hand-evaluated q
+        def q(d):
+            z = p + d * U[:, axis]
+            s = xy_to_polar(slam.x[:3], z[None, :])
+            W = converted_measurement_covs(slam.x[:3], slam.P[:3, :3], s, slam.R)[0]
+            e = z - p
+            return float(e @ np.linalg.solve(0.25 * X + W + Pn, e))
+
+        lo, hi = 0.0, 20.0
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if q(mid) <= g else (lo, mid)
+        for d, expected in ((0.97 * lo, 1), (1.03 * lo, 0)):
+            probe = run_scans(cfg, 6)
+            assert np.array_equal(probe.x, slam.x)
+            rep = probe.update(scan(7, (p + d * U[:, axis])[None, :]))
+            assert rep.n_candidates == expected, (axis, d, lo)
 
 
 def test_extent_inflated_noise_admits_far_side_detection():
@@ -151,7 +190,7 @@ def test_ablation_switches_select_each_half_of_with_extent():
     """contour_sifting / inflate_noise switch the two uses of a.7 independently."""
     from dataclasses import replace
 
-    base = quiet_config(use_extent=True)
+    base = literal(quiet_config(use_extent=True))
     no_contour = replace(base, extent=replace(base.extent, contour_sifting=False))
     no_inflate = replace(base, extent=replace(base.extent, inflate_noise=False))
     s1, s2, s3 = (run_scans(c, 6) for c in (base, no_contour, no_inflate))

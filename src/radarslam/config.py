@@ -163,7 +163,11 @@ class FilterConfig:
 class LandmarkConfig:
     """Landmark management (method.md c.1; APSIPA Table I unless marked)."""
 
-    associator: str = param("nearest-neighbour", "data association (a registered name; c.4)", registry=ASSOCIATORS)
+    associator: str = param("nearest-neighbour", "data association (a registered name; c.4): nearest-neighbour "
+                            "(sequential, the paper) or batch (one update per landmark per scan)", registry=ASSOCIATORS)
+    init: str = param("nearest", "[PROP] new landmark from its cluster: nearest (the detection of smallest range "
+                      "with R, the paper) or cluster (the cluster mean, with the mean's noise and the extent "
+                      "estimator's prior spread)", choices=("nearest", "cluster"))
     alpha: float = param(500.0, "log-distance threshold a new cluster must exceed to every landmark")
     beta: float = param(20.0, "log-distance association threshold (profile-dependent)")
     sift_radius_m: float = param(3.0, "gamma_s: sifting radius (m)", low=0.0, low_open=True)
@@ -189,7 +193,18 @@ class ExtentConfig:
     estimator: str = param("rma-efa", "extent estimator (a registered name; a.3-a.5)", registry=EXTENT_ESTIMATORS)
     track: bool = param(True, "estimate RMA and EFA extents for every landmark")
     use_in_slam: bool = param(False, "'With extent' (Decision 6): contour sifting + extent-inflated noise")
-    contour_sifting: bool = param(True, "with use_in_slam: sift by the extent contour (a.7.1); for ablations")
+    contour_sifting: bool = param(True, "with use_in_slam: extent-aware sifting (a.7.1); false = radius test for all")
+    sifting_mode: str = param("measurement-contour", "extent-aware sifting test (a.7.1, Decision 6): the gate of the "
+                              "predicted detection spread, or the paper's literal X ellipse (kappa)",
+                              choices=("measurement-contour", "literal"))
+    gate_probability: float = param(0.99, "measurement-contour gate probability (chi-square, 2 dof; a.7.1)",
+                                    low=0.0, low_open=True, high=0.999999)
+    pre_init_spread: str = param("none", "[PROP] detection spread of a landmark whose extent is not initialised, "
+                                 "for R_eff and sifting: none (R only, the paper), prior (prior_extent_radius_m) "
+                                 "or scatter (its buffered detections, the prior until 3 are held)",
+                                 choices=("none", "prior", "scatter"))
+    prior_extent_radius_m: float = param(1.5, "[PROP] radius of the circular prior extent X0 = r^2 I (m)",
+                                         low=0.0, low_open=True)
     inflate_noise: bool = param(True, "with use_in_slam: R_eff = R + H_p gamma X H_p^T (a.7.2); for ablations")
     n_init: int = param(20, "N_i: initialise once more than this many detections are buffered", low=1)
     alpha0: float = param(50.0, "alpha_0 at initialisation", low=2.0, low_open=True)

@@ -22,7 +22,9 @@ import numpy as np
 from radarslam.core.registry import EXTENT_ESTIMATORS
 from radarslam.extent.ellipse_fit import _fit_ellipse
 from radarslam.extent.measurement import _scan_W
+from radarslam.extent.measurement import _converted_measurement_covs
 from radarslam.extent.random_matrix import _rm_predict, _rm_update
+from radarslam.extent.sifting import chi2_2dof_quantile, literal_contour, measurement_contour
 
 
 class ExtentEstimator(Protocol):
@@ -42,11 +44,18 @@ class ExtentEstimator(Protocol):
     def merge(self, survivor: Any, gone: Any) -> Any:
         """The extent state of the landmark that survives a merge (c.9)."""
 
-    def sifting(self, states: list[Any]) -> tuple[np.ndarray, np.ndarray] | None:
-        """``(X^-1 (N, 2, 2), has (N,))`` for the contour test of a.7.1, or None: radius test only."""
+    def sift(self, states: list[Any], points: np.ndarray, polar: np.ndarray, centroids: np.ndarray,
+             centroid_covs: np.ndarray, pose: np.ndarray, pose_cov: np.ndarray):
+        """The extent-aware sifting test of a.7.1: ``(inside (m, N), has (N,))``, or None when the
+        radius test applies to every landmark. ``points`` are the detections ``polar`` in the world
+        frame of the predicted ``pose``."""
 
     def spreads(self, states: list[Any]) -> tuple[np.ndarray, np.ndarray]:
         """``(gamma_z X (N, 2, 2), has (N,))``: the extent part of R_eff (a.7.2); has all False: R."""
+
+    def initial_spread(self) -> np.ndarray | None:
+        """The detection spread (2, 2) a newborn landmark's centroid may be off by (its prior
+        extent's ``gamma_z X0``), for the cluster initialisation of c.8; None: no prior."""
 
     def matrix(self, st: Any) -> np.ndarray | None:
         """The estimated extent (2, 2), or None before initialisation."""
@@ -73,13 +82,6 @@ class RmaEfaState:
         return self.X is not None
 
 
-def _inverse_2x2(Xs: np.ndarray) -> np.ndarray:
-    """Closed-form inverses of a stack ``(N, 2, 2)`` of non-singular matrices."""
-    det = Xs[:, 0, 0] * Xs[:, 1, 1] - Xs[:, 0, 1] * Xs[:, 1, 0]
-    return np.stack([np.stack([Xs[:, 1, 1], -Xs[:, 0, 1]], -1),
-                     np.stack([-Xs[:, 1, 0], Xs[:, 0, 0]], -1)], 1) / det[:, None, None]
-
-
 class RmaEfaEstimator:
     """Random-matrix extents (seed eqs. 4-5; a.3-a.5) initialised by EFA, with the EFA baseline.
 
@@ -98,27 +100,54 @@ class RmaEfaEstimator:
         self.R_extent = R_extent
         self.posterior_centroid = bool(extent_config.use_posterior_landmark)
         self.in_slam = bool(extent_config.use_in_slam)
+        self.gate = chi2_2dof_quantile(extent_config.gate_probability)
+        #: gamma_z X0 of the circular prior extent X0 = r^2 I ([PROP], docs/method.md a.7.3).
+        self.prior_spread = extent_config.gamma_z * extent_config.prior_extent_radius_m ** 2 * np.eye(2)
 
     def new(self) -> RmaEfaState:
         return RmaEfaState()
 
     # ------------------------------------------------------------------ what SLAM asks
-    def sifting(self, states: list[RmaEfaState]) -> tuple[np.ndarray, np.ndarray] | None:
+    def sift(self, states: list[RmaEfaState], points: np.ndarray, polar: np.ndarray, centroids: np.ndarray,
+             centroid_covs: np.ndarray, pose: np.ndarray, pose_cov: np.ndarray):
+        """a.7.1: the measurement contour (the gate of ``gamma_z X + W(z) + P^n``) or the literal
+        ``X`` ellipse, for landmarks with an initialised extent; None when sifting is by radius."""
         if not (self.in_slam and self.c.contour_sifting and states):
             return None
         has = np.array([s.initialized for s in states])
-        Xs = np.array([s.X if s.initialized else np.eye(2) for s in states])
-        return _inverse_2x2(Xs), has
+        if not has.any() or points.shape[0] == 0:
+            return None
+        X = np.array([s.X if s.initialized else np.eye(2) for s in states])
+        if self.c.sifting_mode == "literal":
+            return literal_contour(points, centroids, X, self.c.kappa), has
+        W = _converted_measurement_covs(pose, pose_cov, polar, self.R_extent)
+        return measurement_contour(points, W, centroids, self.c.gamma_z * X, centroid_covs, self.gate), has
+
+    def _pre_init_spread(self, st: RmaEfaState) -> np.ndarray | None:
+        """The spread of a landmark without an extent ([PROP] ``extent.pre_init_spread``)."""
+        mode = self.c.pre_init_spread
+        if mode == "prior":
+            return self.prior_spread
+        if mode == "scatter":
+            if st.n_buffered >= 3:
+                pts = np.concatenate(st.buffer)
+                return np.cov(pts.T)
+            return self.prior_spread
+        return None
 
     def spreads(self, states: list[RmaEfaState]) -> tuple[np.ndarray, np.ndarray]:
         n = len(states)
         gX, has = np.zeros((n, 2, 2)), np.zeros(n, dtype=np.bool_)
         if self.in_slam and self.c.inflate_noise:
             for j, s in enumerate(states):
-                if s.X is not None:
-                    gX[j] = self.c.gamma_z * s.X
+                spread = self.c.gamma_z * s.X if s.X is not None else self._pre_init_spread(s)
+                if spread is not None:
+                    gX[j] = spread
                     has[j] = True
         return gX, has
+
+    def initial_spread(self) -> np.ndarray | None:
+        return self.prior_spread if self.in_slam and self.c.pre_init_spread != "none" else None
 
     def matrix(self, st: RmaEfaState) -> np.ndarray | None:
         return st.X

@@ -22,6 +22,11 @@ class Cluster:
     members: np.ndarray  # indices into the scan's detections
 
 
+#: Above this many points the exact pairwise neighbourhoods (an m x m matrix) give way to the
+#: kd-tree search of scikit-learn's DBSCAN; both give the same labels (tested).
+DENSE_MAX = 512
+
+
 @functools.cache
 def _sklearn_dbscan_core():
     """scikit-learn's compiled DBSCAN expansion (``DBSCAN.fit`` calls it after its neighbour search).
@@ -49,16 +54,18 @@ def dbscan_labels(points: np.ndarray, eps: float, min_samples: int) -> np.ndarra
     if m < min_samples or m == 0:
         # No point can have min_samples neighbours: everything is noise (exact shortcut).
         return np.full(m, -1)
+    core = _sklearn_dbscan_core()
+    if core is None or m > DENSE_MAX:
+        # A large scan: scikit-learn's own DBSCAN, whose kd-tree radius search never builds the
+        # m x m distance matrix (10,000 detections in well under a second).
+        from sklearn.cluster import DBSCAN
+
+        return DBSCAN(eps=eps, min_samples=min_samples, algorithm="kd_tree").fit(points).labels_
     d = points[:, None, :] - points[None, :, :]
     near = np.sqrt(np.einsum("ijk,ijk->ij", d, d)) <= eps
     counts = near.sum(axis=1)
     if counts.max() < min_samples:
         return np.full(m, -1)  # no core point: all noise (exact)
-    core = _sklearn_dbscan_core()
-    if core is None:  # pragma: no cover
-        from sklearn.cluster import DBSCAN
-
-        return DBSCAN(eps=eps, min_samples=min_samples, algorithm="kd_tree").fit(points).labels_
     neighborhoods = np.empty(m, dtype=object)
     cols = np.nonzero(near)[1]  # row-major: each row's neighbours, ascending, as radius_neighbors sorts them
     for i, nb in enumerate(np.split(cols, np.cumsum(counts)[:-1])):

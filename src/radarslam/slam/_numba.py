@@ -54,14 +54,14 @@ def compile_kernels(*funcs):
 
 _K = compile_kernels(angles.wrap_pi_scalar, angles.wrap_2pi_scalar, layout.landmark_index,
                      ekf.innovation_cov_terms, ekf.gaussian_log_distance, ekf.sparse_jacobian, ekf.r_eff,
-                     ekf.update)
+                     ekf.joseph_update)
 _wrap_pi = _K["wrap_pi_scalar"]
 _landmark_index = _K["landmark_index"]
 _innovation_cov_terms = _K["innovation_cov_terms"]
 _gaussian_log_distance = _K["gaussian_log_distance"]
 _sparse_jacobian = _K["sparse_jacobian"]
 _r_eff = _K["r_eff"]
-_update = _K["update"]
+_joseph_update = _K["joseph_update"]
 
 
 @njit(cache=True)
@@ -119,13 +119,15 @@ def min_log_distance(x, P, z0, z1, n_nearest, R):  # pragma: no cover - compiled
 def associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta):  # pragma: no cover - compiled
     """Sequential association + EKF updates of the detections ``polar[cand]``.
 
-    Returns ``(x, P, out)``: the updated state and the landmark associated to each candidate (-1
-    where none).
+    Returns ``(x, P, out, nis)``: the updated state, the landmark associated to each candidate (-1
+    where none) and the NIS of each update.
     """
     N = (x.shape[0] - 3) // 2
     out = np.full(cand.shape[0], -1)
+    nis = np.empty(cand.shape[0])
+    n_up = 0
     if N == 0:
-        return x, P, out
+        return x, P, out, nis[:0]
     d2 = np.empty(N)
     for c in range(cand.shape[0]):
         z0 = polar[cand[c], 0]
@@ -136,8 +138,10 @@ def associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta):  # pragma
         out[c] = best_j
         Hs, idx = _sparse_jacobian(x, best_j)
         Rj = _r_eff(R, Hs, gX[best_j]) if has_gX[best_j] else R
-        x, P = _update(x, P, np.array([be0, be1]), Hs, idx, Rj)
-    return x, P, out
+        x, P, q = _joseph_update(x, P, np.array([be0, be1]), Hs, idx, Rj)
+        nis[n_up] = q
+        n_up += 1
+    return x, P, out, nis[:n_up]
 
 
 class CompiledNearestNeighbourAssociator:
@@ -152,13 +156,13 @@ class CompiledNearestNeighbourAssociator:
         self.n_nearest_new = int(n_nearest_new)
 
     def associate(self, state: SlamState, polar: np.ndarray, candidates: np.ndarray, R: np.ndarray,
-                  spreads: Spreads) -> np.ndarray:
+                  spreads: Spreads) -> tuple[np.ndarray, np.ndarray]:
         if not state.landmarks:
-            return np.full(candidates.shape[0], -1, dtype=int)
-        x, P, out = associate_scan(state.x, state.P, polar, candidates.astype(np.int64), R, spreads.gX,
-                                   spreads.has, self.n_nearest, self.beta)
+            return np.full(candidates.shape[0], -1, dtype=int), np.empty(0)
+        x, P, out, nis = associate_scan(state.x, state.P, polar, candidates.astype(np.int64), R, spreads.gX,
+                                        spreads.has, self.n_nearest, self.beta)
         state.set(x, P)
-        return out
+        return out, nis
 
     def min_log_distance(self, state: SlamState, s: np.ndarray, R: np.ndarray) -> float:
         return float(min_log_distance(state.x, state.P, float(s[0]), float(s[1]), self.n_nearest_new, R))

@@ -44,11 +44,12 @@ class Associator(Protocol):
     """What the orchestrator needs from data association."""
 
     def associate(self, state: SlamState, polar: np.ndarray, candidates: np.ndarray, R: np.ndarray,
-                  spreads: Spreads) -> np.ndarray:
+                  spreads: Spreads) -> tuple[np.ndarray, np.ndarray]:
         """Associate ``polar[candidates]`` and update ``state`` (through ``state.set``).
 
         Returns the landmark position ``j`` of each candidate, ``-1`` where none (shape
-        ``candidates.shape``).
+        ``candidates.shape``), and the normalised innovation squared of every update applied
+        (2 degrees of freedom each).
         """
 
     def min_log_distance(self, state: SlamState, s: np.ndarray, R: np.ndarray) -> float:
@@ -107,17 +108,62 @@ class NearestNeighbourAssociator:
         return (j, D, np.array(e), Hs, idx, Rj)
 
     def associate(self, state: SlamState, polar: np.ndarray, candidates: np.ndarray, R: np.ndarray,
-                  spreads: Spreads) -> np.ndarray:
+                  spreads: Spreads) -> tuple[np.ndarray, np.ndarray]:
         out = np.full(candidates.shape[0], -1, dtype=int)
+        nis = []
         for c, i in enumerate(candidates.tolist()):
             j, D, e, Hs, idx, Rj = self.best_match(state, polar[i], self.n_nearest, R, spreads)
             if j >= 0 and D < self.beta:
-                state.set(*ekf.update(state.x, state.P, e, Hs, idx, Rj))
+                x, P, q = ekf.joseph_update(state.x, state.P, e, Hs, idx, Rj)
+                state.set(x, P)
+                nis.append(q)
                 out[c] = j
-        return out
+        return out, np.array(nis)
 
     def min_log_distance(self, state: SlamState, s: np.ndarray, R: np.ndarray) -> float:
         return self.best_match(state, s, self.n_nearest_new, R)[1]
+
+
+class BatchAssociator(NearestNeighbourAssociator):
+    """Per-landmark batch update (docs/method.md a.7.3): one EKF update per landmark per scan.
+
+    Every candidate is scored against its ``N_s`` nearest landmarks by the log distance of APSIPA
+    eq. (9) at the state before the scan's updates (with ``R_eff``), exactly as the sequential
+    scheme would score it first. The detections of each landmark are then fused into their mean in
+    the sensor's Cartesian frame, ``zbar = mean_i (r_i cos phi_i, r_i sin phi_i)``, whose covariance
+    about the predicted centroid is ``(Rot(-theta) gamma_z X Rot(-theta)^T + mean_i J_i R J_i^T) / m``
+    (the detections scatter independently about the centroid with the extent's spread plus the
+    sensor's noise), and one Joseph update with ``h = Rot(-theta) (p - t)`` is applied per
+    landmark, landmarks in order. For m detections of a linear model this is the same update as m
+    sequential ones (tested); it costs one n x n update per landmark instead of one per detection.
+    """
+
+    name = "batch"
+
+    def associate(self, state: SlamState, polar: np.ndarray, candidates: np.ndarray, R: np.ndarray,
+                  spreads: Spreads) -> tuple[np.ndarray, np.ndarray]:
+        out = np.full(candidates.shape[0], -1, dtype=int)
+        for c, i in enumerate(candidates.tolist()):
+            j, D = self.best_match(state, polar[i], self.n_nearest, R, spreads)[:2]
+            if j >= 0 and D < self.beta:
+                out[c] = j
+        nis = []
+        for j in np.unique(out[out >= 0]).tolist():
+            dets = candidates[out == j]
+            pts, R_xy = ekf.polar_to_sensor_xy(polar[dets], R)
+            spread = ekf.rotate_to_sensor(state.x[2], spreads.gX[j]) if spreads.has[j] else 0.0
+            h, Hs, idx = ekf.sensor_xy_measurement(state.x, j)
+            x, P, q = ekf.joseph_update(state.x, state.P, pts.mean(axis=0) - h, Hs, idx,
+                                        (spread + R_xy) / dets.size)
+            state.set(x, P)
+            nis.append(q)
+        return out, np.array(nis)
+
+
+def _make_batch(config) -> BatchAssociator:
+    """From the ``landmarks`` section: ``beta``, ``n_nearest_assoc``, ``n_nearest_new``."""
+    lc = config.landmarks
+    return BatchAssociator(lc.beta, lc.n_nearest_assoc, lc.n_nearest_new)
 
 
 def _make_nearest_neighbour(config) -> NearestNeighbourAssociator:
@@ -127,3 +173,4 @@ def _make_nearest_neighbour(config) -> NearestNeighbourAssociator:
 
 
 ASSOCIATORS.register("nearest-neighbour", _make_nearest_neighbour)
+ASSOCIATORS.register("batch", _make_batch)

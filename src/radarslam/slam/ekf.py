@@ -5,7 +5,7 @@ Pure functions: every function returns new arrays and leaves its inputs untouche
 kept in ``[0, 2 pi)`` (docs/method.md a.1).
 
 One source for each kernel: :func:`sparse_jacobian` (the range-azimuth measurement Jacobian),
-:func:`r_eff` (the extent-inflated noise), :func:`update` (the Joseph update),
+:func:`r_eff` (the extent-inflated noise), :func:`joseph_update` (the Joseph update),
 :func:`innovation_cov_terms` and :func:`gaussian_log_distance` (the log distance) and the angle wraps
 of :mod:`radarslam.core.angles` are plain functions in a subset of Python and numpy that numba
 compiles as they are: the compiled associator (:mod:`radarslam.slam._numba`) runs these very
@@ -80,13 +80,22 @@ def log_distance(e: np.ndarray, S: np.ndarray) -> float:
 
 def update(x: np.ndarray, P: np.ndarray, e: np.ndarray, Hs: np.ndarray, idx: np.ndarray,
            R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """EKF update with a sparse measurement Jacobian, Joseph form (method.md c.4).
+    """EKF update with a sparse measurement Jacobian, Joseph form (docs/method.md c.4):
+    :func:`joseph_update` without the NIS."""
+    x_new, P_new, _ = joseph_update(x, P, e, Hs, idx, R)
+    return x_new, P_new
+
+
+def joseph_update(x: np.ndarray, P: np.ndarray, e: np.ndarray, Hs: np.ndarray, idx: np.ndarray,
+                  R: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """EKF update with a sparse measurement Jacobian, Joseph form, and the update's NIS.
 
     ``K = P H^T S^-1``, ``x <- x + K e`` and the Joseph form
     ``P <- (I - K H) P (I - K H)^T + K R K^T``, which for any gain K expands to
     ``P - T - T^T + K S K^T`` with ``T = K (P H^T)^T`` and ``S = H P H^T + R``. With H non-zero
     on the 5 columns ``idx`` that costs two n x n outer products, no more than ``P - K S K^T``,
-    and is symmetric by construction.
+    and is symmetric by construction. The normalised innovation squared ``e^T S^-1 e`` (chi-square
+    with 2 degrees of freedom for a consistent filter) comes with it. A kernel (numba compiles it).
     """
     PHt = P[:, idx] @ Hs.T                                  # (n, 2)
     S = Hs @ PHt[idx] + R                                   # H P H^T + R
@@ -103,7 +112,8 @@ def update(x: np.ndarray, P: np.ndarray, e: np.ndarray, Hs: np.ndarray, idx: np.
     T = K @ PHt.T
     P_new = P - (T + T.T)
     P_new += KL @ KL.T
-    return x_new, P_new
+    nis = (d * e[0] * e[0] - 2.0 * b * e[0] * e[1] + a * e[1] * e[1]) / det
+    return x_new, P_new, nis
 
 
 def score_landmarks(x: np.ndarray, P: np.ndarray, z: np.ndarray, js: list[int], R: np.ndarray,
@@ -218,6 +228,38 @@ def sparse_jacobian(x: np.ndarray, j: int) -> tuple[np.ndarray, np.ndarray]:
             np.array([0, 1, 2, i, i + 1]))
 
 
+def sensor_xy_measurement(x: np.ndarray, j: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Landmark ``j`` in the sensor's Cartesian frame, ``h = Rot(-theta) (p - t)``, with its sparse
+    Jacobian ``(Hs (2, 5), idx (5,))`` over ``(x, y, theta, px, py)`` (docs/method.md a.7.3): the
+    measurement of the per-landmark batch update."""
+    i = landmark_index(j)
+    dx, dy = x[i] - x[0], x[i + 1] - x[1]
+    c, s = math.cos(x[2]), math.sin(x[2])
+    h0 = c * dx + s * dy
+    h1 = -s * dx + c * dy
+    Hs = np.array([[-c, -s, h1, c, s], [s, -c, -h0, -s, c]])
+    return np.array([h0, h1]), Hs, np.array([0, 1, 2, i, i + 1])
+
+
+def polar_to_sensor_xy(polar: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Detections ``(m, 2)`` of ``[r, phi]`` as sensor-frame points ``(m, 2)`` and the mean of their
+    noise covariances ``J_i R J_i^T`` with ``J_i = d(r cos phi, r sin phi)/d(r, phi)``."""
+    r, phi = polar[:, 0], polar[:, 1]
+    c, s = np.cos(phi), np.sin(phi)
+    pts = np.column_stack([r * c, r * s])
+    J = np.empty((polar.shape[0], 2, 2))
+    J[:, 0, 0], J[:, 0, 1] = c, -r * s
+    J[:, 1, 0], J[:, 1, 1] = s, r * c
+    return pts, (J @ R @ J.transpose(0, 2, 1)).mean(axis=0)
+
+
+def rotate_to_sensor(theta: float, C: np.ndarray) -> np.ndarray:
+    """A world-frame covariance ``C (2, 2)`` expressed in the frame of a sensor with heading ``theta``."""
+    c, s = math.cos(theta), math.sin(theta)
+    Rt = np.array([[c, s], [-s, c]])
+    return Rt @ C @ Rt.T
+
+
 def r_eff(R: np.ndarray, Hs: np.ndarray, spread: np.ndarray) -> np.ndarray:
     """Extent-inflated noise ``R_eff = R + H_p (gamma_z X) H_p^T`` (docs/method.md a.7.2).
 
@@ -236,6 +278,34 @@ def augment(x: np.ndarray, P: np.ndarray, s: np.ndarray, R: np.ndarray) -> tuple
     Gx, Gs = inverse_jacobians(x[:3], s)
     a = x[2] + s[1]
     p = np.array([x[0] + s[0] * math.cos(a), x[1] + s[0] * math.sin(a)])
+    return augment_point(x, P, p, Gx, Gs @ R @ Gs.T)
+
+
+def augment_mean(x: np.ndarray, P: np.ndarray, polar: np.ndarray, R: np.ndarray,
+                 spread: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Append a landmark at the mean of detections ``polar (m, 2)`` (docs/method.md c.8, [PROP]).
+
+    The mean in the sensor frame ``zbar`` has the noise ``mean_i J_i R J_i^T / m``; the landmark
+    ``p = t + Rot(theta) zbar`` gets ``Gx P_pose Gx^T + Rot(theta) (that) Rot(theta)^T + spread``,
+    where ``spread`` (world frame) bounds how far the centroid may be from the mean of what was seen
+    (the prior extent's ``gamma_z X0``).
+    """
+    pts, R_xy = polar_to_sensor_xy(polar, R)
+    zbar = pts.mean(axis=0)
+    c, s = math.cos(x[2]), math.sin(x[2])
+    rot = np.array([[c, -s], [s, c]])
+    p = x[:2] + rot @ zbar
+    Gx = np.array([[1.0, 0.0, x[1] - p[1]], [0.0, 1.0, p[0] - x[0]]])
+    C = rot @ (R_xy / polar.shape[0]) @ rot.T
+    if spread is not None:
+        C = C + spread
+    return augment_point(x, P, p, Gx, C)
+
+
+def augment_point(x: np.ndarray, P: np.ndarray, p: np.ndarray, Gx: np.ndarray,
+                  C: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Append landmark ``p`` whose position depends on the pose through ``Gx (2, 3)`` and carries its
+    own covariance ``C (2, 2)``: ``P_pp = Gx P_pose Gx^T + C``, ``P_p* = Gx P_pose,*``."""
     n = x.shape[0]
     x_new = np.concatenate([x, p])
     P_new = np.empty((n + 2, n + 2))
@@ -243,7 +313,7 @@ def augment(x: np.ndarray, P: np.ndarray, s: np.ndarray, R: np.ndarray) -> tuple
     cross = Gx @ P[:3, :]                                    # (2, n)
     P_new[n:, :n] = cross
     P_new[:n, n:] = cross.T
-    P_new[n:, n:] = Gx @ P[:3, :3] @ Gx.T + Gs @ R @ Gs.T
+    P_new[n:, n:] = Gx @ P[:3, :3] @ Gx.T + C
     return x_new, P_new
 
 

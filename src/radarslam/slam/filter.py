@@ -16,7 +16,7 @@ arithmetic lives in the modules that own it (:mod:`.ekf`, :mod:`radarslam.landma
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -51,6 +51,7 @@ class ScanReport:
     merged: list[tuple[int, int]]  # (kept id, dropped id)
     n_clusters: int
     n_tentative: int
+    nis: np.ndarray = field(default_factory=lambda: np.empty(0))  # NIS of each update (2 dof)
 
 
 @dataclass(frozen=True)
@@ -170,18 +171,18 @@ class EkfSlam:
         dt = self._take_scan_interval()
         prior = (self.state.x, self.state.P, self.state.rows_by_id())    # Decision 3
         cand = self._sift(polar)                                          # 3
-        assoc = self._associate_and_update(polar, cand)                   # 4
+        assoc, nis = self._associate_and_update(polar, cand)              # 4
         associations = {r.id: np.array(a, dtype=int) for r, a in zip(self.state.landmarks, assoc) if a}
         removed, assoc = self._remove_unseen(assoc, k)                    # 5
         xy = self.measurement.to_world(self.state.pose, polar)            # seed eq. (3), updated pose
         self._extent_step(polar, xy, assoc, prior, dt, k)                 # 6
         clusters = self._cluster(polar, xy, cand)                         # 7
         fresh = self._alpha_test(clusters)                                # 7
-        confirmed = self._confirm_and_augment(fresh, k)                   # 8-9
+        confirmed = self._confirm_and_augment(fresh, polar, k)            # 8-9
         merged = self._merge()                                            # 10
         n_assoc = sum(a.size for a in associations.values())
         return ScanReport(k, polar.shape[0], int(cand.sum()), n_assoc, associations, removed,
-                          confirmed, merged, len(clusters), len(self.state.tentatives))
+                          confirmed, merged, len(clusters), len(self.state.tentatives), nis)
 
     # ------------------------------------------------------------------ the steps
     def _take_scan_interval(self) -> float:
@@ -194,25 +195,29 @@ class EkfSlam:
     def _sift(self, polar: np.ndarray) -> np.ndarray:
         """Step 3: candidates for association, with the predicted pose (c.3; a.7.1)."""
         st = self.state
-        shapes = self.extent.sifting([r.extent for r in st.landmarks])
-        ext_inv, has = shapes if shapes is not None else (None, None)
         xy = self.measurement.to_world(st.pose, polar)
-        return sift(xy, st.positions, self.config.landmarks.sift_radius_m, ext_inv, has,
-                    self.config.extent.kappa)
+        positions = st.positions
+        test = None
+        if st.landmarks:
+            test = self.extent.sift([r.extent for r in st.landmarks], xy, polar, positions, st.position_covs(),
+                                    st.pose, st.pose_cov)
+        inside, has = test if test is not None else (None, None)
+        return sift(xy, positions, self.config.landmarks.sift_radius_m, inside, has)
 
-    def _associate_and_update(self, polar: np.ndarray, cand: np.ndarray) -> list[list[int]]:
-        """Step 4: the associator scores the candidates and updates the state (c.4; a.7.2)."""
+    def _associate_and_update(self, polar: np.ndarray, cand: np.ndarray) -> tuple[list[list[int]], np.ndarray]:
+        """Step 4: the associator scores the candidates and updates the state (c.4; a.7.2); the
+        association of each landmark and the NIS of every update."""
         st = self.state
         assoc: list[list[int]] = [[] for _ in st.landmarks]
         if not st.landmarks:
-            return assoc
+            return assoc, np.empty(0)
         candidates = np.flatnonzero(cand)
         spreads = Spreads(*self.extent.spreads([r.extent for r in st.landmarks]))
-        out = self.associator.associate(st, polar, candidates, self.R, spreads)
+        out, nis = self.associator.associate(st, polar, candidates, self.R, spreads)
         for i, j in zip(candidates.tolist(), np.asarray(out).tolist()):
             if j >= 0:
                 assoc[j].append(i)
-        return assoc
+        return assoc, np.asarray(nis, dtype=float)
 
     def _remove_unseen(self, assoc: list[list[int]], k: int) -> tuple[list[int], list[list[int]]]:
         """Step 5: M/N windows of every landmark and removal (c.5, Decision 8)."""
@@ -253,12 +258,20 @@ class EkfSlam:
         alpha = self.config.landmarks.alpha
         return [c for c in clusters if self.associator.min_log_distance(self.state, c.centre_polar, self.R) > alpha]
 
-    def _confirm_and_augment(self, fresh: list[Cluster], k: int) -> list[int]:
-        """Steps 8-9: Rule 2 / Rule 1 and state augmentation (c.7, c.8); the new ids."""
+    def _confirm_and_augment(self, fresh: list[Cluster], polar: np.ndarray, k: int) -> list[int]:
+        """Steps 8-9: Rule 2 / Rule 1 and state augmentation (c.7, c.8); the new ids.
+
+        ``landmarks.init = "nearest"``: at the cluster's nearest detection with R (the paper);
+        ``"cluster"``: at the mean of its detections with the mean's noise and the extent
+        estimator's prior spread."""
         st, lc = self.state, self.config.landmarks
         confirmed, st.tentatives = rule2_step(st.tentatives, fresh, gate=lc.tentative_gate_m,
                                               confirm_points=lc.confirm_points, window=lc.confirm_window,
                                               hits=lc.confirm_hits)
+        if lc.init == "cluster":
+            spread = self.extent.initial_spread()
+            return [st.add_landmark_at_mean(polar[c.members], self.R, k, self.extent.new(), spread)
+                    for c in confirmed]
         return [st.add_landmark(c.centre_polar, self.R, k, self.extent.new()) for c in confirmed]
 
     def _merge(self) -> list[tuple[int, int]]:

@@ -107,7 +107,18 @@ class SlamState:
 
     def add_landmark(self, s: np.ndarray, R: np.ndarray, created: int, extent: Any = None) -> int:
         """Augment the state with a landmark seen at ``s = [r, phi]`` (APSIPA eqs. 10-11); its id."""
-        self.x, self.P = ekf.augment(self.x, self.P, s, R)
+        return self.append_landmark(*ekf.augment(self.x, self.P, s, R), created, extent)
+
+    def add_landmark_at_mean(self, polar: np.ndarray, R: np.ndarray, created: int, extent: Any = None,
+                             spread: np.ndarray | None = None) -> int:
+        """Augment the state with a landmark at the mean of detections ``polar`` (:func:`.ekf.augment_mean`)."""
+        return self.append_landmark(*ekf.augment_mean(self.x, self.P, polar, R, spread), created, extent)
+
+    def append_landmark(self, x: np.ndarray, P: np.ndarray, created: int, extent: Any = None) -> int:
+        """Take ``(x, P)``, the current state augmented by one landmark; record it and return its id."""
+        if x.shape[0] != self.x.shape[0] + 2:
+            raise ValueError(f"x: expected {self.x.shape[0] + 2} entries, got {x.shape[0]}")
+        self.x, self.P = x, P
         lid = self.next_id
         self.landmarks.append(LandmarkRecord(lid, created, extent=extent))
         self.next_id += 1
