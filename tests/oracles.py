@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-#: Eigenvalue clip used inside square roots (method.md h.6).
+#: Eigenvalue clip used inside square roots (docs/method.md h.6).
 SQRT_EIG_CLIP = 1e-12
 
 

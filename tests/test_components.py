@@ -15,7 +15,7 @@ from radarslam.core.registry import ASSOCIATORS, EXTENT_ESTIMATORS, MOTION_MODEL
 from radarslam.experiments.single import run_trial
 from radarslam.models.motion import UnicycleModel
 from radarslam.slam import EkfSlam, ekf
-from radarslam.slam.association import NearestNeighbourAssociator, Spreads
+from radarslam.slam.association import BatchAssociator, NearestNeighbourAssociator, Spreads
 from radarslam.slam.state import SlamState
 
 from conftest import require
@@ -188,10 +188,11 @@ def _scan_near(rng, st: SlamState, m: int) -> np.ndarray:
                             np.angle(np.exp(1j * (np.arctan2(d[:, 1], d[:, 0]) - st.x[2])))])
 
 
+@pytest.mark.parametrize("kind", ["nearest-neighbour", "batch"])
 @pytest.mark.parametrize("seed", range(12))
-def test_compiled_associator_matches_python_on_random_states(seed):
+def test_compiled_associator_matches_python_on_random_states(seed, kind):
     require("numba")
-    from radarslam.slam._numba import CompiledNearestNeighbourAssociator
+    from radarslam.slam._numba import CompiledBatchAssociator, CompiledNearestNeighbourAssociator
 
     rng = np.random.default_rng(seed)
     n_lm = int(rng.integers(1, 25))
@@ -203,12 +204,15 @@ def test_compiled_associator_matches_python_on_random_states(seed):
     X = rng.normal(size=(n_lm, 2, 2))
     spreads = Spreads(0.25 * (X @ X.transpose(0, 2, 1)), rng.random(n_lm) < 0.5)
     beta = float(rng.choice([3.0, 20.0]))
-    py = NearestNeighbourAssociator(beta, 3, 5)
-    nb = CompiledNearestNeighbourAssociator(beta, 3, 5)
+    if kind == "batch":
+        py, nb = BatchAssociator(beta, 3, 5), CompiledBatchAssociator(beta, 3, 5)
+    else:
+        py, nb = NearestNeighbourAssociator(beta, 3, 5), CompiledNearestNeighbourAssociator(beta, 3, 5)
     out_py, nis_py = py.associate(st_py, polar, cand, R, spreads)
     out_nb, nis_nb = nb.associate(st_nb, polar, cand, R, spreads)
     assert np.array_equal(out_py, out_nb)
-    assert nis_py.shape == ((out_py >= 0).sum(),) and np.all(nis_py >= 0)
+    n_updates = (out_py >= 0).sum() if kind != "batch" else np.unique(out_py[out_py >= 0]).size
+    assert nis_py.shape == (n_updates,) and np.all(nis_py >= 0)
     np.testing.assert_allclose(nis_nb, nis_py, rtol=1e-9)
     assert (out_py >= 0).sum() >= 1  # the case exercised updates
     np.testing.assert_allclose(st_nb.x, st_py.x, rtol=0, atol=1e-12)

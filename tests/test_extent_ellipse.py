@@ -1,4 +1,4 @@
-"""Ellipse <-> matrix conversions (method.md d.1-d.2) and the 2 x 2 closed-form kernels."""
+"""Ellipse <-> matrix conversions (docs/method.md d.1-d.2) and the 2 x 2 closed-form kernels."""
 
 from __future__ import annotations
 
@@ -41,7 +41,7 @@ def angle_diff_mod(a: float, b: float, period: float) -> float:
 def test_ellipse_to_matrix_matches_rotation_form():
     X = ellipse_to_matrix([3.0, 1.5], 0.7)
     np.testing.assert_allclose(X, from_eig(9.0, 2.25, 0.7), rtol=0, atol=1e-14)
-    # written-out entries of method.md d.1
+    # written-out entries of docs/method.md d.1
     c, s = math.cos(0.7), math.sin(0.7)
     assert X[0, 0] == pytest.approx(9 * c * c + 2.25 * s * s, abs=1e-14)
     assert X[1, 1] == pytest.approx(9 * s * s + 2.25 * c * c, abs=1e-14)

@@ -1,4 +1,4 @@
-"""EFA ellipse fit (method.md d.3)."""
+"""EFA ellipse fit (docs/method.md d.3)."""
 
 from __future__ import annotations
 

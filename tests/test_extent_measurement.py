@@ -21,7 +21,7 @@ from radarslam.extent.measurement import (
     _select_scan_W,
 )
 
-R_APS = np.diag([0.5**2, (math.pi / 180) ** 2])  # method.md a.2
+R_APS = np.diag([0.5**2, (math.pi / 180) ** 2])  # docs/method.md a.2
 
 
 def f(pose: np.ndarray, s: np.ndarray) -> np.ndarray:
@@ -121,7 +121,7 @@ def test_select_max_trace_vs_max_det_vs_mean():
 
 
 def test_max_trace_picks_farthest_detection_with_diagonal_noise():
-    """With P^m = 0 and R diagonal, tr W(i) = R11 + r^2 R22 grows with range (method.md h.3)."""
+    """With P^m = 0 and R diagonal, tr W(i) = R11 + r^2 R22 grows with range (docs/method.md h.3)."""
     polar = np.array([[5.0, 0.1], [17.0, -2.0], [9.0, 3.0]])
     Ws = converted_measurement_covs([1, 1, 1], np.zeros((3, 3)), polar, R_APS)
     np.testing.assert_array_equal(select_scan_W(Ws), Ws[1])

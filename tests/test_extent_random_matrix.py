@@ -67,7 +67,7 @@ def test_update_matches_independent_evaluation(m):
 
 
 def test_update_with_one_point_has_no_scatter_term():
-    """m = 1: Zbar = 0, so X+ = (alpha X + A M A^T) / (alpha + 1) (method.md h.5)."""
+    """m = 1: Zbar = 0, so X+ = (alpha X + A M A^T) / (alpha + 1) (docs/method.md h.5)."""
     rng = np.random.default_rng(7)
     X, alpha, p, P, Z, W = random_problem(rng, 1)
     Xu, au = rm_update(X, alpha, p, P, Z, W)
@@ -85,7 +85,7 @@ def test_alpha_bookkeeping_and_prediction():
     X = ellipse_to_matrix([2.0, 1.0], 0.3)
     Xp, ap = rm_predict(X, 50.0, 0.16, 100.0)
     factor = math.exp(-0.16 / 100.0)
-    assert factor == pytest.approx(0.998401, abs=5e-7)            # method.md a.4
+    assert factor == pytest.approx(0.998401, abs=5e-7)            # docs/method.md a.4
     assert ap == pytest.approx(2.0 + 0.998401 * 48.0, abs=48 * 5e-7)
     assert ap == 2.0 + factor * 48.0
     np.testing.assert_array_equal(Xp, X)                           # seed eq. (8)
@@ -179,7 +179,7 @@ def uniform_in_ellipse(rng: np.random.Generator, n: int, semi_axes, o: float, ce
 
 
 def test_uniform_ellipse_sample_covariance_is_X_over_4():
-    """method.md d.4: cov = X/4. In the principal frame (u, v), with u = a rho cos t:
+    """docs/method.md d.4: cov = X/4. In the principal frame (u, v), with u = a rho cos t:
     E[u^2] = a^2/4, E[u^4] = a^4 E[rho^4] E[cos^4 t] = a^4 (1/3)(3/8) = a^4/8, so
     sd(u^2) = a^2/4 and the sample variance has relative standard error 1/sqrt(n);
     E[u^2 v^2] = a^2 b^2 (1/3)(1/8) = a^2 b^2 / 24, so the sample covariance has sd ab/sqrt(24 n).
@@ -196,7 +196,7 @@ def test_uniform_ellipse_sample_covariance_is_X_over_4():
 
 
 def run_rm(rng, sampler, n_scans=400, m=10, n_init=21, center=(0.0, 0.0)):
-    """The extent life cycle of method.md a.3-a.5 on an exactly known centroid, W ~ 0."""
+    """The extent life cycle of docs/method.md a.3-a.5 on an exactly known centroid, W ~ 0."""
     center = np.asarray(center, dtype=float)
     fit = fit_ellipse(sampler(rng, n_init))                 # EFA upper-bound initialisation
     assert fit
@@ -232,7 +232,7 @@ def test_rm_converges_to_ellipse_extent():
 
 def test_rm_converges_to_moment_ellipse_of_rectangle():
     """Uniform over an L x W rectangle: cov = diag(L^2, W^2)/12 = X/4, so X has semi-axes
-    (L/sqrt(3), W/sqrt(3)) (method.md d.4, Decision 7 'moment')."""
+    (L/sqrt(3), W/sqrt(3)) (docs/method.md d.4, Decision 7 'moment')."""
     L, Wd, o = 4.0, 2.0, math.radians(90)
     R = np.array([[math.cos(o), -math.sin(o)], [math.sin(o), math.cos(o)]])
 

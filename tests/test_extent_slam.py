@@ -1,4 +1,4 @@
-"""The extent pipeline inside SLAM (method.md a.3-a.8, Decisions 3-6)."""
+"""The extent pipeline inside SLAM (docs/method.md a.3-a.8, Decisions 3-6)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Gaussian Wasserstein distance (method.md e)."""
+"""Gaussian Wasserstein distance (docs/method.md e)."""
 
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ ZERO_TOL = 1e-7
 
 
 def reference_gwd(m1, S1, m2, S2) -> float:
-    """method.md e with scipy.linalg.sqrtm, independent of the library's closed form."""
+    """docs/method.md e with scipy.linalg.sqrtm, independent of the library's closed form."""
     r1 = scipy.linalg.sqrtm(S1).real
     cross = scipy.linalg.sqrtm(r1 @ S2 @ r1).real
     d2 = np.sum((np.asarray(m1) - m2) ** 2) + np.trace(S1 + S2 - 2 * cross)
@@ -64,7 +64,7 @@ def test_coaxial_closed_form():
 
 
 def test_paper_magnitude_example():
-    """method.md h.9: a converged (L/sqrt3, W/sqrt3) estimate against a 'full' (L, W) 4 x 2 car."""
+    """docs/method.md h.9: a converged (L/sqrt3, W/sqrt3) estimate against a 'full' (L, W) 4 x 2 car."""
     d = gaussian_wasserstein_distance([0, 0], ellipse_to_matrix([4 / math.sqrt(3), 2 / math.sqrt(3)], 0),
                                       [0, 0], ellipse_to_matrix([4, 2], 0))
     assert d == pytest.approx(math.hypot(4 - 4 / math.sqrt(3), 2 - 2 / math.sqrt(3)), rel=1e-12)

@@ -1,4 +1,4 @@
-"""Landmark management on hand-made scans (method.md section c)."""
+"""Landmark management on hand-made scans (docs/method.md section c)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The simulated car park (method.md section b)."""
+"""The simulated car park (docs/method.md section b)."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from radarslam.simulation.radar import CLUTTER, simulate_scan
 from radarslam.simulation.trajectory import noise_free_path
 from radarslam.simulation.world import carpark_vehicles
 
-# method.md b.2, [PROP] convention: (k, x, y, heading_deg).
+# docs/method.md b.2, [PROP] convention: (k, x, y, heading_deg).
 REFERENCE_POINTS = [
     (10, 5.76, 0.02, 2.9), (25, 14.25, 3.97, 46.9), (40, 17.62, 12.71, 90.9), (60, 11.44, 23.29, 149.6),
     (85, -3.40, 21.65, 222.9), (100, -7.36, 13.17, 267.0), (120, -8.04, 0.38, 267.0),

@@ -1,6 +1,6 @@
 """Typed, validated configuration: nested dataclasses loaded from TOML.
 
-Every parameter of method.md has a field here with its unit in the name (``_m``, ``_deg``, ...);
+Every parameter of docs/method.md has a field here with its unit in the name (``_m``, ``_deg``, ...);
 the algorithms read SI/radian values through the ``*_rad`` / covariance properties. Profiles are
 TOML overlays shipped in ``radarslam/profiles/`` whose comments give the reason for each value
 (docs/method.md Decision 1): ``apsipa`` (default, APSIPA Table I), ``reference`` (the authors'
@@ -12,7 +12,7 @@ Each section has one owner: ``trajectory``, ``odometer``, ``radar`` and ``world`
 evaluation. Component choices (``filter.motion_model``, ``filter.measurement_model``,
 ``landmarks.associator``, ``extent.estimator``) are names in :mod:`radarslam.core.registry`.
 
-Fields marked [PROP] in their doc are assumptions where the papers are silent (method.md tags).
+Fields marked [PROP] in their doc are assumptions where the papers are silent (docs/method.md tags).
 """
 
 from __future__ import annotations
@@ -56,9 +56,9 @@ def param(default: Any, doc: str, *, low: float | None = None, high: float | Non
 
 
 # --------------------------------------------------------------------------------------------
-# Simulation (method.md section b)
+# Simulation (docs/method.md section b)
 # --------------------------------------------------------------------------------------------
-#: The 12 vehicles of the car park as [x_left, y_bottom, size_x, size_y] (method.md b.1, HEAD layout).
+#: The 12 vehicles of the car park as [x_left, y_bottom, size_x, size_y] (docs/method.md b.1, HEAD layout).
 CARPARK_VEHICLES = [
     [30.0, 0.0, 4.0, 2.0], [30.0, 15.0, 4.0, 2.0],                       # G1
     [5.0, 5.0, 4.0, 2.0], [5.0, 10.0, 4.0, 2.0], [5.0, 15.0, 4.0, 2.0],  # G2
@@ -70,7 +70,7 @@ CARPARK_VEHICLES = [
 
 @dataclass
 class TrajectoryConfig:
-    """Platform trajectory and true motion (method.md b.2)."""
+    """Platform trajectory and true motion (docs/method.md b.2)."""
 
     n_steps: int = param(120, "number of time steps K", low=2)
     dt_s: float = param(0.16, "time step (s)", low=0.0, low_open=True)
@@ -85,7 +85,7 @@ class TrajectoryConfig:
 
 @dataclass
 class OdometerConfig:
-    """Odometer readings u_bar = u + eta + bias (method.md b.3)."""
+    """Odometer readings u_bar = u + eta + bias (docs/method.md b.3)."""
 
     speed_std_mps: float = param(0.02, "speed-noise std (m/s)", low=0.0)
     turn_rate_std_deg_s: float = param(0.008, "turn-rate-noise std (deg/s)", low=0.0)
@@ -95,7 +95,7 @@ class OdometerConfig:
 
 @dataclass
 class RadarConfig:
-    """The 'ideal' radar of both papers (method.md b.4)."""
+    """The 'ideal' radar of both papers (docs/method.md b.4)."""
 
     max_range_m: float = param(20.0, "radar range R_max (m)", low=0.0, low_open=True)
     range_std_m: float = param(0.5, "range-noise std (m)", low=0.0)
@@ -112,7 +112,7 @@ class RadarConfig:
 
 @dataclass
 class WorldConfig:
-    """The car park (method.md b.1)."""
+    """The car park (docs/method.md b.1)."""
 
     vehicles: list[list[float]] = param(CARPARK_VEHICLES, "rectangles [x_left, y_bottom, size_x, size_y] (m)")
     departing_vehicle: int = param(5, "index of the vehicle that leaves (-1: none); 5 is the car at (-13, 6)", low=-1)
@@ -124,7 +124,7 @@ class WorldConfig:
 # --------------------------------------------------------------------------------------------
 @dataclass
 class FilterConfig:
-    """EKF-SLAM noise models and initialisation (method.md b.5). Defaults equal the simulation's."""
+    """EKF-SLAM noise models and initialisation (docs/method.md b.5). Defaults equal the simulation's."""
 
     motion_model: str = param("unicycle", "motion model of the platform (a registered name)", registry=MOTION_MODELS)
     measurement_model: str = param("range-azimuth", "sensor measurement model (a registered name)",
@@ -161,7 +161,7 @@ class FilterConfig:
 
 @dataclass
 class LandmarkConfig:
-    """Landmark management (method.md c.1; APSIPA Table I unless marked)."""
+    """Landmark management (docs/method.md c.1; APSIPA Table I unless marked)."""
 
     associator: str = param("nearest-neighbour", "data association (a registered name; c.4): nearest-neighbour "
                             "(sequential, the paper) or batch (one update per landmark per scan)", registry=ASSOCIATORS)
@@ -188,7 +188,7 @@ class LandmarkConfig:
 
 @dataclass
 class ExtentConfig:
-    """Landmark extents (method.md a.3-a.7, d; Decisions 3-6)."""
+    """Landmark extents (docs/method.md a.3-a.7, d; Decisions 3-6)."""
 
     estimator: str = param("rma-efa", "extent estimator (a registered name; a.3-a.5)", registry=EXTENT_ESTIMATORS)
     track: bool = param(True, "estimate RMA and EFA extents for every landmark")
@@ -232,7 +232,7 @@ class ExtentConfig:
 
 @dataclass
 class MetricsConfig:
-    """Evaluation (method.md e, f; Decision 7)."""
+    """Evaluation (docs/method.md e, f; Decision 7)."""
 
     match_gate_m: float = param(5.0, "[PROP] landmark <-> vehicle matching gate (m)", low=0.0, low_open=True)
     include_stale: bool = param(False, "match landmarks of departed vehicles in the GWD (h.10)")

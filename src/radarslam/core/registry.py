@@ -139,6 +139,7 @@ MEASUREMENT_MODELS.register_lazy("range-azimuth", "radarslam.models.radar")
 ASSOCIATORS.register_lazy("nearest-neighbour", "radarslam.slam.association")
 ASSOCIATORS.register_lazy("nearest-neighbour", "radarslam.slam._numba", backend="numba")
 ASSOCIATORS.register_lazy("batch", "radarslam.slam.association")
+ASSOCIATORS.register_lazy("batch", "radarslam.slam._numba", backend="numba")
 EXTENT_ESTIMATORS.register_lazy("rma-efa", "radarslam.extent.estimator")
 
 #: Every backend some built-in implements (``filter.backend``).

@@ -16,7 +16,7 @@ so for any scalar function ``g``
 
 with ``g_j = g(l_j)``. ``cos 2phi = (a - c) / (l1 - l2)`` and ``sin 2phi = 2 b / (l1 - l2)`` are
 bounded by 1, so the form stays well conditioned for near-singular and near-circular matrices, and
-clipping the eigenvalues (method.md h.6) is just clipping ``l1, l2`` before applying ``g``. For
+clipping the eigenvalues (docs/method.md h.6) is just clipping ``l1, l2`` before applying ``g``. For
 an unclipped PSD matrix ``g = sqrt`` reproduces ``(A + sqrt(det A) I) / sqrt(tr A + 2 sqrt(det A))``.
 
 Measured with timeit on the development machine (CPython 3.11, numpy 2.4, scipy 1.17):
@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import math
 
-#: Eigenvalue clip inside (inverse) square roots (method.md h.6).
+#: Eigenvalue clip inside (inverse) square roots (docs/method.md h.6).
 EIG_CLIP = 1e-12
 
 
@@ -64,13 +64,13 @@ def from_spectral(g1: float, g2: float, p: float, q: float) -> tuple[float, floa
 
 
 def sqrt2(a: float, b: float, c: float, clip: float = EIG_CLIP) -> tuple[float, float, float]:
-    """Symmetric PSD square root ``U sqrt(max(L, clip)) U^T`` (method.md h.6)."""
+    """Symmetric PSD square root ``U sqrt(max(L, clip)) U^T`` (docs/method.md h.6)."""
     l1, l2, p, q = spectral(a, b, c)
     return from_spectral(math.sqrt(l1 if l1 > clip else clip), math.sqrt(l2 if l2 > clip else clip), p, q)
 
 
 def inv_sqrt2(a: float, b: float, c: float, clip: float = EIG_CLIP) -> tuple[float, float, float]:
-    """Symmetric inverse square root ``U max(L, clip)^(-1/2) U^T`` (method.md h.6)."""
+    """Symmetric inverse square root ``U max(L, clip)^(-1/2) U^T`` (docs/method.md h.6)."""
     l1, l2, p, q = spectral(a, b, c)
     return from_spectral(1.0 / math.sqrt(l1 if l1 > clip else clip),
                          1.0 / math.sqrt(l2 if l2 > clip else clip), p, q)
@@ -93,7 +93,7 @@ def mean_and_scatter(pts: list) -> tuple[float, float, float, float, float]:
     """Mean ``(zx, zy)`` and scatter sum ``(s11, s12, s22)`` of points given as ``[[x, y], ...]``.
 
     The scatter is ``sum (z - zbar)(z - zbar)^T`` (not divided by anything): seed eqs. (10)-(11),
-    and ``(m - 1)`` times the sample covariance of the EFA (method.md d.3). Two passes, for
+    and ``(m - 1)`` times the sample covariance of the EFA (docs/method.md d.3). Two passes, for
     accuracy when the points are far from the origin.
     """
     m = len(pts)

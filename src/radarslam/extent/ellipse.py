@@ -1,4 +1,4 @@
-"""Ellipse parameters <-> extent matrix (method.md d.1-d.2, a.6).
+"""Ellipse parameters <-> extent matrix (docs/method.md d.1-d.2, a.6).
 
 An ellipse with semi-axes ``(l1, l2)`` and orientation ``o`` (angle of the ``l1`` axis, radians,
 counter-clockwise from the world x axis) corresponds to the SPD matrix
@@ -7,7 +7,7 @@ counter-clockwise from the world x axis) corresponds to the SPD matrix
 
 whose contour ``{x : x^T X^-1 x = 1}`` is the ellipse ([LI14] eq. (8)). For a random-matrix
 extent ``X`` this is the object's contour, because a uniform spread over the ellipse has
-covariance ``X / 4`` (method.md d.4).
+covariance ``X / 4`` (docs/method.md d.4).
 """
 
 from __future__ import annotations
@@ -22,12 +22,12 @@ from radarslam.core.validation import as_array, as_scalar, as_spd
 #: Relative eigenvalue gap below which an ellipse is treated as a circle (orientation 0).
 CIRCLE_REL_TOL = 1e-12
 
-#: Relative size of ``|X12|`` below which [LI14] eq. (9) is guarded with ``o = 0`` (method.md d.2).
+#: Relative size of ``|X12|`` below which [LI14] eq. (9) is guarded with ``o = 0`` (docs/method.md d.2).
 LI_X12_EPS = 1e-15
 
 
 def ellipse_to_matrix(semi_axes: np.ndarray, orientation: float) -> np.ndarray:
-    """Extent matrix of an ellipse ([LI14] eq. (8), method.md d.1).
+    """Extent matrix of an ellipse ([LI14] eq. (8), docs/method.md d.1).
 
     Parameters
     ----------
@@ -67,7 +67,7 @@ def _ellipse_to_matrix(l1: float, l2: float, o: float) -> np.ndarray:
 
 
 def matrix_to_ellipse(X: np.ndarray) -> tuple[np.ndarray, float]:
-    """Semi-axes and orientation of the ellipse of an extent matrix (method.md a.6, d.2 [PROP]).
+    """Semi-axes and orientation of the ellipse of an extent matrix (docs/method.md a.6, d.2 [PROP]).
 
     Uses ``np.linalg.eigh``: semi-axes are the square roots of the eigenvalues, the orientation is
     the direction of the eigenvector of the largest eigenvalue.
@@ -108,7 +108,7 @@ def _axis_angle_mod_pi(angle: float) -> float:
 
 
 def li_orientation(X: np.ndarray) -> tuple[np.ndarray, float]:
-    """Semi-axes and orientation by the closed form of [LI14] eq. (9) (method.md d.2).
+    """Semi-axes and orientation by the closed form of [LI14] eq. (9) (docs/method.md d.2).
 
     ``rho = (X11 - X22) / (2 X12)``, ``o = arctan(-rho + sqrt(1 + rho^2))`` and
     ``[l1^2, l2^2] = diag(R(o)^T X R(o))``. Kept as a cross-check of :func:`matrix_to_ellipse`.

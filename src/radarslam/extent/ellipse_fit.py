@@ -1,11 +1,11 @@
-"""Ellipse fitting approach (EFA) to an extent from one set of detections (method.md d.3).
+"""Ellipse fitting approach (EFA) to an extent from one set of detections (docs/method.md d.3).
 
-Assumption (method.md d.3 [PROP], reconstructed: the full text of Li et al. 2014 was not
+Assumption (docs/method.md d.3 [PROP], reconstructed: the full text of Li et al. 2014 was not
 available). For detections ``z_1..z_m`` (world frame, ``m >= 3``):
 
 1. ``zbar`` is their mean and ``C = 1/(m-1) sum (z_i - zbar)(z_i - zbar)^T`` their sample covariance;
 2. the ellipse axes are the principal axes of ``C`` (equivalently [LI14] eq. (9) applied to ``C``;
-   the axes of ``C`` are those of ``X`` since ``cov = X/4 + noise``, method.md d.4);
+   the axes of ``C`` are those of ``X`` since ``cov = X/4 + noise``, docs/method.md d.4);
 3. the semi-axes are the "upper bounds" ``l_j = 2 sqrt(lambda_j(C))``, so ``X = 4 C``; they bound
    the true semi-axes from above because the measurement noise only adds variance. With
    ``upper_bound=False`` the noise is removed first:
@@ -26,7 +26,7 @@ from radarslam.extent._sym2 import from_spectral, mean_and_scatter, spectral
 #: Returned by :func:`fit_ellipse` when no ellipse can be fitted (falsy; a success is a 2-tuple).
 FIT_FAILED = None
 
-#: Fewest detections the EFA accepts (method.md h.5).
+#: Fewest detections the EFA accepts (docs/method.md h.5).
 FIT_MIN_POINTS = 3
 
 #: The points count as collinear (fit fails) when ``lambda_min(C) <= FIT_COLLINEAR_REL_TOL *
@@ -41,7 +41,7 @@ EFA_NOISE_FLOOR = 2.5e-5
 
 def fit_ellipse(points: np.ndarray, upper_bound: bool = True,
                 W: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray] | None:
-    """Fit an extent ellipse to a set of detections (EFA, method.md d.3).
+    """Fit an extent ellipse to a set of detections (EFA, docs/method.md d.3).
 
     Parameters
     ----------

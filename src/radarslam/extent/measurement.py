@@ -7,7 +7,7 @@ A detection ``s = [r, phi]`` (range, azimuth relative to the heading) seen from 
 
 and its covariance is linearised (seed eq. (5)) as ``W(i) = F_x P^m F_x^T + F_s R F_s^T`` with the
 Jacobians of seed eqs. (6)-(7). One ``W`` per scan and landmark is then chosen from the ``W(i)``
-(method.md a.2, h.3, Decision 3: the one with the largest trace).
+(docs/method.md a.2, h.3, Decision 3: the one with the largest trace).
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import numpy as np
 from radarslam.core.errors import InputError
 from radarslam.core.validation import as_array, as_scalar, as_spd
 
-#: Ways of reducing the per-detection ``W(i)`` of a scan to one ``W`` (method.md h.3).
+#: Ways of reducing the per-detection ``W(i)`` of a scan to one ``W`` (docs/method.md h.3).
 W_MODES = ("max_trace", "max_det", "mean")
 
 #: Detection count above which :func:`_converted_measurement_covs` switches from a plain-float
@@ -163,7 +163,7 @@ def _converted_measurement_covs(pose: np.ndarray, pose_cov: np.ndarray, polar: n
 
 
 def select_scan_W(Ws: np.ndarray, mode: str = "max_trace") -> np.ndarray:
-    """Reduce a scan's ``W(i)`` to the one ``W`` of seed eq. (12) (method.md a.2, h.3).
+    """Reduce a scan's ``W(i)`` to the one ``W`` of seed eq. (12) (docs/method.md a.2, h.3).
 
     Parameters
     ----------

@@ -1,11 +1,11 @@
 """Random-matrix extent prediction and update (seed eqs. (8)-(20); Feldmann, Fraenken & Koch 2011).
 
 The extent of landmark ``n`` is a 2 x 2 SPD matrix ``X`` with a confidence ``alpha``, kept outside
-the EKF state (method.md a.1). Each scan the extent is predicted (seed eqs. (8)-(9)) and, when
+the EKF state (docs/method.md a.1). Each scan the extent is predicted (seed eqs. (8)-(9)) and, when
 ``m >= 1`` converted detections are associated to the landmark, updated (seed eqs. (10)-(20),
-method.md a.5). The landmark centroid is not changed here: the EKF point updates own it.
+docs/method.md a.5). The landmark centroid is not changed here: the EKF point updates own it.
 
-Conventions (method.md h.4-h.6):
+Conventions (docs/method.md h.4-h.6):
 
 - ``centroid`` / ``centroid_cov`` are the landmark centroid ``p^n`` and its 2 x 2 EKF covariance
   ``P^n`` (by default the predicted ones, snapshotted before the scan's EKF updates; the caller
@@ -26,10 +26,10 @@ from radarslam.core.errors import InputError
 from radarslam.core.validation import as_points, as_scalar, as_spd, as_array
 from radarslam.extent._sym2 import EIG_CLIP, floor2, inv_sqrt2, mean_and_scatter, sqrt2
 
-#: Extent scaling factor for a uniform spread over an ellipse (method.md d.4).
+#: Extent scaling factor for a uniform spread over an ellipse (docs/method.md d.4).
 GAMMA_Z = 0.25
 
-#: Default eigenvalue floor of the updated extent (m^2), method.md a.5 [PROP].
+#: Default eigenvalue floor of the updated extent (m^2), docs/method.md a.5 [PROP].
 EIG_FLOOR = 1e-4
 
 
@@ -45,7 +45,7 @@ def rm_predict(X: np.ndarray, alpha: float, dt: float, tau: float) -> tuple[np.n
     dt : float
         Prediction interval (s), ``>= 0``.
     tau : float
-        Temporal decay constant (s), ``> 0`` (method.md h.7).
+        Temporal decay constant (s), ``> 0`` (docs/method.md h.7).
 
     Returns
     -------
@@ -97,7 +97,7 @@ def rm_update(X: np.ndarray, alpha: float, centroid: np.ndarray, centroid_cov: n
         Converted-measurement covariance of the scan (seed eq. (5), chosen by
         :func:`~radarslam.extent.measurement.select_scan_W`), symmetric PSD.
     gamma : float, optional
-        Extent scaling ``gamma_z > 0`` of seed eq. (4); 1/4 by default (method.md d.4).
+        Extent scaling ``gamma_z > 0`` of seed eq. (4); 1/4 by default (docs/method.md d.4).
     eig_floor : float, optional
         Lower bound (m^2) for the eigenvalues of the updated extent, ``>= 0``.
 
@@ -158,7 +158,7 @@ def _rm_update(X: np.ndarray, alpha: float, centroid: np.ndarray, centroid_cov: 
     s11 = p11 + y11 / m
     s12 = p12 + y12 / m
     s22 = p22 + y22 / m
-    # symmetric PSD square roots (method.md h.6)
+    # symmetric PSD square roots (docs/method.md h.6)
     h11, h12, h22 = sqrt2(x11, x12, x22, EIG_CLIP)
     i11, i12, i22 = inv_sqrt2(s11, s12, s22, EIG_CLIP)
     j11, j12, j22 = inv_sqrt2(y11, y12, y22, EIG_CLIP)

@@ -1,2 +1,2 @@
-"""Landmark management of APSIPA 2022 (method.md section c): sifting, association, clustering,
+"""Landmark management of APSIPA 2022 (docs/method.md section c): sifting, association, clustering,
 confirmation (Rule 1 / Rule 2), M/N removal and merging."""

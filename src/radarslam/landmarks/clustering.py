@@ -1,4 +1,4 @@
-"""DBSCAN clustering of the unsifted detections and the cluster centres (method.md c.6)."""
+"""DBSCAN clustering of the unsifted detections and the cluster centres (docs/method.md c.6)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Confirmation of new landmarks (Rule 1 / Rule 2, method.md c.7) and M/N removal windows (c.5)."""
+"""Confirmation of new landmarks (Rule 1 / Rule 2, docs/method.md c.7) and M/N removal windows (c.5)."""
 
 from __future__ import annotations
 

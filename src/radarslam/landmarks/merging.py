@@ -1,4 +1,4 @@
-"""Landmark merging (method.md c.9)."""
+"""Landmark merging (docs/method.md c.9)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Extent metrics: ground-truth ellipses of the cars and the per-step GWD (method.md e, Decision 7).
+"""Extent metrics: ground-truth ellipses of the cars and the per-step GWD (docs/method.md e, Decision 7).
 
 Every input is a plain array: the cars are axis-aligned rectangles ``[x_left, y_bottom, size_x,
 size_y]`` (V, 4), the estimates per scan are centroids (N_k, 2) and extent matrices (N_k, 2, 2).
@@ -8,7 +8,7 @@ Ground-truth ellipse of an L x W car, centred on the rectangle, oriented along i
 the rectangle's and what a perfect estimator converges to; ``inscribed`` (L/2, W/2); ``enclosing``
 (L/sqrt 2, W/sqrt 2); ``full`` (L, W), the convention that reproduces the magnitude of the seed's
 Fig. 3 (h.9). The extent matrix of semi-axes ``(l1, l2)`` along ``o`` is
-``X = R(o) diag(l1^2, l2^2) R(o)^T`` (method.md d.1), written out below as its three entries.
+``X = R(o) diag(l1^2, l2^2) R(o)^T`` (docs/method.md d.1), written out below as its three entries.
 """
 
 from __future__ import annotations
@@ -46,7 +46,7 @@ def rectangle_centers(rectangles) -> np.ndarray:
 
 
 def _ellipse_matrix(l1: float, l2: float, o: float) -> np.ndarray:
-    """``R(o) diag(l1^2, l2^2) R(o)^T`` (method.md d.1) from trusted floats."""
+    """``R(o) diag(l1^2, l2^2) R(o)^T`` (docs/method.md d.1) from trusted floats."""
     co, so = math.cos(o), math.sin(o)
     q1, q2 = l1 * l1, l2 * l2
     x11 = q1 * co * co + q2 * so * so
@@ -75,7 +75,7 @@ def ground_truth_extents(rectangles, convention: str = "moment") -> np.ndarray:
 def gwd_per_step(positions: Sequence[np.ndarray], rma: Sequence[np.ndarray], efa: Sequence[np.ndarray],
                  centers: np.ndarray, present: np.ndarray, gt_extents: np.ndarray | Mapping[str, np.ndarray],
                  gate: float, include_stale: bool = False):
-    """Mean GWD over the matched landmarks with an initialised extent, per scan (method.md e).
+    """Mean GWD over the matched landmarks with an initialised extent, per scan (docs/method.md e).
 
     Landmarks are matched one-to-one to the vehicles present at the scan (Hungarian, ``gate``);
     with ``include_stale`` departed vehicles take part too (h.10). The estimate's centre is the

@@ -1,4 +1,4 @@
-"""Gaussian Wasserstein distance between elliptical extents (method.md e; Yang, Baum & Granstroem 2016).
+"""Gaussian Wasserstein distance between elliptical extents (docs/method.md e; Yang, Baum & Granstroem 2016).
 
 An ellipse with centre ``m`` and extent matrix ``S = R(o) diag(l1^2, l2^2) R(o)^T`` (the semi-axes
 squared, not divided by 4; for the RMA ``S = X``) is treated as the Gaussian ``N(m, S)``, and
@@ -30,7 +30,7 @@ from radarslam.core.validation import as_array, as_spd
 
 def gaussian_wasserstein_distance(center1: np.ndarray, X1: np.ndarray, center2: np.ndarray,
                                   X2: np.ndarray) -> float:
-    """Gaussian Wasserstein distance between two ellipses (method.md e).
+    """Gaussian Wasserstein distance between two ellipses (docs/method.md e).
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""Landmark-management metrics of APSIPA Table II (method.md f.4).
+"""Landmark-management metrics of APSIPA Table II (docs/method.md f.4).
 
 Matching rule (documented, [PROP]): at every scan the estimated landmarks are assigned one-to-one to
 the vehicles by the Hungarian algorithm on Euclidean centre distance; pairs farther apart than the

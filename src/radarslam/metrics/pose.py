@@ -1,4 +1,4 @@
-"""Platform pose errors (method.md f.1) and consistency (NEES)."""
+"""Platform pose errors (docs/method.md f.1) and consistency (NEES)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Statistics over Monte Carlo runs: the trial bootstrap and the RMSE over defined values (method.md f.1, f.2).
+"""Statistics over Monte Carlo runs: the trial bootstrap and the RMSE over defined values (docs/method.md f.1, f.2).
 
 Definitions ([PROP]):
 

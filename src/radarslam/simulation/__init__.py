@@ -1,4 +1,4 @@
-"""The simulated car park of the APSIPA 2022 and seed papers (method.md section b)."""
+"""The simulated car park of the APSIPA 2022 and seed papers (docs/method.md section b)."""
 
 from radarslam.simulation.scenario import GroundTruth, Scenario, generate_scenario
 from radarslam.simulation.world import Vehicle, carpark_vehicles

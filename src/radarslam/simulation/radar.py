@@ -1,4 +1,4 @@
-"""The 'ideal' radar of both papers (method.md b.4)."""
+"""The 'ideal' radar of both papers (docs/method.md b.4)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The platform trajectory (method.md b.2) and the odometer (b.3)."""
+"""The platform trajectory (docs/method.md b.2) and the odometer (b.3)."""
 
 from __future__ import annotations
 

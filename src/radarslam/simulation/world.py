@@ -1,4 +1,4 @@
-"""Vehicles of the car park as axis-aligned rectangles (method.md b.1)."""
+"""Vehicles of the car park as axis-aligned rectangles (docs/method.md b.1)."""
 
 from __future__ import annotations
 

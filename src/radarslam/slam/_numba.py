@@ -54,7 +54,7 @@ def compile_kernels(*funcs):
 
 _K = compile_kernels(angles.wrap_pi_scalar, angles.wrap_2pi_scalar, layout.landmark_index,
                      ekf.innovation_cov_terms, ekf.gaussian_log_distance, ekf.sparse_jacobian, ekf.r_eff,
-                     ekf.joseph_update)
+                     ekf.joseph_update, ekf.sensor_xy_measurement, ekf.polar_to_sensor_xy, ekf.rotate_to_sensor)
 _wrap_pi = _K["wrap_pi_scalar"]
 _landmark_index = _K["landmark_index"]
 _innovation_cov_terms = _K["innovation_cov_terms"]
@@ -62,6 +62,9 @@ _gaussian_log_distance = _K["gaussian_log_distance"]
 _sparse_jacobian = _K["sparse_jacobian"]
 _r_eff = _K["r_eff"]
 _joseph_update = _K["joseph_update"]
+_sensor_xy_measurement = _K["sensor_xy_measurement"]
+_polar_to_sensor_xy = _K["polar_to_sensor_xy"]
+_rotate_to_sensor = _K["rotate_to_sensor"]
 
 
 @njit(cache=True)
@@ -144,6 +147,66 @@ def associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta):  # pragma
     return x, P, out, nis[:n_up]
 
 
+@njit(cache=True)
+def batch_associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta):  # pragma: no cover - compiled
+    """The per-landmark batch update (:class:`radarslam.slam.association.BatchAssociator`): score
+    every candidate at the prior state, then one update per landmark with the mean of its
+    detections. Returns ``(x, P, out, nis)``."""
+    N = (x.shape[0] - 3) // 2
+    out = np.full(cand.shape[0], -1)
+    nis = np.empty(N)
+    if N == 0:
+        return x, P, out, nis[:0]
+    d2 = np.empty(N)
+    for c in range(cand.shape[0]):
+        best_j, best_D, be0, be1 = _best_landmark(x, P, polar[cand[c], 0], polar[cand[c], 1], n_nearest, R, gX,
+                                                  has_gX, d2)
+        if best_j >= 0 and best_D < beta:
+            out[c] = best_j
+    n_up = 0
+    for j in range(N):
+        rows = cand[out == j]
+        if rows.shape[0] == 0:
+            continue
+        pts, R_xy = _polar_to_sensor_xy(polar[rows], R)
+        m = rows.shape[0]
+        zbar = np.empty(2)
+        zbar[0] = pts[:, 0].mean()
+        zbar[1] = pts[:, 1].mean()
+        noise = R_xy.copy()
+        if has_gX[j]:
+            noise += _rotate_to_sensor(x[2], np.ascontiguousarray(gX[j]))
+        h, Hs, idx = _sensor_xy_measurement(x, j)
+        x, P, q = _joseph_update(x, P, zbar - h, Hs, idx, noise / m)
+        nis[n_up] = q
+        n_up += 1
+    return x, P, out, nis[:n_up]
+
+
+class CompiledBatchAssociator:
+    """:class:`~radarslam.slam.association.BatchAssociator`, compiled."""
+
+    name = "batch"
+    backend = "numba"
+
+    def __init__(self, beta: float, n_nearest: int, n_nearest_new: int):
+        self.beta = float(beta)
+        self.n_nearest = int(n_nearest)
+        self.n_nearest_new = int(n_nearest_new)
+
+    def associate(self, state: SlamState, polar: np.ndarray, candidates: np.ndarray, R: np.ndarray,
+                  spreads: Spreads) -> tuple[np.ndarray, np.ndarray]:
+        if not state.landmarks:
+            return np.full(candidates.shape[0], -1, dtype=int), np.empty(0)
+        x, P, out, nis = batch_associate_scan(state.x, state.P, polar, candidates.astype(np.int64), R, spreads.gX,
+                                              spreads.has, self.n_nearest, self.beta)
+        state.set(x, P)
+        return out, nis
+
+    def min_log_distance(self, state: SlamState, s: np.ndarray, R: np.ndarray) -> float:
+        return float(min_log_distance(state.x, state.P, float(s[0]), float(s[1]), self.n_nearest_new, R))
+
+
 class CompiledNearestNeighbourAssociator:
     """:class:`~radarslam.slam.association.NearestNeighbourAssociator`, compiled."""
 
@@ -173,4 +236,10 @@ def _make_compiled(config) -> CompiledNearestNeighbourAssociator:
     return CompiledNearestNeighbourAssociator(lc.beta, lc.n_nearest_assoc, lc.n_nearest_new)
 
 
+def _make_compiled_batch(config) -> CompiledBatchAssociator:
+    lc = config.landmarks
+    return CompiledBatchAssociator(lc.beta, lc.n_nearest_assoc, lc.n_nearest_new)
+
+
 ASSOCIATORS.register("nearest-neighbour", _make_compiled, backend="numba")
+ASSOCIATORS.register("batch", _make_compiled_batch, backend="numba")

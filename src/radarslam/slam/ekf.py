@@ -28,7 +28,7 @@ LOG_2PI_SQ = 2.0 * math.log(2.0 * math.pi)  # log((2 pi)^2)
 
 def predict(x: np.ndarray, P: np.ndarray, u: np.ndarray, dt: float, model: MotionModel,
             U: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """EKF prediction with the odometer reading ``u`` (APSIPA App. A; method.md c.2).
+    """EKF prediction with the odometer reading ``u`` (APSIPA App. A; docs/method.md c.2).
 
     Landmarks are static, so only the pose block and the pose rows/columns change:
     ``P_pp <- Fx P_pp Fx^T + Fu U Fu^T + Q`` and ``P_pl <- Fx P_pl``. Cost O(N).
@@ -64,7 +64,7 @@ def landmark_measurement(x: np.ndarray, j: int) -> tuple[np.ndarray, np.ndarray,
 
 
 def innovation(z: np.ndarray, h: np.ndarray) -> np.ndarray:
-    """``z - h`` with the azimuth residual wrapped to (-pi, pi] (method.md c.4)."""
+    """``z - h`` with the azimuth residual wrapped to (-pi, pi] (docs/method.md c.4)."""
     return np.array([z[0] - h[0], wrap_pi_scalar(z[1] - h[1])])
 
 
@@ -128,7 +128,7 @@ def score_landmarks(x: np.ndarray, P: np.ndarray, z: np.ndarray, js: list[int], 
 
         S = [[g1 C g1', g1 C g2' - g1.c], [., g2 C g2' - 2 g2.c + P_tt]] + R_j,
 
-    with ``R_j = R + g (gamma_z X_j) g'`` (method.md a.7.2) where ``gX[k]`` is ``gamma_z X_j``.
+    with ``R_j = R + g (gamma_z X_j) g'`` (docs/method.md a.7.2) where ``gX[k]`` is ``gamma_z X_j``.
     ``xs`` may pass ``x.tolist()`` when the caller already has it.
 
     Returns
@@ -187,7 +187,7 @@ def innovation_cov_terms(cxx, cxy, cyy, ctx, cty, ptt, dx, dy, r00, r01, r11, ha
 
     ``c..`` are ``cov(delta)`` and ``cov(delta, theta)``, ``ptt`` the heading variance, ``(dx, dy)``
     the landmark relative to the pose, ``r..`` the entries of R and, when ``has_g``, ``g..`` those
-    of ``gamma_z X_j`` (method.md a.7.2). Plain floats, so the numba backend compiles this very
+    of ``gamma_z X_j`` (docs/method.md a.7.2). Plain floats, so the numba backend compiles this very
     function (:mod:`radarslam.slam._numba`).
     """
     q = dx * dx + dy * dy
@@ -243,14 +243,18 @@ def sensor_xy_measurement(x: np.ndarray, j: int) -> tuple[np.ndarray, np.ndarray
 
 def polar_to_sensor_xy(polar: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Detections ``(m, 2)`` of ``[r, phi]`` as sensor-frame points ``(m, 2)`` and the mean of their
-    noise covariances ``J_i R J_i^T`` with ``J_i = d(r cos phi, r sin phi)/d(r, phi)``."""
+    noise covariances ``J_i R J_i^T``, ``J_i = [[c, -r s], [s, r c]]`` the Jacobian of
+    ``(r cos phi, r sin phi)``. A kernel (numba compiles it)."""
     r, phi = polar[:, 0], polar[:, 1]
     c, s = np.cos(phi), np.sin(phi)
-    pts = np.column_stack([r * c, r * s])
-    J = np.empty((polar.shape[0], 2, 2))
-    J[:, 0, 0], J[:, 0, 1] = c, -r * s
-    J[:, 1, 0], J[:, 1, 1] = s, r * c
-    return pts, (J @ R @ J.transpose(0, 2, 1)).mean(axis=0)
+    pts = np.empty((polar.shape[0], 2))
+    pts[:, 0] = r * c
+    pts[:, 1] = r * s
+    a, b, d = R[0, 0], R[0, 1], R[1, 1]
+    w00 = (c * c * a - 2.0 * r * c * s * b + r * r * s * s * d).mean()
+    w01 = (c * s * a + r * (c * c - s * s) * b - r * r * s * c * d).mean()
+    w11 = (s * s * a + 2.0 * r * s * c * b + r * r * c * c * d).mean()
+    return pts, np.array([[w00, w01], [w01, w11]])
 
 
 def rotate_to_sensor(theta: float, C: np.ndarray) -> np.ndarray:

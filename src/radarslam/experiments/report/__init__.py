@@ -1,4 +1,4 @@
-"""The Monte Carlo report: seed Table 1, seed Fig. 3, APSIPA Table II and pose NEES (method.md f),
+"""The Monte Carlo report: seed Table 1, seed Fig. 3, APSIPA Table II and pose NEES (docs/method.md f),
 for every variant of the run.
 
 - :mod:`.paper`   the papers' published values and their sources

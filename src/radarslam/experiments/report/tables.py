@@ -1,11 +1,11 @@
-"""The report's tables as dicts: seed Table 1, seed Fig. 3 curves, APSIPA Table II, pose NEES (method.md f).
+"""The report's tables as dicts: seed Table 1, seed Fig. 3 curves, APSIPA Table II, pose NEES (docs/method.md f).
 
 Every function is pure computation on the dict of :func:`~radarslam.experiments.montecarlo.load_results`
 and covers every variant of ``res["variants"]`` in order (without that key: the two
 :data:`~radarslam.experiments.variants.DEFAULT_VARIANTS`); the first variant is the *baseline* of
 the relative changes.
 
-Definitions (method.md e, f.1; the statistics are [PROP], :mod:`radarslam.metrics.statistics`):
+Definitions (docs/method.md e, f.1; the statistics are [PROP], :mod:`radarslam.metrics.statistics`):
 
 - *avg. RMSE* over trials: ``mean_k sqrt(mean_r e_{r,k}^2)`` (:func:`~radarslam.metrics.pose.avg_rmse`).
   Its 95% confidence interval is the percentile interval of the trial bootstrap. The relative
@@ -224,7 +224,7 @@ def gwd_curves(res: dict, convention: str) -> dict:
 
 
 def landmark_table(res: dict) -> dict:
-    """APSIPA Table II for each variant (method.md f.4).
+    """APSIPA Table II for each variant (docs/method.md f.4).
 
     Parameters
     ----------
