@@ -15,8 +15,18 @@ from radarslam.config import profile_config
 from radarslam.core.errors import ConfigError, InputError, RadarSlamError
 from radarslam.experiments.montecarlo import load_results, run_montecarlo, trial_seed
 from radarslam.experiments.single import run_trial
-from radarslam.experiments.store import TrialStore, config_hash, decode_trial, encode_trial
-from radarslam.experiments.variants import DEFAULT_VARIANTS, Variant, apply_variant
+from radarslam.experiments.store import (
+    TrialStore,
+    config_hash,
+    decode_trial,
+    encode_trial,
+)
+from radarslam.experiments.variants import (
+    DEFAULT_VARIANTS,
+    PAPER_VARIANTS,
+    Variant,
+    apply_variant,
+)
 
 #: A third variant: the extent in SLAM without its contour sifting (an ablation).
 NOSIFT = Variant("nosift", "With extent, no contour sifting", {"extent": {"use_in_slam": True, "contour_sifting": False}})
@@ -248,11 +258,12 @@ def test_cli_reproduce_small(tmp_path, capsys, monkeypatch):
     man = json.loads((out / "manifest.json").read_text())
     assert man["seed"] == 1 and man["config"]["profile"] == "apsipa"
     assert [(v["name"], v["label"]) for v in man["variants"]] == [("noext", "No extent"), ("ext", "With extent"),
+                                                                  ("consistent", "Consistent (beyond the paper)"),
                                                                   ("noinfl", "noinfl")]
     res = load_results(out)
     assert res["noext"]["position_error_m"].shape == (2, 120) and res["noinfl"]["poses"].shape == (2, 120, 3)
     np.testing.assert_array_equal(res["noinfl"]["poses"][1], run_trial(
-        apply_variant(res["config"], res["variants"][2]), trial_seed(1, 2)).record.poses)
+        apply_variant(res["config"], res["variants"][3]), trial_seed(1, 2)).record.poses)
 
 
 def test_cli_montecarlo_interrupt_reports_stored_trials(tmp_path, capsys, monkeypatch):
@@ -325,7 +336,8 @@ def test_load_results_has_every_variant_in_order(three_variant_run):
         assert res[v.name]["poses"].shape == (3, 40, 3) and res[v.name]["nees"].shape == (3, 40)
         assert res[v.name]["scalars"]["position_avg_rmse_m"].shape == (3,)
     _, meta = decode_trial(TrialStore.read(three_variant_run).path(1))
-    assert meta["variants"] == ["noext", "ext", "nosift"] and set(meta["filter_seconds"]) == {"noext", "ext", "nosift"}
+    names = ["noext", "ext", "consistent", "nosift"]
+    assert meta["variants"] == names and set(meta["filter_seconds"]) == set(names)
     man = json.loads((three_variant_run / "manifest.json").read_text())
     assert [(v["name"], v["label"], v["overlay"]) for v in man["variants"]] == \
         [(v.name, v.label, v.overlay) for v in THREE]
@@ -361,7 +373,7 @@ def test_trial_file_missing_a_variant_is_recomputed(three_variant_run, tmp_path)
     store = TrialStore.read(out)
     arrays, meta = decode_trial(store.path(2))
     partial = {k: v for k, v in arrays.items() if not k.startswith("nosift/")}
-    for listed in (["noext", "ext"], ["noext", "ext", "nosift"]):  # meta honest, or claiming all three
+    for listed in (["noext", "ext", "consistent"], ["noext", "ext", "consistent", "nosift"]):  # honest, or claiming all
         store.save(2, encode_trial(partial, dict(meta, variants=listed)))
         decode_trial(store.path(2))  # a sound file in itself
         good, bad = store.inventory(3)
@@ -393,7 +405,7 @@ def test_directory_written_before_variants_resumes_with_the_default_two(referenc
     import shutil
 
     out = tmp_path / "old"
-    shutil.copytree(reference_run, out)
+    run_montecarlo(short_config(), 11, 4, out, progress=False, variants=PAPER_VARIANTS)
     man = json.loads((out / "manifest.json").read_text())
     del man["variants"]
     man["config_hash"] = config_hash(short_config())
@@ -403,12 +415,12 @@ def test_directory_written_before_variants_resumes_with_the_default_two(referenc
         arrays, meta = decode_trial(store.path(t))
         del meta["variants"]
         store.save(t, encode_trial(arrays, meta))
-    assert store.variants == DEFAULT_VARIANTS and store.inventory(4) == ([1, 2, 3, 4], {})
-    s = run_montecarlo(short_config(), 11, 4, out, progress=False)
+    assert store.variants == PAPER_VARIANTS and store.inventory(4) == ([1, 2, 3, 4], {})
+    s = run_montecarlo(short_config(), 11, 4, out, progress=False, variants=PAPER_VARIANTS)
     assert (s.resumed, s.computed) == (4, 0)
     res = load_results(out)
     assert np.array_equal(res["ext"]["poses"], load_results(reference_run)["ext"]["poses"])
-    with pytest.raises(InputError, match="variants \\['noext', 'ext'\\], not \\['noext', 'ext', 'nosift'\\]"):
+    with pytest.raises(InputError, match="variants \\['noext', 'ext'\\], not \\['noext', 'ext', 'consistent', 'nosift'\\]"):
         run_montecarlo(short_config(), 11, 4, out, progress=False, variants=THREE)
 
 
@@ -424,6 +436,7 @@ def test_cli_variant_appends_to_the_default_two(tmp_path, capsys):
     assert main(base + ["--variant", f"nosift={ov}"]) == 0
     res = load_results(out)
     assert [(v.name, v.label) for v in res["variants"]] == [("noext", "No extent"), ("ext", "With extent"),
+                                                           ("consistent", "Consistent (beyond the paper)"),
                                                            ("nosift", "no sifting")]
     assert res["nosift"]["poses"].shape == (2, 20, 3)
     capsys.readouterr()

@@ -13,19 +13,25 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from conftest import require
 from scipy.stats import chi2
 
 from radarslam.config import profile_config
 from radarslam.core.errors import InputError
 from radarslam.experiments.montecarlo import load_results, run_montecarlo
-from radarslam.experiments.report import (GWD_KEY_STEPS, REPORT_CONVENTIONS, gwd_curves, landmark_table, nees_summary,
-                                          table1, write_report)
-from radarslam.experiments.variants import DEFAULT_VARIANTS, Variant
+from radarslam.experiments.report import (
+    GWD_KEY_STEPS,
+    REPORT_CONVENTIONS,
+    gwd_curves,
+    landmark_table,
+    nees_summary,
+    table1,
+    write_report,
+)
+from radarslam.experiments.variants import PAPER_VARIANTS, Variant
 from radarslam.metrics.pose import avg_rmse, chi2_band
 from radarslam.metrics.statistics import rmse_over_defined
 from radarslam.viz import have_matplotlib
-
-from conftest import require
 
 N_TRIALS, N_STEPS, SEED = 4, 40, 7
 #: A third variant for the "any number of variants" tests.
@@ -38,7 +44,7 @@ def mc_dir(tmp_path_factory):
     cfg = profile_config()
     cfg = replace(cfg, trajectory=replace(cfg.trajectory, n_steps=N_STEPS))
     out = tmp_path_factory.mktemp("mc")
-    run_montecarlo(cfg, SEED, N_TRIALS, out, jobs=1, progress=False, log=lambda s: None)
+    run_montecarlo(cfg, SEED, N_TRIALS, out, jobs=1, progress=False, log=lambda s: None, variants=PAPER_VARIANTS)
     return out
 
 
@@ -53,7 +59,7 @@ def mc3_dir(tmp_path_factory):
     cfg = profile_config()
     cfg = replace(cfg, trajectory=replace(cfg.trajectory, n_steps=30))
     out = tmp_path_factory.mktemp("mc3")
-    run_montecarlo(cfg, 3, 3, out, jobs=1, progress=False, log=lambda s: None, variants=DEFAULT_VARIANTS + (NOSIFT,))
+    run_montecarlo(cfg, 3, 3, out, jobs=1, progress=False, log=lambda s: None, variants=PAPER_VARIANTS + (NOSIFT,))
     return out
 
 
@@ -341,8 +347,8 @@ def test_nees_band_holds_for_chi2_and_fails_for_inflated_nees():
 
 
 EXPECTED_FILES = {"table1.md", "table1.csv", "table2_landmarks.md", "table2_landmarks.csv", "fig3_gwd_moment.csv",
-                  "fig3_gwd_full.csv", "nees.csv", "report.json", "report.md"}
-FIGURES = {"fig3_gwd_moment.png", "fig3_gwd_full.png", "fig2_trial1.png", "nees.png"}
+                  "fig3_gwd_full.csv", "nees.csv", "nis.csv", "report.json", "report.md"}
+FIGURES = {"fig3_gwd_moment.png", "fig3_gwd_full.png", "fig2_trial1.png", "nees.png", "nis.png"}
 
 
 def md_sections(text: str) -> dict[str, str]:
@@ -410,11 +416,14 @@ def test_write_report_writes_every_file(mc_dir, report, res):
 
     md = (rdir / "report.md").read_text()
     sec = md_sections(md)
-    assert list(sec) == ["## Variants", "## Table 1: platform pose error (seed Table 1)",
+    assert list(sec) == ["## What this run reproduces", "## Variants", "## Table 1: platform pose error (seed Table 1)",
                          "## Fig. 3: RMSE of the average GWD (m), convention `moment`",
                          "## Fig. 3: RMSE of the average GWD (m), convention `full`",
-                         "## Table II: landmark management (APSIPA Table II)", "## Pose NEES (3 dof)"] + (
-        ["## Fig. 2"] if have_matplotlib() else [])
+                         "## Table II: landmark management (APSIPA Table II)", "## Pose NEES (3 dof)",
+                         "## NIS of the EKF updates (2 dof)"] + (["## Fig. 2"] if have_matplotlib() else [])
+    claim_rows = check_markdown_table(sec["## What this run reproduces"])
+    assert len(claim_rows) - 1 == len(report["claims"]) and all(r[2] in ("**reproduced**", "**not reproduced**",
+                                                                          "undefined") for r in claim_rows[1:])
     assert (rdir / "table1.md").read_text().strip() in sec["## Table 1: platform pose error (seed Table 1)"]
     assert (rdir / "table2_landmarks.md").read_text().strip() in sec["## Table II: landmark management (APSIPA Table II)"]
     head = re.search(r"- trials: (\d+) \(numbers ([\d, -]+)\), seed (\d+), profile `(\w+)`, K = (\d+) scans", md)
@@ -592,3 +601,51 @@ def test_cli_main_report(mc_dir, tmp_path, capsys):
     assert main(["report", str(tmp_path / "missing")]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("radarslam report: error: DIR")
+
+
+def test_nis_summary_pools_updates_and_tests_them_against_the_chi2_band():
+    """Synthetic NIS: consistent draws land inside the band at ~95% of scans with mean ~2;
+    draws scaled by 2 (an overconfident filter) are above it everywhere (negative control)."""
+    from scipy import stats
+
+    from radarslam.experiments.report import nis_summary
+
+    rng = np.random.default_rng(4)
+    N, K = 50, 120
+    count = rng.integers(0, 30, (N, K)).astype(float)
+    sums = np.array([[rng.chisquare(2, int(c)).sum() for c in row] for row in count])
+    res = {"variants": [Variant("good", "consistent", {}), Variant("bad", "overconfident", {})],
+           "good": {"nis_sum": sums, "nis_count": count}, "bad": {"nis_sum": 2.0 * sums, "nis_count": count}}
+    ns = nis_summary(res)
+    good, bad = ns["configs"]["good"], ns["configs"]["bad"]
+    n = count.sum(axis=0)
+    np.testing.assert_allclose(good["mean_nis"], sums.sum(0) / n)
+    np.testing.assert_allclose(good["band_low"], stats.chi2.ppf(0.025, 2 * n) / n)
+    assert abs(good["overall"] - 2.0) < 0.05
+    assert good["frac_inside"] > 0.88
+    assert bad["frac_inside"] < 0.05 and abs(bad["overall"] - 4.0) < 0.1
+
+
+def test_claims_say_plainly_what_reproduces():
+    """Table 1 direction holds only when the paired CI lies below zero; size against the paper's
+    With-extent values; Fig. 3 'below at every k >= 10' needs 100%, 'flatter' needs a lower std."""
+    from radarslam.experiments.report.tables import claims
+
+    def metric(ext, change_ci):
+        return {"noext": {"estimate": 1.2, "ci": [1.1, 1.3]}, "ext": {"estimate": ext, "ci": [ext - 0.1, ext + 0.1]},
+                "change_pct": {"ext": {"estimate": 100 * (ext / 1.2 - 1), "ci": change_ci}}}
+
+    t1 = {"baseline": "noext", "variants": ["noext", "ext"], "labels": {"noext": "No extent", "ext": "With extent"},
+          "position_avg_rmse_m": metric(1.05, [-20.0, -5.0]), "heading_avg_rmse_deg": metric(3.3, [-8.0, 1.0])}
+    curve = {"configs": {"ext": {"rma": {"std_k10": 0.05}, "efa": {"std_k10": 0.10}, "frac_rma_below_efa_k10": 1.0},
+                         "noext": {"rma": {"std_k10": 0.20}, "efa": {"std_k10": 0.10},
+                                   "frac_rma_below_efa_k10": 0.9}}}
+    got = {(c["claim"], c["variant"]): c["holds"] for c in claims(t1, {"moment": curve})}
+    assert got[("Table 1 direction (position)", "ext")] is True
+    assert got[("Table 1 direction (heading)", "ext")] is False          # CI reaches above zero
+    assert got[("Table 1 size (position <= paper)", "ext")] is True       # 1.05 <= 1.09
+    assert got[("Table 1 size (heading <= paper)", "ext")] is False       # 3.3 > 3.24
+    assert got[("Fig. 3 RMA below EFA at every k >= 10 (moment)", "ext")] is True
+    assert got[("Fig. 3 RMA below EFA at every k >= 10 (moment)", "noext")] is False
+    assert got[("Fig. 3 RMA flatter than EFA (moment)", "ext")] is True
+    assert got[("Fig. 3 RMA flatter than EFA (moment)", "noext")] is False

@@ -10,17 +10,21 @@ import pytest
 
 from radarslam.config import profile_config, to_dict
 from radarslam.core.errors import ConfigError, InputError
-from radarslam.experiments.variants import (DEFAULT_VARIANTS, Variant, apply_variant, check_variants,
+from radarslam.experiments.variants import (DEFAULT_VARIANTS, PAPER_VARIANTS, Variant, apply_variant, check_variants,
                                             overlay_to_toml, parse_variant_arg, variants_from_json,
                                             variants_to_json)
 
 
-def test_default_variants_equal_the_two_fixed_configurations():
+def test_default_variants_are_the_papers_two_and_the_consistent_one():
     cfg = profile_config("reference")
-    for v, use in zip(DEFAULT_VARIANTS, (False, True)):
+    for v, use in zip(PAPER_VARIANTS, (False, True)):
         expected = dataclasses.replace(cfg, extent=dataclasses.replace(cfg.extent, use_in_slam=use))
         assert apply_variant(cfg, v) == expected
-    assert [v.name for v in DEFAULT_VARIANTS] == ["noext", "ext"]
+    assert DEFAULT_VARIANTS[:2] == PAPER_VARIANTS and [v.name for v in DEFAULT_VARIANTS] == ["noext", "ext", "consistent"]
+    c = apply_variant(cfg, DEFAULT_VARIANTS[2])
+    assert c.extent.use_in_slam and c.extent.pre_init_spread == "prior"
+    assert c.landmarks.init == "cluster" and c.landmarks.associator == "batch"
+    assert c.trajectory == cfg.trajectory and c.radar == cfg.radar   # same simulated data
 
 
 def test_overlay_is_deep_merged_and_leaves_everything_else():
@@ -107,7 +111,7 @@ def test_parse_variant_arg_errors(tmp_path, text, match):
 
 
 def test_manifest_form_round_trips_exactly_including_infinity():
-    vs = DEFAULT_VARIANTS + (Variant("axis", "Axis test off", {"landmarks": {"merge_axis_tol_m": math.inf},
+    vs = PAPER_VARIANTS + (Variant("axis", "Axis test off", {"landmarks": {"merge_axis_tol_m": math.inf},
                                                               "extent": {"w_mode": "mean", "kappa": 1.5}}),)
     data = variants_to_json(vs)
     assert [d["name"] for d in data] == ["noext", "ext", "axis"]

@@ -197,13 +197,15 @@ class ExtentConfig:
     sifting_mode: str = param("measurement-contour", "extent-aware sifting test (a.7.1, Decision 6): the gate of the "
                               "predicted detection spread, or the paper's literal X ellipse (kappa)",
                               choices=("measurement-contour", "literal"))
-    gate_probability: float = param(0.99, "measurement-contour gate probability (chi-square, 2 dof; a.7.1)",
+    gate_probability: float = param(0.95, "measurement-contour gate probability (chi-square, 2 dof; a.7.1; chosen by "
+                                    "scripts/sweep_sifting.py on training seeds)",
                                     low=0.0, low_open=True, high=0.999999)
     pre_init_spread: str = param("none", "[PROP] detection spread of a landmark whose extent is not initialised, "
                                  "for R_eff and sifting: none (R only, the paper), prior (prior_extent_radius_m) "
                                  "or scatter (its buffered detections, the prior until 3 are held)",
                                  choices=("none", "prior", "scatter"))
-    prior_extent_radius_m: float = param(1.5, "[PROP] radius of the circular prior extent X0 = r^2 I (m)",
+    prior_extent_radius_m: float = param(2.0, "[PROP] radius of the circular prior extent X0 = r^2 I (m; chosen on "
+                                         "training seeds)",
                                          low=0.0, low_open=True)
     inflate_noise: bool = param(True, "with use_in_slam: R_eff = R + H_p gamma X H_p^T (a.7.2); for ablations")
     n_init: int = param(20, "N_i: initialise once more than this many detections are buffered", low=1)

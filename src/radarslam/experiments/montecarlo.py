@@ -26,7 +26,7 @@ from radarslam.experiments.store import TrialStore, decode_trial, encode_trial
 from radarslam.experiments.variants import DEFAULT_VARIANTS, Variant, apply_variant, check_variants
 from radarslam.simulation.scenario import generate_scenario
 
-PER_STEP = ("position_error_m", "heading_error_rad", "nees", "false_per_scan", "missed_per_scan",
+PER_STEP = ("position_error_m", "heading_error_rad", "nees", "nis_sum", "nis_count", "false_per_scan", "missed_per_scan",
             "stale_per_scan", "gwd_count") + tuple(
     f"gwd_{a}_{c}" for a in ("rma", "efa") for c in ("moment", "full", "inscribed", "enclosing"))
 PER_VEHICLE = ("final_errors", "inclusion_delay", "removal_delay")

@@ -26,6 +26,8 @@ class FilterRecord:
     pose_covs : ndarray (K, 3, 3)
     maps : list of MapSnapshot
     n_detections, n_associated, n_landmarks : ndarray of int (K,)
+    nis_sum, nis_count : ndarray (K,)
+        Sum and number of the normalised innovations squared of the scan's EKF updates (2 dof each).
     seconds : float
         Wall time of the filter alone.
     """
@@ -38,13 +40,15 @@ class FilterRecord:
     n_landmarks: np.ndarray
     seconds: float = 0.0
     events: list = field(default_factory=list)
+    nis_sum: np.ndarray = field(default_factory=lambda: np.empty(0))
+    nis_count: np.ndarray = field(default_factory=lambda: np.empty(0))
 
 
 def run_filter(config: Config, events: list[Odometry | Scan], slam: EkfSlam | None = None) -> FilterRecord:
     """Run :class:`EkfSlam` over an event stream, recording the estimate after every scan."""
     slam = slam or EkfSlam(config)
     t0 = time.perf_counter()
-    poses, covs, maps, ndet, nass, nlm = [], [], [], [], [], []
+    poses, covs, maps, ndet, nass, nlm, nis_sum, nis_n = [], [], [], [], [], [], [], []
     for ev in events:
         rep = slam.process(ev)
         if rep is None:
@@ -55,8 +59,11 @@ def run_filter(config: Config, events: list[Odometry | Scan], slam: EkfSlam | No
         ndet.append(rep.n_detections)
         nass.append(rep.n_associated)
         nlm.append(len(slam.landmarks))
+        nis_sum.append(float(rep.nis.sum()))
+        nis_n.append(rep.nis.size)
     return FilterRecord(np.array(poses).reshape(-1, 3), np.array(covs).reshape(-1, 3, 3), maps,
-                        np.array(ndet), np.array(nass), np.array(nlm), time.perf_counter() - t0)
+                        np.array(ndet), np.array(nass), np.array(nlm), time.perf_counter() - t0,
+                        nis_sum=np.array(nis_sum), nis_count=np.array(nis_n, dtype=float))
 
 
 def vehicle_rectangles(vehicles) -> np.ndarray:
@@ -89,6 +96,8 @@ def evaluate(config: Config, scenario: Scenario, rec: FilterRecord) -> dict:
         "position_error_m": pos_err,
         "heading_error_rad": head_err,
         "nees": pose_nees(rec.poses, rec.pose_covs, truth.poses),
+        "nis_sum": rec.nis_sum,
+        "nis_count": rec.nis_count,
         **lm,
         **ext,
     }

@@ -27,7 +27,7 @@ import numpy as np
 from radarslam import __version__
 from radarslam.config import Config, from_dict, to_dict, to_toml
 from radarslam.core.errors import InputError, RadarSlamError
-from radarslam.experiments.variants import (DEFAULT_VARIANTS, Variant, check_variants, variant_hash_data,
+from radarslam.experiments.variants import (DEFAULT_VARIANTS, PAPER_VARIANTS, Variant, check_variants, variant_hash_data,
                                             variants_from_json, variants_to_json)
 from radarslam.io.results import atomic_write_bytes, atomic_write_text, make_dir, to_jsonable, write_json
 
@@ -46,7 +46,7 @@ def config_hash(config: Config, variants: tuple[Variant, ...] | None = None) -> 
     """SHA-256 of the canonical JSON of the configuration and the variants (names, labels, overlays).
 
     ``variants=None`` gives the hash of the configuration alone, the identity of directories written
-    before variants existed (they ran :data:`~.variants.DEFAULT_VARIANTS`).
+    before variants existed (they ran :data:`~.variants.PAPER_VARIANTS`).
     """
     # json writes inf as Infinity, so an infinite threshold and a missing one never collide.
     data = to_dict(config) if variants is None else {"config": to_dict(config),
@@ -153,8 +153,8 @@ class TrialStore:
                 stored = [v.get("name") if isinstance(v, dict) else v for v in listed]
                 same = m.get("config_hash") == config_hash(config, variants)
             else:  # written before variants existed: it ran the default two
-                stored = [v.name for v in DEFAULT_VARIANTS]
-                same = variants == DEFAULT_VARIANTS and m.get("config_hash") == config_hash(config)
+                stored = [v.name for v in PAPER_VARIANTS]
+                same = variants == PAPER_VARIANTS and m.get("config_hash") == config_hash(config)
             if not same:
                 names = [v.name for v in variants]
                 what = (f"variants {stored}, not {names}" if stored != names
@@ -177,7 +177,7 @@ class TrialStore:
             raise InputError(f"DIR: {root} has no manifest.json; is it a montecarlo output directory?")
         m = json.loads(man.read_text())
         try:
-            variants = variants_from_json(m["variants"]) if "variants" in m else DEFAULT_VARIANTS
+            variants = variants_from_json(m["variants"]) if "variants" in m else PAPER_VARIANTS
         except InputError as exc:
             raise InputError(f"DIR: {man} lists unreadable variants ({exc})") from None
         return cls(root, from_dict(tomllib.loads(m["config_toml"])), int(m["seed"]), variants)

@@ -153,3 +153,38 @@ def plot_fig2(path: str | Path, trial, label: str = "With extent") -> None:
 
     K = trial.record.poses.shape[0]
     plot_carpark_run(path, trial, title=f"trial 1, k = {K}, {label}")
+
+
+def plot_nis(path: str | Path, summary: dict) -> list[tuple[str, object, str]]:
+    """Save the mean NIS per scan of every variant with its chi-square band (one band per variant:
+    it depends on the number of updates).
+
+    Parameters
+    ----------
+    summary : dict
+        From :func:`radarslam.experiments.report.tables.nis_summary`.
+    """
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(7.0, 4.2))
+    K = 1
+    for i, c in enumerate(summary["configs"].values()):
+        a = np.asarray(c["mean_nis"], dtype=float)
+        K = a.shape[0]
+        k = np.arange(1, K + 1)
+        col = _NEES_COLORS[i % len(_NEES_COLORS)]
+        ax.plot(k, a, linestyle=_style(i), color=col, lw=1.3,
+                label=f"{c['label']} ({100 * c['frac_inside']:.0f}% inside, mean {c['overall']:.2f})")
+        ax.fill_between(k, c["band_low"], c["band_high"], color=col, alpha=0.12,
+                        label=f"{100 * summary['prob']:.0f}% band, {c['label']}")
+    ax.axhline(summary["dof"], color="k", lw=0.8, label="consistent mean (2)")
+    ax.set_xlabel("scan k")
+    ax.set_ylabel("mean NIS of the updates (2 dof)")
+    ax.set_title("normalised innovation squared, pooled over trials")
+    ax.set_xlim(1, K)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    entries = _entries(ax)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return entries

@@ -12,11 +12,13 @@ The trial bootstrap and the RMSE over defined values are generic statistics of
 """
 
 from radarslam.experiments.report.paper import PAPER_FIG3, PAPER_SOURCES, PAPER_TABLE1, PAPER_TABLE2
-from radarslam.experiments.report.render import (gwd_csv, gwd_markdown, nees_csv, nees_markdown, report_markdown,
+from radarslam.experiments.report.render import (gwd_csv, gwd_markdown, nees_csv, nees_markdown, nis_csv, nis_markdown,
+                                                 report_markdown,
                                                  table1_csv, table1_markdown, table2_csv, table2_markdown,
                                                  trial_ranges, variants_markdown)
 from radarslam.experiments.report.tables import (ESTIMATORS, GWD_KEY_STEPS, GWD_SETTLED_FROM, REPORT_CONVENTIONS,
-                                                 TABLE1_METRICS, gwd_curves, landmark_table, nees_summary, table1,
+                                                 TABLE1_METRICS, gwd_curves, landmark_table, nees_summary, nis_summary,
+                                                 table1,
                                                  variant_labels)
 from radarslam.experiments.report.write import FIG2_VARIANT, write_report
 from radarslam.metrics.statistics import bootstrap_avg_rmse, bootstrap_counts, percentile_interval, rmse_over_defined
@@ -24,7 +26,7 @@ from radarslam.metrics.statistics import bootstrap_avg_rmse, bootstrap_counts, p
 __all__ = [
     "ESTIMATORS", "FIG2_VARIANT", "GWD_KEY_STEPS", "GWD_SETTLED_FROM", "PAPER_FIG3", "PAPER_SOURCES", "PAPER_TABLE1",
     "PAPER_TABLE2", "REPORT_CONVENTIONS", "TABLE1_METRICS", "bootstrap_avg_rmse", "bootstrap_counts", "gwd_csv",
-    "gwd_curves", "gwd_markdown", "landmark_table", "nees_csv", "nees_markdown", "nees_summary",
+    "gwd_curves", "gwd_markdown", "landmark_table", "nees_csv", "nees_markdown", "nees_summary", "nis_csv", "nis_markdown", "nis_summary",
     "percentile_interval", "report_markdown", "rmse_over_defined", "table1", "table1_csv", "table1_markdown",
     "table2_csv", "table2_markdown", "trial_ranges", "variant_labels", "variants_markdown", "write_report",
 ]

@@ -9,9 +9,10 @@ import numpy as np
 from radarslam.core.errors import InputError, RadarSlamError
 from radarslam.experiments.montecarlo import load_results
 from radarslam.experiments.report.paper import PAPER_FIG3
-from radarslam.experiments.report.render import (gwd_csv, nees_csv, report_markdown, table1_csv, table1_markdown,
+from radarslam.experiments.report.render import (gwd_csv, nees_csv, nis_csv, report_markdown, table1_csv, table1_markdown,
                                                  table2_csv, table2_markdown, trial_ranges)
-from radarslam.experiments.report.tables import (REPORT_CONVENTIONS, gwd_curves, landmark_table, nees_summary, table1,
+from radarslam.experiments.report.tables import (REPORT_CONVENTIONS, gwd_curves, landmark_table, nees_summary,
+                                                 claims, nis_summary, table1,
                                                  variant_labels)
 from radarslam.experiments.variants import Variant, variants_to_json
 
@@ -79,6 +80,8 @@ def write_report(out_dir: str | Path, n_boot: int = 2000, *, rng_seed: int = 0, 
     rep["gwd"] = {conv: gwd_curves(res, conv) for conv in REPORT_CONVENTIONS}
     rep["landmarks"] = landmark_table(res)
     rep["nees"] = nees_summary(res)
+    rep["nis"] = nis_summary(res)
+    rep["claims"] = claims(rep["table1"], rep["gwd"])
     rep["fig2"] = None
 
     files: list[str] = []
@@ -95,6 +98,8 @@ def write_report(out_dir: str | Path, n_boot: int = 2000, *, rng_seed: int = 0, 
         for conv in REPORT_CONVENTIONS:
             put(f"fig3_gwd_{conv}.csv", gwd_csv(rep["gwd"][conv]))
         put("nees.csv", nees_csv(rep["nees"]))
+        if rep["nis"]["configs"]:
+            put("nis.csv", nis_csv(rep["nis"]))
 
         from radarslam.viz import have_matplotlib
 
@@ -107,6 +112,9 @@ def write_report(out_dir: str | Path, n_boot: int = 2000, *, rng_seed: int = 0, 
                 files.append(f"fig3_gwd_{conv}.png")
             vr.plot_nees(rdir / "nees.png", rep["nees"])
             files.append("nees.png")
+            if rep["nis"]["configs"]:
+                vr.plot_nis(rdir / "nis.png", rep["nis"])
+                files.append("nis.png")
             if 1 in trials:
                 from radarslam.experiments.montecarlo import trial_seed
                 from radarslam.experiments.single import run_trial
