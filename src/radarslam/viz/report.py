@@ -165,7 +165,7 @@ def plot_nis(path: str | Path, summary: dict) -> list[tuple[str, object, str]]:
         From :func:`radarslam.experiments.report.tables.nis_summary`.
     """
     plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(7.0, 4.2))
+    fig, ax = plt.subplots(figsize=(10.0, 4.2))
     K = 1
     for i, c in enumerate(summary["configs"].values()):
         a = np.asarray(c["mean_nis"], dtype=float)
@@ -182,7 +182,7 @@ def plot_nis(path: str | Path, summary: dict) -> list[tuple[str, object, str]]:
     ax.set_title("normalised innovation squared, pooled over trials")
     ax.set_xlim(1, K)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # outside: never over the curves
     entries = _entries(ax)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
