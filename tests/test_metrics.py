@@ -17,7 +17,7 @@ from radarslam.metrics.gwd import gaussian_wasserstein_distance
 from radarslam.metrics.landmarks import landmark_metrics, match
 from radarslam.metrics.pose import avg_rmse, chi2_band, pose_errors, pose_nees
 from radarslam.metrics.statistics import bootstrap_avg_rmse, bootstrap_counts, percentile_interval, rmse_over_defined
-from radarslam.simulation.world import carpark_vehicles, vehicle_centers
+from radarslam.simulation.world import carpark_vehicles
 
 
 def rectangles_of(vehicles) -> np.ndarray:
@@ -69,7 +69,7 @@ def test_ground_truth_conventions():
             assert math.isclose(o, v.orientation, abs_tol=1e-12)
             # the metric's own kernel is the estimator's eq. (8) to the last bit
             np.testing.assert_array_equal(x, ellipse_to_matrix([f * v.length, f * v.width], v.orientation))
-    np.testing.assert_array_equal(rectangle_centers(rects), vehicle_centers(vs))
+    np.testing.assert_array_equal(rectangle_centers(rects), np.array([v.center for v in vs]))
 
 
 def test_moment_ellipse_has_the_rectangle_covariance():

@@ -402,7 +402,6 @@ def test_bad_variant_is_refused_before_anything_is_written(tmp_path):
 def test_directory_written_before_variants_resumes_with_the_default_two(reference_run, tmp_path):
     """A manifest without variants (hash of the configuration alone) and trial files whose meta lists
     none are the default two: they resume and load; any other variant list is refused."""
-    import shutil
 
     out = tmp_path / "old"
     run_montecarlo(short_config(), 11, 4, out, progress=False, variants=PAPER_VARIANTS)

@@ -12,7 +12,6 @@ import re
 import shutil
 import subprocess
 import sys
-import time
 import zipfile
 from pathlib import Path
 
@@ -40,10 +39,7 @@ def data_dir(victoria_park_dir) -> Path:
 
 @pytest.fixture(scope="module")
 def full(data_dir):
-    t0 = time.perf_counter()
-    d = vp.load_victoria_park(data_dir)
-    d.options["load_seconds"] = time.perf_counter() - t0  # reported by test_load_time
-    return d
+    return vp.load_victoria_park(data_dir)
 
 
 def _odometry(d):
@@ -265,10 +261,7 @@ def _same_events(a, b):
 
 @pytest.mark.parametrize("first,n", [(None, 500), (3000, 200), (7229, 1)])
 def test_window_is_a_slice_of_the_full_load(full, data_dir, first, n):
-    t0 = time.perf_counter()
     w = vp.load_victoria_park(data_dir, first_scan=first, n_scans=n)
-    elapsed = time.perf_counter() - t0
-    assert elapsed < 5.0                                     # measured ~0.05 s; generous for slow CI
     s0 = first or 0
     pos = _scan_positions(full)
     _same_events(w.events, full.events[pos[s0]:pos[s0 + n - 1] + 1])
@@ -290,11 +283,6 @@ def test_zip_fallback_equals_npz(full, data_dir, tmp_path):
     auto = vp.load_victoria_park(tmp_path, n_scans=50)
     assert auto.options["laser_source"] == vp.FILE_ZIP
     _same_events(auto.events, full.events[:_scan_positions(full)[49] + 1])
-
-
-def test_load_time(full):
-    # The full load takes ~0.5 s here (npz); the bound only guards against an accidental slowdown.
-    assert full.options["load_seconds"] < 10.0
 
 
 def test_options_and_noise(full, data_dir):

@@ -27,12 +27,6 @@ def avg_rmse(errors: np.ndarray) -> float:
     return float(np.mean(np.sqrt(np.mean(e * e, axis=0))))
 
 
-def rmse_per_step(errors: np.ndarray) -> np.ndarray:
-    """``sqrt(mean over runs of e^2)`` per step, ``(K,)``."""
-    e = np.atleast_2d(errors)
-    return np.sqrt(np.mean(e * e, axis=0))
-
-
 def pose_nees(estimated: np.ndarray, covs: np.ndarray, true: np.ndarray) -> np.ndarray:
     """Normalised estimation error squared ``e^T P^-1 e`` of the 3-D pose per step, ``(K,)``."""
     e = estimated - true

@@ -59,11 +59,6 @@ def carpark_vehicles(world: WorldConfig) -> list[Vehicle]:
     return out
 
 
-def vehicle_centers(vehicles: list[Vehicle]) -> np.ndarray:
-    """Centres ``(V, 2)``."""
-    return np.array([v.center for v in vehicles]).reshape(-1, 2)
-
-
 def presence(vehicles: list[Vehicle], n_steps: int) -> np.ndarray:
     """``(K, V)`` boolean: vehicle present at step k = 1..K (row k - 1)."""
     ks = np.arange(1, n_steps + 1)[:, None]
