@@ -10,17 +10,12 @@ consistent filter) and the mean NIS of the updates (2 for a consistent filter).
 
 from __future__ import annotations
 
-import argparse
 import copy
-import json
 import sys
-from pathlib import Path
 
+import _montecarlo_table
 import numpy as np
 
-from radarslam.config import profile_config, to_dict
-from radarslam.core.registry import BACKENDS
-from radarslam.experiments.montecarlo import load_results, run_montecarlo
 from radarslam.experiments.report import nees_summary, nis_summary
 from radarslam.experiments.variants import CONSISTENT, DEFAULT_VARIANTS, Variant
 from radarslam.metrics.pose import avg_rmse
@@ -76,25 +71,8 @@ def markdown(rows: list[dict], n: int, seed: int, band) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--trials", type=int, default=200)
-    p.add_argument("--seed", type=int, default=1)
-    p.add_argument("--jobs", type=int, default=2)
-    p.add_argument("--backend", choices=BACKENDS, default="numba")
-    p.add_argument("--profile", default="apsipa")
-    p.add_argument("--out", default="runs/ablation")
-    a = p.parse_args(argv)
-    cfg = profile_config(a.profile)
-    cfg = type(cfg)(**{**cfg.__dict__, "filter": type(cfg.filter)(**{**cfg.filter.__dict__, "backend": a.backend})})
-    run_montecarlo(cfg, a.seed, a.trials, a.out, jobs=a.jobs, variants=ablation_variants())
-    res = load_results(a.out)
-    rows = table(res)
-    text = markdown(rows, res["trials"].size, a.seed, nees_summary(res)["band"])
-    print(text)
-    Path(a.out, "ablation.md").write_text(text + "\n")
-    Path(a.out, "ablation.json").write_text(json.dumps({"seed": a.seed, "trials": int(res["trials"].size),
-                                                        "config": to_dict(cfg), "rows": rows}, indent=2) + "\n")
-    return 0
+    return _montecarlo_table.main(__doc__, ablation_variants(), table, lambda rows, res: markdown(rows, res['trials'].size, res['seed'], nees_summary(res)['band']), "ablation", trials=200, seed=1,
+                                  out="runs/ablation", refuse_seed=None, argv=argv)
 
 
 if __name__ == "__main__":

@@ -12,16 +12,11 @@ delay (scans), landmarks missed at the end; the run directory resumes like any M
 
 from __future__ import annotations
 
-import argparse
-import json
 import sys
-from pathlib import Path
 
+import _montecarlo_table
 import numpy as np
 
-from radarslam.config import profile_config, to_dict
-from radarslam.core.registry import BACKENDS
-from radarslam.experiments.montecarlo import load_results, run_montecarlo
 from radarslam.experiments.variants import Variant
 from radarslam.metrics.pose import avg_rmse
 from radarslam.metrics.statistics import bootstrap_avg_rmse, bootstrap_counts, percentile_interval
@@ -76,28 +71,8 @@ def markdown(rows: list[dict], n: int, seed: int) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--trials", type=int, default=300)
-    p.add_argument("--seed", type=int, default=1000)
-    p.add_argument("--jobs", type=int, default=2)
-    p.add_argument("--backend", choices=BACKENDS, default="numba")
-    p.add_argument("--profile", default="apsipa")
-    p.add_argument("--out", default="runs/sweep-sifting")
-    a = p.parse_args(argv)
-    if a.seed == 1:
-        print("sweep_sifting: --seed 1 is the reporting seed; choose parameters on other seeds", file=sys.stderr)
-        return 2
-    cfg = profile_config(a.profile)
-    cfg = type(cfg)(**{**cfg.__dict__, "filter": type(cfg.filter)(**{**cfg.filter.__dict__, "backend": a.backend})})
-    run_montecarlo(cfg, a.seed, a.trials, a.out, jobs=a.jobs, variants=sweep_variants())
-    res = load_results(a.out)
-    rows = table(res)
-    text = markdown(rows, res["trials"].size, a.seed)
-    print(text)
-    Path(a.out, "sweep.md").write_text(text + "\n")
-    Path(a.out, "sweep.json").write_text(json.dumps({"seed": a.seed, "trials": int(res["trials"].size),
-                                                     "config": to_dict(cfg), "rows": rows}, indent=2) + "\n")
-    return 0
+    return _montecarlo_table.main(__doc__, sweep_variants(), table, lambda rows, res: markdown(rows, res['trials'].size, res['seed']), "sweep", trials=300, seed=1000,
+                                  out="runs/sweep-sifting", refuse_seed=1, argv=argv)
 
 
 if __name__ == "__main__":

@@ -62,7 +62,7 @@ def main() -> None:
     names = a.only or list(VARIANTS)
     with ProcessPoolExecutor(a.jobs) as ex:
         rows = list(ex.map(_one, [(n, a.path, a.scans, a.backend) for n in names]))
-    print(f"| variant | GPS-aligned RMSE (m) | max (m) | landmarks |\n|---|---|---|---|")
+    print("| variant | GPS-aligned RMSE (m) | max (m) | landmarks |\n|---|---|---|---|")
     for r in rows:
         print(f"| {r['variant']} | {r['rmse_m']:.2f} | {r['max_m']:.1f} | {r['landmarks']} |")
     if a.json:

@@ -396,17 +396,28 @@ def from_dict(data: dict, profile: str | None = None) -> Config:
     return validate(cfg)
 
 
-def load_config(path: str | Path, profile: str | None = None) -> Config:
-    """Load a TOML file over the defaults of ``profile`` (or the file's own ``profile`` key)."""
+def read_toml(path: str | Path, what: str = "config file", error: type[Exception] = ConfigError) -> dict:
+    """The TOML file ``path`` as a dict; any failure is one ``error`` line naming ``what`` and the file
+    (missing, a directory, unreadable, not UTF-8 text, not valid TOML)."""
     path = Path(path)
     try:
         with path.open("rb") as fh:
-            data = tomllib.load(fh)
+            return tomllib.load(fh)
     except FileNotFoundError:
-        raise ConfigError(f"config file {path}: no such file") from None
+        raise error(f"{what} {path}: no such file") from None
+    except IsADirectoryError:
+        raise error(f"{what} {path}: expected a TOML file, got a directory") from None
+    except OSError as exc:
+        raise error(f"{what} {path}: cannot read ({exc.strerror})") from None
+    except UnicodeDecodeError:
+        raise error(f"{what} {path}: expected UTF-8 TOML text, got undecodable bytes") from None
     except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"config file {path}: not valid TOML ({exc})") from None
-    return from_dict(data, profile)
+        raise error(f"{what} {path}: not valid TOML ({exc})") from None
+
+
+def load_config(path: str | Path, profile: str | None = None) -> Config:
+    """Load a TOML file over the defaults of ``profile`` (or the file's own ``profile`` key)."""
+    return from_dict(read_toml(path), profile)
 
 
 def to_dict(cfg: Any) -> dict:

@@ -19,9 +19,8 @@ import re
 import tomllib
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 
-from radarslam.config import Config, from_dict, to_dict
+from radarslam.config import Config, from_dict, read_toml, to_dict
 from radarslam.core.errors import ConfigError, InputError
 
 #: Configuration sections that define the simulated data, shared by every variant of a run.
@@ -144,16 +143,7 @@ def parse_variant_arg(text: str) -> Variant:
     name, path = text.split("=", 1)
     if not NAME_PATTERN.fullmatch(name):
         raise InputError(f"--variant: expected a NAME matching [a-z0-9][a-z0-9_-]*, got {name!r}")
-    p = Path(path)
-    try:
-        with p.open("rb") as fh:
-            data = tomllib.load(fh)
-    except FileNotFoundError:
-        raise InputError(f"--variant {name}: overlay file {p}: no such file") from None
-    except OSError as exc:
-        raise InputError(f"--variant {name}: overlay file {p}: cannot read ({exc.strerror})") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"--variant {name}: overlay file {p}: not valid TOML ({exc})") from None
+    data = read_toml(path, f"--variant {name}: overlay file", InputError)
     label = data.pop("label", name)
     if not isinstance(label, str):
         raise InputError(f"--variant {name}: label: expected a string, got {label!r}")

@@ -183,10 +183,11 @@ def batch_associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta):  # 
     return x, P, out, nis[:n_up]
 
 
-class CompiledBatchAssociator:
-    """:class:`~radarslam.slam.association.BatchAssociator`, compiled."""
+class _CompiledAssociator:
+    """A compiled associator: ``scan`` is the njit function ``(x, P, polar, cand, R, gX, has_gX,
+    n_nearest, beta) -> (x, P, out, nis)`` that does the work."""
 
-    name = "batch"
+    name = ""
     backend = "numba"
 
     def __init__(self, beta: float, n_nearest: int, n_nearest_new: int):
@@ -194,12 +195,16 @@ class CompiledBatchAssociator:
         self.n_nearest = int(n_nearest)
         self.n_nearest_new = int(n_nearest_new)
 
+    @staticmethod
+    def scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta):  # pragma: no cover - abstract
+        raise NotImplementedError
+
     def associate(self, state: SlamState, polar: np.ndarray, candidates: np.ndarray, R: np.ndarray,
                   spreads: Spreads) -> tuple[np.ndarray, np.ndarray]:
         if not state.landmarks:
             return np.full(candidates.shape[0], -1, dtype=int), np.empty(0)
-        x, P, out, nis = batch_associate_scan(state.x, state.P, polar, candidates.astype(np.int64), R, spreads.gX,
-                                              spreads.has, self.n_nearest, self.beta)
+        x, P, out, nis = self.scan(state.x, state.P, polar, candidates.astype(np.int64), R, spreads.gX,
+                                   spreads.has, self.n_nearest, self.beta)
         state.set(x, P)
         return out, nis
 
@@ -207,39 +212,27 @@ class CompiledBatchAssociator:
         return float(min_log_distance(state.x, state.P, float(s[0]), float(s[1]), self.n_nearest_new, R))
 
 
-class CompiledNearestNeighbourAssociator:
+class CompiledNearestNeighbourAssociator(_CompiledAssociator):
     """:class:`~radarslam.slam.association.NearestNeighbourAssociator`, compiled."""
 
     name = "nearest-neighbour"
-    backend = "numba"
-
-    def __init__(self, beta: float, n_nearest: int, n_nearest_new: int):
-        self.beta = float(beta)
-        self.n_nearest = int(n_nearest)
-        self.n_nearest_new = int(n_nearest_new)
-
-    def associate(self, state: SlamState, polar: np.ndarray, candidates: np.ndarray, R: np.ndarray,
-                  spreads: Spreads) -> tuple[np.ndarray, np.ndarray]:
-        if not state.landmarks:
-            return np.full(candidates.shape[0], -1, dtype=int), np.empty(0)
-        x, P, out, nis = associate_scan(state.x, state.P, polar, candidates.astype(np.int64), R, spreads.gX,
-                                        spreads.has, self.n_nearest, self.beta)
-        state.set(x, P)
-        return out, nis
-
-    def min_log_distance(self, state: SlamState, s: np.ndarray, R: np.ndarray) -> float:
-        return float(min_log_distance(state.x, state.P, float(s[0]), float(s[1]), self.n_nearest_new, R))
+    scan = staticmethod(associate_scan)
 
 
-def _make_compiled(config) -> CompiledNearestNeighbourAssociator:
-    lc = config.landmarks
-    return CompiledNearestNeighbourAssociator(lc.beta, lc.n_nearest_assoc, lc.n_nearest_new)
+class CompiledBatchAssociator(_CompiledAssociator):
+    """:class:`~radarslam.slam.association.BatchAssociator`, compiled."""
+
+    name = "batch"
+    scan = staticmethod(batch_associate_scan)
 
 
-def _make_compiled_batch(config) -> CompiledBatchAssociator:
-    lc = config.landmarks
-    return CompiledBatchAssociator(lc.beta, lc.n_nearest_assoc, lc.n_nearest_new)
+def _factory(cls):
+    def make(config):
+        """From the ``landmarks`` section: ``beta``, ``n_nearest_assoc``, ``n_nearest_new``."""
+        lc = config.landmarks
+        return cls(lc.beta, lc.n_nearest_assoc, lc.n_nearest_new)
+    return make
 
 
-ASSOCIATORS.register("nearest-neighbour", _make_compiled, backend="numba")
-ASSOCIATORS.register("batch", _make_compiled_batch, backend="numba")
+ASSOCIATORS.register("nearest-neighbour", _factory(CompiledNearestNeighbourAssociator), backend="numba")
+ASSOCIATORS.register("batch", _factory(CompiledBatchAssociator), backend="numba")

@@ -160,17 +160,13 @@ class BatchAssociator(NearestNeighbourAssociator):
         return out, np.array(nis)
 
 
-def _make_batch(config) -> BatchAssociator:
-    """From the ``landmarks`` section: ``beta``, ``n_nearest_assoc``, ``n_nearest_new``."""
-    lc = config.landmarks
-    return BatchAssociator(lc.beta, lc.n_nearest_assoc, lc.n_nearest_new)
+def _factory(cls):
+    def make(config):
+        """From the ``landmarks`` section: ``beta``, ``n_nearest_assoc``, ``n_nearest_new``."""
+        lc = config.landmarks
+        return cls(lc.beta, lc.n_nearest_assoc, lc.n_nearest_new)
+    return make
 
 
-def _make_nearest_neighbour(config) -> NearestNeighbourAssociator:
-    """From the ``landmarks`` section: ``beta``, ``n_nearest_assoc``, ``n_nearest_new``."""
-    lc = config.landmarks
-    return NearestNeighbourAssociator(lc.beta, lc.n_nearest_assoc, lc.n_nearest_new)
-
-
-ASSOCIATORS.register("nearest-neighbour", _make_nearest_neighbour)
-ASSOCIATORS.register("batch", _make_batch)
+ASSOCIATORS.register("nearest-neighbour", _factory(NearestNeighbourAssociator))
+ASSOCIATORS.register("batch", _factory(BatchAssociator))

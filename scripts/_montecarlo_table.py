@@ -1,0 +1,43 @@
+"""Shared command line of the scripts that run one Monte Carlo of variants and print a table."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+from radarslam.config import profile_config, to_dict
+from radarslam.core.registry import BACKENDS
+from radarslam.experiments.montecarlo import load_results, run_montecarlo
+
+
+def main(doc: str, variants: list, table: Callable[[dict], list[dict]], markdown: Callable[[list[dict], dict], str],
+         stem: str, *, trials: int, seed: int, out: str, refuse_seed: int | None = None,
+         argv: list[str] | None = None) -> int:
+    """Parse ``--trials --seed --jobs --backend --profile --out``, run (or resume) the Monte Carlo of
+    ``variants``, print ``markdown(table(res), res)`` and write it with the rows as ``stem.md`` and
+    ``stem.json`` (with the seed, trial count and configuration) into the run directory."""
+    p = argparse.ArgumentParser(description=doc.splitlines()[0])
+    p.add_argument("--trials", type=int, default=trials)
+    p.add_argument("--seed", type=int, default=seed)
+    p.add_argument("--jobs", type=int, default=2)
+    p.add_argument("--backend", choices=BACKENDS, default="numba")
+    p.add_argument("--profile", default="apsipa")
+    p.add_argument("--out", default=out)
+    a = p.parse_args(argv)
+    if refuse_seed is not None and a.seed == refuse_seed:
+        print(f"{stem}: --seed {a.seed} is the reporting seed; choose parameters on other seeds", file=sys.stderr)
+        return 2
+    cfg = profile_config(a.profile)
+    cfg = type(cfg)(**{**cfg.__dict__, "filter": type(cfg.filter)(**{**cfg.filter.__dict__, "backend": a.backend})})
+    run_montecarlo(cfg, a.seed, a.trials, a.out, jobs=a.jobs, variants=variants)
+    res = load_results(a.out)
+    rows = table(res)
+    text = markdown(rows, res)
+    print(text)
+    Path(a.out, f"{stem}.md").write_text(text + "\n")
+    Path(a.out, f"{stem}.json").write_text(json.dumps({"seed": a.seed, "trials": int(res["trials"].size),
+                                                       "config": to_dict(cfg), "rows": rows}, indent=2) + "\n")
+    return 0
