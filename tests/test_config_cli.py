@@ -168,3 +168,21 @@ def test_extent_noise_defaults_to_the_filter_R_and_can_be_its_own():
                                np.diag([0.1**2, math.radians(2.0) ** 2]))
     np.testing.assert_allclose(motion_model_from_config(cfg.filter).control_cov(cfg.filter),
                                np.diag([0.02**2, math.radians(0.008) ** 2]))
+
+
+def test_result_files_are_readable_like_any_file_the_user_writes(tmp_path):
+    """Atomic writes go through mkstemp (0600); the result gets 0666 less the umask, as open() would."""
+    import os
+    import stat
+
+    from radarslam.io.results import atomic_write_text
+
+    old = os.umask(0o022)
+    try:
+        atomic_write_text(tmp_path / "a.txt", "x")
+        assert stat.S_IMODE((tmp_path / "a.txt").stat().st_mode) == 0o644
+        os.umask(0o077)
+        atomic_write_text(tmp_path / "b.txt", "x")
+        assert stat.S_IMODE((tmp_path / "b.txt").stat().st_mode) == 0o600
+    finally:
+        os.umask(old)

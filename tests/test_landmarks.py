@@ -292,3 +292,49 @@ def test_mn_ignores_misses_outside_the_field_of_view():
     for k in range(20, 30):
         slam.update(scan(k))
     assert len(slam.landmarks) == 0
+
+
+# ------------------------------------------------------------------ bad input never gives a non-finite state
+@pytest.mark.parametrize("polar,key", [([["a", "b"]], "scan.polar"), ([[1.0, np.nan]], "scan.polar"),
+                                       ([[np.inf, 0.0]], "scan.polar"), ([[-1.0, 0.0]], "scan.polar"),
+                                       ([[1.0, 2.0, 3.0]], "scan.polar")])
+def test_bad_detections_are_refused_naming_the_input(polar, key):
+    from radarslam.core.errors import InputError
+    from radarslam.core.types import Scan
+
+    slam = EkfSlam(quiet_config())
+    with pytest.raises(InputError, match=key):
+        slam.update(Scan(0.0, 1, polar))
+    assert np.all(np.isfinite(slam.x)) and slam.x.shape == (3,)
+
+
+def test_scan_times_must_not_go_backwards():
+    from radarslam.core.errors import InputError
+    from radarslam.core.types import Scan
+
+    slam = EkfSlam(quiet_config())
+    slam.update(Scan(1.0, 1, np.empty((0, 2))))
+    slam.update(Scan(1.0, 2, np.empty((0, 2))))            # equal times are fine
+    with pytest.raises(InputError, match=r"scan\.t: expected scan times that do not go backwards, got 0\.5 after 1\.0"):
+        slam.update(Scan(0.5, 3, np.empty((0, 2))))
+    with pytest.raises(InputError, match=r"scan\.t: expected a finite number"):
+        slam.update(Scan(float("nan"), 4, np.empty((0, 2))))
+
+
+@pytest.mark.parametrize("control,dt,key", [([np.inf, 0.0], 0.16, "odometry.control"),
+                                            (["x", 0.0], 0.16, "odometry.control"),
+                                            ([1.0, 0.0], 0.0, "odometry.dt"), ([1.0, 0.0], "0.1x", "odometry.dt"),
+                                            ([1e308, 0.0], 1e10, "odometry at t=")])
+def test_bad_odometry_is_refused_and_the_state_stays_finite(control, dt, key):
+    """Including a reading that is numerically valid but overflows the state (negative control of
+    the finite check: the same filter accepts a normal reading)."""
+    from radarslam.core.errors import InputError
+    from radarslam.core.types import Odometry
+
+    slam = EkfSlam(quiet_config())
+    x0, P0 = slam.x.copy(), slam.P.copy()
+    with pytest.raises(InputError, match=key):
+        slam.predict(Odometry(0.0, dt, control))
+    assert np.array_equal(slam.x, x0) and np.array_equal(slam.P, P0)
+    slam.predict(Odometry(0.16, 0.16, np.array([4.0, 0.1])))
+    assert np.all(np.isfinite(slam.x)) and not np.array_equal(slam.x, x0)

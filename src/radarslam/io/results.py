@@ -32,11 +32,22 @@ def to_jsonable(obj: Any) -> Any:
     return obj
 
 
+def _file_mode() -> int:
+    """The mode a plain ``open(path, "w")`` would give: 0666 less the process umask (0644 usually)."""
+    mask = os.umask(0)
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
 def atomic_write_bytes(path: str | Path, data: bytes) -> None:
-    """Write ``data`` to a temporary file beside ``path``, fsync, then rename over ``path``."""
+    """Write ``data`` to a temporary file beside ``path``, fsync, then rename over ``path``.
+
+    The file gets the permissions of any file the user writes (``mkstemp`` alone would leave 0600).
+    """
     path = Path(path)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix="." + path.name + ".", suffix=".tmp")
     try:
+        os.fchmod(fd, _file_mode())
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
             fh.flush()

@@ -100,6 +100,7 @@ class EkfSlam:
         self.state = SlamState.initial(f.initial_pose, f.initial_pose_std)
         self._dt_since_scan = 0.0
         self._scans = 0
+        self._last_scan_t: float | None = None
 
     # ------------------------------------------------------------------ views
     @property
@@ -157,16 +158,40 @@ class EkfSlam:
         raise InputError(f"event: expected Odometry or Scan, got {type(event).__name__}")
 
     def predict(self, odo: Odometry) -> None:
-        """EKF prediction with one odometer reading (docs/method.md c.2)."""
+        """EKF prediction with one odometer reading (docs/method.md c.2).
+
+        Raises
+        ------
+        InputError
+            For a non-finite or non-numeric control, a non-positive ``dt``, or a reading that would
+            make the state non-finite (the state is then left as it was).
+        """
         u = as_array("odometry.control", odo.control, (2,))
-        if not (math.isfinite(odo.dt) and odo.dt > 0):
+        dt = _number(odo.dt, "odometry.dt")
+        if not dt > 0:
             raise InputError(f"odometry.dt: expected a finite value > 0, got {odo.dt!r}")
-        self.state.set(*ekf.predict(self.state.x, self.state.P, u, odo.dt, self.model, self.U, self.Q))
-        self._dt_since_scan += odo.dt
+        with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
+            x, P = ekf.predict(self.state.x, self.state.P, u, dt, self.model, self.U, self.Q)
+        _check_finite(x, P, f"odometry at t={odo.t!r} (control {u.tolist()}, dt {dt!r})")
+        self.state.set(x, P)
+        self._dt_since_scan += dt
 
     def update(self, scan: Scan) -> ScanReport:
-        """Process one scan (docs/method.md a.8 steps 2-10). An empty scan still ages the M/N windows."""
+        """Process one scan (docs/method.md a.8 steps 2-10). An empty scan still ages the M/N windows.
+
+        Raises
+        ------
+        InputError
+            Before any change, for non-numeric or non-finite detections, negative ranges, or a
+            scan time earlier than the previous scan's; after the steps, if the scan made the state
+            non-finite (the filter is then not to be used further).
+        """
         polar = _scan_polar(scan)
+        t = _number(scan.t, "scan.t")
+        if self._last_scan_t is not None and t < self._last_scan_t:
+            raise InputError(f"scan.t: expected scan times that do not go backwards, got {t!r} after "
+                             f"{self._last_scan_t!r} (scan {scan.index})")
+        self._last_scan_t = t
         k = scan.index
         dt = self._take_scan_interval()
         prior = (self.state.x, self.state.P, self.state.rows_by_id())    # Decision 3
@@ -180,6 +205,7 @@ class EkfSlam:
         fresh = self._alpha_test(clusters)                                # 7
         confirmed = self._confirm_and_augment(fresh, polar, k)            # 8-9
         merged = self._merge()                                            # 10
+        _check_finite(self.state.x, self.state.P, f"scan {k} (t={scan.t!r}, {polar.shape[0]} detections)")
         n_assoc = sum(a.size for a in associations.values())
         return ScanReport(k, polar.shape[0], int(cand.sum()), n_assoc, associations, removed,
                           confirmed, merged, len(clusters), len(self.state.tentatives), nis)
@@ -291,6 +317,23 @@ class EkfSlam:
         return merged
 
 
+def _number(value, name: str) -> float:
+    """``value`` as a finite float, or an :class:`InputError` naming ``name``."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{name}: expected a finite number, got {value!r}") from None
+    if not math.isfinite(v):
+        raise InputError(f"{name}: expected a finite number, got {value!r}")
+    return v
+
+
+def _check_finite(x: np.ndarray, P: np.ndarray, what: str) -> None:
+    """Never hand back a non-finite state: name the input that produced one."""
+    if not (np.all(np.isfinite(x)) and np.all(np.isfinite(P))):
+        raise InputError(f"{what}: expected an input that keeps the state finite, got one that makes it non-finite")
+
+
 def _readonly(a: np.ndarray) -> np.ndarray:
     v = a.view()
     v.flags.writeable = False
@@ -298,10 +341,10 @@ def _readonly(a: np.ndarray) -> np.ndarray:
 
 
 def _scan_polar(scan: Scan) -> np.ndarray:
-    """The scan's detections as a checked ``(m, 2)`` float array."""
-    polar = np.asarray(scan.polar, dtype=float)
-    if polar.size == 0:
-        polar = np.empty((0, 2))
+    """The scan's detections as a checked ``(m, 2)`` float array (finite numbers, ranges >= 0)."""
+    polar = scan.polar
+    if np.size(polar) == 0:
+        return np.empty((0, 2))
     polar = as_array("scan.polar", polar, (None, 2))
     if np.any(polar[:, 0] < 0):
         raise InputError(f"scan.polar: expected ranges >= 0, got min {polar[:, 0].min()}")
