@@ -186,3 +186,45 @@ def test_result_files_are_readable_like_any_file_the_user_writes(tmp_path):
         assert stat.S_IMODE((tmp_path / "b.txt").stat().st_mode) == 0o600
     finally:
         os.umask(old)
+
+
+@pytest.mark.parametrize("content,key", [
+    ("[trajectory]\nspeed_mps = inf\n", "trajectory.speed_mps: expected a finite number, got inf"),
+    ("[filter]\nrange_std_m = -inf\n", "filter.range_std_m: expected a finite number, got -inf"),
+    ("[trajectory]\nn_steps = 100000000\n", "trajectory.n_steps: expected a value <= 100000"),
+    ("[radar]\npoints_per_m2 = 1e9\n", "radar.points_per_m2: expected a value <= 100.0"),
+    ("[radar]\npoints_per_m2 = 90.0\n[world]\nvehicles = [[0.0, 0.0, 100.0, 100.0], [200.0, 0.0, 10.0, 10.0]]\n",
+     "radar.points_per_m2: expected at most 100000 expected vehicle detections per scan"),
+    ("[radar]\nclutter_rate_per_m2 = 1e6\n", "radar.clutter_rate_per_m2: expected a value <= 10.0"),
+    ("[radar]\nclutter_rate_per_m2 = 9.0\nscene_min_m = -1000.0\nscene_max_m = 1000.0\n",
+     "radar.clutter_rate_per_m2: expected at most 100000 clutter points per scan"),
+    ('profile = "victoria-park"\n', "filter.motion_model: expected 'unicycle' for the car-park simulation"),
+])
+@pytest.mark.parametrize("command", ["run", "montecarlo"])
+def test_config_limits_one_line_and_nothing_left_behind(tmp_path, capsys, content, key, command):
+    f = tmp_path / "c.toml"
+    f.write_text(content)
+    out = tmp_path / "new" / "o"
+    extra = ["--trials", "1", "--quiet"] if command == "montecarlo" else []
+    assert main([command, "--config", str(f), "--out", str(out)] + extra) == 1
+    err = capsys.readouterr().err
+    assert key in err and err.count("\n") == 1 and "Traceback" not in err
+    assert not (tmp_path / "new").exists()
+    # merge_axis_tol_m is the one value meant to admit inf (no axis test)
+    f.write_text("[landmarks]\nmerge_axis_tol_m = inf\n")
+    assert main(["dump-config", "--config", str(f)]) == 0
+
+
+@pytest.mark.parametrize("kind", ["binary", "utf16", "directory"])
+def test_unreadable_config_files_are_one_line(tmp_path, capsys, kind):
+    f = tmp_path / "c.toml"
+    if kind == "binary":
+        f.write_bytes(bytes(range(256)) * 4)
+    elif kind == "utf16":
+        f.write_text("[trajectory]\nn_steps = 40\n", encoding="utf-16")
+    else:
+        f.mkdir()
+    assert main(["run", "--config", str(f), "--out", str(tmp_path / "o")]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("radarslam run: error: config file") and err.count("\n") == 1, err
+    assert not (tmp_path / "o").exists()

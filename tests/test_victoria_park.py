@@ -434,3 +434,15 @@ def test_bad_trees(copy_dir):
     _raises(copy_dir, vp.FILE_TREES, r"'lidar_signatures': expected a numeric 2-D array")
     _savemat(path, **dict(m0, lidar_bearings=m0["lidar_bearings"] * 2.0))
     _raises(copy_dir, vp.FILE_TREES, r"expected radians in \[0, pi\]")
+
+
+@pytest.mark.parametrize("cut", ["end", "start"])
+def test_odometry_that_does_not_cover_the_scans_is_refused(copy_dir, cut):
+    """Dead reckoning that ends 100 s before the last scan (or starts 100 s after the first) would
+    leave scans without motion: refused, naming the file and both spans."""
+    dr = copy_dir / vp.FILE_DR
+    m = _mat(dr)
+    t = m["time"].ravel()
+    keep = t < t[-1] - 100_000 if cut == "end" else t > t[0] + 100_000      # ms
+    _savemat(dr, **{k: v.ravel()[keep] if v.size == t.size else v for k, v in m.items()})
+    _raises(copy_dir, vp.FILE_DR, r"expected odometry over the whole laser span")

@@ -42,14 +42,14 @@ from radarslam.core.registry import (
 
 def param(default: Any, doc: str, *, low: float | None = None, high: float | None = None,
           low_open: bool = False, choices: tuple[str, ...] | None = None, length: int | None = None,
-          registry: Registry | None = None, profiles: bool = False) -> Any:
+          registry: Registry | None = None, profiles: bool = False, allow_inf: bool = False) -> Any:
     """A config field with its documentation and admissible range (checked by :func:`validate`).
 
     ``registry``: the value names a component of that registry (checked against its names at
     validation time, so a component registered by any code is accepted).
     """
     meta = {"doc": doc, "low": low, "high": high, "low_open": low_open, "choices": choices, "length": length,
-            "registry": registry, "profiles": profiles}
+            "registry": registry, "profiles": profiles, "allow_inf": allow_inf}
     if isinstance(default, list):
         return field(default_factory=lambda d=default: list(d), metadata=meta)
     return field(default=default, metadata=meta)
@@ -68,11 +68,17 @@ CARPARK_VEHICLES = [
 ]
 
 
+#: Size limits that keep a run within memory (checked up front, the limit in the message).
+MAX_STEPS = 100_000
+#: Expected detections of one scan (vehicles and clutter) a simulation may draw.
+MAX_DETECTIONS_PER_SCAN = 100_000
+
+
 @dataclass
 class TrajectoryConfig:
     """Platform trajectory and true motion (docs/method.md b.2)."""
 
-    n_steps: int = param(120, "number of time steps K", low=2)
+    n_steps: int = param(120, "number of time steps K (at most 100,000: memory and time)", low=2, high=MAX_STEPS)
     dt_s: float = param(0.16, "time step (s)", low=0.0, low_open=True)
     speed_mps: float = param(4.0, "commanded speed v (m/s)")
     turn_rate_rad_s: float = param(0.32, "commanded turn rate psi during the turn (rad/s)")
@@ -101,9 +107,11 @@ class RadarConfig:
     range_std_m: float = param(0.5, "range-noise std (m)", low=0.0)
     azimuth_std_deg: float = param(1.0, "azimuth-noise std (deg)", low=0.0)
     detection_probability: float = param(0.9, "P_D of each potential detection", low=0.0, high=1.0)
-    points_per_m2: float = param(0.8, "mean potential detections per m^2 of vehicle area", low=0.0)
-    points_var: float = param(1.5, "variance of the potential-detection count", low=0.0)
-    clutter_rate_per_m2: float = param(0.005, "clutter rate lambda (1/m^2, Decision 9)", low=0.0)
+    points_per_m2: float = param(0.8, "mean potential detections per m^2 of vehicle area (at most 100)", low=0.0,
+                                 high=100.0)
+    points_var: float = param(1.5, "variance of the potential-detection count (at most 10,000)", low=0.0, high=1e4)
+    clutter_rate_per_m2: float = param(0.005, "clutter rate lambda (1/m^2, Decision 9; at most 10)", low=0.0,
+                                       high=10.0)
     clutter_grid_m: float = param(0.2, "clutter position grid (m)", low=0.0, low_open=True)
     scene_min_m: float = param(-15.0, "lower corner of the square clutter scene (m)")
     scene_max_m: float = param(45.0, "upper corner of the square clutter scene (m)")
@@ -182,7 +190,8 @@ class LandmarkConfig:
     n_nearest_assoc: int = param(3, "N_s: nearest landmarks scored in association [REF]", low=1)
     n_nearest_new: int = param(5, "N_a: nearest landmarks scored in the alpha test [REF]", low=1)
     merge_distance_m: float = param(1.5, "merge landmarks closer than this (m, profile-dependent)", low=0.0)
-    merge_axis_tol_m: float = param(math.inf, "also require |dx| or |dy| <= this (m); inf = no axis test", low=0.0)
+    merge_axis_tol_m: float = param(math.inf, "also require |dx| or |dy| <= this (m); inf = no axis test", low=0.0,
+                                    allow_inf=True)
     merge_max_per_scan: int = param(0, "at most this many merges per scan; 0 = unlimited", low=0)
 
 
@@ -323,6 +332,8 @@ def _check_value(key: str, typ: Any, meta: dict, value: Any) -> Any:
         value = float(value)
         if math.isnan(value):
             raise ConfigError(f"{key}: expected a number, got nan")
+        if math.isinf(value) and not meta.get("allow_inf"):
+            raise ConfigError(f"{key}: expected a finite number, got {value}")
     elif typ is str:
         if not isinstance(value, str):
             raise ConfigError(f"{key}: expected a string, got {value!r}")
@@ -375,6 +386,15 @@ def validate(cfg: Config) -> Config:
     for i, v in enumerate(cfg.world.vehicles):
         if len(v) != 4 or v[2] <= 0 or v[3] <= 0:
             raise ConfigError(f"world.vehicles[{i}]: expected [x, y, size_x > 0, size_y > 0], got {v}")
+    r = cfg.radar
+    area = sum(v[2] * v[3] for v in cfg.world.vehicles)
+    clutter = r.clutter_rate_per_m2 * (r.scene_max_m - r.scene_min_m) ** 2
+    if r.points_per_m2 * area > MAX_DETECTIONS_PER_SCAN:
+        raise ConfigError(f"radar.points_per_m2: expected at most {MAX_DETECTIONS_PER_SCAN} expected vehicle detections "
+                          f"per scan, got {r.points_per_m2 * area:.3g} ({r.points_per_m2} per m^2 over {area:.3g} m^2)")
+    if clutter > MAX_DETECTIONS_PER_SCAN:
+        raise ConfigError(f"radar.clutter_rate_per_m2: expected at most {MAX_DETECTIONS_PER_SCAN} clutter points per "
+                          f"scan, got {clutter:.3g} ({r.clutter_rate_per_m2} per m^2 over the scene)")
     if cfg.world.departing_vehicle >= len(cfg.world.vehicles):
         raise ConfigError(f"world.departing_vehicle: expected -1 or an index < {len(cfg.world.vehicles)}, got {cfg.world.departing_vehicle}")
     if cfg.landmarks.removal_max_hits >= cfg.landmarks.removal_window:

@@ -77,8 +77,10 @@ def _execute(config, args) -> int:
     if args.seed < 0:
         raise InputError(f"--seed: expected an integer >= 0, got {args.seed}")
     variants = variants_from_args(args)
+    from radarslam.experiments.single import check_simulation_config
+
     for v in variants:  # an unknown overlay key fails before the directory is created
-        apply_variant(config, v)
+        check_simulation_config(apply_variant(config, v))
     out = prepare_out_dir(args.out)
     try:
         summary = run_montecarlo(config, args.seed, args.trials, out, jobs=args.jobs, scheduler=args.scheduler,

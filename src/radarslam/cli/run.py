@@ -35,7 +35,7 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from radarslam.experiments.single import run_trial
+    from radarslam.experiments.single import check_simulation_config, run_trial
 
     if args.dataset:
         return run_dataset_cmd(args)
@@ -44,6 +44,7 @@ def run(args: argparse.Namespace) -> int:
     config = config_from_args(args)
     if args.extent is not None:
         config = dataclasses.replace(config, extent=dataclasses.replace(config.extent, use_in_slam=args.extent))
+    check_simulation_config(config)   # before --out is created: an argument error leaves nothing behind
     out = prepare_out_dir(args.out)
     t0 = time.perf_counter()
     res = run_trial(config, args.seed)

@@ -21,7 +21,7 @@ import numpy as np
 
 from radarslam.config import Config, from_dict, to_dict, validate
 from radarslam.core.errors import InputError, RadarSlamError
-from radarslam.experiments.single import evaluate, run_filter
+from radarslam.experiments.single import check_simulation_config, evaluate, run_filter
 from radarslam.experiments.store import TrialStore, decode_trial, encode_trial
 from radarslam.experiments.variants import DEFAULT_VARIANTS, Variant, apply_variant, check_variants
 from radarslam.simulation.scenario import generate_scenario
@@ -163,7 +163,7 @@ def run_montecarlo(config: Config, seed: int, n_trials: int, out: str | Path, *,
         Start a Dask ``LocalCluster`` with this many single-threaded worker processes on loopback.
     """
     log = log or (lambda s: print(s, file=sys.stderr))
-    config = validate(config)
+    config = check_simulation_config(validate(config))
     if n_trials < 1:
         raise InputError(f"--trials: expected an integer >= 1, got {n_trials}")
     if jobs < 1:

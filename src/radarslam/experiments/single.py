@@ -8,6 +8,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from radarslam.config import Config, validate
+from radarslam.core.errors import ConfigError
 from radarslam.core.types import Odometry, Scan
 from radarslam.metrics.extent import extent_metrics, rectangle_centers
 from radarslam.metrics.landmarks import landmark_metrics
@@ -112,12 +113,27 @@ class TrialResult:
     metrics: dict
 
 
+#: The motion model of the car-park simulator's platform (docs/method.md b.2).
+SIMULATOR_MOTION_MODEL = "unicycle"
+
+
+def check_simulation_config(config: Config) -> Config:
+    """Refuse a configuration whose filter cannot model the simulated platform (a real-data profile
+    on the car park); return ``config``."""
+    m = config.filter.motion_model
+    if m != SIMULATOR_MOTION_MODEL:
+        raise ConfigError(f"filter.motion_model: expected {SIMULATOR_MOTION_MODEL!r} for the car-park simulation, whose "
+                          f"platform moves by that model, got {m!r} (profile {config.profile!r}; a real-data profile "
+                          "goes with --dataset)")
+    return config
+
+
 def run_trial(config: Config, seed: int | np.random.SeedSequence, *, use_extent: bool | None = None) -> TrialResult:
     """Simulate one scenario from ``seed`` and run the filter on it.
 
     ``use_extent`` overrides ``config.extent.use_in_slam`` (same data either way).
     """
-    config = validate(config)
+    config = check_simulation_config(validate(config))
     if use_extent is not None:
         config = replace(config, extent=replace(config.extent, use_in_slam=use_extent))
     ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)

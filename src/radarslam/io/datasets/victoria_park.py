@@ -380,6 +380,12 @@ def _read_tlsr_h5(path: Path, laser_t: np.ndarray) -> np.ndarray | None:
 # --------------------------------------------------------------------------------------------
 # The loader
 # --------------------------------------------------------------------------------------------
+#: Largest gap (s) allowed between the start (end) of the odometry and the first (last) scan: the
+#: recording's dead reckoning starts 0.12 s after its first scan; a scan beyond this gap would be
+#: processed with no motion model input at all.
+ODOMETRY_GAP_S = 1.0
+
+
 def load_victoria_park(
     path: str | Path,
     *,
@@ -457,6 +463,10 @@ def load_victoria_park(
     if dr_t[0] >= laser_t[-1] or dr_t[-1] <= laser_t[0]:
         raise DataError(f"{dr_file}: variable 'time' ({dr_t[0]:.3f}..{dr_t[-1]:.3f} s after conversion) does not overlap "
                         f"the laser times of {laser_file.name} ({laser_t[0]:.3f}..{laser_t[-1]:.3f} s): wrong time base?")
+    if dr_t[0] > laser_t[0] + ODOMETRY_GAP_S or dr_t[-1] < laser_t[-1] - ODOMETRY_GAP_S:
+        raise DataError(f"{dr_file}: variable 'time': expected odometry over the whole laser span "
+                        f"{laser_t[0]:.3f}..{laser_t[-1]:.3f} s of {laser_file.name} (within {ODOMETRY_GAP_S} s), got "
+                        f"{dr_t[0]:.3f}..{dr_t[-1]:.3f} s: the scans outside it would be processed without motion")
 
     # GPS ------------------------------------------------------------------------------------
     gps_file = root / FILE_GPS
