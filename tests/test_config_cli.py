@@ -228,3 +228,46 @@ def test_unreadable_config_files_are_one_line(tmp_path, capsys, kind):
     err = capsys.readouterr().err
     assert err.startswith("radarslam run: error: config file") and err.count("\n") == 1, err
     assert not (tmp_path / "o").exists()
+
+
+def test_run_never_overwrites_a_finished_run_without_being_asked(tmp_path, capsys):
+    out = tmp_path / "o"
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("[trajectory]\nn_steps = 10\n")
+    assert main(["run", "--config", str(cfg), "--out", str(out), "--no-plot"]) == 0
+    before = (out / "metrics.json").read_bytes()
+    capsys.readouterr()
+    assert main(["run", "--seed", "2", "--config", str(cfg), "--out", str(out), "--no-plot"]) == 1
+    err = capsys.readouterr().err
+    assert "--out" in err and "already holds a finished result (run.json)" in err and err.count("\n") == 1
+    assert (out / "metrics.json").read_bytes() == before
+    assert main(["run", "--seed", "2", "--config", str(cfg), "--out", str(out), "--no-plot", "--overwrite"]) == 0
+    assert (out / "metrics.json").read_bytes() != before
+
+
+def test_a_closed_pipe_exits_quietly(monkeypatch, capsys):
+    """`radarslam ... | head`: when the reader has gone, printing raises BrokenPipeError; main() ends
+    with exit 0 and no traceback (negative control: the same write to an open pipe succeeds)."""
+    import os
+    import sys
+
+    r, w = os.pipe()
+    os.close(r)                                   # the reader is gone
+    stream = os.fdopen(w, "w", buffering=1)       # line-buffered: the first line hits the pipe
+    monkeypatch.setattr(sys, "stdout", stream)
+    assert main(["dump-config"]) == 0
+    assert "Traceback" not in capsys.readouterr().err
+    stream.close()                                # its descriptor now points at /dev/null
+    r2, w2 = os.pipe()
+    monkeypatch.setattr(sys, "stdout", os.fdopen(w2, "w", buffering=1))
+    assert main(["dump-config", "--profile", "reference"]) == 0
+    sys.stdout.close()
+    assert b"profile" in os.read(r2, 100)
+    os.close(r2)
+
+
+def test_summary_explains_values_that_are_not_defined():
+    from radarslam.cli.run import _defined
+
+    assert _defined(float("nan"), ".2f", "no vehicle was mapped") == "not defined: no vehicle was mapped"
+    assert _defined(1.234, ".2f", "x") == "1.23"

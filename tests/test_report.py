@@ -563,7 +563,7 @@ def _parser():
 
 
 def test_cli_report_prints_the_summary(mc_dir, capsys):
-    args = _parser().parse_args(["report", str(mc_dir), "--bootstrap", "100"])
+    args = _parser().parse_args(["report", str(mc_dir), "--bootstrap", "100", "--overwrite"])
     assert args.bootstrap == 100 and _parser().parse_args(["report", "x"]).bootstrap == 2000
     assert args.func(args) == 0
     out = capsys.readouterr().out
@@ -595,7 +595,12 @@ def test_cli_report_bad_dir_is_an_input_error(tmp_path):
 def test_cli_main_report(mc_dir, tmp_path, capsys):
     from radarslam.cli.main import main
 
-    assert main(["report", str(mc_dir), "--bootstrap", "50"]) == 0
+    before = (mc_dir / "report" / "report.json").read_text() if (mc_dir / "report" / "report.json").exists() else None
+    if before is not None:  # a finished report is never replaced without --overwrite
+        assert main(["report", str(mc_dir), "--bootstrap", "50"]) == 1
+        assert "already holds a finished result (report.md); pass --overwrite" in capsys.readouterr().err
+        assert (mc_dir / "report" / "report.json").read_text() == before
+    assert main(["report", str(mc_dir), "--bootstrap", "50", "--overwrite"]) == 0
     assert capsys.readouterr().out == (mc_dir / "report" / "report.md").read_text()
     assert json.loads((mc_dir / "report" / "report.json").read_text())["table1"]["n_boot"] == 50
     assert main(["report", str(tmp_path / "missing")]) == 1

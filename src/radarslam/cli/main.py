@@ -7,6 +7,7 @@ argparse usage errors exit 2.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 from radarslam import __version__
@@ -36,6 +37,11 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"radarslam {args.command}: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        # The reader went away (radarslam ... | head): every result file is written; leave quietly.
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 0
 
 
 def entry_point() -> None:  # pragma: no cover - thin wrapper

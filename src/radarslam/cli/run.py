@@ -13,7 +13,8 @@ from radarslam import __version__
 from radarslam.cli.common import add_backend_arg, add_config_args, config_from_args
 from radarslam.config import to_dict, to_toml
 from radarslam.core.errors import InputError
-from radarslam.io.results import atomic_write_text, prepare_out_dir, write_json, write_trajectory_csv, write_tum
+from radarslam.io.results import (atomic_write_text, prepare_out_dir, refuse_finished, write_json, write_trajectory_csv,
+                                  write_tum)
 
 
 def add_parser(sub) -> None:
@@ -24,7 +25,9 @@ def add_parser(sub) -> None:
     ext.add_argument("--extent", dest="extent", action="store_true", default=None,
                      help="'With extent': contour sifting and extent-inflated noise (Decision 6)")
     ext.add_argument("--no-extent", dest="extent", action="store_false", help="'No extent' (the default)")
-    p.add_argument("--out", required=True, metavar="DIR", help="output directory (created; its parent must exist)")
+    p.add_argument("--out", required=True, metavar="DIR",
+                   help="output directory (created with its parents); one that holds a run is refused")
+    p.add_argument("--overwrite", action="store_true", help="replace the run already in --out")
     p.add_argument("--dataset", nargs=2, metavar=("NAME", "PATH"),
                    help="run on a recorded dataset instead of the simulation (e.g. victoria-park DIR)")
     p.add_argument("--first-scan", type=int, default=None, help="--dataset: first scan (0-based)")
@@ -46,6 +49,7 @@ def run(args: argparse.Namespace) -> int:
         config = dataclasses.replace(config, extent=dataclasses.replace(config.extent, use_in_slam=args.extent))
     check_simulation_config(config)   # before --out is created: an argument error leaves nothing behind
     out = prepare_out_dir(args.out)
+    refuse_finished(out / "run.json", "--out", args.overwrite)
     t0 = time.perf_counter()
     res = run_trial(config, args.seed)
     wall = time.perf_counter() - t0
@@ -54,6 +58,11 @@ def run(args: argparse.Namespace) -> int:
     print(f"\nwrote {out}/ (metrics.json, per_step.csv, trajectory.csv, map.json, config.toml, run.json"
           + (", map.png)" if (out / "map.png").exists() else ")"))
     return 0
+
+
+def _defined(value: float, fmt: str, why: str) -> str:
+    """``value`` formatted, or "not defined: <why>" for a NaN (never a bare nan in a summary)."""
+    return format(value, fmt) if np.isfinite(value) else f"not defined: {why}"
 
 
 def summary_table(res) -> str:
@@ -69,13 +78,16 @@ def summary_table(res) -> str:
         f"| landmarks at the end | {m['n_landmarks_final']} |",
         f"| false landmarks at the end | {m['final_false']} (mean over scans {m['mean_false']:.2f}, max {m['max_false']}) |",
         f"| missed vehicles at the end | {m['final_missed']} (mean {m['mean_missed']:.2f}, max {m['max_missed']}) |",
-        f"| landmark position MAE at the end (m) | {m['landmark_mae_m']:.3f} |",
-        f"| mean inclusion delay (scans) | {m['mean_inclusion_delay']:.2f} |",
-        f"| removal delay of the departed car (scans) | {m['mean_removal_delay']:.2f} |",
+        f"| landmark position MAE at the end (m) | "
+        f"{_defined(m['landmark_mae_m'], '.3f', 'no vehicle has a landmark at the end')} |",
+        f"| mean inclusion delay (scans) | "
+        f"{_defined(m['mean_inclusion_delay'], '.2f', 'no vehicle was both in range and mapped')} |",
+        f"| removal delay of the departed car (scans) | {_defined(m['mean_removal_delay'], '.2f', 'the departed car never had a landmark, or the platform did not come back in range')} |",
     ]
     for key in ("gwd_rma_final_moment", "gwd_efa_final_moment", "gwd_rma_final_full", "gwd_efa_final_full"):
         if key in m:
-            lines.append(f"| final mean GWD {key.split('_')[1].upper()} ({key.split('_')[-1]}) (m) | {m[key]:.3f} |")
+            value = _defined(m[key], ".3f", "no landmark with an initialised extent matched a vehicle at the end")
+            lines.append(f"| final mean GWD {key.split('_')[1].upper()} ({key.split('_')[-1]}) (m) | {value} |")
     lines += ["", "| vehicle | centre | error at the end (m) |", "|---|---|---|"]
     for v, e in zip(res.scenario.truth.vehicles, m["final_errors"]):
         state = "departed" if not v.present(res.record.poses.shape[0]) else ("not mapped" if not np.isfinite(e) else f"{e:.2f}")
@@ -136,6 +148,7 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
     if args.extent is not None:
         config = dataclasses.replace(config, extent=dataclasses.replace(config.extent, use_in_slam=args.extent))
     out = prepare_out_dir(args.out)
+    refuse_finished(out / "run.json", "--out", args.overwrite)
     t0 = time.perf_counter()
     res = run_dataset(name, path, config, first_scan=args.first_scan, n_scans=args.scans)
     ev = evaluate_against_gps(res)

@@ -95,6 +95,13 @@ def prepare_out_dir(out: str | Path) -> Path:
     return out
 
 
+def refuse_finished(marker: Path, what: str, overwrite: bool) -> None:
+    """Refuse to write over a finished result (whose ``marker`` file exists) unless asked to."""
+    if marker.exists() and not overwrite:
+        raise InputError(f"{what}: {marker.parent} already holds a finished result ({marker.name}); pass --overwrite "
+                         "to replace it, or choose another directory")
+
+
 def write_trajectory_csv(path: str | Path, t: np.ndarray, estimated: np.ndarray, true: np.ndarray | None = None) -> None:
     """CSV with columns ``k,t,x,y,theta`` (+ ``x_true,y_true,theta_true``)."""
     cols = ["k", "t", "x", "y", "theta"] + (["x_true", "y_true", "theta_true"] if true is not None else [])
