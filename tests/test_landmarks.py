@@ -338,3 +338,25 @@ def test_bad_odometry_is_refused_and_the_state_stays_finite(control, dt, key):
     assert np.array_equal(slam.x, x0) and np.array_equal(slam.P, P0)
     slam.predict(Odometry(0.16, 0.16, np.array([4.0, 0.1])))
     assert np.all(np.isfinite(slam.x)) and not np.array_equal(slam.x, x0)
+
+
+def test_large_scans_never_build_an_m_by_m_array():
+    """5,000 detections: DBSCAN labels equal scikit-learn's and the peak memory of clustering and
+    sifting stays far below one m x m float array (200 MB)."""
+    import tracemalloc
+
+    from sklearn.cluster import DBSCAN
+
+    from radarslam.landmarks.sifting import sift
+
+    rng = np.random.default_rng(0)
+    pts = np.concatenate([rng.uniform(-60, 60, (4000, 2)),
+                          rng.normal(0, 0.5, (1000, 2)) + rng.uniform(-50, 50, (20, 2)).repeat(50, axis=0)])
+    tracemalloc.start()
+    labels = dbscan_labels(pts, 0.8, 3)
+    inside = sift(pts, rng.uniform(-60, 60, (300, 2)), 3.0)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert np.array_equal(labels, DBSCAN(eps=0.8, min_samples=3).fit(pts).labels_)
+    assert inside.shape == (5000,) and 0 < inside.sum() < 5000
+    assert peak < 40e6, peak
