@@ -129,8 +129,11 @@ def test_corrupt_trial_is_detected_and_recomputed(reference_run, tmp_path, damag
     if damage == "truncate":
         p.write_bytes(data[: len(data) // 2])
     elif damage == "flip":  # a bit flipped inside an array's bytes: the zip CRC or our checksum catches it
+        arrays, _ = decode_trial(p)
+        at = data.find(arrays["noext/poses"].tobytes()[:64])
+        assert at > 0
         b = bytearray(data)
-        b[len(b) // 2] ^= 0x01
+        b[at + 20] ^= 0x01
         p.write_bytes(bytes(b))
     elif damage == "empty":
         p.write_bytes(b"")
@@ -148,11 +151,11 @@ def test_corrupt_trial_is_detected_and_recomputed(reference_run, tmp_path, damag
 _REAL_COMPUTE = mc.compute_trial
 
 
-def _dies_on_trial_3(config, seed, trial, variants=DEFAULT_VARIANTS):
+def _dies_on_trial_3(config, seed, trial, variants=DEFAULT_VARIANTS, chash=None):
     """Module level, so the pool pickles it by name; forked workers resolve it."""
     if trial == 3:
         os._exit(9)  # a worker killed mid-trial
-    return _REAL_COMPUTE(config, seed, trial, variants)
+    return _REAL_COMPUTE(config, seed, trial, variants, chash)
 
 
 def test_killed_worker_keeps_finished_trials(reference_run, tmp_path, monkeypatch):
@@ -171,10 +174,10 @@ def test_killed_worker_keeps_finished_trials(reference_run, tmp_path, monkeypatc
 def test_ctrl_c_keeps_finished_trials(reference_run, tmp_path, monkeypatch):
     real = mc.compute_trial
 
-    def interrupted_at_3(config, seed, trial, variants=DEFAULT_VARIANTS):
+    def interrupted_at_3(config, seed, trial, variants=DEFAULT_VARIANTS, chash=None):
         if trial == 3:
             raise KeyboardInterrupt
-        return real(config, seed, trial, variants)
+        return real(config, seed, trial, variants, chash)
 
     monkeypatch.setattr(mc, "compute_trial", interrupted_at_3)
     with pytest.raises(KeyboardInterrupt):
@@ -271,10 +274,10 @@ def test_cli_montecarlo_interrupt_reports_stored_trials(tmp_path, capsys, monkey
 
     real = mc.compute_trial
 
-    def interrupted_at_2(config, seed, trial, variants=DEFAULT_VARIANTS):
+    def interrupted_at_2(config, seed, trial, variants=DEFAULT_VARIANTS, chash=None):
         if trial == 2:
             raise KeyboardInterrupt
-        return real(config, seed, trial, variants)
+        return real(config, seed, trial, variants, chash)
 
     monkeypatch.setattr(mc, "compute_trial", interrupted_at_2)
     cfg = tmp_path / "short.toml"
@@ -412,7 +415,7 @@ def test_directory_written_before_variants_resumes_with_the_default_two(referenc
     store = TrialStore.read(out)
     for t in (1, 2, 3, 4):
         arrays, meta = decode_trial(store.path(t))
-        del meta["variants"]
+        del meta["variants"], meta["config_hash"]     # the trial format before variants and identities
         store.save(t, encode_trial(arrays, meta))
     assert store.variants == PAPER_VARIANTS and store.inventory(4) == ([1, 2, 3, 4], {})
     s = run_montecarlo(short_config(), 11, 4, out, progress=False, variants=PAPER_VARIANTS)

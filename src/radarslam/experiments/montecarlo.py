@@ -10,8 +10,11 @@ pool, or a Dask cluster. Each finished trial is stored at once (:mod:`.store`); 
 
 from __future__ import annotations
 
+import contextlib
 import math
+import signal
 import sys
+import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -22,7 +25,7 @@ import numpy as np
 from radarslam.config import Config, from_dict, to_dict, validate
 from radarslam.core.errors import InputError, RadarSlamError
 from radarslam.experiments.single import check_simulation_config, evaluate, run_filter
-from radarslam.experiments.store import TrialStore, decode_trial, encode_trial
+from radarslam.experiments.store import CorruptTrial, TrialStore, check_identity, config_hash, decode_trial, encode_trial
 from radarslam.experiments.variants import DEFAULT_VARIANTS, Variant, apply_variant, check_variants
 from radarslam.simulation.scenario import generate_scenario
 
@@ -50,12 +53,14 @@ def _per_step(m: dict, key: str, K: int) -> np.ndarray:
 
 
 def compute_trial(config: Config | dict, seed: int, trial: int,
-                  variants: Sequence[Variant] = DEFAULT_VARIANTS) -> bytes:
+                  variants: Sequence[Variant] = DEFAULT_VARIANTS, chash: str | None = None) -> bytes:
     """Run trial ``trial`` for every variant and return its encoded result (a picklable, top-level worker function).
 
     The scenario is simulated once from the base ``config``; each variant's configuration
     (:func:`~.variants.apply_variant`) runs the filter on it. Arrays are stored as
-    ``"{variant}/{key}"`` beside the shared ``true_poses``; the meta lists the variant names in order.
+    ``"{variant}/{key}"`` beside the shared ``true_poses``; the meta lists the variant names in order
+    and the trial's identity: seed, number and the configuration hash ``chash`` of its run (by
+    default that of ``config`` and ``variants``).
     """
     cfg = from_dict(config) if isinstance(config, dict) else config
     variants = check_variants(variants)
@@ -78,7 +83,8 @@ def compute_trial(config: Config | dict, seed: int, trial: int,
         arrays[f"{name}/scalars"] = np.array([float(m[k]) for k in SCALARS])
         seconds[name] = rec.seconds
     meta = {"trial": trial, "seed": seed, "spawn_key": [trial - 1], "seconds": time.perf_counter() - t0,
-            "filter_seconds": seconds, "scalar_names": list(SCALARS), "variants": [v.name for v in variants]}
+            "filter_seconds": seconds, "scalar_names": list(SCALARS), "variants": [v.name for v in variants],
+            "config_hash": chash or config_hash(cfg, variants)}
     return encode_trial(arrays, meta)
 
 
@@ -174,6 +180,14 @@ def run_montecarlo(config: Config, seed: int, n_trials: int, out: str | Path, *,
     for v in variants:  # every overlay checked before anything is written or run
         apply_variant(config, v)
     store = TrialStore.open(out, config, seed, variants)
+    with store.lock(), _sigterm_as_interrupt():
+        return _run_locked(store, config, seed, n_trials, variants, jobs, scheduler, dask_local, progress, log)
+
+
+def _run_locked(store, config, seed, n_trials, variants, jobs, scheduler, dask_local, progress, log):
+    out = store.root
+    for p in store.strays():
+        log(f"montecarlo: ignoring stray file {p} (not a trial file)")
     good, bad = store.inventory(n_trials)
     for t, why in bad.items():
         log(f"montecarlo: trial {t} file is corrupt ({why}); recomputing it")
@@ -186,29 +200,48 @@ def run_montecarlo(config: Config, seed: int, n_trials: int, out: str | Path, *,
     cfg_dict = to_dict(config)
 
     def finish(t: int, data: bytes) -> None:
-        decode_trial(data, expect_trial=t, expect_variants=store.variant_names)  # never store what we could not read back
+        _, meta = decode_trial(data, expect_trial=t, expect_variants=store.variant_names)  # read back before storing
+        check_identity(store.path(t), meta, seed, store.chash)
         store.save(t, data)
         bar.update()
 
     if todo:
         if scheduler is not None or dask_local is not None:
-            _run_dask(cfg_dict, seed, variants, todo, finish, scheduler, dask_local)
-        elif jobs == 1:
+            _run_dask(cfg_dict, seed, variants, todo, finish, scheduler, dask_local, store.chash)
+        elif min(jobs, len(todo)) == 1:
             for t in todo:
-                finish(t, compute_trial(config, seed, t, variants))
+                finish(t, compute_trial(config, seed, t, variants, store.chash))
         else:
-            _run_pool(cfg_dict, seed, variants, todo, finish, jobs)
+            _run_pool(cfg_dict, seed, variants, todo, finish, min(jobs, len(todo)), store.chash)   # no idle workers
     return MonteCarloSummary(Path(out), n_trials, len(todo), len(good), len(bad), time.perf_counter() - t0)
 
 
+@contextlib.contextmanager
+def _sigterm_as_interrupt():
+    """Within the block SIGTERM is handled like Ctrl-C (KeyboardInterrupt): finished trials stay
+    stored, workers are ended, the command exits with 130. Only in the main thread."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum, frame):
+        raise KeyboardInterrupt
+
+    old = signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, old)
+
+
 def _run_pool(cfg_dict: dict, seed: int, variants: tuple[Variant, ...], todo: list[int], finish,
-              jobs: int) -> None:
+              jobs: int, chash: str) -> None:
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
     from concurrent.futures.process import BrokenProcessPool
 
     ex = ProcessPoolExecutor(max_workers=jobs, initializer=_limit_threads)
     try:
-        pending = {ex.submit(compute_trial, cfg_dict, seed, t, variants): t for t in todo}
+        pending = {ex.submit(compute_trial, cfg_dict, seed, t, variants, chash): t for t in todo}
         while pending:
             done, _ = wait(pending, return_when=FIRST_COMPLETED)
             for f in done:
@@ -220,13 +253,17 @@ def _run_pool(cfg_dict: dict, seed: int, variants: tuple[Variant, ...], todo: li
                                          "rerun the same command to resume") from None
                 finish(t, data)
     except BaseException:
+        # Interrupted (Ctrl-C, SIGTERM) or failed: cancel what has not started and end the workers
+        # now, so that none is left running a trial after this process is gone.
+        for proc in list(getattr(ex, "_processes", {}).values()):
+            proc.terminate()
         ex.shutdown(wait=False, cancel_futures=True)
         raise
     ex.shutdown(wait=True)
 
 
 def _run_dask(cfg_dict: dict, seed: int, variants: tuple[Variant, ...], todo: list[int], finish,
-              scheduler: str | None, dask_local: int | None) -> None:
+              scheduler: str | None, dask_local: int | None, chash: str) -> None:
     try:
         from dask.distributed import Client, LocalCluster, as_completed
     except ImportError:
@@ -244,7 +281,7 @@ def _run_dask(cfg_dict: dict, seed: int, variants: tuple[Variant, ...], todo: li
             raise InputError(f"--scheduler: cannot reach {scheduler} ({exc})") from None
         try:
             client.run(_limit_threads)
-            futures = [client.submit(compute_trial, cfg_dict, seed, t, variants, key=f"radarslam-trial-{seed}-{t}",
+            futures = [client.submit(compute_trial, cfg_dict, seed, t, variants, chash, key=f"radarslam-trial-{seed}-{t}",
                                      pure=False) for t in todo]
             index = {f.key: t for f, t in zip(futures, todo)}
             for f in as_completed(futures):
@@ -275,8 +312,8 @@ def load_results(out: str | Path, n_trials: int | None = None) -> dict:
         if not store.path(t).exists():
             continue
         try:
-            arrays, meta = store.load(t)
-        except RadarSlamError as exc:
+            arrays, meta = store.load(t)     # a ForeignTrial (another run's file) is raised, never used
+        except CorruptTrial as exc:
             corrupt[t] = str(exc)
             continue
         loaded.append((t, arrays, meta))
@@ -284,7 +321,7 @@ def load_results(out: str | Path, n_trials: int | None = None) -> dict:
         raise InputError(f"DIR: {out} holds no valid trial")
     res: dict = {"config": store.config, "seed": store.seed, "variants": store.variants,
                  "trials": np.array([t for t, _, _ in loaded]),
-                 "corrupt": corrupt, "seconds": np.array([m["seconds"] for _, _, m in loaded])}
+                 "corrupt": corrupt, "stray": [str(p) for p in store.strays()], "seconds": np.array([m["seconds"] for _, _, m in loaded])}
     res["true_poses"] = np.stack([a["true_poses"] for _, a, _ in loaded])
     names = loaded[0][2]["scalar_names"]
     for v in store.variants:

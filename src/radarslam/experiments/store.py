@@ -15,9 +15,12 @@ not hold every variant of the manifest is *corrupt*: it is reported and recomput
 
 from __future__ import annotations
 
+import fcntl
 import hashlib
 import io
 import json
+import os
+import re
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -36,6 +39,14 @@ FORMAT = 1
 
 class CorruptTrial(RadarSlamError):
     """A trial file that cannot be trusted."""
+
+
+class ForeignTrial(InputError):
+    """A sound trial file of another run (seed, configuration or variants): never used, never deleted."""
+
+
+#: Trial file names; anything else in ``trials/`` is a stray file (ignored with a warning).
+TRIAL_NAME = re.compile(r"trial_(\d{6})\.npz")
 
 
 #: Arrays every variant of a trial file holds (``"{variant}/{key}"``).
@@ -111,6 +122,59 @@ def decode_trial(data: bytes | Path, expect_trial: int | None = None,
     return arrays, meta
 
 
+def _check_orphans(root: Path, seed: int, chash: str) -> None:
+    """A directory with trial files but no manifest: its manifest may be rebuilt only when every
+    readable trial is of this very run (seed and configuration hash); otherwise refuse, never relabel."""
+    trials = root / "trials"
+    if not trials.is_dir():
+        return
+    for p in sorted(trials.glob("trial_*.npz")):
+        try:
+            _, meta = decode_trial(p)
+        except CorruptTrial:
+            continue  # recomputed later like any corrupt file
+        if meta.get("seed") != seed or meta.get("config_hash") != chash:
+            raise InputError(f"--out: {root} has no manifest.json, and {p.name} is a trial of another run (seed "
+                             f"{meta.get('seed')}, or another configuration); refusing to relabel it: use another "
+                             "directory")
+
+
+def check_identity(path: Path, meta: dict, seed: int, chash: str) -> None:
+    """Refuse a trial whose recorded identity (seed, configuration hash) is not the run's."""
+    if meta.get("seed") != seed:
+        raise ForeignTrial(f"{path}: a trial of seed {meta.get('seed')}, not this run's {seed}; refusing to use it "
+                           "(move it away, or use another directory)")
+    if "config_hash" in meta and chash and meta["config_hash"] != chash:
+        raise ForeignTrial(f"{path}: a trial of another configuration (hash {str(meta['config_hash'])[:12]}..., this "
+                           f"run {chash[:12]}...); refusing to use it (move it away, or use another directory)")
+
+
+class DirectoryLock:
+    """``with DirectoryLock(root):`` holds an exclusive ``flock`` on ``root/.lock`` (released on exit,
+    and by the kernel if the process dies)."""
+
+    def __init__(self, root: Path):
+        self.path = Path(root) / ".lock"
+        self.fd: int | None = None
+
+    def __enter__(self) -> "DirectoryLock":
+        self.fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(self.fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            os.close(self.fd)
+            self.fd = None
+            raise InputError(f"--out: {self.path.parent} is in use by another run (lock {self.path}); wait for it "
+                             "to finish or use another directory") from None
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.fd is not None:
+            fcntl.flock(self.fd, fcntl.LOCK_UN)
+            os.close(self.fd)
+            self.fd = None
+
+
 @dataclass
 class TrialStore:
     """A Monte Carlo result directory bound to one configuration, seed and list of variants."""
@@ -119,6 +183,7 @@ class TrialStore:
     config: Config
     seed: int
     variants: tuple[Variant, ...] = DEFAULT_VARIANTS
+    chash: str = ""  # the manifest's configuration hash, which every trial file must carry
 
     @property
     def variant_names(self) -> tuple[str, ...]:
@@ -140,6 +205,7 @@ class TrialStore:
         variants = check_variants(variants)
         make_dir(root)
         man = root / "manifest.json"
+        chash = config_hash(config, variants)
         if man.exists():
             try:
                 m = json.loads(man.read_text())
@@ -160,13 +226,15 @@ class TrialStore:
                 what = (f"variants {stored}, not {names}" if stored != names
                         else "a different configuration or variant overlays")
                 raise InputError(f"--out: {root} holds a Monte Carlo with {what} (see {man}); use another directory")
+            chash = m.get("config_hash", chash)
         else:
-            write_json(man, {"format": FORMAT, "seed": seed, "config_hash": config_hash(config, variants),
+            _check_orphans(root, seed, chash)   # trials without a manifest: rebuild only if they are this run's
+            write_json(man, {"format": FORMAT, "seed": seed, "config_hash": chash,
                              "version": __version__, "config_toml": to_toml(config), "config": to_dict(config),
                              "variants": variants_to_json(variants)})
             atomic_write_text(root / "config.toml", to_toml(config))
         (root / "trials").mkdir(exist_ok=True)
-        return cls(root, config, seed, variants)
+        return cls(root, config, seed, variants, chash)
 
     @classmethod
     def read(cls, root: str | Path) -> "TrialStore":
@@ -180,14 +248,37 @@ class TrialStore:
             variants = variants_from_json(m["variants"]) if "variants" in m else PAPER_VARIANTS
         except InputError as exc:
             raise InputError(f"DIR: {man} lists unreadable variants ({exc})") from None
-        return cls(root, from_dict(tomllib.loads(m["config_toml"])), int(m["seed"]), variants)
+        return cls(root, from_dict(tomllib.loads(m["config_toml"])), int(m["seed"]), variants,
+                   str(m.get("config_hash", "")))
 
     def save(self, trial: int, data: bytes) -> None:
         atomic_write_bytes(self.path(trial), data)
 
     def load(self, trial: int) -> tuple[dict[str, np.ndarray], dict]:
-        """Arrays and meta of trial ``trial``; :class:`CorruptTrial` unless it holds every variant."""
-        return decode_trial(self.path(trial), expect_trial=trial, expect_variants=self.variant_names)
+        """Arrays and meta of trial ``trial``.
+
+        Raises
+        ------
+        CorruptTrial
+            Unreadable, checksum mismatch, or a variant missing (recompute it).
+        ForeignTrial
+            A sound file of another run: another seed or configuration hash than the manifest's
+            (the file is named; it is never used nor deleted).
+        """
+        arrays, meta = decode_trial(self.path(trial), expect_trial=trial, expect_variants=self.variant_names)
+        check_identity(self.path(trial), meta, self.seed, self.chash)
+        return arrays, meta
+
+    def strays(self) -> list[Path]:
+        """Files in ``trials/`` that are not trial files (ignored)."""
+        if not self.trials_dir.is_dir():
+            return []
+        return sorted(p for p in self.trials_dir.iterdir()
+                      if not TRIAL_NAME.fullmatch(p.name) and not p.name.startswith("."))
+
+    def lock(self):
+        """An exclusive lock on the directory for one run (a second run on it is refused at once)."""
+        return DirectoryLock(self.root)
 
     def inventory(self, n_trials: int) -> tuple[list[int], dict[int, str]]:
         """Trials 1..n that are stored and valid, and the corrupt ones with the reason."""
@@ -205,5 +296,5 @@ class TrialStore:
         return good, bad
 
     def stored(self) -> list[int]:
-        """Numbers of all trial files present (valid or not)."""
-        return sorted(int(p.stem.split("_")[1]) for p in self.trials_dir.glob("trial_*.npz"))
+        """Numbers of all trial files present (valid or not); stray names are not trials."""
+        return sorted(int(m[1]) for p in self.trials_dir.glob("trial_*.npz") if (m := TRIAL_NAME.fullmatch(p.name)))

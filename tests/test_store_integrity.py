@@ -1,0 +1,145 @@
+"""The Monte Carlo store cannot mix results: trial identities, missing manifests, stray files, the
+directory lock, SIGTERM and the worker count (issue "First run works", item 2)."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from radarslam.config import profile_config, to_toml
+from radarslam.core.errors import InputError
+from radarslam.experiments import montecarlo as mc
+from radarslam.experiments.montecarlo import load_results, run_montecarlo
+from radarslam.experiments.store import ForeignTrial, TrialStore, decode_trial
+
+from conftest import require
+
+
+def short(n_steps: int = 30):
+    cfg = profile_config("apsipa")
+    return replace(cfg, trajectory=replace(cfg.trajectory, n_steps=n_steps, turn_end=min(100, n_steps)))
+
+
+@pytest.fixture(scope="module")
+def run_a(tmp_path_factory):
+    out = tmp_path_factory.mktemp("a") / "mc"
+    run_montecarlo(short(), 5, 3, out, progress=False, log=lambda s: None)
+    return out
+
+
+def test_every_trial_file_carries_its_identity(run_a):
+    store = TrialStore.read(run_a)
+    for t in (1, 2, 3):
+        _, meta = decode_trial(store.path(t))
+        assert (meta["trial"], meta["seed"], meta["config_hash"]) == (t, 5, store.chash)
+        assert meta["format"] and meta["variants"] == list(store.variant_names)
+
+
+@pytest.mark.parametrize("other", ["seed", "length"])
+def test_a_trial_of_another_run_is_refused_naming_the_file(run_a, tmp_path, other):
+    """A sound trial file from another seed or trajectory length, copied under a valid name: resume
+    and report refuse with the file's name; the file is neither used nor deleted."""
+    out = tmp_path / "mixed"
+    shutil.copytree(run_a, out)
+    foreign = tmp_path / "foreign"
+    if other == "seed":
+        run_montecarlo(short(), 6, 2, foreign, progress=False, log=lambda s: None)
+    else:
+        run_montecarlo(short(40), 5, 2, foreign, progress=False, log=lambda s: None)
+    bad = out / "trials" / "trial_000002.npz"
+    shutil.copyfile(foreign / "trials" / "trial_000002.npz", bad)
+    before = bad.read_bytes()
+    with pytest.raises(ForeignTrial, match=r"trial_000002\.npz: a trial of (seed 6|another configuration)"):
+        run_montecarlo(short(), 5, 3, out, progress=False, log=lambda s: None)
+    with pytest.raises(ForeignTrial, match=r"trial_000002\.npz"):
+        load_results(out)
+    assert bad.read_bytes() == before
+    from radarslam.cli.main import main
+
+    assert main(["report", str(out)]) == 1
+
+
+def test_a_directory_without_its_manifest_is_rebuilt_only_for_its_own_trials(run_a, tmp_path):
+    same = tmp_path / "same"
+    shutil.copytree(run_a, same)
+    (same / "manifest.json").unlink()
+    s = run_montecarlo(short(), 5, 3, same, progress=False, log=lambda s: None)
+    assert (s.resumed, s.computed) == (3, 0)                      # rebuilt, nothing recomputed
+    other = tmp_path / "other"
+    shutil.copytree(run_a, other)
+    (other / "manifest.json").unlink()
+    with pytest.raises(InputError, match=r"has no manifest\.json, and trial_000001\.npz is a trial of another run"):
+        run_montecarlo(short(), 7, 3, other, progress=False, log=lambda s: None)   # never relabelled as seed 7
+    assert not (other / "manifest.json").exists()
+
+
+def test_stray_files_are_ignored_with_a_warning(run_a, tmp_path):
+    out = tmp_path / "stray"
+    shutil.copytree(run_a, out)
+    (out / "trials" / "notes.txt").write_text("mine")
+    (out / "trials" / "trial_abc.npz").write_bytes(b"x")
+    logs = []
+    s = run_montecarlo(short(), 5, 3, out, progress=False, log=logs.append)
+    assert s.computed == 0 and s.recomputed_corrupt == 0
+    assert sum("ignoring stray file" in line for line in logs) == 2
+    res = load_results(out)
+    assert list(res["trials"]) == [1, 2, 3] and len(res["stray"]) == 2
+    assert (out / "trials" / "notes.txt").read_text() == "mine"
+
+
+def test_two_runs_on_one_directory_are_prevented(run_a, tmp_path):
+    out = tmp_path / "locked"
+    shutil.copytree(run_a, out)
+    store = TrialStore.read(out)
+    with store.lock():
+        with pytest.raises(InputError, match="is in use by another run"):
+            run_montecarlo(short(), 5, 4, out, progress=False, log=lambda s: None)
+    s = run_montecarlo(short(), 5, 4, out, progress=False, log=lambda s: None)   # released: runs
+    assert s.computed == 1
+
+
+def test_jobs_are_capped_at_the_trials_to_compute(run_a, tmp_path, monkeypatch):
+    out = tmp_path / "cap"
+    shutil.copytree(run_a, out)
+    used = []
+    monkeypatch.setattr(mc, "_run_pool", lambda *a, **k: used.append(a[5]))
+    run_montecarlo(short(), 5, 5, out, jobs=8, progress=False, log=lambda s: None)
+    assert used == [2]                                             # two trials left: two workers, not eight
+    used.clear()
+    s = run_montecarlo(short(), 5, 3, out, jobs=8, progress=False, log=lambda s: None)
+    assert used == [] and s.computed == 0
+
+
+def test_sigterm_is_handled_like_ctrl_c_and_leaves_no_worker(tmp_path):
+    """SIGTERM to a 2-worker run: exit 130, every stored trial sound, no worker process left."""
+    psutil = require("psutil")
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(to_toml(short(120)))
+    out = tmp_path / "term"
+    p = subprocess.Popen([sys.executable, "-m", "radarslam", "montecarlo", "--trials", "40", "--jobs", "2",
+                          "--config", str(cfg), "--out", str(out), "--quiet", "--no-report"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 60
+    while time.time() < deadline and len(list((out / "trials").glob("trial_*.npz"))) < 2:
+        time.sleep(0.1)
+    children = psutil.Process(p.pid).children(recursive=True)
+    assert children, "the run should have started its workers"
+    p.send_signal(signal.SIGTERM)
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == 130, err
+    assert "finished trials are stored" in err and "Traceback" not in err
+    gone, alive = psutil.wait_procs(children, timeout=10)
+    assert not alive, [c.pid for c in alive]
+    store = TrialStore.read(out)
+    good, bad = store.inventory(40)
+    assert good and not bad and len(good) < 40
+    json.loads((out / "manifest.json").read_text())
+    assert np.isfinite(load_results(out)["noext"]["position_error_m"]).all()
