@@ -98,6 +98,8 @@ def _best_landmark(x, P, z0, z1, n_nearest, R, gX, has_gX, d2):  # pragma: no co
         cty = P[i + 1, 2] - pyt
         dx = x[i] - x0
         dy = x[i + 1] - y0
+        if dx == 0.0 and dy == 0.0:
+            continue  # a landmark at the sensor itself has no bearing (as in ekf.score_landmarks)
         s00, s01, s11, r = _innovation_cov_terms(cxx, cxy, cyy, ctx, cty, ptt, dx, dy, r00, r01, r11,
                                                  has_gX[j], gX[j, 0, 0], gX[j, 0, 1], gX[j, 1, 1])
         e0 = z0 - r

@@ -167,6 +167,8 @@ def score_landmarks(x: np.ndarray, P: np.ndarray, z: np.ndarray, js: list[int], 
         cty = ly2 - pyt
         dx = xs[i] - x0
         dy = xs[i + 1] - y0
+        if dx == 0.0 and dy == 0.0:
+            continue  # a landmark at the sensor itself has no bearing: it cannot be scored
         if gX is not None and gX[k] is not None:
             (g00, g01), (_, g11) = gX[k]
             s00, s01, s11, r = innovation_cov_terms(cxx, cxy, cyy, ctx, cty, ptt, dx, dy, r00, r01, r11,
