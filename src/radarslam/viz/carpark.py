@@ -48,13 +48,18 @@ def plot_carpark_run(path: str | Path, result, k: int | None = None, *, show_ext
     K = rec.poses.shape[0]
     k = K if k is None else k
     truth = sc.truth
-    fig, ax = plt.subplots(figsize=(7.5, 7.5))
+    fig, ax = plt.subplots(figsize=(9.5, 7.5))
+    labelled = set()
     for v in truth.vehicles:
         gone = not v.present(k)
+        label = "departed vehicle" if gone else "vehicles (true rectangles)"
         ax.add_patch(Rectangle((v.x_left, v.y_bottom), v.size_x, v.size_y, fill=not gone, alpha=0.35 if not gone else 1,
-                               facecolor="0.6", edgecolor="0.3", linestyle="--" if gone else "-"))
+                               facecolor="0.6", edgecolor="0.3", linestyle="--" if gone else "-",
+                               label=None if label in labelled else label))
+        labelled.add(label)
     pose_t = truth.poses[k - 1]
-    ax.add_patch(Circle(pose_t[:2], result.config.radar.max_range_m, color="tab:cyan", alpha=0.08))
+    ax.add_patch(Circle(pose_t[:2], result.config.radar.max_range_m, color="tab:cyan", alpha=0.08,
+                        label=f"radar range ({result.config.radar.max_range_m:g} m)"))
     scan = sc.scans[k - 1]
     xy = polar_to_xy(pose_t, scan.polar)
     src = truth.sources[k - 1]
@@ -68,13 +73,15 @@ def plot_carpark_run(path: str | Path, result, k: int | None = None, *, show_ext
         draw_extents(ax, m.positions, m.rma, color="red", label="RMA", lw=1.3)
         draw_extents(ax, m.positions, m.efa, color="blue", label="EFA", lw=1.0)
     ax.set_aspect("equal")
-    ax.set_xlim(-20, 40)
-    ax.set_ylim(-15, 40)
+    # the car park's frame, widened to whatever the trajectory and the landmarks reach
+    pts = np.concatenate([truth.poses[:k, :2], rec.poses[:k, :2], m.positions.reshape(-1, 2)])
+    ax.set_xlim(min(-20.0, pts[:, 0].min() - 3.0), max(40.0, pts[:, 0].max() + 3.0))
+    ax.set_ylim(min(-15.0, pts[:, 1].min() - 3.0), max(40.0, pts[:, 1].max() + 3.0))
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_title(title or f"car park, scan k = {k}")
-    ax.legend(loc="upper right", fontsize=8)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)  # outside: never over the map
     ax.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    fig.savefig(path, dpi=120, bbox_inches="tight")  # keep the outside legend
     plt.close(fig)

@@ -95,7 +95,7 @@ def plot_dataset_map(path: str | Path, poses: np.ndarray, landmarks: np.ndarray,
     ax.set_xlabel("east (m)")
     ax.set_ylabel("north (m)")
     ax.set_title(title or f"{name}: GPS-aligned RMSE {gps_eval['rmse_m']:.2f} m")
-    ax.legend(loc="best", fontsize=8)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.08), ncol=3, fontsize=8)  # below: never over the map
     ax.grid(alpha=0.3)
     if ax2 is not None:
         ref, est = diameters["reference_m"], diameters["rma_m"]
@@ -112,5 +112,5 @@ def plot_dataset_map(path: str | Path, poses: np.ndarray, landmarks: np.ndarray,
         ax2.legend(loc="upper left", fontsize=8)
         ax2.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=130)
+    fig.savefig(path, dpi=130, bbox_inches="tight")  # keep the outside legend
     plt.close(fig)

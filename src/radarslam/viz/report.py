@@ -68,7 +68,7 @@ def plot_gwd_curves(path: str | Path, curves: dict, convention: str, *,
     """
     plt = _pyplot()
     k = np.asarray(curves["k"])
-    fig, ax = plt.subplots(figsize=(7.0, 4.2))
+    fig, ax = plt.subplots(figsize=(10.0, 4.2))
     cfgs = list(curves["configs"].values())
     for i, c in enumerate(cfgs):
         for est in ("rma", "efa"):
@@ -85,10 +85,10 @@ def plot_gwd_curves(path: str | Path, curves: dict, convention: str, *,
     ax.set_title(f"RMSE of the average GWD, ground truth '{convention}'")
     ax.set_xlim(1, k[-1])
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # outside: never over the curves
     entries = _entries(ax)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    fig.savefig(path, dpi=120, bbox_inches="tight")  # keep the outside legend
     plt.close(fig)
     return entries
 
@@ -109,7 +109,7 @@ def plot_nees(path: str | Path, summary: dict) -> list[tuple[str, object, str]]:
     """
     plt = _pyplot()
     lo, hi = summary["band"]
-    fig, ax = plt.subplots(figsize=(7.0, 4.2))
+    fig, ax = plt.subplots(figsize=(10.0, 4.2))
     K = None
     ymin, ymax = lo, hi
     for i, c in enumerate(summary["configs"].values()):
@@ -130,10 +130,10 @@ def plot_nees(path: str | Path, summary: dict) -> list[tuple[str, object, str]]:
     ax.set_title("pose NEES averaged over trials")
     ax.set_xlim(1, K)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # outside: never over the curves
     entries = _entries(ax)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    fig.savefig(path, dpi=120, bbox_inches="tight")  # keep the outside legend
     plt.close(fig)
     return entries
 
@@ -185,6 +185,6 @@ def plot_nis(path: str | Path, summary: dict) -> list[tuple[str, object, str]]:
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # outside: never over the curves
     entries = _entries(ax)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    fig.savefig(path, dpi=120, bbox_inches="tight")  # keep the outside legend
     plt.close(fig)
     return entries
