@@ -271,3 +271,17 @@ def test_summary_explains_values_that_are_not_defined():
 
     assert _defined(float("nan"), ".2f", "no vehicle was mapped") == "not defined: no vehicle was mapped"
     assert _defined(1.234, ".2f", "x") == "1.23"
+
+
+def test_a_long_single_run_shows_progress(tmp_path, capsys, monkeypatch):
+    import radarslam.cli.run as run_cli
+
+    monkeypatch.setattr(run_cli, "LONG_RUN_SCANS", 20)
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("[trajectory]\nn_steps = 25\nturn_end = 20\n")
+    assert main(["run", "--config", str(cfg), "--out", str(tmp_path / "o"), "--no-plot"]) == 0
+    err = capsys.readouterr().err
+    assert "25/25 scans" in err
+    cfg.write_text("[trajectory]\nn_steps = 15\nturn_end = 12\n")     # a short run stays quiet
+    assert main(["run", "--config", str(cfg), "--out", str(tmp_path / "o2"), "--no-plot"]) == 0
+    assert "scans" not in capsys.readouterr().err

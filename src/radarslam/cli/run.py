@@ -37,6 +37,10 @@ def add_parser(sub) -> None:
     p.set_defaults(func=run)
 
 
+#: A car-park run of at least this many scans shows a progress bar even when stderr is not a terminal.
+LONG_RUN_SCANS = 2000
+
+
 def run(args: argparse.Namespace) -> int:
     from radarslam.experiments.single import check_simulation_config, run_trial
 
@@ -51,7 +55,12 @@ def run(args: argparse.Namespace) -> int:
     out = prepare_out_dir(args.out)
     refuse_finished(out / "run.json", "--out", args.overwrite)
     t0 = time.perf_counter()
-    res = run_trial(config, args.seed)
+    # a long single run shows its progress (a terminal, or more than LONG_RUN_SCANS scans)
+    from radarslam.experiments.montecarlo import Progress
+
+    n = config.trajectory.n_steps
+    bar = Progress(n, 0, unit="scans", enabled=n >= LONG_RUN_SCANS or sys.stderr.isatty())
+    res = run_trial(config, args.seed, on_scan=bar.update)
     wall = time.perf_counter() - t0
     write_outputs(out, res, wall, argv=sys.argv)
     print(summary_table(res))

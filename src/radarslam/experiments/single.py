@@ -45,8 +45,10 @@ class FilterRecord:
     nis_count: np.ndarray = field(default_factory=lambda: np.empty(0))
 
 
-def run_filter(config: Config, events: list[Odometry | Scan], slam: EkfSlam | None = None) -> FilterRecord:
-    """Run :class:`EkfSlam` over an event stream, recording the estimate after every scan."""
+def run_filter(config: Config, events: list[Odometry | Scan], slam: EkfSlam | None = None,
+               on_scan=None) -> FilterRecord:
+    """Run :class:`EkfSlam` over an event stream, recording the estimate after every scan;
+    ``on_scan()`` (optional) is called after each scan (a progress bar)."""
     slam = slam or EkfSlam(config)
     t0 = time.perf_counter()
     poses, covs, maps, ndet, nass, nlm, nis_sum, nis_n = [], [], [], [], [], [], [], []
@@ -62,6 +64,8 @@ def run_filter(config: Config, events: list[Odometry | Scan], slam: EkfSlam | No
         nlm.append(len(slam.landmarks))
         nis_sum.append(float(rep.nis.sum()))
         nis_n.append(rep.nis.size)
+        if on_scan is not None:
+            on_scan()
     return FilterRecord(np.array(poses).reshape(-1, 3), np.array(covs).reshape(-1, 3, 3), maps,
                         np.array(ndet), np.array(nass), np.array(nlm), time.perf_counter() - t0,
                         nis_sum=np.array(nis_sum), nis_count=np.array(nis_n, dtype=float))
@@ -128,16 +132,18 @@ def check_simulation_config(config: Config) -> Config:
     return config
 
 
-def run_trial(config: Config, seed: int | np.random.SeedSequence, *, use_extent: bool | None = None) -> TrialResult:
+def run_trial(config: Config, seed: int | np.random.SeedSequence, *, use_extent: bool | None = None,
+              on_scan=None) -> TrialResult:
     """Simulate one scenario from ``seed`` and run the filter on it.
 
-    ``use_extent`` overrides ``config.extent.use_in_slam`` (same data either way).
+    ``use_extent`` overrides ``config.extent.use_in_slam`` (same data either way); ``on_scan`` is
+    passed to :func:`run_filter`.
     """
     config = check_simulation_config(validate(config))
     if use_extent is not None:
         config = replace(config, extent=replace(config.extent, use_in_slam=use_extent))
     ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
     scenario = generate_scenario(config, np.random.default_rng(ss))
-    rec = run_filter(config, scenario.events)
+    rec = run_filter(config, scenario.events, on_scan=on_scan)
     seed_out = ss.entropy if not ss.spawn_key else {"entropy": ss.entropy, "spawn_key": list(ss.spawn_key)}
     return TrialResult(config, seed_out, scenario, rec, evaluate(config, scenario, rec))
