@@ -285,3 +285,12 @@ def test_a_long_single_run_shows_progress(tmp_path, capsys, monkeypatch):
     cfg.write_text("[trajectory]\nn_steps = 15\nturn_end = 12\n")     # a short run stays quiet
     assert main(["run", "--config", str(cfg), "--out", str(tmp_path / "o2"), "--no-plot"]) == 0
     assert "scans" not in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("args,key", [(["--trials", "0"], "--trials"), (["--trials", "2", "--jobs", "0"], "--jobs"),
+                                      (["--trials", "2", "--seed", "-1"], "--seed")])
+def test_montecarlo_argument_errors_leave_no_directory(tmp_path, capsys, args, key):
+    out = tmp_path / "new" / "mc"
+    assert main(["montecarlo", "--out", str(out), "--quiet"] + args) == 1
+    assert key in capsys.readouterr().err
+    assert not (tmp_path / "new").exists()

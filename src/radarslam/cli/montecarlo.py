@@ -76,6 +76,10 @@ def _execute(config, args) -> int:
 
     if args.seed < 0:
         raise InputError(f"--seed: expected an integer >= 0, got {args.seed}")
+    if args.trials < 1:   # checked here too, so that an argument error leaves no directory behind
+        raise InputError(f"--trials: expected an integer >= 1, got {args.trials}")
+    if args.jobs < 1:
+        raise InputError(f"--jobs: expected an integer >= 1, got {args.jobs}")
     variants = variants_from_args(args)
     from radarslam.experiments.single import check_simulation_config
 
