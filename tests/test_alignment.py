@@ -5,8 +5,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
-from radarslam.metrics.alignment import error_against_fixes, rigid_align_2d, robust_rigid_align_2d
+from radarslam.metrics.alignment import (
+    error_against_fixes,
+    rigid_align_2d,
+    robust_rigid_align_2d,
+)
 
 
 def _rot(a):
@@ -69,3 +74,26 @@ def test_error_against_fixes_does_not_hide_drift():
     assert res["n_fixes"] == 201 and res["rmse_m"] > 5.0
     flattering = error_against_fixes(t, est, t, truth, robust=True)
     assert flattering["rmse_m"] < res["rmse_m"]  # what residual-based rejection would report
+
+
+def test_error_at_fixes_is_the_published_protocol_by_hand():
+    """Estimates at 0, 0.1, 0.2, 0.3 s; fixes at 0.01, 0.19, 0.26 s: with 25 ms, estimate 0 matches
+    the fix at 0.01 (10 ms) and estimate 0.2 the fix at 0.19; 0.1 and 0.3 have no fix within 25 ms
+    (0.3 is 40 ms from 0.26). No alignment: the errors are the plain distances."""
+    import math
+
+    from radarslam.metrics.alignment import error_at_fixes
+
+    times = np.array([0.0, 0.1, 0.2, 0.3])
+    pos = np.array([[0.0, 0.0], [5.0, 5.0], [3.0, 4.0], [9.0, 9.0]])
+    fix_t = np.array([0.01, 0.19, 0.26])
+    fix_xy = np.array([[1.0, 0.0], [0.0, 0.0], [9.0, 9.0]])
+    r = error_at_fixes(times, pos, fix_t, fix_xy, tolerance=0.025)
+    assert r["n_matched"] == 2 and r["index"].tolist() == [0, 2] and r["fix"].tolist() == [0, 1]
+    np.testing.assert_allclose(r["errors_m"], [1.0, 5.0])
+    assert r["rmse_m"] == pytest.approx(math.sqrt((1.0 + 25.0) / 2)) and r["max_m"] == 5.0
+    # a rigid shift of the estimate is NOT aligned away (the aligned evaluation would give 0)
+    r2 = error_at_fixes(times, pos + [10.0, 0.0], fix_t, fix_xy)
+    assert r2["rmse_m"] > 9.0
+    wide = error_at_fixes(times, pos, fix_t, fix_xy, tolerance=0.05)
+    assert wide["n_matched"] == 3 and wide["fix"].tolist() == [0, 1, 2]

@@ -94,3 +94,34 @@ def test_cli_run_dataset_bad_inputs(victoria_park_dir, tmp_path):
     r = run("--dataset", "victoria-park", str(tmp_path / "missing"))
     assert r.returncode != 0 and "directory not found" in r.stderr
     assert "Traceback" not in r.stderr
+
+
+def test_published_protocol_run_can_be_recomputed_from_its_tum_file(victoria_park_dir, tmp_path):
+    """--protocol published: the estimate starts at the first GPS fix in the GPS frame; the TUM file
+    (GPS frame, MAT time base in seconds) and the raw fixes give the reported RMSE with a few lines
+    of numpy, as anyone could recompute it; --first-scan is refused."""
+    import math
+
+    import scipy.io
+
+    from radarslam.cli.main import main
+    from radarslam.io.datasets import victoria_park as vp
+
+    out = tmp_path / "pub"
+    assert main(["run", "--dataset", "victoria-park", str(victoria_park_dir), "--scans", "300", "--protocol",
+                 "published", "--backend", "numba", "--no-plot", "--out", str(out)]) == 0
+    m = json.loads((out / "metrics.json").read_text())
+    tum = np.loadtxt(out / "trajectory_tum.txt")
+    assert tum[0, 1:3] == pytest.approx(vp.PUBLISHED_START[:2], abs=1e-6)
+    assert 2 * math.atan2(tum[0, 6], tum[0, 7]) == pytest.approx(vp.PUBLISHED_START[2], abs=1e-6)
+    g = scipy.io.loadmat(victoria_park_dir / vp.FILE_GPS)
+    gt = g["timeGps"].ravel() / 1000.0                           # the MAT time base, seconds
+    gxy = np.column_stack([g["Lo_m"].ravel(), g["La_m"].ravel()])
+    j = np.abs(tum[:, :1] - gt[None, :]).argmin(axis=1)
+    ok = np.abs(tum[:, 0] - gt[j]) <= 0.025 + 1e-6               # stamps on a ms grid: ties are within
+    rmse = math.sqrt(np.mean(np.sum((tum[ok, 1:3] - gxy[j[ok]]) ** 2, axis=1)))
+    assert ok.sum() == m["published_scans_matched"] > 30
+    assert rmse == pytest.approx(m["published_rmse_m"], rel=1e-6)
+    assert m["published_rmse_m"] < 3.0                           # 300 scans: measured 1.3-1.7 m
+    assert main(["run", "--dataset", "victoria-park", str(victoria_park_dir), "--first-scan", "5", "--protocol",
+                 "published", "--out", str(tmp_path / "no")]) == 1

@@ -193,6 +193,18 @@ def compare_tree_diameters(run: DatasetRun, *, min_detections: int = 3) -> dict:
     return out
 
 
+def evaluate_published(run: DatasetRun, poses: np.ndarray | None = None) -> dict:
+    """The published protocol (docs/method.md v.4): no alignment; the error at every scan within
+    25 ms of a GPS fix, over the unfiltered fixes. The run must have started at the first fix in the
+    GPS frame (``--protocol published``)."""
+    from radarslam.io.datasets.victoria_park import PUBLISHED_TOLERANCE_S
+    from radarslam.metrics.alignment import error_at_fixes
+
+    gps = run.data.gps
+    poses = run.poses if poses is None else np.asarray(poses)
+    return error_at_fixes(run.times, poses[:, :2], np.asarray(gps.t), np.asarray(gps.xy), PUBLISHED_TOLERANCE_S)
+
+
 def evaluate_against_gps(run: DatasetRun, poses: np.ndarray | None = None) -> dict:
     """GPS-aligned position error of the estimated sensor track (the antenna sits at the laser).
 

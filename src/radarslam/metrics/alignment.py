@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from radarslam.core.errors import InputError
+
 
 def rigid_align_2d(est: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Least-squares rotation ``R`` (2, 2) and translation ``t`` (2,) with ``R est + t ~ ref``.
@@ -101,3 +103,49 @@ def gps_speed_outliers(t: np.ndarray, xy: np.ndarray, max_speed: float = 8.0) ->
         else:
             last = i
     return bad
+
+
+#: Time stamps on a millisecond grid land exactly on the tolerance; rounding must not decide them.
+TIE_S = 1e-9
+
+
+def error_at_fixes(times: np.ndarray, positions: np.ndarray, fix_t: np.ndarray, fix_xy: np.ndarray,
+                   tolerance: float = 0.025) -> dict:
+    """Position error without any alignment, at every estimate whose time lies within ``tolerance``
+    seconds of a fix (the nearest fix; every fix kept, jumps included): the published Victoria Park
+    protocol (docs/method.md v.4).
+
+    Parameters
+    ----------
+    times : (K,) estimate times (s), ascending.
+    positions : (K, 2) estimated positions in the fixes' frame.
+    fix_t, fix_xy : (n,), (n, 2) fix times (ascending) and positions.
+    tolerance : float
+        Largest |t_estimate - t_fix| that counts (s).
+
+    Returns
+    -------
+    dict
+        ``rmse_m``, ``max_m``, ``median_m`` over the matched estimates, ``n_matched``, and per match
+        ``index`` (estimate), ``fix`` (fix index), ``errors_m``.
+    """
+    times = np.asarray(times, dtype=float)
+    positions = np.asarray(positions, dtype=float)
+    fix_t = np.asarray(fix_t, dtype=float)
+    fix_xy = np.asarray(fix_xy, dtype=float)
+    if times.ndim != 1 or positions.shape != (times.size, 2):
+        raise InputError(f"positions: expected shape ({times.size}, 2) matching times, got {positions.shape}")
+    if fix_t.ndim != 1 or fix_xy.shape != (fix_t.size, 2) or fix_t.size == 0:
+        raise InputError(f"fix_xy: expected shape (n >= 1, 2) matching fix_t, got {fix_xy.shape}")
+    if not tolerance >= 0:
+        raise InputError(f"tolerance: expected a value >= 0, got {tolerance!r}")
+    right = np.clip(np.searchsorted(fix_t, times), 0, fix_t.size - 1)
+    left = np.clip(right - 1, 0, fix_t.size - 1)
+    nearest = np.where(np.abs(fix_t[left] - times) <= np.abs(fix_t[right] - times), left, right)
+    ok = np.abs(fix_t[nearest] - times) <= tolerance + TIE_S   # a time exactly at the edge is within
+    idx = np.flatnonzero(ok)
+    err = np.hypot(*(positions[idx] - fix_xy[nearest[idx]]).T) if idx.size else np.empty(0)
+    nan = float("nan")
+    return {"rmse_m": float(np.sqrt(np.mean(err ** 2))) if err.size else nan,
+            "max_m": float(err.max()) if err.size else nan, "median_m": float(np.median(err)) if err.size else nan,
+            "n_matched": int(idx.size), "index": idx, "fix": nearest[idx], "errors_m": err}
