@@ -80,12 +80,19 @@ def plot_gwd_curves(path: str | Path, curves: dict, convention: str, *,
             ks = sorted(x for x in pts if x <= k[-1])
             ax.plot(ks, [pts[x] for x in ks], "o", mfc="none", color=_GWD_COLORS[est][0], ms=5,
                     label=f"{est.upper()}, paper Fig. 3")
+    return _finish(fig, ax, path, "RMSE of the average GWD (m)", f"RMSE of the average GWD, ground truth '{convention}'", k[-1], 8)
+
+
+def _finish(fig, ax, path, ylabel: str, title: str, k_max: int, fontsize: int) -> list[tuple[str, object, str]]:
+    """Label a per-scan plot, put its legend outside the axes (never over the curves), save it and
+    return the legend entries."""
+    plt = _pyplot()
     ax.set_xlabel("scan k")
-    ax.set_ylabel("RMSE of the average GWD (m)")
-    ax.set_title(f"RMSE of the average GWD, ground truth '{convention}'")
-    ax.set_xlim(1, k[-1])
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.set_xlim(1, k_max)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # outside: never over the curves
+    ax.legend(fontsize=fontsize, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     entries = _entries(ax)
     fig.tight_layout()
     fig.savefig(path, dpi=120, bbox_inches="tight")  # keep the outside legend
@@ -125,17 +132,7 @@ def plot_nees(path: str | Path, summary: dict) -> list[tuple[str, object, str]]:
     ax.axhline(summary["dof"], color="tab:green", lw=0.8)
     if ymax / max(ymin, 1e-12) > 10:  # log scale only when the values span a decade
         ax.set_yscale("log")
-    ax.set_xlabel("scan k")
-    ax.set_ylabel("average pose NEES (3 dof)")
-    ax.set_title("pose NEES averaged over trials")
-    ax.set_xlim(1, K)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # outside: never over the curves
-    entries = _entries(ax)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120, bbox_inches="tight")  # keep the outside legend
-    plt.close(fig)
-    return entries
+    return _finish(fig, ax, path, "average pose NEES (3 dof)", "pose NEES averaged over trials", K, 8)
 
 
 def plot_fig2(path: str | Path, trial, label: str = "With extent") -> None:
@@ -177,14 +174,4 @@ def plot_nis(path: str | Path, summary: dict) -> list[tuple[str, object, str]]:
         ax.fill_between(k, c["band_low"], c["band_high"], color=col, alpha=0.12,
                         label=f"{100 * summary['prob']:.0f}% band, {c['label']}")
     ax.axhline(summary["dof"], color="k", lw=0.8, label="consistent mean (2)")
-    ax.set_xlabel("scan k")
-    ax.set_ylabel("mean NIS of the updates (2 dof)")
-    ax.set_title("normalised innovation squared, pooled over trials")
-    ax.set_xlim(1, K)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # outside: never over the curves
-    entries = _entries(ax)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120, bbox_inches="tight")  # keep the outside legend
-    plt.close(fig)
-    return entries
+    return _finish(fig, ax, path, "mean NIS of the updates (2 dof)", "normalised innovation squared, pooled over trials", K, 7)
