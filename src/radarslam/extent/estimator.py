@@ -32,6 +32,9 @@ class ExtentEstimator(Protocol):
 
     #: True: the update uses the landmark's posterior centroid of this scan; False: the prior (h.4).
     posterior_centroid: bool
+    #: False: :meth:`step` does nothing this run (``extent.track = false``), so the orchestrator
+    #: skips the per-landmark loop. Optional; an estimator without it is always stepped.
+    active: bool
 
     def new(self) -> Any:
         """The extent state of a newborn landmark."""
@@ -100,6 +103,7 @@ class RmaEfaEstimator:
         self.R_extent = R_extent
         self.posterior_centroid = bool(extent_config.use_posterior_landmark)
         self.in_slam = bool(extent_config.use_in_slam)
+        self.active = bool(extent_config.track)
         self.gate = chi2_2dof_quantile(extent_config.gate_probability)
         #: gamma_z X0 of the circular prior extent X0 = r^2 I ([PROP], docs/method.md a.7.3).
         self.prior_spread = extent_config.gamma_z * extent_config.prior_extent_radius_m ** 2 * np.eye(2)

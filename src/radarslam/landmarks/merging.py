@@ -11,17 +11,25 @@ def merge_candidates(positions: np.ndarray, distance: float, axis_tol: float = m
     """Pairs ``(i, j, d)`` with ``i < j``, ``d < distance`` and ``|dx| <= axis_tol or |dy| <= axis_tol``,
     sorted by increasing ``d``."""
     n = positions.shape[0]
-    if n < 2:
+    if n < 2 or not distance > 0:
         return []
-    diff = positions[:, None, :] - positions[None, :, :]
-    d = np.hypot(diff[..., 0], diff[..., 1])
-    ii, jj = np.triu_indices(n, 1)
-    dd = d[ii, jj]
+    # Only pairs within ``distance`` (a kd-tree; O(n log n) instead of all n (n - 1) / 2 pairs),
+    # in the row-major order of the upper triangle so that equal distances keep that order.
+    from scipy.spatial import cKDTree
+
+    pairs = cKDTree(positions).query_pairs(distance, output_type="ndarray")
+    if not pairs.size:
+        return []
+    pairs = pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
+    ii, jj = pairs[:, 0], pairs[:, 1]
+    diff = positions[ii] - positions[jj]
+    dd = np.hypot(diff[:, 0], diff[:, 1])
     ok = dd < distance
     if math.isfinite(axis_tol):
-        ok &= (np.abs(diff[ii, jj, 0]) <= axis_tol) | (np.abs(diff[ii, jj, 1]) <= axis_tol)
-    order = np.argsort(dd[ok], kind="stable")
-    return [(int(ii[ok][o]), int(jj[ok][o]), float(dd[ok][o])) for o in order]
+        ok &= (np.abs(diff[:, 0]) <= axis_tol) | (np.abs(diff[:, 1]) <= axis_tol)
+    ii, jj, dd = ii[ok], jj[ok], dd[ok]
+    order = np.argsort(dd, kind="stable")
+    return [(int(ii[o]), int(jj[o]), float(dd[o])) for o in order]
 
 
 def next_merge(positions: np.ndarray, created: np.ndarray, ids: np.ndarray, distance: float,

@@ -33,14 +33,31 @@ def _fmod(a, b):  # pragma: no cover - compiled
     return impl
 
 
-def compile_kernels(*funcs):
+def joseph_apply_loops(P, K, PHt, KL):  # pragma: no cover - compiled
+    """:func:`radarslam.slam.ekf.joseph_apply` as one pass over P with no temporaries (the numpy
+    form makes four n x n passes and two n x n allocations). ``T_ij + T_ji`` and the ``KL`` term
+    are commutative in i and j, so P stays exactly symmetric. Agrees with the numpy form to
+    rounding (tests/test_backends.py)."""
+    n = P.shape[0]
+    for i in range(n):
+        k0, k1 = K[i, 0], K[i, 1]
+        p0, p1 = PHt[i, 0], PHt[i, 1]
+        l0, l1 = KL[i, 0], KL[i, 1]
+        for j in range(n):
+            t = (k0 * PHt[j, 0] + k1 * PHt[j, 1]) + (K[j, 0] * p0 + K[j, 1] * p1)
+            P[i, j] = P[i, j] - t + (l0 * KL[j, 0] + l1 * KL[j, 1])
+
+
+def compile_kernels(*funcs, replace=None):
     """Compile the plain-Python kernels ``funcs`` with numba, each calling the others' compiled form.
 
     Each function is rebuilt from its own code object over a copy of its module's globals in which
     every kernel name refers to the compiled kernel, so a kernel that calls another (``update``
-    calls ``wrap_2pi_scalar``) runs compiled throughout. Returns ``{name: dispatcher}``.
+    calls ``wrap_2pi_scalar``) runs compiled throughout. ``replace`` maps a kernel name to a
+    loop form written for numba that the compiled kernels call instead (only the n x n pass of the
+    Joseph update has one). Returns ``{name: dispatcher}``.
     """
-    compiled, spaces = {}, []
+    compiled, spaces = {name: njit(cache=True)(f) for name, f in (replace or {}).items()}, []
     for f in funcs:
         g = dict(f.__globals__)
         spaces.append(g)
@@ -54,14 +71,15 @@ def compile_kernels(*funcs):
 
 _K = compile_kernels(angles.wrap_pi_scalar, angles.wrap_2pi_scalar, layout.landmark_index,
                      ekf.innovation_cov_terms, ekf.gaussian_log_distance, ekf.sparse_jacobian, ekf.r_eff,
-                     ekf.joseph_update, ekf.sensor_xy_measurement, ekf.polar_to_sensor_xy, ekf.rotate_to_sensor)
+                     ekf.joseph_update_inplace, ekf.sensor_xy_measurement, ekf.polar_to_sensor_xy,
+                     ekf.rotate_to_sensor, replace={"joseph_apply": joseph_apply_loops})
 _wrap_pi = _K["wrap_pi_scalar"]
 _landmark_index = _K["landmark_index"]
 _innovation_cov_terms = _K["innovation_cov_terms"]
 _gaussian_log_distance = _K["gaussian_log_distance"]
 _sparse_jacobian = _K["sparse_jacobian"]
 _r_eff = _K["r_eff"]
-_joseph_update = _K["joseph_update"]
+_joseph_update_inplace = _K["joseph_update_inplace"]
 _sensor_xy_measurement = _K["sensor_xy_measurement"]
 _polar_to_sensor_xy = _K["polar_to_sensor_xy"]
 _rotate_to_sensor = _K["rotate_to_sensor"]
@@ -122,10 +140,10 @@ def min_log_distance(x, P, z0, z1, n_nearest, R):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta):  # pragma: no cover - compiled
-    """Sequential association + EKF updates of the detections ``polar[cand]``.
+    """Sequential association + EKF updates of the detections ``polar[cand]``, in place on ``x``, ``P``.
 
-    Returns ``(x, P, out, nis)``: the updated state, the landmark associated to each candidate (-1
-    where none) and the NIS of each update.
+    Returns ``(x, P, out, nis)``: the updated state (the same arrays), the landmark associated to
+    each candidate (-1 where none) and the NIS of each update.
     """
     N = (x.shape[0] - 3) // 2
     out = np.full(cand.shape[0], -1)
@@ -143,7 +161,7 @@ def associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta):  # pragma
         out[c] = best_j
         Hs, idx = _sparse_jacobian(x, best_j)
         Rj = _r_eff(R, Hs, gX[best_j]) if has_gX[best_j] else R
-        x, P, q = _joseph_update(x, P, np.array([be0, be1]), Hs, idx, Rj)
+        q = _joseph_update_inplace(x, P, np.array([be0, be1]), Hs, idx, Rj)
         nis[n_up] = q
         n_up += 1
     return x, P, out, nis[:n_up]
@@ -179,7 +197,7 @@ def batch_associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta):  # 
         if has_gX[j]:
             noise += _rotate_to_sensor(x[2], np.ascontiguousarray(gX[j]))
         h, Hs, idx = _sensor_xy_measurement(x, j)
-        x, P, q = _joseph_update(x, P, zbar - h, Hs, idx, noise / m)
+        q = _joseph_update_inplace(x, P, zbar - h, Hs, idx, noise / m)
         nis[n_up] = q
         n_up += 1
     return x, P, out, nis[:n_up]

@@ -45,7 +45,7 @@ class Associator(Protocol):
 
     def associate(self, state: SlamState, polar: np.ndarray, candidates: np.ndarray, R: np.ndarray,
                   spreads: Spreads) -> tuple[np.ndarray, np.ndarray]:
-        """Associate ``polar[candidates]`` and update ``state`` (through ``state.set``).
+        """Associate ``polar[candidates]`` and update ``state`` (in place, or through ``state.set``).
 
         Returns the landmark position ``j`` of each candidate, ``-1`` where none (shape
         ``candidates.shape``), and the normalised innovation squared of every update applied
@@ -114,8 +114,7 @@ class NearestNeighbourAssociator:
         for c, i in enumerate(candidates.tolist()):
             j, D, e, Hs, idx, Rj = self.best_match(state, polar[i], self.n_nearest, R, spreads)
             if j >= 0 and D < self.beta:
-                x, P, q = ekf.joseph_update(state.x, state.P, e, Hs, idx, Rj)
-                state.set(x, P)
+                q = ekf.joseph_update_inplace(state.x, state.P, e, Hs, idx, Rj)
                 nis.append(q)
                 out[c] = j
         return out, np.array(nis)
@@ -153,9 +152,8 @@ class BatchAssociator(NearestNeighbourAssociator):
             pts, R_xy = ekf.polar_to_sensor_xy(polar[dets], R)
             spread = ekf.rotate_to_sensor(state.x[2], spreads.gX[j]) if spreads.has[j] else 0.0
             h, Hs, idx = ekf.sensor_xy_measurement(state.x, j)
-            x, P, q = ekf.joseph_update(state.x, state.P, pts.mean(axis=0) - h, Hs, idx,
-                                        (spread + R_xy) / dets.size)
-            state.set(x, P)
+            q = ekf.joseph_update_inplace(state.x, state.P, pts.mean(axis=0) - h, Hs, idx,
+                                          (spread + R_xy) / dets.size)
             nis.append(q)
         return out, np.array(nis)
 

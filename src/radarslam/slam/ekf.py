@@ -31,17 +31,33 @@ def predict(x: np.ndarray, P: np.ndarray, u: np.ndarray, dt: float, model: Motio
     """EKF prediction with the odometer reading ``u`` (APSIPA App. A; docs/method.md c.2).
 
     Landmarks are static, so only the pose block and the pose rows/columns change:
-    ``P_pp <- Fx P_pp Fx^T + Fu U Fu^T + Q`` and ``P_pl <- Fx P_pl``. Cost O(N).
+    ``P_pp <- Fx P_pp Fx^T + Fu U Fu^T + Q`` and ``P_pl <- Fx P_pl``. Returns new arrays; the
+    filter applies :func:`predict_terms` in place instead, which costs O(N) rather than a copy of P.
     """
-    Fx, Fu = model.jacobians(x[:3], u, dt)
-    x_new = x.copy()
-    x_new[:3] = model.step(x[:3], u, dt)
-    P_new = P.copy()
-    P_new[:3, :3] = Fx @ P[:3, :3] @ Fx.T + Fu @ U @ Fu.T + Q
-    if P.shape[0] > 3:
-        P_new[:3, 3:] = Fx @ P[:3, 3:]
-        P_new[3:, :3] = P_new[:3, 3:].T
+    pose, Ppp, Ppl = predict_terms(x, P, u, dt, model, U, Q)
+    x_new, P_new = x.copy(), P.copy()
+    apply_prediction(x_new, P_new, pose, Ppp, Ppl)
     return x_new, P_new
+
+
+def predict_terms(x: np.ndarray, P: np.ndarray, u: np.ndarray, dt: float, model: MotionModel,
+                  U: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """What the prediction changes: the new pose ``(3,)``, pose block ``(3, 3)`` and pose-landmark
+    block ``(3, n - 3)`` (c.2), computed without touching ``x`` or ``P``."""
+    Fx, Fu = model.jacobians(x[:3], u, dt)
+    pose = model.step(x[:3], u, dt)
+    Ppp = Fx @ P[:3, :3] @ Fx.T + Fu @ U @ Fu.T + Q
+    Ppl = Fx @ P[:3, 3:]
+    return pose, Ppp, Ppl
+
+
+def apply_prediction(x: np.ndarray, P: np.ndarray, pose: np.ndarray, Ppp: np.ndarray, Ppl: np.ndarray) -> None:
+    """Write the terms of :func:`predict_terms` into ``x`` and ``P`` (in place)."""
+    x[:3] = pose
+    P[:3, :3] = Ppp
+    if P.shape[0] > 3:
+        P[:3, 3:] = Ppl
+        P[3:, :3] = Ppl.T
 
 
 def landmark_measurement(x: np.ndarray, j: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -88,32 +104,45 @@ def update(x: np.ndarray, P: np.ndarray, e: np.ndarray, Hs: np.ndarray, idx: np.
 
 def joseph_update(x: np.ndarray, P: np.ndarray, e: np.ndarray, Hs: np.ndarray, idx: np.ndarray,
                   R: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-    """EKF update with a sparse measurement Jacobian, Joseph form, and the update's NIS.
+    """:func:`joseph_update_inplace` on copies: ``(x_new, P_new, nis)``, the inputs untouched."""
+    x_new, P_new = x.copy(), P.copy()
+    nis = joseph_update_inplace(x_new, P_new, e, Hs, idx, R)
+    return x_new, P_new, nis
+
+
+def joseph_update_inplace(x: np.ndarray, P: np.ndarray, e: np.ndarray, Hs: np.ndarray, idx: np.ndarray,
+                          R: np.ndarray) -> float:
+    """EKF update with a sparse measurement Jacobian, Joseph form, in place; returns the update's NIS.
 
     ``K = P H^T S^-1``, ``x <- x + K e`` and the Joseph form
     ``P <- (I - K H) P (I - K H)^T + K R K^T``, which for any gain K expands to
     ``P - T - T^T + K S K^T`` with ``T = K (P H^T)^T`` and ``S = H P H^T + R``. With H non-zero
-    on the 5 columns ``idx`` that costs two n x n outer products, no more than ``P - K S K^T``,
-    and is symmetric by construction. The normalised innovation squared ``e^T S^-1 e`` (chi-square
-    with 2 degrees of freedom for a consistent filter) comes with it. A kernel (numba compiles it).
+    on the 5 columns ``idx`` everything but the final n x n pass (:func:`joseph_apply`) is O(n).
+    The normalised innovation squared ``e^T S^-1 e`` (chi-square with 2 degrees of freedom for a
+    consistent filter) comes with it. A kernel (numba compiles it).
     """
     PHt = P[:, idx] @ Hs.T                                  # (n, 2)
     S = Hs @ PHt[idx] + R                                   # H P H^T + R
     a, b, d = S[0, 0], 0.5 * (S[0, 1] + S[1, 0]), S[1, 1]
     det = a * d - b * b
     K = PHt @ np.array([[d, -b], [-b, a]]) / det           # P H^T S^-1
-    x_new = x + K @ e
-    x_new[2] = wrap_2pi_scalar(x_new[2])
-    # Joseph form P - (T + T^T) + K S K^T, with K S K^T = (K L)(K L)^T for S = L L^T (2 x 2
-    # Cholesky): every term is symmetric bit for bit, so P stays exactly symmetric.
+    x += K @ e
+    x[2] = wrap_2pi_scalar(x[2])
+    # K S K^T = (K L)(K L)^T for S = L L^T (2 x 2 Cholesky): every term is symmetric bit for bit.
     l00 = math.sqrt(a)
     l10 = b / l00
     KL = K @ np.array([[l00, 0.0], [l10, math.sqrt(d - l10 * l10)]])
+    joseph_apply(P, K, PHt, KL)
+    return (d * e[0] * e[0] - 2.0 * b * e[0] * e[1] + a * e[1] * e[1]) / det
+
+
+def joseph_apply(P: np.ndarray, K: np.ndarray, PHt: np.ndarray, KL: np.ndarray) -> None:
+    """The n x n part of the Joseph update, in place: ``P <- P - (T + T^T) + KL KL^T``,
+    ``T = K PHt^T`` (:func:`joseph_update_inplace`). The compiled backend replaces it by one fused
+    loop over P (:func:`radarslam.slam._numba.joseph_apply_loops`); both are exactly symmetric."""
     T = K @ PHt.T
-    P_new = P - (T + T.T)
-    P_new += KL @ KL.T
-    nis = (d * e[0] * e[0] - 2.0 * b * e[0] * e[1] + a * e[1] * e[1]) / det
-    return x_new, P_new, nis
+    P -= T + T.T
+    P += KL @ KL.T
 
 
 def score_landmarks(x: np.ndarray, P: np.ndarray, z: np.ndarray, js: list[int], R: np.ndarray,

@@ -170,10 +170,13 @@ class EkfSlam:
         dt = _number(odo.dt, "odometry.dt")
         if not dt > 0:
             raise InputError(f"odometry.dt: expected a finite value > 0, got {odo.dt!r}")
+        st = self.state
         with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
-            x, P = ekf.predict(self.state.x, self.state.P, u, dt, self.model, self.U, self.Q)
-        _check_finite(x, P, f"odometry at t={odo.t!r} (control {u.tolist()}, dt {dt!r})")
-        self.state.set(x, P)
+            pose, Ppp, Ppl = ekf.predict_terms(st.x, st.P, u, dt, self.model, self.U, self.Q)
+        # only the pose rows change (c.2): check them, then write them in place (O(N), no copy of P)
+        _check_finite(pose, np.concatenate([Ppp.ravel(), Ppl.ravel()]),
+                      f"odometry at t={odo.t!r} (control {u.tolist()}, dt {dt!r})")
+        ekf.apply_prediction(st.x, st.P, pose, Ppp, Ppl)
         self._dt_since_scan += dt
 
     def update(self, scan: Scan) -> ScanReport:
@@ -194,7 +197,7 @@ class EkfSlam:
         self._last_scan_t = t
         k = scan.index
         dt = self._take_scan_interval()
-        prior = (self.state.x, self.state.P, self.state.rows_by_id())    # Decision 3
+        prior = self._prior()                                             # Decision 3
         cand = self._sift(polar)                                          # 3
         assoc, nis = self._associate_and_update(polar, cand)              # 4
         associations = {r.id: np.array(a, dtype=int) for r, a in zip(self.state.landmarks, assoc) if a}
@@ -217,6 +220,19 @@ class EkfSlam:
         self._dt_since_scan = 0.0
         self._scans += 1
         return dt
+
+    def _prior(self):
+        """What the extent step needs of the state before the scan's updates (Decision 3), copied
+        because the updates work in place: ``(x, the landmarks' 2 x 2 covariance blocks, rows by id)``."""
+        st = self.state
+        n = st.n_landmarks
+        P = st.P
+        blocks = np.empty((n, 2, 2))
+        if n:
+            d = np.arange(3, 3 + 2 * n, 2)
+            blocks[:, 0, 0], blocks[:, 0, 1] = P[d, d], P[d, d + 1]
+            blocks[:, 1, 0], blocks[:, 1, 1] = P[d + 1, d], P[d + 1, d + 1]
+        return st.x.copy(), blocks, st.rows_by_id()
 
     def _sift(self, polar: np.ndarray) -> np.ndarray:
         """Step 3: candidates for association, with the predicted pose (c.3; a.7.1)."""
@@ -259,14 +275,17 @@ class EkfSlam:
                      k: int) -> None:
         """Step 6: each landmark's extent with this scan's associated detections (a.3-a.5)."""
         st, ext = self.state, self.extent
-        x_prior, P_prior, rows_prior = prior
+        if not getattr(ext, "active", True):
+            return
+        x_prior, blocks_prior, rows_prior = prior
         pose, pose_cov = st.pose, st.pose_cov
         for j, r in enumerate(st.landmarks):
             if ext.posterior_centroid:
                 c, C = st.position(j), st.position_cov(j)
             else:
-                i = st.index(rows_prior[r.id])
-                c, C = x_prior[i:i + 2], P_prior[i:i + 2, i:i + 2]
+                row = rows_prior[r.id]
+                i = st.index(row)
+                c, C = x_prior[i:i + 2], blocks_prior[row]
             ext.step(r.extent, polar[assoc[j]], xy[assoc[j]], c, C, pose, pose_cov, dt, k)
 
     def _cluster(self, polar: np.ndarray, xy: np.ndarray, cand: np.ndarray) -> list[Cluster]:
