@@ -172,7 +172,8 @@ class LandmarkConfig:
     """Landmark management (docs/method.md c.1; APSIPA Table I unless marked)."""
 
     associator: str = param("nearest-neighbour", "data association (a registered name; c.4): nearest-neighbour "
-                            "(sequential, the paper) or batch (one update per landmark per scan)", registry=ASSOCIATORS)
+                            "(sequential, the paper), batch (one update per landmark per scan) or jcbb (joint compatibility "
+                            "per cluster with batch updates; c.4.1)", registry=ASSOCIATORS)
     init: str = param("nearest", "[PROP] new landmark from its cluster: nearest (the detection of smallest range "
                       "with R, the paper) or cluster (the cluster mean, with the mean's noise and the extent "
                       "estimator's prior spread)", choices=("nearest", "cluster"))
@@ -193,6 +194,10 @@ class LandmarkConfig:
     merge_axis_tol_m: float = param(math.inf, "also require |dx| or |dy| <= this (m); inf = no axis test", low=0.0,
                                     allow_inf=True)
     merge_max_per_scan: int = param(0, "at most this many merges per scan; 0 = unlimited", low=0)
+    jcbb_gate_probability: float = param(0.99, "[PROP] jcbb: chi-square gate probability of individual and joint "
+                                         "compatibility (c.4.1)", low=0.0, low_open=True, high=0.999999)
+    jcbb_max_nodes: int = param(2000, "[PROP] jcbb: hypothesis nodes the branch and bound may visit per scan; "
+                                "the best found so far is used when they run out (c.4.1)", low=1)
 
 
 @dataclass

@@ -140,6 +140,8 @@ ASSOCIATORS.register_lazy("nearest-neighbour", "radarslam.slam.association")
 ASSOCIATORS.register_lazy("nearest-neighbour", "radarslam.slam._numba", backend="numba")
 ASSOCIATORS.register_lazy("batch", "radarslam.slam.association")
 ASSOCIATORS.register_lazy("batch", "radarslam.slam._numba", backend="numba")
+ASSOCIATORS.register_lazy("jcbb", "radarslam.slam.jcbb")
+ASSOCIATORS.register_lazy("jcbb", "radarslam.slam.jcbb", backend="numba")
 EXTENT_ESTIMATORS.register_lazy("rma-efa", "radarslam.extent.estimator")
 
 #: Every backend some built-in implements (``filter.backend``).
