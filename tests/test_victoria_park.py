@@ -446,3 +446,33 @@ def test_odometry_that_does_not_cover_the_scans_is_refused(copy_dir, cut):
     keep = t < t[-1] - 100_000 if cut == "end" else t > t[0] + 100_000      # ms
     _savemat(dr, **{k: v.ravel()[keep] if v.size == t.size else v for k, v in m.items()})
     _raises(copy_dir, vp.FILE_DR, r"expected odometry over the whole laser span")
+
+
+# ------------------------------------------------------------------ the tree-detection input mode
+def test_tree_input_mode_scans_are_acfr_detections(data_dir, full):
+    """--input trees: one scan per row of lidar_measurements.mat, its detections the tree centres
+    in range, on the same times and bearing convention as the tree table of the laser mode."""
+    t = vp.load_victoria_park(data_dir, input="trees", max_range=80.0)
+    scans = t.scans
+    have_h5 = t.options["times"] == vp.FILE_TLSR
+    assert len(scans) == (7248 if have_h5 else N_SCANS)
+    assert t.ranges_cm.shape == (len(scans), 0) and t.trees is not None
+    assert sum(s.polar.shape[0] for s in scans) == (52_946 if have_h5 else int(full.trees.valid[:N_SCANS].sum()))
+    for i in (0, 1234, len(scans) - 1):
+        assert scans[i].index == i and scans[i].t == pytest.approx(full.trees.t[i])
+        np.testing.assert_array_equal(scans[i].polar, full.trees.row(i)[:, :2])
+    # the odometry covers the tree times and precedes each scan, as in the laser mode
+    assert all(isinstance(e, (Odometry, Scan)) for e in t.events)
+    times = [e.t for e in t.events]
+    assert times == sorted(times)
+
+
+def test_tree_input_mode_range_window_and_bad_input(data_dir, full):
+    w = vp.load_victoria_park(data_dir, input="trees", first_scan=100, n_scans=50, max_range=20.0)
+    assert [s.index for s in w.scans] == list(range(100, 150))
+    for s in w.scans:
+        ref = full.trees.row(s.index)
+        ref = ref[(ref[:, 0] >= 1.0) & (ref[:, 0] < 20.0)]
+        np.testing.assert_array_equal(s.polar, ref[:, :2])
+    with pytest.raises(InputError, match=r"^input: expected one of \['laser', 'trees'\], got 'radar'$"):
+        vp.load_victoria_park(data_dir, input="radar")

@@ -34,6 +34,9 @@ def add_parser(sub) -> None:
                    help="--dataset victoria-park: 'aligned' (map frame of the first scan, GPS-aligned RMSE) or "
                         "'published' (start at the first GPS fix in the GPS frame, no alignment, error within "
                         "25 ms of each fix; the TUM file in that frame on the MAT time base)")
+    p.add_argument("--input", choices=("laser", "trees"), default="laser",
+                   help="--dataset victoria-park: the raw laser returns ('laser', default profile victoria-park) or "
+                        "ACFR's tree detections ('trees', default profile victoria-park-trees)")
     p.add_argument("--first-scan", type=int, default=None, help="--dataset: first scan (0-based)")
     p.add_argument("--scans", type=int, default=None, help="--dataset: number of scans")
     p.add_argument("--no-plot", action="store_true", help="skip the figure even if matplotlib is installed")
@@ -150,14 +153,16 @@ def write_outputs(out, res, wall: float, argv=None) -> None:
 def run_dataset_cmd(args: argparse.Namespace) -> int:
     """``radarslam run --dataset NAME PATH``: the whole recording, evaluated against its GPS."""
     from radarslam.experiments.dataset import (compare_tree_diameters, dead_reckoning, evaluate_against_gps,
-                                               evaluate_published, run_dataset)
+                                               evaluate_published, nis_fraction, run_dataset)
     from radarslam.io.datasets import list_datasets
 
     name, path = args.dataset
     if name not in list_datasets():
         raise InputError(f"--dataset: expected one of {list_datasets()}, got {name!r}")
+    if args.input != "laser" and name != "victoria-park":
+        raise InputError(f"--input: 'trees' is defined for --dataset victoria-park, got --dataset {name}")
     if args.profile is None and not args.config:
-        args.profile = name if name in ("victoria-park",) else "apsipa"
+        args.profile = ("victoria-park-trees" if args.input == "trees" else name) if name == "victoria-park" else "apsipa"
     config = config_from_args(args)
     if args.extent is not None:
         config = dataclasses.replace(config, extent=dataclasses.replace(config.extent, use_in_slam=args.extent))
@@ -172,12 +177,14 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
     out = prepare_out_dir(args.out)
     refuse_finished(out / "run.json", "--out", args.overwrite)
     t0 = time.perf_counter()
-    res = run_dataset(name, path, config, first_scan=args.first_scan, n_scans=args.scans)
+    loader = {"input": args.input, "max_range": config.filter.max_range_m} if name == "victoria-park" else None
+    res = run_dataset(name, path, config, first_scan=args.first_scan, n_scans=args.scans, loader_options=loader)
     ev = evaluate_against_gps(res)
     pub = evaluate_published(res) if published else None
     dr_poses = dead_reckoning(res.data, res.config)[1]
     dr_ev = evaluate_against_gps(res, dr_poses)
-    diam = compare_tree_diameters(res) if res.reference_hits is not None else None
+    diam = compare_tree_diameters(res) if res.reference_hits is not None and args.input == "laser" else None
+    nis = nis_fraction(res)
     wall = time.perf_counter() - t0
     mp = res.final_map
     write_trajectory_csv(out / "trajectory.csv", res.times, res.poses)
@@ -192,7 +199,7 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
         {"id": int(i), "position": p, "cov": c, "created_scan": int(cr),
          "rma_extent": x if np.all(np.isfinite(x)) else None, "efa_extent": e if np.all(np.isfinite(e)) else None}
         for i, p, c, cr, x, e in zip(mp.ids, mp.positions, mp.covs, mp.created, mp.rma, mp.efa)]})
-    metrics = {"dataset": name, "scans": int(res.times.size), "landmarks_final": int(mp.ids.size),
+    metrics = {"dataset": name, "input": args.input, "scans": int(res.times.size), "landmarks_final": int(mp.ids.size),
                "gps_aligned_rmse_m": ev["rmse_m"], "gps_aligned_max_m": ev["max_m"],
                "gps_aligned_median_m": ev.get("median_m"), "gps_rmse_all_fixes_m": ev.get("rmse_all_m"),
                "gps_fixes": ev["n_fixes"], "gps_jumps_removed": ev.get("n_gps_jumps_removed"),
@@ -204,10 +211,12 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
                "published_rmse_m": None if pub is None else pub["rmse_m"],
                "published_max_m": None if pub is None else pub["max_m"],
                "published_scans_matched": None if pub is None else pub["n_matched"],
-               "filter_seconds": res.seconds, "load_seconds": res.load_seconds, "wall_seconds": wall}
+               "nis": {k: nis[k] for k in ("n", "mean", "median", "inside", "below", "above", "band", "probability")},
+               "filter_seconds": res.seconds, "filter_ms_per_scan": 1e3 * res.seconds / max(res.times.size, 1),
+               "load_seconds": res.load_seconds, "wall_seconds": wall}
     write_json(out / "metrics.json", metrics)
     atomic_write_text(out / "config.toml", to_toml(res.config))
-    write_json(out / "run.json", {"dataset": name, "path": str(path), "first_scan": args.first_scan,
+    write_json(out / "run.json", {"dataset": name, "input": args.input, "path": str(path), "first_scan": args.first_scan,
                                   "scans": args.scans, "version": __version__, "argv": sys.argv,
                                   "config": to_dict(res.config)})
     from radarslam.viz import have_matplotlib
@@ -215,8 +224,16 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
     if have_matplotlib() and not args.no_plot:
         from radarslam.viz.dataset import plot_dataset_map
 
+        from radarslam.viz.dataset import plot_dataset_errors
+
         plot_dataset_map(out / "map.png", res.poses, mp.positions, mp.rma, ev, name=res.name,
                          dead_reckoning=(dr_poses, dr_ev), diameters=diam)
+        if pub is not None:
+            err_t, err = res.times[pub["index"]], pub["errors_m"]
+        else:
+            err_t, err = ev["fix_t"], ev["errors_m"]
+        plot_dataset_errors(out / "errors.png", err_t, err, nis, protocol=args.protocol,
+                            name=f"{res.name} ({args.input})", scan_times=res.times)
     print(f"radarslam run --dataset {name}: {metrics['scans']} scans, {metrics['landmarks_final']} landmarks, "
           f"GPS-aligned RMSE {ev['rmse_m']:.2f} m (max {ev['max_m']:.2f} m over {ev['n_fixes']} fixes; "
           f"{ev.get('n_gps_jumps_removed', 0)} GPS jumps left out; odometry alone {dr_ev['rmse_m']:.2f} m), "
@@ -224,6 +241,9 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
     if pub is not None:
         print(f"published protocol (start at the first GPS fix, no alignment): RMSE {pub['rmse_m']:.2f} m, "
               f"max {pub['max_m']:.2f} m over {pub['n_matched']} scans within 25 ms of a fix")
+    print(f"NIS of {nis['n']} association updates: {100 * nis['inside']:.1f}% inside the 95% chi-square band "
+          f"[{nis['band'][0]:.2f}, {nis['band'][1]:.2f}], mean {nis['mean']:.2f} (2 expected); "
+          f"{metrics['filter_ms_per_scan']:.2f} ms per scan")
     if diam is not None and diam["n_matched"]:
         print(f"trunk diameters: {diam['n_matched']} matched trees, median |RMA - reference| "
               f"{diam['median_abs_diff_m']:.3f} m (median ratio {diam['median_ratio']:.2f}, "

@@ -39,6 +39,7 @@ class DatasetRun:
     seconds: float
     load_seconds: float
     reference_hits: np.ndarray | None = None  # (n, 3): landmark id, reference diameter (m), distance (m)
+    nis: np.ndarray | None = None  # (u, 2): scan position, NIS of each association update (2 dof)
 
 
 def run_dataset(name: str, path, config: Config, *, first_scan: int | None = None, n_scans: int | None = None,
@@ -58,6 +59,7 @@ def run_dataset(name: str, path, config: Config, *, first_scan: int | None = Non
     trees = getattr(data, "trees", None)
     tree_rows = {int(i): r for r, i in enumerate(trees.index)} if trees is not None else {}
     hits: list[np.ndarray] = []
+    nis: list[np.ndarray] = []
     t0 = time.perf_counter()
     for ev in data.events:
         if isinstance(ev, Odometry):
@@ -69,6 +71,8 @@ def run_dataset(name: str, path, config: Config, *, first_scan: int | None = Non
         covs.append(slam.P[:3, :3].copy())
         nlm.append(len(slam.landmarks))
         nas.append(rep.n_associated)
+        if rep.nis.size:
+            nis.append(np.column_stack([np.full(rep.nis.size, len(times) - 1.0), rep.nis]))
         row = tree_rows.get(int(ev.index))
         if row is not None and slam.landmarks:
             h = _attribute_reference(slam, trees.row(row), config.filter.max_range_m)
@@ -78,7 +82,7 @@ def run_dataset(name: str, path, config: Config, *, first_scan: int | None = Non
     ref = (np.concatenate(hits) if hits else np.empty((0, 3))) if trees is not None else None
     return DatasetRun(name, config, data, np.array(times), np.array(poses).reshape(-1, 3),
                       np.array(covs).reshape(-1, 3, 3), np.array(nlm), np.array(nas), slam.snapshot(),
-                      time.perf_counter() - t0, load_s, ref)
+                      time.perf_counter() - t0, load_s, ref, np.concatenate(nis) if nis else np.empty((0, 2)))
 
 
 def dead_reckoning(data, config: Config) -> tuple[np.ndarray, np.ndarray]:
@@ -216,3 +220,38 @@ def evaluate_against_gps(run: DatasetRun, poses: np.ndarray | None = None) -> di
     poses = run.poses if poses is None else np.asarray(poses)
     return error_against_fixes(run.times, poses[:, :2], np.asarray(gps.t), np.asarray(gps.xy),
                                robust=False, max_speed=8.0)
+
+
+#: Two-sided probability of the NIS band on real data (docs/method.md v.6).
+NIS_BAND_PROBABILITY = 0.95
+
+
+def nis_fraction(run: DatasetRun, *, window: int = 100) -> dict:
+    """The NIS of every association update of a run against its chi-square band (2 dof each).
+
+    A consistent filter's NIS is chi-square with 2 degrees of freedom, so 95% of the updates fall
+    within ``[chi2.ppf(0.025, 2), chi2.ppf(0.975, 2)] = [0.051, 7.38]`` and the mean is 2. Returns
+    ``n``, ``mean``, ``median``, ``inside`` / ``below`` / ``above`` (fractions of the updates), the
+    ``band``, and per ``window`` scans the series ``window_scan`` (first scan position), ``window_mean``
+    and ``window_inside`` for the figure. All NaN with no updates.
+    """
+    from scipy.stats import chi2
+
+    if run.nis is None:
+        raise InputError(f"run: expected a dataset run with recorded NIS, got none for {run.name!r}")
+    if isinstance(window, bool) or not isinstance(window, int) or window < 1:
+        raise InputError(f"window: expected an integer >= 1, got {window!r}")
+    lo, hi = chi2.ppf([(1 - NIS_BAND_PROBABILITY) / 2, (1 + NIS_BAND_PROBABILITY) / 2], 2)
+    scan, q = run.nis[:, 0], run.nis[:, 1]
+    out = {"n": int(q.size), "band": (float(lo), float(hi)), "probability": NIS_BAND_PROBABILITY}
+    if not q.size:
+        nan = float("nan")
+        return {**out, "mean": nan, "median": nan, "inside": nan, "below": nan, "above": nan,
+                "window_scan": np.empty(0), "window_mean": np.empty(0), "window_inside": np.empty(0)}
+    inside = (q >= lo) & (q <= hi)
+    w = (scan // window).astype(int)
+    ws = np.unique(w)
+    return {**out, "mean": float(q.mean()), "median": float(np.median(q)), "inside": float(inside.mean()),
+            "below": float(np.mean(q < lo)), "above": float(np.mean(q > hi)), "window_scan": ws * window,
+            "window_mean": np.array([q[w == k].mean() for k in ws]),
+            "window_inside": np.array([inside[w == k].mean() for k in ws])}

@@ -114,3 +114,63 @@ def plot_dataset_map(path: str | Path, poses: np.ndarray, landmarks: np.ndarray,
     fig.tight_layout()
     fig.savefig(path, dpi=130, bbox_inches="tight")  # keep the outside legend
     plt.close(fig)
+
+
+def plot_dataset_errors(path: str | Path, error_t: np.ndarray, error_m: np.ndarray, nis: dict, *,
+                        protocol: str = "aligned", name: str = "dataset", scan_times: np.ndarray | None = None) -> None:
+    """Save the position error against the GPS over time (top) and the NIS of the associations
+    against its chi-square band (bottom).
+
+    Parameters
+    ----------
+    path : str or Path
+    error_t, error_m : ndarray (n,)
+        Time (s) and position error (m) at each evaluated fix (the published or the aligned protocol).
+    nis : dict
+        :func:`~radarslam.experiments.dataset.nis_fraction` of the run: ``band``, ``inside``, ``mean``
+        and the per-window series ``window_scan``, ``window_mean``, ``window_inside``.
+    protocol : str
+        Named in the title ("published" or "aligned").
+    scan_times : ndarray (K,), optional
+        Scan times, to put the NIS windows on the time axis (else the scan position).
+    """
+    error_t = np.asarray(error_t, dtype=float).ravel()
+    error_m = np.asarray(error_m, dtype=float).ravel()
+    if error_t.shape != error_m.shape:
+        raise InputError(f"error_m: expected the shape of error_t {error_t.shape}, got {error_m.shape}")
+    missing = [k for k in ("band", "inside", "mean", "window_scan", "window_mean", "window_inside") if k not in nis]
+    if missing:
+        raise InputError(f"nis: expected the dict of experiments.dataset.nis_fraction, missing {missing}")
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(10, 7), sharex=scan_times is not None)
+    rmse = float(np.sqrt(np.mean(error_m ** 2))) if error_m.size else float("nan")
+    ax.plot(error_t, error_m, ".", ms=2, color="tab:blue")
+    ax.set_ylabel("position error (m)")
+    ax.set_title(f"{name}: error against the GPS ({protocol} protocol; RMSE {rmse:.2f} m over {error_m.size} fixes)")
+    ax.grid(alpha=0.3)
+    ws = np.asarray(nis["window_scan"], dtype=int)
+    x = np.asarray(scan_times)[ws] if scan_times is not None and ws.size else ws
+    lo, hi = nis["band"]
+    ax2.plot(x, nis["window_mean"], "-", color="tab:red", lw=0.8, label="mean NIS per window (2 dof: expect 2)")
+    ax2.axhline(2.0, color="k", ls="--", lw=0.8)
+    ax2.set_ylabel("mean NIS")
+    ax2.set_xlabel("time (s)" if scan_times is not None else "scan")
+    ax3 = ax2.twinx()
+    ax3.plot(x, nis["window_inside"], "-", color="tab:green", lw=0.8,
+             label=f"fraction inside [{lo:.2f}, {hi:.2f}] (expect {nis.get('probability', 0.95):.2f})")
+    ax3.set_ylim(0, 1.05)
+    ax3.set_ylabel("fraction inside the band")
+    ax2.set_title(f"NIS of the association updates: {100 * nis['inside']:.1f}% inside the band, mean {nis['mean']:.2f}",
+                  fontsize=10)
+    h1, l1 = ax2.get_legend_handles_labels()
+    h2, l2 = ax3.get_legend_handles_labels()
+    ax2.legend(h1 + h2, l1 + l2, loc="upper center", bbox_to_anchor=(0.5, -0.18), ncol=2, fontsize=8)
+    ax2.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120, bbox_inches="tight")  # keep the outside legend
+    plt.close(fig)

@@ -82,6 +82,8 @@ N_BEAMS = 361
 BEAM_STEP = math.radians(0.5)
 NO_RETURN_M = 80.0               # >= 80 m: no return / status code (info.txt: > 8000 cm)
 MAX_CODE_CM = 8191               # 13-bit range word
+#: What a scan's detections are (``load_victoria_park(input=...)``, ``--input``).
+INPUTS = ("laser", "trees")
 TIME_MATCH_S = 5e-4              # the h5 times are whole ms; the npz times are ms / 1000
 
 VEHICLE = {"L": 2.83, "H": 0.76, "a": 0.95, "b": 0.5}
@@ -401,6 +403,7 @@ def load_victoria_park(
     laser_source: str = "auto",
     trees: bool = True,
     laser_time_offset: float = 0.0,
+    input: str = "laser",
 ) -> VictoriaParkData:
     """Load the Victoria Park directory ``path`` as one validated event stream.
 
@@ -424,6 +427,14 @@ def load_victoria_park(
     laser_time_offset : float
         Seconds added to every laser (and tree) time before merging, for latency studies; 0 keeps
         the recorded time stamps.
+    input : {"laser", "trees"}
+        What a scan's detections are. ``"laser"``: every raw beam return in range (one trunk gives
+        several). ``"trees"``: ACFR's tree detections of ``lidar_measurements.mat``, one
+        ``[range, bearing]`` of the trunk centre per tree, as the published filters use; the scans are
+        then the 7248 rows of that file, timed by the h5 time vector (needs h5py, ``radarslam[data]``;
+        without it, the first 7230 rows on the ASCII laser times), ``ranges_cm`` is empty, ``trees``
+        is forced on and ``laser_source`` only supplies times. ``min_range``/``max_range`` select the
+        detections in both modes.
 
     Returns
     -------
@@ -441,6 +452,9 @@ def load_victoria_park(
     if not root.is_dir():
         raise DataError(f"{root}: dataset directory not found" + (" (it is a file)" if root.exists() else ""))
     max_range, min_range, laser_time_offset = _check_options(max_range, min_range, laser_source, laser_time_offset)
+    if input not in INPUTS:
+        raise InputError(f"input: expected one of {list(INPUTS)}, got {input!r}")
+    trees = trees or input == "trees"
 
     # Laser -------------------------------------------------------------------------------
     npz, zf = root / FILE_NPZ, root / FILE_ZIP
@@ -454,6 +468,21 @@ def load_victoria_park(
         ranges_cm, laser_t = _read_laser_zip(zf)
     _increasing(laser_file, "TLsr", laser_t)
     n_total = laser_t.size
+
+    # Trees ----------------------------------------------------------------------------------
+    tree_arrays, all_laser_t = None, None
+    if trees:
+        tree_arrays = _read_trees(root / FILE_TREES)
+        all_laser_t = _read_tlsr_h5(root / FILE_TLSR, laser_t)
+    if input == "trees":
+        # The scans are the tree rows, on the full time vector when it is readable.
+        n_rows = tree_arrays[0].shape[0]
+        t_rows = all_laser_t if all_laser_t is not None else laser_t
+        n_rows = min(n_rows, t_rows.size)
+        laser_t = t_rows[:n_rows].copy()
+        ranges_cm = np.zeros((n_rows, 0), dtype=np.uint16)
+        n_total = n_rows
+        _increasing(root / (FILE_TLSR if all_laser_t is not None else laser_file.name), "TLsr", laser_t)
 
     # Dead reckoning -----------------------------------------------------------------------
     dr_file = root / FILE_DR
@@ -481,12 +510,6 @@ def load_victoria_park(
     gps_x = _vector(gps_file, "Lo_m", mat["Lo_m"], gps_t.size)
     _increasing(gps_file, "timeGps", gps_t)
 
-    # Trees ----------------------------------------------------------------------------------
-    tree_arrays, all_laser_t = None, None
-    if trees:
-        tree_arrays = _read_trees(root / FILE_TREES)
-        all_laser_t = _read_tlsr_h5(root / FILE_TLSR, laser_t)
-
     # Window -----------------------------------------------------------------------------------
     windowed = first_scan is not None or n_scans is not None
     s0, s1 = _window(first_scan, n_scans, n_total)            # scans s0 .. s1 - 1
@@ -502,14 +525,21 @@ def load_victoria_park(
     dts = dr_t[k] - dr_t[k - 1]
     controls = np.column_stack([speed[k], steering[k]])
 
-    # Detections: range in [min_range, max_range), bearing = k * 0.5 deg - 90 deg.
-    r = ranges_cm.astype(np.float64) / 100.0
-    keep = (r >= min_range) & (r < max_range)
-    bearings = np.arange(N_BEAMS) * BEAM_STEP - math.pi / 2
-    rows, cols = np.nonzero(keep)
-    polar_all = np.column_stack([r[rows, cols], bearings[cols]])
-    splits = np.searchsorted(rows, np.arange(1, s1 - s0))
-    polars = np.split(polar_all, splits)
+    if input == "trees":
+        # Detections: one [range, bearing] per tree, bearing in the scans' convention, nearest first
+        # within a row as ACFR's detector orders them (its column order).
+        rng, brg = tree_arrays[0][s0:s1], tree_arrays[1][s0:s1] - math.pi / 2
+        keep = (rng > 0) & (rng >= min_range) & (rng < max_range)
+        polars = [np.column_stack([rng[i, keep[i]], brg[i, keep[i]]]) for i in range(s1 - s0)]
+    else:
+        # Detections: range in [min_range, max_range), bearing = k * 0.5 deg - 90 deg.
+        r = ranges_cm.astype(np.float64) / 100.0
+        keep = (r >= min_range) & (r < max_range)
+        bearings = np.arange(N_BEAMS) * BEAM_STEP - math.pi / 2
+        rows, cols = np.nonzero(keep)
+        polar_all = np.column_stack([r[rows, cols], bearings[cols]])
+        splits = np.searchsorted(rows, np.arange(1, s1 - s0))
+        polars = np.split(polar_all, splits)
 
     # Merge: odometry j goes before the first scan with t_scan >= t_odo.
     before = np.searchsorted(scan_t, odo.t, side="left")      # scan position each odometry precedes
@@ -534,7 +564,8 @@ def load_victoria_park(
     options = {
         "path": str(root), "max_range": max_range, "min_range": min_range, "first_scan": s0,
         "n_scans": s1 - s0, "laser_source": laser_file.name, "trees": trees,
-        "laser_time_offset": laser_time_offset,
+        "laser_time_offset": laser_time_offset, "input": input,
+        "times": FILE_TLSR if (input == "trees" and all_laser_t is not None) else laser_file.name,
     }
     return VictoriaParkData(events=events, laser_times=scan_t, scan_index=scan_index, ranges_cm=ranges_cm,
                             odometry=odo, gps=gps, trees=tree_det, noise=NOISE, vehicle=dict(VEHICLE),
