@@ -67,7 +67,8 @@ def victoria_park_run(backend: str, path: Path = VICTORIA_PARK) -> dict[str, np.
     from radarslam.slam import EkfSlam
 
     cfg = profile_config("victoria-park")
-    cfg = replace(cfg, filter=replace(cfg.filter, backend=backend))
+    # Pinned to the recording's extent estimator (the profile now reports visible-arc circles).
+    cfg = replace(cfg, filter=replace(cfg.filter, backend=backend), extent=replace(cfg.extent, estimator="rma-efa"))
     data = get_dataset("victoria-park")(path, n_scans=VP_SCANS)
     return _record(EkfSlam(cfg), data.events)
 

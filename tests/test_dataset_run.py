@@ -4,6 +4,7 @@ attribution and the diameter comparison (synthetic oracles; the real-data runs a
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from types import SimpleNamespace
 
@@ -57,12 +58,14 @@ def test_trunk_diameter_scales_with_gamma_and_batches():
         trunk_diameter(np.eye(2), 0.0)
 
 
-def _run_with(ids, rma, hits) -> DatasetRun:
+def _run_with(ids, rma, hits, estimator="rma-efa") -> DatasetRun:
     n = len(ids)
     snap = MapSnapshot(ids=np.array(ids), positions=np.zeros((n, 2)), covs=np.zeros((n, 2, 2)),
                        rma=np.asarray(rma, dtype=float), efa=np.full((n, 2, 2), np.nan), created=np.zeros(n, int))
     e = np.empty(0)
-    return DatasetRun("x", profile_config("victoria-park"), None, e, e.reshape(0, 3), e.reshape(0, 3, 3), e, e,
+    cfg = profile_config("victoria-park")
+    cfg = dataclasses.replace(cfg, extent=dataclasses.replace(cfg.extent, estimator=estimator))
+    return DatasetRun("x", cfg, None, e, e.reshape(0, 3), e.reshape(0, 3, 3), e, e,
                       snap, 0.0, 0.0, None if hits is None else np.asarray(hits, dtype=float))
 
 
@@ -75,7 +78,7 @@ def test_compare_tree_diameters_matches_by_id_and_counts():
     # id 1: 4 detections, median 0.5 vs 0.4; id 2: too few; id 3: no extent; id 9: not in the map
     assert c["n_matched"] == 1 and c["ids"].tolist() == [1]
     assert c["median_abs_diff_m"] == pytest.approx(0.1)
-    assert c["reference_m"][0] == pytest.approx(0.5) and c["rma_m"][0] == pytest.approx(0.4)
+    assert c["reference_m"][0] == pytest.approx(0.5) and c["estimate_m"][0] == pytest.approx(0.4)
     c2 = compare_tree_diameters(run, min_detections=2)
     assert c2["n_matched"] == 2 and c2["median_abs_diff_m"] == pytest.approx(0.05)
     assert c2["median_ratio"] == pytest.approx(0.9)
@@ -83,6 +86,15 @@ def test_compare_tree_diameters_matches_by_id_and_counts():
         compare_tree_diameters(run, min_detections=0)
     with pytest.raises(InputError, match="reference tree detections"):
         compare_tree_diameters(_run_with([1], [X(0.4)], None))
+
+
+def test_compare_tree_diameters_of_the_visible_arc_estimator_reads_its_circles():
+    circle = lambda d: (d / 2) ** 2 * np.eye(2)  # noqa: E731 - the visible-arc extent of diameter d
+    hits = [[1, 0.5, 0.1]] * 3 + [[2, 0.3, 0.2]] * 3
+    c = compare_tree_diameters(_run_with([1, 2], [circle(0.45), circle(0.3)], hits, "visible-arc"))
+    assert c["estimator"] == "visible-arc" and c["baseline"] == "rma"
+    np.testing.assert_allclose(c["estimate_m"], [0.45, 0.3])
+    assert c["median_abs_diff_m"] == pytest.approx(0.025)
 
 
 def test_attribute_reference_gate_and_nearest():

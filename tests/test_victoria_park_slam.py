@@ -64,7 +64,7 @@ def test_trunk_diameters_agree_with_acfr_detector(run500):
     shuffled = rng.permutation(c["reference_m"])
     from scipy.stats import spearmanr
 
-    assert abs(spearmanr(c["rma_m"], shuffled).statistic) < 0.3
+    assert abs(spearmanr(c["estimate_m"], shuffled).statistic) < 0.3
 
 
 def test_cli_run_dataset_writes_every_output(victoria_park_dir, tmp_path):

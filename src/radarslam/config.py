@@ -233,6 +233,10 @@ class ExtentConfig:
     efa_window: int = param(20, "buffer length of the sliding EFA variant", low=3)
     efa_noise_correct: bool = param(False, "noise-corrected EFA semi-axes instead of the upper bound (d.3)")
     use_posterior_landmark: bool = param(False, "RM update against p_{k|k}, P_{k|k} instead of the prior (h.4)")
+    beam_step_deg: float = param(0.5, "[PROP] visible-arc estimator: angular step of the scanner's beams (deg; "
+                                 "docs/method.md a.9)", low=0.0, low_open=True, high=10.0)
+    arc_min_scans: int = param(5, "[PROP] visible-arc estimator: per-scan widths needed before a trunk's circle "
+                               "is reported (a.9)", low=1)
     range_std_m: float = param(0.0, "[PROP] R of the extent step (W of seed eq. 5): range std (m); 0 = filter.range_std_m",
                                low=0.0)
     azimuth_std_deg: float = param(0.0, "[PROP] R of the extent step: azimuth std (deg); 0 = filter.azimuth_std_deg",

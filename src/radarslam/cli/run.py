@@ -153,7 +153,7 @@ def write_outputs(out, res, wall: float, argv=None) -> None:
 def run_dataset_cmd(args: argparse.Namespace) -> int:
     """``radarslam run --dataset NAME PATH``: the whole recording, evaluated against its GPS."""
     from radarslam.experiments.dataset import (compare_tree_diameters, dead_reckoning, evaluate_against_gps,
-                                               evaluate_published, nis_fraction, run_dataset)
+                                               duplicate_landmarks, evaluate_published, nis_fraction, run_dataset)
     from radarslam.io.datasets import list_datasets
 
     name, path = args.dataset
@@ -185,6 +185,7 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
     dr_ev = evaluate_against_gps(res, dr_poses)
     diam = compare_tree_diameters(res) if res.reference_hits is not None and args.input == "laser" else None
     nis = nis_fraction(res)
+    dup = duplicate_landmarks(res)
     wall = time.perf_counter() - t0
     mp = res.final_map
     write_trajectory_csv(out / "trajectory.csv", res.times, res.poses)
@@ -211,6 +212,7 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
                "published_rmse_m": None if pub is None else pub["rmse_m"],
                "published_max_m": None if pub is None else pub["max_m"],
                "published_scans_matched": None if pub is None else pub["n_matched"],
+               "duplicated_trunks": {k: dup[k] for k in ("n_pairs", "n_landmarks", "diameter_m")},
                "nis": {k: nis[k] for k in ("n", "mean", "median", "inside", "below", "above", "band", "probability")},
                "filter_seconds": res.seconds, "filter_ms_per_scan": 1e3 * res.seconds / max(res.times.size, 1),
                "load_seconds": res.load_seconds, "wall_seconds": wall}
@@ -245,8 +247,11 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
           f"[{nis['band'][0]:.2f}, {nis['band'][1]:.2f}], mean {nis['mean']:.2f} (2 expected); "
           f"{metrics['filter_ms_per_scan']:.2f} ms per scan")
     if diam is not None and diam["n_matched"]:
-        print(f"trunk diameters: {diam['n_matched']} matched trees, median |RMA - reference| "
+        print(f"trunk diameters ({diam['estimator']}): {diam['n_matched']} matched trees, median |estimate - ACFR| "
               f"{diam['median_abs_diff_m']:.3f} m (median ratio {diam['median_ratio']:.2f}, "
-              f"Spearman {diam['spearman']:.2f})")
+              f"Spearman {diam['spearman']:.2f}; baseline {diam['baseline']}: {diam['baseline_median_abs_diff_m']:.3f} m, "
+              f"Spearman {diam['baseline_spearman']:.2f})")
+    print(f"duplicated trunks: {dup['n_pairs']} pairs of landmarks closer than a trunk diameter "
+          f"({dup['diameter_m']:.2f} m, the median of ACFR's detections)")
     print(f"wrote {out}/")
     return 0

@@ -143,6 +143,7 @@ ASSOCIATORS.register_lazy("batch", "radarslam.slam._numba", backend="numba")
 ASSOCIATORS.register_lazy("jcbb", "radarslam.slam.jcbb")
 ASSOCIATORS.register_lazy("jcbb", "radarslam.slam.jcbb", backend="numba")
 EXTENT_ESTIMATORS.register_lazy("rma-efa", "radarslam.extent.estimator")
+EXTENT_ESTIMATORS.register_lazy("visible-arc", "radarslam.extent.visible_arc")
 
 #: Every backend some built-in implements (``filter.backend``).
 BACKENDS = ("python", "numba")

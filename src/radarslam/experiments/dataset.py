@@ -148,53 +148,86 @@ def trunk_diameter(X: np.ndarray, gamma_z: float = 0.25) -> np.ndarray:
 
 
 def compare_tree_diameters(run: DatasetRun, *, min_detections: int = 3) -> dict:
-    """RMA trunk diameters of the final map against a reference tree detector (ACFR's ``detectTreesI16``).
+    """Trunk diameters of the final map against a reference tree detector (ACFR's ``detectTreesI16``).
 
     Every reference detection was attributed online to its nearest landmark (:func:`run_dataset`);
-    a final-map landmark with an initialised RMA extent and at least ``min_detections`` attributed
-    detections is a matched tree, and its reference diameter is their median. Landmarks merged away
-    take their attributions with them.
+    a final-map landmark with an extent and at least ``min_detections`` attributed detections is a
+    matched tree, and its reference diameter is their median. Landmarks merged away take their
+    attributions with them.
+
+    The run's extent estimator gives the diameters compared: ``"visible-arc"`` its circle
+    (``d = 2 sqrt(lambda)``, docs/method.md a.9), with the RMA matrix it keeps as baseline;
+    ``"rma-efa"`` the RMA matrix through :func:`trunk_diameter`, with the EFA baseline.
 
     Returns
     -------
     dict
-        ``n_matched``, ``median_abs_diff_m``, ``mean_abs_diff_m``, ``median_ratio`` (RMA / reference),
-        ``spearman`` (rank correlation), ``median_reference_m``, ``median_rma_m``, the EFA baseline's
-        ``efa_median_abs_diff_m`` and ``efa_spearman``, and per-tree arrays ``ids``, ``rma_m``,
-        ``efa_m``, ``reference_m``, ``n_detections``.
+        ``estimator``, ``n_matched``, ``median_abs_diff_m``, ``mean_abs_diff_m``, ``median_ratio``
+        (estimate / reference), ``spearman`` (rank correlation), ``median_reference_m``,
+        ``median_estimate_m``, the baseline's ``baseline_median_abs_diff_m`` and ``baseline_spearman``,
+        and per-tree arrays ``ids``, ``estimate_m``, ``baseline_m``, ``reference_m``, ``n_detections``.
     """
     if run.reference_hits is None:
         raise InputError(f"run: expected a dataset run with reference tree detections, got none for {run.name!r}")
     if min_detections < 1:
         raise InputError(f"min_detections: expected an integer >= 1, got {min_detections!r}")
     mp = run.final_map
+    ec = run.config.extent
     ok = np.all(np.isfinite(mp.rma.reshape(-1, 4)), axis=1)
-    d_rma = dict(zip(mp.ids[ok].tolist(), trunk_diameter(mp.rma[ok], run.config.extent.gamma_z).tolist()))
-    # EFA baseline: X = 4 C of the last scan's detections (Decision 4), the same scatter model
-    d_efa = dict(zip(mp.ids[ok].tolist(), trunk_diameter(np.where(np.isfinite(mp.efa[ok]), mp.efa[ok], 0.0),
-                                                        0.25).tolist()))
+    base = np.where(np.isfinite(mp.efa[ok]), mp.efa[ok], 0.0)
+    if ec.estimator == "visible-arc":
+        est_d = 2.0 * np.sqrt(np.maximum(np.linalg.eigvalsh(mp.rma[ok])[..., -1], 0.0))
+        base_d = trunk_diameter(base, ec.gamma_z)             # the RMA matrix it keeps
+        base_name = "rma"
+    else:
+        est_d = trunk_diameter(mp.rma[ok], ec.gamma_z)
+        base_d = trunk_diameter(base, 0.25)                   # EFA: X = 4 C of the last scan (Decision 4)
+        base_name = "efa"
+    d_est = dict(zip(mp.ids[ok].tolist(), est_d.tolist()))
+    d_base = dict(zip(mp.ids[ok].tolist(), base_d.tolist()))
     hits = run.reference_hits
-    ids, rma, efa, ref, cnt = [], [], [], [], []
+    ids, est, bas, ref, cnt = [], [], [], [], []
     order = np.argsort(hits[:, 0], kind="stable")
     uid, start = np.unique(hits[order, 0], return_index=True)
     for i, d in zip(uid.astype(int).tolist(), np.split(hits[order, 1], start[1:])):
-        if i in d_rma and d.size >= min_detections:
-            ids.append(i), rma.append(d_rma[i]), efa.append(d_efa[i]), ref.append(float(np.median(d)))
+        if i in d_est and d.size >= min_detections:
+            ids.append(i), est.append(d_est[i]), bas.append(d_base[i]), ref.append(float(np.median(d)))
             cnt.append(d.size)
-    rma, efa, ref = np.array(rma), np.array(efa), np.array(ref)
-    out = {"n_matched": len(ids), "n_landmarks_with_extent": int(ok.sum()), "min_detections": min_detections,
-           "gate_m": REFERENCE_GATE_M, "ids": np.array(ids, dtype=int), "rma_m": rma, "efa_m": efa, "reference_m": ref,
+    est, bas, ref = np.array(est), np.array(bas), np.array(ref)
+    out = {"estimator": ec.estimator, "baseline": base_name, "n_matched": len(ids),
+           "n_landmarks_with_extent": int(ok.sum()), "min_detections": min_detections, "gate_m": REFERENCE_GATE_M,
+           "ids": np.array(ids, dtype=int), "estimate_m": est, "baseline_m": bas, "reference_m": ref,
            "n_detections": np.array(cnt, dtype=int)}
     if ids:
         from scipy.stats import spearmanr
 
-        err = np.abs(rma - ref)
+        err = np.abs(est - ref)
         out.update(median_abs_diff_m=float(np.median(err)), mean_abs_diff_m=float(err.mean()),
-                   median_ratio=float(np.median(rma / ref)), median_reference_m=float(np.median(ref)),
-                   median_rma_m=float(np.median(rma)), efa_median_abs_diff_m=float(np.median(np.abs(efa - ref))),
-                   spearman=float(spearmanr(rma, ref).statistic) if len(ids) > 2 else float("nan"),
-                   efa_spearman=float(spearmanr(efa, ref).statistic) if len(ids) > 2 else float("nan"))
+                   median_ratio=float(np.median(est / ref)), median_reference_m=float(np.median(ref)),
+                   median_estimate_m=float(np.median(est)), baseline_median_abs_diff_m=float(np.median(np.abs(bas - ref))),
+                   spearman=float(spearmanr(est, ref).statistic) if len(ids) > 2 else float("nan"),
+                   baseline_spearman=float(spearmanr(bas, ref).statistic) if len(ids) > 2 else float("nan"))
     return out
+
+
+def duplicate_landmarks(run: DatasetRun, diameter_m: float | None = None) -> dict:
+    """Pairs of final landmarks closer than a trunk diameter: one trunk mapped twice (issue 11).
+
+    ``diameter_m`` defaults to the median reference diameter of the run's trees (ACFR's detector),
+    else 0.42 m, the median over the whole recording. Returns ``n_pairs``, ``n_landmarks``,
+    ``diameter_m`` and the ``pairs`` of ids.
+    """
+    mp = run.final_map
+    if diameter_m is None:
+        tr = getattr(run.data, "trees", None)
+        diameter_m = float(np.nanmedian(tr.diameters)) if tr is not None and np.any(tr.valid) else 0.42
+    if not diameter_m > 0:
+        raise InputError(f"diameter_m: expected a positive number, got {diameter_m!r}")
+    from radarslam.landmarks.merging import merge_candidates
+
+    pairs = merge_candidates(mp.positions, diameter_m)
+    return {"n_pairs": len(pairs), "n_landmarks": int(mp.ids.size), "diameter_m": float(diameter_m),
+            "pairs": [(int(mp.ids[i]), int(mp.ids[j])) for i, j, _ in pairs]}
 
 
 def evaluate_published(run: DatasetRun, poses: np.ndarray | None = None) -> dict:

@@ -48,7 +48,7 @@ def plot_dataset_map(path: str | Path, poses: np.ndarray, landmarks: np.ndarray,
         The odometry-only poses and their own ``error_against_fixes`` (aligned by its own fit).
     diameters : dict, optional
         :func:`~radarslam.experiments.dataset.compare_tree_diameters`: adds a second panel of
-        ``rma_m`` against ``reference_m``.
+        ``estimate_m`` against ``reference_m``.
     """
     _check_eval("gps_eval", gps_eval)
     if dead_reckoning is not None:
@@ -98,7 +98,7 @@ def plot_dataset_map(path: str | Path, poses: np.ndarray, landmarks: np.ndarray,
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.08), ncol=3, fontsize=8)  # below: never over the map
     ax.grid(alpha=0.3)
     if ax2 is not None:
-        ref, est = diameters["reference_m"], diameters["rma_m"]
+        ref, est = diameters["reference_m"], diameters["estimate_m"]
         ax2.plot(ref, est, ".", ms=4, color="tab:red")
         hi = float(max(ref.max(), est.max())) * 1.05
         ax2.plot([0, hi], [0, hi], "k--", lw=0.8, label="equal")
@@ -106,7 +106,7 @@ def plot_dataset_map(path: str | Path, poses: np.ndarray, landmarks: np.ndarray,
         ax2.set_ylim(0, hi)
         ax2.set_aspect("equal")
         ax2.set_xlabel("reference trunk diameter (m)")
-        ax2.set_ylabel("RMA trunk diameter (m)")
+        ax2.set_ylabel(f"{diameters.get('estimator', 'rma-efa')} trunk diameter (m)")
         ax2.set_title(f"{diameters['n_matched']} matched trees: median |diff| "
                       f"{diameters['median_abs_diff_m']:.2f} m, Spearman {diameters['spearman']:.2f}", fontsize=9)
         ax2.legend(loc="upper left", fontsize=8)

@@ -1,0 +1,130 @@
+"""The visible-arc extent of a round object seen by a scanning laser (docs/method.md a.9).
+
+A laser does not see a trunk as a filled disc, which is what the random-matrix model's
+``gamma_z X`` spread assumes (seed eq. 4): its beams, equally spaced in bearing by ``delta``, hit
+the near half of the circle, and the number of beams that hit is set by the circle's angular width.
+A circle of radius ``rho`` whose nearest point is at range ``r`` spans the angle
+``w = 2 asin(rho / (r + rho))`` seen from the sensor. With the beam grid at a random phase, ``n``
+consecutive hits mean ``w`` lies in ``[(n - 1) delta, (n + 1) delta)`` and ``E[n delta] = w``, so one
+scan's hits give the unbiased width ``w_hat = (phi_max - phi_min) + delta`` and, with ``s = sin(w_hat / 2)``,
+the radius ``rho_hat = r_min s / (1 - s)``. A scan whose hits on the landmark are not consecutive
+beams (a gap wider than 1.5 ``delta``: another object, an occlusion) is left out. Each scan's
+diameter is kept; the trunk's diameter is their median, robust to the scans where a neighbour or
+the vehicle's motion distorted the width.
+
+:class:`VisibleArcEstimator` (registered ``"visible-arc"``) is :class:`~.estimator.RmaEfaEstimator`
+(whose RMA extent still serves SLAM's sifting and noise, a.7) that reports the circle
+``(d / 2)^2 I`` of this mean as the landmark's extent, and the RMA matrix as its baseline.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from radarslam.core.errors import InputError
+from radarslam.core.registry import EXTENT_ESTIMATORS
+from radarslam.extent.estimator import RmaEfaEstimator, RmaEfaState
+
+#: A gap between consecutive hits wider than this many beam steps splits the landmark's returns.
+MAX_GAP_STEPS = 1.5
+#: Scans whose diameter is farther than this many beam widths (plus ARC_GATE_M) from the trunk's
+#: median are left out of its mean: more than the beam quantisation can explain.
+ARC_GATE_BEAMS = 1.5
+ARC_GATE_M = 0.05
+
+
+def arc_diameter(polar: np.ndarray, beam_step: float) -> float:
+    """Diameter (m) of a circle from one scan's hits ``polar (m, 2)`` of ``[range, bearing]`` on it.
+
+    ``w = (phi_max - phi_min) + delta``, ``s = sin(w / 2)``, ``d = 2 r_min s / (1 - s)`` (module
+    docstring); NaN when the hits are not consecutive beams or there are none.
+
+    Raises
+    ------
+    InputError
+        For a ``polar`` that is not ``(m, 2)`` or a ``beam_step`` outside ``(0, pi / 4]``.
+    """
+    polar = np.asarray(polar, dtype=float)
+    if polar.ndim != 2 or polar.shape[1] != 2:
+        raise InputError(f"polar: expected shape (m, 2), got {polar.shape}")
+    if not 0.0 < beam_step <= math.pi / 4:
+        raise InputError(f"beam_step: expected radians in (0, pi/4], got {beam_step!r}")
+    if polar.shape[0] == 0:
+        return math.nan
+    phi = np.sort(polar[:, 1])
+    if phi.size > 1 and np.max(np.diff(phi)) > MAX_GAP_STEPS * beam_step:
+        return math.nan
+    s = math.sin(0.5 * (phi[-1] - phi[0] + beam_step))
+    return 2.0 * float(polar[:, 0].min()) * s / (1.0 - s)
+
+
+@dataclass
+class VisibleArcState(RmaEfaState):
+    """:class:`~.estimator.RmaEfaState` plus the per-scan visible-arc diameters and beam widths (m)."""
+
+    arc: list[float] = field(default_factory=list)
+    beam: list[float] = field(default_factory=list)
+
+
+class VisibleArcEstimator(RmaEfaEstimator):
+    """Trunk circles from the visible arc (docs/method.md a.9); RMA/EFA underneath for SLAM.
+
+    Parameters
+    ----------
+    extent_config : ExtentConfig
+        The ``extent`` section (``beam_step_deg``, ``arc_min_scans`` and the RMA keys).
+    R_extent : ndarray (2, 2)
+        Detection noise of the RMA step.
+    """
+
+    name = "visible-arc"
+
+    def __init__(self, extent_config, R_extent: np.ndarray):
+        super().__init__(extent_config, R_extent)
+        self.beam_step = math.radians(extent_config.beam_step_deg)
+        self.min_scans = int(extent_config.arc_min_scans)
+
+    def new(self) -> VisibleArcState:
+        return VisibleArcState()
+
+    def step(self, st: VisibleArcState, polar: np.ndarray, pts: np.ndarray, centroid: np.ndarray,
+             centroid_cov: np.ndarray, pose: np.ndarray, pose_cov: np.ndarray, dt: float, k: int) -> None:
+        super().step(st, polar, pts, centroid, centroid_cov, pose, pose_cov, dt, k)
+        if self.c.track and polar.shape[0]:
+            d = arc_diameter(polar, self.beam_step)
+            if math.isfinite(d):
+                st.arc.append(d)
+                st.beam.append(float(polar[:, 0].min()) * self.beam_step)
+
+    def diameter(self, st: VisibleArcState) -> float:
+        """The trunk diameter (m): the gated mean of the per-scan widths (module docstring); NaN
+        before ``arc_min_scans``."""
+        if len(st.arc) < self.min_scans:
+            return math.nan
+        d, b = np.asarray(st.arc), np.asarray(st.beam)
+        keep = np.abs(d - np.median(d)) <= ARC_GATE_BEAMS * b + ARC_GATE_M
+        return float(d[keep].mean())
+
+    def matrix(self, st: VisibleArcState) -> np.ndarray | None:
+        d = self.diameter(st)
+        return None if not math.isfinite(d) else (0.5 * d) ** 2 * np.eye(2)
+
+    def baseline(self, st: VisibleArcState) -> np.ndarray | None:
+        return st.X
+
+    def merge(self, survivor: VisibleArcState, gone: VisibleArcState) -> VisibleArcState:
+        """As :meth:`RmaEfaEstimator.merge`, and the survivor pools the other's widths (one trunk)."""
+        arcs, beams = survivor.arc + gone.arc, survivor.beam + gone.beam
+        kept = super().merge(survivor, gone)
+        kept.arc, kept.beam = arcs, beams
+        return kept
+
+
+def _make_visible_arc(config) -> VisibleArcEstimator:
+    return VisibleArcEstimator(config.extent, config.extent.R(config.filter.R))
+
+
+EXTENT_ESTIMATORS.register("visible-arc", _make_visible_arc)
