@@ -67,6 +67,7 @@ class VisibleArcState(RmaEfaState):
 
     arc: list[float] = field(default_factory=list)
     beam: list[float] = field(default_factory=list)
+    cached: tuple[int, float] = (-1, math.nan)   # (len(arc), diameter) of the last computation
 
 
 class VisibleArcEstimator(RmaEfaEstimator):
@@ -102,11 +103,14 @@ class VisibleArcEstimator(RmaEfaEstimator):
     def diameter(self, st: VisibleArcState) -> float:
         """The trunk diameter (m): the gated mean of the per-scan widths (module docstring); NaN
         before ``arc_min_scans``."""
-        if len(st.arc) < self.min_scans:
+        n = len(st.arc)
+        if n < self.min_scans:
             return math.nan
-        d, b = np.asarray(st.arc), np.asarray(st.beam)
-        keep = np.abs(d - np.median(d)) <= ARC_GATE_BEAMS * b + ARC_GATE_M
-        return float(d[keep].mean())
+        if st.cached[0] != n:        # only new widths change it: once per scan seen, not per call
+            d, b = np.asarray(st.arc), np.asarray(st.beam)
+            keep = np.abs(d - np.median(d)) <= ARC_GATE_BEAMS * b + ARC_GATE_M
+            st.cached = (n, float(d[keep].mean()) if keep.any() else float(np.median(d)))
+        return st.cached[1]
 
     def matrix(self, st: VisibleArcState) -> np.ndarray | None:
         d = self.diameter(st)
