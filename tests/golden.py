@@ -67,8 +67,10 @@ def victoria_park_run(backend: str, path: Path = VICTORIA_PARK) -> dict[str, np.
     from radarslam.slam import EkfSlam
 
     cfg = profile_config("victoria-park")
-    # Pinned to the recording's extent estimator (the profile now reports visible-arc circles).
-    cfg = replace(cfg, filter=replace(cfg.filter, backend=backend), extent=replace(cfg.extent, estimator="rma-efa"))
+    # Pinned to the recording's extent estimator and associator (the profile now reports
+    # visible-arc circles and updates per landmark).
+    cfg = replace(cfg, filter=replace(cfg.filter, backend=backend), extent=replace(cfg.extent, estimator="rma-efa"),
+                  landmarks=replace(cfg.landmarks, associator="nearest-neighbour"))
     data = get_dataset("victoria-park")(path, n_scans=VP_SCANS)
     return _record(EkfSlam(cfg), data.events)
 

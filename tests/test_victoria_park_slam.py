@@ -5,7 +5,8 @@ Needs ``../shared/data/victoria_park``: skips locally without it, FAILS under CI
 
 The bound on the 500-scan GPS-aligned RMSE (``RMSE_BOUND_500``) was measured, not guessed:
 
-- the victoria-park profile gives 1.046 m over the first 500 scans (302 GPS fixes, 100 s of
+- the victoria-park profile gives 1.046 m over the first 500 scans (1.040 m since its associator is
+  the per-landmark batch update) (302 GPS fixes, 100 s of
   driving; the same under the python and numba backends);
 - odometry alone through the same Ackermann model gives 1.507 m over the same fixes;
 - the GPS's own white jitter is only about 0.1 m per axis (robust std of second differences of
@@ -53,12 +54,16 @@ def test_first_500_scans_beat_odometry_and_stay_below_the_bound(run500):
 
 
 def test_trunk_diameters_agree_with_acfr_detector(run500):
-    # measured: 45 matched, median |diff| 0.120 m, median ratio 0.84, Spearman 0.72 (ACFR median 0.48 m)
+    # measured, visible-arc (the profile's estimator, docs/method.md a.9): 47 matched, median |diff|
+    # 0.015 m, median ratio 1.01, Spearman 0.99 (ACFR median 0.48 m); its RMA baseline 0.124 m and
+    # 0.68. The full-run targets (0.08 m, 0.7) are asserted here on the first 500 scans, and
+    # the RMA baseline is asserted NOT to meet them (what the visible-arc model fixes).
     c = compare_tree_diameters(run500)
-    assert c["n_matched"] >= 35
-    assert c["median_abs_diff_m"] < 0.18
-    assert 0.65 < c["median_ratio"] < 1.2
-    assert c["spearman"] > 0.5
+    assert c["estimator"] == "visible-arc" and c["n_matched"] >= 40
+    assert c["median_abs_diff_m"] < 0.08
+    assert 0.9 < c["median_ratio"] < 1.1
+    assert c["spearman"] > 0.7
+    assert c["baseline_median_abs_diff_m"] > 0.08
     # negative control: shuffling the pairing destroys the agreement
     rng = np.random.default_rng(0)
     shuffled = rng.permutation(c["reference_m"])
@@ -130,7 +135,7 @@ def test_published_protocol_run_can_be_recomputed_from_its_tum_file(victoria_par
 # ------------------------------------------------------------------ tree-detection input, published protocol
 #: Measured on the first 500 scans from the published start (71 scans within 25 ms of a GPS fix):
 #: the victoria-park-trees profile gives 1.495 m (python and numba alike), the raw-laser profile
-#: 1.655 m, and odometry alone through the same Ackermann model 2.662 m. The bound, 2.0 m, fails if
+#: 1.634 m, and odometry alone through the same Ackermann model 2.662 m. The bound, 2.0 m, fails if
 #: either mode loses a third of its accuracy or stops beating odometry, which is asserted to exceed it.
 PUBLISHED_BOUND_500 = 2.0
 

@@ -57,6 +57,8 @@ def run_dataset(name: str, path, config: Config, *, first_scan: int | None = Non
     bar = Progress(n, 0, enabled=progress, unit="scans")
     times, poses, covs, nlm, nas = [], [], [], [], []
     trees = getattr(data, "trees", None)
+    if getattr(data, "options", {}).get("input") == "trees":
+        trees = None      # the trees are the input: there is no independent reference to attribute
     tree_rows = {int(i): r for r, i in enumerate(trees.index)} if trees is not None else {}
     hits: list[np.ndarray] = []
     nis: list[np.ndarray] = []

@@ -98,11 +98,15 @@ def in_sensor_view(positions: np.ndarray, pose: np.ndarray, max_range: float, fi
     "in range" of the M/N removal, c.5). Boolean ``(N,)``."""
     half_fov = math.radians(field_of_view_deg) / 2.0
     x0, y0, th = float(pose[0]), float(pose[1]), float(pose[2])
-    out = np.zeros(positions.shape[0], dtype=bool)
-    for j, (lx, ly) in enumerate(positions.tolist()):
-        dx, dy = lx - x0, ly - y0
-        out[j] = (math.hypot(dx, dy) <= max_range
-                  and (half_fov >= math.pi or abs(wrap_pi_scalar(math.atan2(dy, dx) - th)) <= half_fov))
+    if positions.shape[0] == 0:
+        return np.zeros(0, dtype=bool)
+    dx, dy = positions[:, 0] - x0, positions[:, 1] - y0
+    out = np.hypot(dx, dy) <= max_range
+    if half_fov < math.pi:
+        # wrap_pi of the bearing, as wrap_pi_scalar computes it (fmod, then (-pi, pi])
+        a = np.fmod(np.arctan2(dy, dx) - th + math.pi, 2.0 * math.pi)
+        a = np.where(a <= 0.0, a + 2.0 * math.pi, a) - math.pi
+        out &= np.abs(a) <= half_fov
     return out
 
 
@@ -115,10 +119,12 @@ def removal_step(records: list, hit: np.ndarray, in_view: np.ndarray, k: int, *,
     the records to remove, ascending.
     """
     drop = []
-    for j, r in enumerate(records):
-        h = bool(hit[j])
-        r.assoc = push_bit(r.assoc, h, window)
-        r.in_range = push_bit(r.in_range, h or bool(in_view[j]), window)
-        if should_remove(k, r.created, r.assoc, r.in_range, window=window, max_hits=max_hits):
+    mask = (1 << window) - 1
+    seen = np.logical_or(hit, in_view).tolist()
+    oldest = k - window + 1
+    for j, (r, h, v) in enumerate(zip(records, hit.tolist(), seen)):
+        r.assoc = ((r.assoc << 1) | h) & mask                   # push_bit, inlined: every scan, every landmark
+        r.in_range = ((r.in_range << 1) | v) & mask
+        if oldest >= r.created and r.in_range.bit_count() == window and r.assoc.bit_count() <= max_hits:
             drop.append(j)
     return drop

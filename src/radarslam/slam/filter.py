@@ -166,7 +166,10 @@ class EkfSlam:
             For a non-finite or non-numeric control, a non-positive ``dt``, or a reading that would
             make the state non-finite (the state is then left as it was).
         """
-        u = as_array("odometry.control", odo.control, (2,))
+        u = odo.control
+        if not (type(u) is np.ndarray and u.dtype == np.float64 and u.shape == (2,)   # the loaders' form
+                and math.isfinite(u[0]) and math.isfinite(u[1])):
+            u = as_array("odometry.control", u, (2,))
         dt = _number(odo.dt, "odometry.dt")
         if not dt > 0:
             raise InputError(f"odometry.dt: expected a finite value > 0, got {odo.dt!r}")
@@ -174,8 +177,9 @@ class EkfSlam:
         with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
             pose, Ppp, Ppl = ekf.predict_terms(st.x, st.P, u, dt, self.model, self.U, self.Q)
         # only the pose rows change (c.2): check them, then write them in place (O(N), no copy of P)
-        _check_finite(pose, np.concatenate([Ppp.ravel(), Ppl.ravel()]),
-                      f"odometry at t={odo.t!r} (control {u.tolist()}, dt {dt!r})")
+        if not (np.isfinite(pose).all() and np.isfinite(Ppp).all() and np.isfinite(Ppl).all()):
+            _check_finite(pose, Ppp, f"odometry at t={odo.t!r} (control {u.tolist()}, dt {dt!r})")
+            _check_finite(pose, Ppl, f"odometry at t={odo.t!r} (control {u.tolist()}, dt {dt!r})")
         ekf.apply_prediction(st.x, st.P, pose, Ppp, Ppl)
         self._dt_since_scan += dt
 

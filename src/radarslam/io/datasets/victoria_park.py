@@ -197,7 +197,7 @@ class TreeDetections:
 
     def row(self, i: int) -> np.ndarray:
         """Detections of row ``i`` as ``[range, bearing, diameter]``, shape (m, 3)."""
-        ok = self.valid[i]
+        ok = ~np.isnan(self.ranges[i])
         return np.column_stack([self.ranges[i, ok], self.bearings[i, ok], self.diameters[i, ok]])
 
 
