@@ -87,6 +87,22 @@ def test_cli_run_dataset_writes_every_output(victoria_park_dir, tmp_path):
     assert m["scans"] == 150 and m["gps_aligned_rmse_m"] < m["odometry_only_rmse_m"] + 0.5
     assert m["landmarks_final"] == len(json.loads((out / "map.json").read_text())["landmarks"])
     assert 'profile = "victoria-park"' in (out / "config.toml").read_text()
+    assert (out / "errors.png").stat().st_size > 0 and m["input"] == "laser"
+    assert 0.0 < m["nis"]["inside"] <= 1.0 and m["nis"]["band"] == pytest.approx([0.0506, 7.3778], abs=1e-3)
+    assert m["duplicated_trunks"]["n_pairs"] >= 0 and m["trunk_diameters"]["estimator"] == "visible-arc"
+
+
+def test_cli_run_dataset_tree_input_published(victoria_park_dir, tmp_path):
+    out = tmp_path / "vpt"
+    r = subprocess.run([sys.executable, "-m", "radarslam", "run", "--dataset", "victoria-park", str(victoria_park_dir),
+                        "--input", "trees", "--protocol", "published", "--scans", "300", "--out", str(out)],
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    m = json.loads((out / "metrics.json").read_text())
+    assert m["input"] == "trees" and m["scans"] == 300 and m["trunk_diameters"] is None
+    assert m["published_rmse_m"] < 2.0 and m["published_scans_matched"] > 30      # measured 1.4-1.6 m
+    assert 'profile = "victoria-park-trees"' in (out / "config.toml").read_text()
+    assert (out / "errors.png").stat().st_size > 0 and "NIS of" in r.stdout
 
 
 def test_cli_run_dataset_bad_inputs(victoria_park_dir, tmp_path):
