@@ -52,6 +52,7 @@ VARIANTS = {
     "alpha x2": (_scale("landmarks", ("alpha",), 2.0), {}),
     "laser time -50 ms": (lambda d: d, {"laser_time_offset": -0.05}),
     "laser time +50 ms": (lambda d: d, {"laser_time_offset": 0.05}),
+    "associator nearest-neighbour": (_set("landmarks", associator="nearest-neighbour"), {}),
     "associator batch": (_set("landmarks", associator="batch"), {}),
     "associator jcbb": (_set("landmarks", associator="jcbb"), {}),
 }
