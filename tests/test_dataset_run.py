@@ -109,3 +109,17 @@ def test_attribute_reference_gate_and_nearest():
     np.testing.assert_allclose(h[:, :2], [[7, 0.5], [8, 0.6]])
     np.testing.assert_allclose(h[:, 2], [0.3, 0.2], atol=1e-9)
     assert REFERENCE_GATE_M < 1.0
+
+
+def test_duplicate_landmarks_counts_pairs_by_radius():
+    from radarslam.experiments.dataset import duplicate_landmarks
+
+    run = _run_with([1, 2, 3, 4], np.zeros((4, 2, 2)), None)
+    pos = np.array([[0.0, 0.0], [0.3, 0.0], [1.7, 0.0], [10.0, 0.0]])
+    run.final_map = MapSnapshot(ids=np.array([1, 2, 3, 4]), positions=pos, covs=np.zeros((4, 2, 2)),
+                                rma=np.zeros((4, 2, 2)), efa=np.zeros((4, 2, 2)), created=np.zeros(4, int))
+    d = duplicate_landmarks(run, 0.42)
+    assert d["n_pairs"] == 1 and d["pairs"] == [(1, 2)]
+    assert d["pairs_within"] == {1.0: 1, 1.5: 2, 2.0: 3, 3.0: 3}
+    with pytest.raises(InputError, match="diameter_m"):
+        duplicate_landmarks(run, 0.0)

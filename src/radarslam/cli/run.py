@@ -212,7 +212,9 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
                "published_rmse_m": None if pub is None else pub["rmse_m"],
                "published_max_m": None if pub is None else pub["max_m"],
                "published_scans_matched": None if pub is None else pub["n_matched"],
-               "duplicated_trunks": {k: dup[k] for k in ("n_pairs", "n_landmarks", "diameter_m")},
+               "duplicated_trunks": {"n_pairs": dup["n_pairs"], "n_landmarks": dup["n_landmarks"],
+                                     "diameter_m": dup["diameter_m"],
+                                     "pairs_within_m": {str(k): v for k, v in dup["pairs_within"].items()}},
                "nis": {k: nis[k] for k in ("n", "mean", "median", "inside", "below", "above", "band", "probability")},
                "filter_seconds": res.seconds, "filter_ms_per_scan": 1e3 * res.seconds / max(res.times.size, 1),
                "load_seconds": res.load_seconds, "wall_seconds": wall}
@@ -252,6 +254,8 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
               f"Spearman {diam['spearman']:.2f}; baseline {diam['baseline']}: {diam['baseline_median_abs_diff_m']:.3f} m, "
               f"Spearman {diam['baseline_spearman']:.2f})")
     print(f"duplicated trunks: {dup['n_pairs']} pairs of landmarks closer than a trunk diameter "
-          f"({dup['diameter_m']:.2f} m, the median of ACFR's detections)")
+          f"({dup['diameter_m']:.2f} m, the median of ACFR's detections; merging removes pairs below "
+          f"{config.landmarks.merge_distance_m:g} m); pairs within "
+          + ", ".join(f"{r:g} m: {n}" for r, n in dup["pairs_within"].items()))
     print(f"wrote {out}/")
     return 0
