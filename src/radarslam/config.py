@@ -116,6 +116,12 @@ class RadarConfig:
     scene_min_m: float = param(-15.0, "lower corner of the square clutter scene (m)")
     scene_max_m: float = param(45.0, "upper corner of the square clutter scene (m)")
     shuffle_detections: bool = param(True, "[PROP] shuffle each scan's detection order (b.4)")
+    spread_model: str = param("surface", "where a car's detections lie (b.4.1): surface (uniform over the rectangle, "
+                              "the paper's), contour (uniform on its outline) or visible-faces (on the sides that "
+                              "face the sensor, count set by the projected width)",
+                              choices=("surface", "contour", "visible-faces"))
+    points_per_m: float = param(1.5, "[PROP] visible-faces: mean potential detections per metre of the car's width "
+                                "seen from the sensor (at most 100)", low=0.0, high=100.0)
 
 
 @dataclass

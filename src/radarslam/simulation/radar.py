@@ -8,23 +8,83 @@ import numpy as np
 
 from radarslam.config import RadarConfig
 from radarslam.core.angles import wrap_pi
+from radarslam.core.errors import InputError
 from radarslam.simulation.world import Vehicle
 
 #: Source label of a clutter detection in :attr:`GroundTruth.sources`.
 CLUTTER = -1
 
 
-def vehicle_points(v: Vehicle, radar: RadarConfig, rng: np.random.Generator) -> np.ndarray:
-    """Kept detection points of one in-range vehicle, ``(m, 2)`` in the world frame.
+def vehicle_points(v: Vehicle, radar: RadarConfig, rng: np.random.Generator,
+                   sensor: np.ndarray | None = None) -> np.ndarray:
+    """Kept detection points of one in-range vehicle, ``(m, 2)`` in the world frame (b.4, b.4.1).
 
-    ``n = floor(N(0.8 A, 1.5))`` potential points uniform on the rectangle, each kept with P_D.
+    ``radar.spread_model``:
+
+    - ``"surface"`` (the paper's): ``n = floor(N(0.8 A, 1.5))`` potential points uniform on the
+      rectangle;
+    - ``"contour"``: the same count, uniform along the outline (by arc length);
+    - ``"visible-faces"``: on the sides whose outward normal points towards the ``sensor`` position,
+      uniform by arc length, ``n = floor(N(points_per_m w, 1.5))`` with ``w`` the width of the
+      rectangle seen from the sensor (the sum of the visible sides' lengths projected across the line
+      of sight): a car seen broadside gets more points than one seen end-on.
+
+    Each potential point is kept with P_D.
     """
-    n = math.floor(radar.points_per_m2 * v.area + math.sqrt(radar.points_var) * rng.standard_normal())
+    model = radar.spread_model
+    noise = math.sqrt(radar.points_var) * rng.standard_normal()
+    if model == "visible-faces":
+        if sensor is None:
+            raise InputError("sensor: expected the sensor position (2,) for radar.spread_model = 'visible-faces', got None")
+        sides = _visible_sides(v, np.asarray(sensor, dtype=float)[:2])
+        n = math.floor(radar.points_per_m * sum(w for *_, w in sides) + noise)
+    else:
+        sides = None
+        n = math.floor(radar.points_per_m2 * v.area + noise)
     if n <= 0:
         return np.empty((0, 2))
-    pts = rng.random((n, 2)) * [v.size_x, v.size_y] + [v.x_left, v.y_bottom]
+    if model == "surface":
+        pts = rng.random((n, 2)) * [v.size_x, v.size_y] + [v.x_left, v.y_bottom]
+    else:
+        if sides is None:
+            sides = _all_sides(v)
+        pts = _on_segments(sides, n, rng)
     keep = rng.random(n) < radar.detection_probability
     return pts[keep]
+
+
+def _all_sides(v: Vehicle) -> list[tuple[np.ndarray, np.ndarray, float]]:
+    """The four sides as ``(start (2,), end (2,), weight)``, counter-clockwise."""
+    x0, y0, x1, y1 = v.x_left, v.y_bottom, v.x_left + v.size_x, v.y_bottom + v.size_y
+    c = [np.array(p, dtype=float) for p in ((x0, y0), (x1, y0), (x1, y1), (x0, y1))]
+    return [(c[i], c[(i + 1) % 4], 0.0) for i in range(4)]
+
+
+def _visible_sides(v: Vehicle, sensor: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, float]]:
+    """The sides facing ``sensor``, each with its length projected across the line of sight to the
+    car's centre (the width it presents)."""
+    los = v.center - sensor
+    dist = math.hypot(los[0], los[1])
+    u = los / dist if dist > 0 else np.array([1.0, 0.0])
+    out = []
+    for a, b, _ in _all_sides(v):
+        edge = b - a
+        normal = np.array([edge[1], -edge[0]])           # outward for a counter-clockwise outline
+        if float(normal @ (sensor - 0.5 * (a + b))) > 0.0:
+            out.append((a, b, abs(float(edge[0] * u[1] - edge[1] * u[0]))))
+    return out
+
+
+def _on_segments(sides, n: int, rng: np.random.Generator) -> np.ndarray:
+    """``n`` points uniform by arc length over the segments ``sides``."""
+    lengths = np.array([math.hypot(*(b - a)) for a, b, _ in sides])
+    s = rng.random(n) * lengths.sum()
+    edges = np.concatenate([[0.0], np.cumsum(lengths)])
+    i = np.clip(np.searchsorted(edges, s, side="right") - 1, 0, len(sides) - 1)
+    t = (s - edges[i]) / lengths[i]
+    a = np.array([sides[j][0] for j in i])
+    b = np.array([sides[j][1] for j in i])
+    return a + t[:, None] * (b - a)
 
 
 def clutter_points(pose: np.ndarray, radar: RadarConfig, rng: np.random.Generator) -> np.ndarray:
@@ -59,7 +119,7 @@ def simulate_scan(pose: np.ndarray, vehicles: list[Vehicle], k: int, radar: Rada
         c = v.center
         if math.hypot(c[0] - pose[0], c[1] - pose[1]) > radar.max_range_m:
             continue
-        p = vehicle_points(v, radar, rng)
+        p = vehicle_points(v, radar, rng, pose[:2])
         pts.append(p)
         src.append(np.full(p.shape[0], v.index))
     xy = np.concatenate(pts) if pts else np.empty((0, 2))
