@@ -231,7 +231,8 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
         from radarslam.viz.dataset import plot_dataset_errors
 
         plot_dataset_map(out / "map.png", res.poses, mp.positions, mp.rma, ev, name=res.name,
-                         dead_reckoning=(dr_poses, dr_ev), diameters=diam)
+                         dead_reckoning=(dr_poses, dr_ev), diameters=diam,
+                         extent_label=f"extent ({res.config.extent.estimator})")
         if pub is not None:
             err_t, err = res.times[pub["index"]], pub["errors_m"]
         else:

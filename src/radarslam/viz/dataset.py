@@ -26,7 +26,7 @@ def _check_eval(name: str, ev) -> None:
 def plot_dataset_map(path: str | Path, poses: np.ndarray, landmarks: np.ndarray, extents: np.ndarray,
                      gps_eval: dict, *, name: str = "dataset", title: str | None = None,
                      dead_reckoning: tuple[np.ndarray, dict] | None = None,
-                     diameters: dict | None = None) -> None:
+                     diameters: dict | None = None, extent_label: str = "RMA extent") -> None:
     """Save the estimated sensor path and landmarks (extent ellipses in red), rotated and translated
     into the GPS frame by the alignment of ``gps_eval``, over the GPS fixes (jumps grey).
 
@@ -38,7 +38,7 @@ def plot_dataset_map(path: str | Path, poses: np.ndarray, landmarks: np.ndarray,
     landmarks : ndarray (N, 2)
         Final landmark centroids.
     extents : ndarray (N, 2, 2)
-        Their extent matrices (NaN where none; drawn as the RMA in the run's figure).
+        Their extent matrices (NaN where none; the run's extent estimator's, labelled by ``extent_label``).
     gps_eval : dict
         :func:`~radarslam.metrics.alignment.error_against_fixes` of ``poses``: ``R``,
         ``translation_m``, ``rmse_m``, ``span_xy``, ``span_jumps`` (and ``max_speed``).
@@ -49,6 +49,8 @@ def plot_dataset_map(path: str | Path, poses: np.ndarray, landmarks: np.ndarray,
     diameters : dict, optional
         :func:`~radarslam.experiments.dataset.compare_tree_diameters`: adds a second panel of
         ``estimate_m`` against ``reference_m``.
+    extent_label : str
+        Legend entry of the drawn extents (the run's extent estimator).
     """
     _check_eval("gps_eval", gps_eval)
     if dead_reckoning is not None:
@@ -90,7 +92,7 @@ def plot_dataset_map(path: str | Path, poses: np.ndarray, landmarks: np.ndarray,
     ax.plot(p[:, 0], p[:, 1], "-", color="m", lw=0.8, label="estimated laser path")
     L = landmarks @ R.T + t
     ax.plot(L[:, 0], L[:, 1], "+", color="k", ms=3, label=f"landmarks ({len(L)})")
-    draw_extents(ax, L, R @ extents @ R.T, color="red", label="RMA extent", lw=0.6, n=24)
+    draw_extents(ax, L, R @ extents @ R.T, color="red", label=extent_label, lw=0.6, n=24)
     ax.set_aspect("equal")
     ax.set_xlabel("east (m)")
     ax.set_ylabel("north (m)")
@@ -108,7 +110,7 @@ def plot_dataset_map(path: str | Path, poses: np.ndarray, landmarks: np.ndarray,
         ax2.set_xlabel("reference trunk diameter (m)")
         ax2.set_ylabel(f"{diameters.get('estimator', 'rma-efa')} trunk diameter (m)")
         ax2.set_title(f"{diameters['n_matched']} matched trees: median |diff| "
-                      f"{diameters['median_abs_diff_m']:.2f} m, Spearman {diameters['spearman']:.2f}", fontsize=9)
+                      f"{diameters['median_abs_diff_m']:.3f} m, Spearman {diameters['spearman']:.2f}", fontsize=9)
         ax2.legend(loc="upper left", fontsize=8)
         ax2.grid(alpha=0.3)
     fig.tight_layout()
