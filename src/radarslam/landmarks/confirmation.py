@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from radarslam.core.angles import wrap_pi_scalar
+from radarslam.core.angles import wrap_pi
 from radarslam.landmarks.clustering import Cluster
 
 
@@ -103,10 +103,7 @@ def in_sensor_view(positions: np.ndarray, pose: np.ndarray, max_range: float, fi
     dx, dy = positions[:, 0] - x0, positions[:, 1] - y0
     out = np.hypot(dx, dy) <= max_range
     if half_fov < math.pi:
-        # wrap_pi of the bearing, as wrap_pi_scalar computes it (fmod, then (-pi, pi])
-        a = np.fmod(np.arctan2(dy, dx) - th + math.pi, 2.0 * math.pi)
-        a = np.where(a <= 0.0, a + 2.0 * math.pi, a) - math.pi
-        out &= np.abs(a) <= half_fov
+        out &= np.abs(wrap_pi(np.arctan2(dy, dx) - th)) <= half_fov
     return out
 
 
@@ -119,12 +116,10 @@ def removal_step(records: list, hit: np.ndarray, in_view: np.ndarray, k: int, *,
     the records to remove, ascending.
     """
     drop = []
-    mask = (1 << window) - 1
-    seen = np.logical_or(hit, in_view).tolist()
-    oldest = k - window + 1
+    seen = np.logical_or(hit, in_view).tolist()          # an associated landmark counts as in range
     for j, (r, h, v) in enumerate(zip(records, hit.tolist(), seen)):
-        r.assoc = ((r.assoc << 1) | h) & mask                   # push_bit, inlined: every scan, every landmark
-        r.in_range = ((r.in_range << 1) | v) & mask
-        if oldest >= r.created and r.in_range.bit_count() == window and r.assoc.bit_count() <= max_hits:
+        r.assoc = push_bit(r.assoc, h, window)
+        r.in_range = push_bit(r.in_range, v, window)
+        if should_remove(k, r.created, r.assoc, r.in_range, window=window, max_hits=max_hits):
             drop.append(j)
     return drop

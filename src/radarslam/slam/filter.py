@@ -178,8 +178,8 @@ class EkfSlam:
             pose, Ppp, Ppl = ekf.predict_terms(st.x, st.P, u, dt, self.model, self.U, self.Q)
         # only the pose rows change (c.2): check them, then write them in place (O(N), no copy of P)
         if not (np.isfinite(pose).all() and np.isfinite(Ppp).all() and np.isfinite(Ppl).all()):
-            _check_finite(pose, Ppp, f"odometry at t={odo.t!r} (control {u.tolist()}, dt {dt!r})")
-            _check_finite(pose, Ppl, f"odometry at t={odo.t!r} (control {u.tolist()}, dt {dt!r})")
+            _check_finite(pose, np.concatenate([Ppp.ravel(), Ppl.ravel()]),
+                          f"odometry at t={odo.t!r} (control {u.tolist()}, dt {dt!r})")
         ekf.apply_prediction(st.x, st.P, pose, Ppp, Ppl)
         self._dt_since_scan += dt
 
@@ -229,14 +229,7 @@ class EkfSlam:
         """What the extent step needs of the state before the scan's updates (Decision 3), copied
         because the updates work in place: ``(x, the landmarks' 2 x 2 covariance blocks, rows by id)``."""
         st = self.state
-        n = st.n_landmarks
-        P = st.P
-        blocks = np.empty((n, 2, 2))
-        if n:
-            d = np.arange(3, 3 + 2 * n, 2)
-            blocks[:, 0, 0], blocks[:, 0, 1] = P[d, d], P[d, d + 1]
-            blocks[:, 1, 0], blocks[:, 1, 1] = P[d + 1, d], P[d + 1, d + 1]
-        return st.x.copy(), blocks, st.rows_by_id()
+        return st.x.copy(), st.position_covs(), st.rows_by_id()
 
     def _sift(self, polar: np.ndarray) -> np.ndarray:
         """Step 3: candidates for association, with the predicted pose (c.3; a.7.1)."""
