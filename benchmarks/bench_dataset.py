@@ -10,7 +10,9 @@ from pathlib import Path
 import _common  # noqa: F401  (single-threaded BLAS)
 
 from radarslam.config import profile_config
-from radarslam.experiments.dataset import compare_tree_diameters, evaluate_against_gps, run_dataset
+from radarslam.experiments.dataset import (compare_tree_diameters, evaluate_against_gps, run_dataset,
+                                           victoria_park_options)
+from radarslam.io.datasets.victoria_park import INPUT_PROFILES
 
 DEFAULT_PATH = Path(__file__).resolve().parents[2] / "shared" / "data" / "victoria_park"
 
@@ -24,9 +26,9 @@ def main() -> None:
     ap.add_argument("--input", choices=("laser", "trees"), default="laser",
                     help="raw laser returns (profile victoria-park) or ACFR's tree detections (victoria-park-trees)")
     a = ap.parse_args()
-    cfg = profile_config("victoria-park-trees" if a.input == "trees" else "victoria-park")
+    cfg = profile_config(INPUT_PROFILES[a.input])
     cfg = replace(cfg, filter=replace(cfg.filter, backend=a.backend))
-    loader = {"input": a.input, "max_range": cfg.filter.max_range_m}
+    loader = victoria_park_options(cfg, a.input)
     if a.backend == "numba":  # compile outside the timing
         run_dataset("victoria-park", a.path, cfg, n_scans=20, progress=False, loader_options=loader)
     t0 = time.perf_counter()

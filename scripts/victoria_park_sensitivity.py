@@ -21,9 +21,9 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 from radarslam.config import from_dict, profile_config, to_dict
+from radarslam.io.datasets.victoria_park import INPUT_PROFILES as PROFILES
 
 DEFAULT_PATH = Path(__file__).resolve().parents[2] / "shared" / "data" / "victoria_park"
-PROFILES = {"laser": "victoria-park", "trees": "victoria-park-trees"}
 
 
 def _scale(section: str, keys: tuple[str, ...], factor: float):
@@ -60,7 +60,8 @@ VARIANTS = {
 
 def run_variant(name: str, mode: str, path: Path, scans: int | None, backend: str) -> dict:
     """One full run of variant ``name`` in input ``mode``: its figures as a dict."""
-    from radarslam.experiments.dataset import evaluate_against_gps, evaluate_published, nis_fraction, run_dataset
+    from radarslam.experiments.dataset import (evaluate_against_gps, evaluate_published, nis_fraction, run_dataset,
+                                               victoria_park_options)
     from radarslam.io.datasets.victoria_park import PUBLISHED_START
 
     change, loader = VARIANTS[name]
@@ -69,7 +70,7 @@ def run_variant(name: str, mode: str, path: Path, scans: int | None, backend: st
     d["filter"]["initial_pose"] = list(PUBLISHED_START)
     cfg = from_dict(d)
     run = run_dataset("victoria-park", path, cfg, n_scans=scans, progress=False,
-                      loader_options={"input": mode, "max_range": cfg.filter.max_range_m, **loader})
+                      loader_options=victoria_park_options(cfg, mode, **loader))
     pub, ev = evaluate_published(run), evaluate_against_gps(run)
     return {"variant": name, "input": mode, "published_rmse_m": pub["rmse_m"], "published_max_m": pub["max_m"],
             "aligned_rmse_m": ev["rmse_m"], "landmarks": int(run.final_map.ids.size),

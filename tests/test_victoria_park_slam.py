@@ -163,7 +163,9 @@ def published500(request, victoria_park_dir):
     from radarslam.io.datasets.victoria_park import PUBLISHED_START
 
     mode = request.param
-    cfg = profile_config("victoria-park-trees" if mode == "trees" else "victoria-park")
+    from radarslam.io.datasets.victoria_park import INPUT_PROFILES
+
+    cfg = profile_config(INPUT_PROFILES[mode])
     cfg = dataclasses.replace(cfg, filter=dataclasses.replace(cfg.filter, initial_pose=list(PUBLISHED_START)))
     return mode, run_dataset("victoria-park", victoria_park_dir, cfg, n_scans=N_SCANS, progress=False,
                              loader_options={"input": mode})

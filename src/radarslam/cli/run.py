@@ -153,7 +153,8 @@ def write_outputs(out, res, wall: float, argv=None) -> None:
 def run_dataset_cmd(args: argparse.Namespace) -> int:
     """``radarslam run --dataset NAME PATH``: the whole recording, evaluated against its GPS."""
     from radarslam.experiments.dataset import (compare_tree_diameters, dead_reckoning, evaluate_against_gps,
-                                               duplicate_landmarks, evaluate_published, nis_fraction, run_dataset)
+                                               duplicate_landmarks, evaluate_published, nis_fraction, run_dataset,
+                                               victoria_park_options)
     from radarslam.io.datasets import list_datasets
 
     name, path = args.dataset
@@ -162,7 +163,9 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
     if args.input != "laser" and name != "victoria-park":
         raise InputError(f"--input: 'trees' is defined for --dataset victoria-park, got --dataset {name}")
     if args.profile is None and not args.config:
-        args.profile = ("victoria-park-trees" if args.input == "trees" else name) if name == "victoria-park" else "apsipa"
+        from radarslam.io.datasets.victoria_park import INPUT_PROFILES
+
+        args.profile = INPUT_PROFILES[args.input] if name == "victoria-park" else "apsipa"
     config = config_from_args(args)
     if args.extent is not None:
         config = dataclasses.replace(config, extent=dataclasses.replace(config.extent, use_in_slam=args.extent))
@@ -177,7 +180,7 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
     out = prepare_out_dir(args.out)
     refuse_finished(out / "run.json", "--out", args.overwrite)
     t0 = time.perf_counter()
-    loader = {"input": args.input, "max_range": config.filter.max_range_m} if name == "victoria-park" else None
+    loader = victoria_park_options(config, args.input) if name == "victoria-park" else None
     res = run_dataset(name, path, config, first_scan=args.first_scan, n_scans=args.scans, loader_options=loader)
     ev = evaluate_against_gps(res)
     pub = evaluate_published(res) if published else None

@@ -8,8 +8,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from radarslam.config import Config, validate
+from radarslam.core.registry import EXTENT_ESTIMATORS
 from radarslam.core.types import Odometry, Scan
 from radarslam.core.errors import InputError
+from radarslam.extent.ellipse import trunk_diameter  # noqa: F401  (re-exported: its former home)
 from radarslam.metrics.alignment import error_against_fixes
 from radarslam.models.radar import polar_to_xy
 from radarslam.slam.filter import EkfSlam, MapSnapshot
@@ -40,6 +42,12 @@ class DatasetRun:
     load_seconds: float
     reference_hits: np.ndarray | None = None  # (n, 3): landmark id, reference diameter (m), distance (m)
     nis: np.ndarray | None = None  # (u, 2): scan position, NIS of each association update (2 dof)
+
+
+def victoria_park_options(config: Config, input: str = "laser", **extra) -> dict:
+    """Loader options of a Victoria Park run with ``config``: the input mode and the detection range
+    the filter's M/N test assumes (``filter.max_range_m``), plus ``extra`` (e.g. ``laser_time_offset``)."""
+    return {"input": input, "max_range": config.filter.max_range_m, **extra}
 
 
 def run_dataset(name: str, path, config: Config, *, first_scan: int | None = None, n_scans: int | None = None,
@@ -126,29 +134,6 @@ def _attribute_reference(slam: EkfSlam, det: np.ndarray, max_range: float) -> np
     return np.column_stack([ids, det[ok, 2], dist[ok]])
 
 
-def trunk_diameter(X: np.ndarray, gamma_z: float = 0.25) -> np.ndarray:
-    """Trunk diameter (m) implied by extent matrices ``X (..., 2, 2)`` of the RMA model.
-
-    The RMA measurement model spreads detections with covariance ``gamma_z X`` about the centroid
-    (seed eq. (4); ``gamma_z = 1/4`` for a uniformly filled ellipse). A laser does not see a filled
-    disc: beams equally spaced in bearing hit the visible half of a trunk of radius ``rho`` at
-    offsets across the line of sight that are uniform on ``[-rho, rho]`` (variance ``rho^2 / 3``),
-    while the spread along the line of sight is small (``(2/3 - pi^2/16) rho^2 = 0.05 rho^2``). So
-    the major eigenvalue ``lambda`` of ``X`` is the across-sight one and ``gamma_z lambda = rho^2 / 3``,
-    i.e. ``d = 2 rho = 2 sqrt(3 gamma_z lambda)`` (``sqrt(3 lambda)`` for ``gamma_z = 1/4``), not the
-    filled-disc ``2 sqrt(lambda)``. This is the far-field limit: at range ``r`` the rays diverge
-    across the trunk and the visible arc is less than a half, so ``d`` comes out small by about
-    ``0.6 rho / r`` (1.5% at ``r = 40 rho``, i.e. a 0.5 m trunk at 10 m; 8% at ``r = 7.5 rho``).
-    """
-    X = np.asarray(X, dtype=float)
-    if X.shape[-2:] != (2, 2):
-        raise InputError(f"X: expected shape (..., 2, 2), got {X.shape}")
-    if not gamma_z > 0:
-        raise InputError(f"gamma_z: expected a positive number, got {gamma_z!r}")
-    lam = np.linalg.eigvalsh(X)[..., -1]
-    return 2.0 * np.sqrt(3.0 * gamma_z * np.maximum(lam, 0.0))
-
-
 def compare_tree_diameters(run: DatasetRun, *, min_detections: int = 3) -> dict:
     """Trunk diameters of the final map against a reference tree detector (ACFR's ``detectTreesI16``).
 
@@ -157,9 +142,10 @@ def compare_tree_diameters(run: DatasetRun, *, min_detections: int = 3) -> dict:
     matched tree, and its reference diameter is their median. Landmarks merged away take their
     attributions with them.
 
-    The run's extent estimator gives the diameters compared: ``"visible-arc"`` its circle
-    (``d = 2 sqrt(lambda)``, docs/method.md a.9), with the RMA matrix it keeps as baseline;
-    ``"rma-efa"`` the RMA matrix through :func:`trunk_diameter`, with the EFA baseline.
+    The run's extent estimator reads its extent and its baseline as diameters
+    (``round_diameter``, ``baseline_round_diameter``): ``"visible-arc"`` its circle
+    (``d = 2 sqrt(lambda)``, docs/method.md a.9) with the RMA matrix as baseline; ``"rma-efa"`` the
+    RMA matrix through :func:`~radarslam.extent.ellipse.trunk_diameter`, with the EFA baseline.
 
     Returns
     -------
@@ -174,17 +160,15 @@ def compare_tree_diameters(run: DatasetRun, *, min_detections: int = 3) -> dict:
     if min_detections < 1:
         raise InputError(f"min_detections: expected an integer >= 1, got {min_detections!r}")
     mp = run.final_map
-    ec = run.config.extent
+    try:
+        estimator = EXTENT_ESTIMATORS.create(run.config.extent.estimator, run.config)
+        read, read_base = estimator.round_diameter, estimator.baseline_round_diameter
+    except AttributeError:
+        raise InputError(f"extent.estimator: expected an estimator that reads round-object diameters "
+                         f"(round_diameter, baseline_round_diameter), got {run.config.extent.estimator!r}") from None
     ok = np.all(np.isfinite(mp.rma.reshape(-1, 4)), axis=1)
-    base = np.where(np.isfinite(mp.efa[ok]), mp.efa[ok], 0.0)
-    if ec.estimator == "visible-arc":
-        est_d = 2.0 * np.sqrt(np.maximum(np.linalg.eigvalsh(mp.rma[ok])[..., -1], 0.0))
-        base_d = trunk_diameter(base, ec.gamma_z)             # the RMA matrix it keeps
-        base_name = "rma"
-    else:
-        est_d = trunk_diameter(mp.rma[ok], ec.gamma_z)
-        base_d = trunk_diameter(base, 0.25)                   # EFA: X = 4 C of the last scan (Decision 4)
-        base_name = "efa"
+    est_d = read(mp.rma[ok])
+    base_d = read_base(np.where(np.isfinite(mp.efa[ok]), mp.efa[ok], 0.0))
     d_est = dict(zip(mp.ids[ok].tolist(), est_d.tolist()))
     d_base = dict(zip(mp.ids[ok].tolist(), base_d.tolist()))
     hits = run.reference_hits
@@ -196,7 +180,7 @@ def compare_tree_diameters(run: DatasetRun, *, min_detections: int = 3) -> dict:
             ids.append(i), est.append(d_est[i]), bas.append(d_base[i]), ref.append(float(np.median(d)))
             cnt.append(d.size)
     est, bas, ref = np.array(est), np.array(bas), np.array(ref)
-    out = {"estimator": ec.estimator, "baseline": base_name, "n_matched": len(ids),
+    out = {"estimator": estimator.name, "baseline": estimator.baseline_name, "n_matched": len(ids),
            "n_landmarks_with_extent": int(ok.sum()), "min_detections": min_detections, "gate_m": REFERENCE_GATE_M,
            "ids": np.array(ids, dtype=int), "estimate_m": est, "baseline_m": bas, "reference_m": ref,
            "n_detections": np.array(cnt, dtype=int)}
@@ -235,10 +219,12 @@ def duplicate_landmarks(run: DatasetRun, diameter_m: float | None = None) -> dic
         raise InputError(f"diameter_m: expected a positive number, got {diameter_m!r}")
     from radarslam.landmarks.merging import merge_candidates
 
-    pairs = merge_candidates(mp.positions, diameter_m)
-    within = {r: len(merge_candidates(mp.positions, r)) for r in DUPLICATE_RADII_M}
-    return {"n_pairs": len(pairs), "n_landmarks": int(mp.ids.size), "diameter_m": float(diameter_m),
-            "pairs_within": within, "pairs": [(int(mp.ids[i]), int(mp.ids[j])) for i, j, _ in pairs]}
+    pairs = merge_candidates(mp.positions, max(diameter_m, *DUPLICATE_RADII_M))   # one search, nearest first
+    d = np.array([p[2] for p in pairs])
+    within = {r: int(np.sum(d < r)) for r in DUPLICATE_RADII_M}
+    close = [(int(mp.ids[i]), int(mp.ids[j])) for i, j, dij in pairs if dij < diameter_m]
+    return {"n_pairs": len(close), "n_landmarks": int(mp.ids.size), "diameter_m": float(diameter_m),
+            "pairs_within": within, "pairs": close}
 
 
 def evaluate_published(run: DatasetRun, poses: np.ndarray | None = None) -> dict:
@@ -279,13 +265,13 @@ def nis_fraction(run: DatasetRun, *, window: int = 100) -> dict:
     ``band``, and per ``window`` scans the series ``window_scan`` (first scan position), ``window_mean``
     and ``window_inside`` for the figure. All NaN with no updates.
     """
-    from scipy.stats import chi2
+    from radarslam.extent.sifting import chi2_2dof_quantile
 
     if run.nis is None:
         raise InputError(f"run: expected a dataset run with recorded NIS, got none for {run.name!r}")
     if isinstance(window, bool) or not isinstance(window, int) or window < 1:
         raise InputError(f"window: expected an integer >= 1, got {window!r}")
-    lo, hi = chi2.ppf([(1 - NIS_BAND_PROBABILITY) / 2, (1 + NIS_BAND_PROBABILITY) / 2], 2)
+    lo, hi = (chi2_2dof_quantile((1 - NIS_BAND_PROBABILITY) / 2), chi2_2dof_quantile((1 + NIS_BAND_PROBABILITY) / 2))
     scan, q = run.nis[:, 0], run.nis[:, 1]
     out = {"n": int(q.size), "band": (float(lo), float(hi)), "probability": NIS_BAND_PROBABILITY}
     if not q.size:

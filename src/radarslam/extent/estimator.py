@@ -24,6 +24,7 @@ from radarslam.extent.ellipse_fit import _fit_ellipse
 from radarslam.extent.measurement import _scan_W
 from radarslam.extent.measurement import _converted_measurement_covs
 from radarslam.extent.random_matrix import _rm_predict, _rm_update
+from radarslam.extent.ellipse import trunk_diameter
 from radarslam.extent.sifting import chi2_2dof_quantile, literal_contour, measurement_contour
 
 
@@ -108,6 +109,12 @@ class RmaEfaEstimator:
         #: gamma_z X0 of the circular prior extent X0 = r^2 I ([PROP], docs/method.md a.7.3).
         self.prior_spread = extent_config.gamma_z * extent_config.prior_extent_radius_m ** 2 * np.eye(2)
 
+    @classmethod
+    def from_config(cls, config):
+        """From the ``extent`` section, with the extent step's noise from ``extent`` or ``filter``
+        (the registered factory of this class and its subclasses)."""
+        return cls(config.extent, config.extent.R(config.filter.R))
+
     def new(self) -> RmaEfaState:
         return RmaEfaState()
 
@@ -158,6 +165,18 @@ class RmaEfaEstimator:
 
     def baseline(self, st: RmaEfaState) -> np.ndarray | None:
         return st.X_efa
+
+    #: What :meth:`baseline` is, for reports.
+    baseline_name = "efa"
+
+    def round_diameter(self, X: np.ndarray) -> np.ndarray:
+        """Diameters (m) of round objects seen by a laser whose RMA extents are ``X (..., 2, 2)``
+        (the laser-arc reading with this estimator's ``gamma_z``; docs/method.md v.4)."""
+        return trunk_diameter(X, self.c.gamma_z)
+
+    def baseline_round_diameter(self, X: np.ndarray) -> np.ndarray:
+        """The same for the EFA baseline, ``X_EFA = 4 C`` (gamma 1/4, Decision 4)."""
+        return trunk_diameter(X, 0.25)
 
     # ------------------------------------------------------------------ life cycle
     def step(self, st: RmaEfaState, polar: np.ndarray, pts: np.ndarray, centroid: np.ndarray,
@@ -219,9 +238,4 @@ class RmaEfaEstimator:
         return survivor
 
 
-def _make_rma_efa(config) -> RmaEfaEstimator:
-    """From the ``extent`` section, with the extent step's noise from ``extent`` or ``filter``."""
-    return RmaEfaEstimator(config.extent, config.extent.R(config.filter.R))
-
-
-EXTENT_ESTIMATORS.register("rma-efa", _make_rma_efa)
+EXTENT_ESTIMATORS.register("rma-efa", RmaEfaEstimator.from_config)

@@ -119,6 +119,16 @@ class VisibleArcEstimator(RmaEfaEstimator):
     def baseline(self, st: VisibleArcState) -> np.ndarray | None:
         return st.X
 
+    baseline_name = "rma"
+
+    def round_diameter(self, X: np.ndarray) -> np.ndarray:
+        """Diameters (m) of this estimator's circles ``(d / 2)^2 I``: ``2 sqrt(lambda_max)``."""
+        return 2.0 * np.sqrt(np.maximum(np.linalg.eigvalsh(np.asarray(X, dtype=float))[..., -1], 0.0))
+
+    def baseline_round_diameter(self, X: np.ndarray) -> np.ndarray:
+        """The RMA baseline through the RMA's own reading."""
+        return super().round_diameter(X)
+
     def merge(self, survivor: VisibleArcState, gone: VisibleArcState) -> VisibleArcState:
         """As :meth:`RmaEfaEstimator.merge`, and the survivor pools the other's widths (one trunk)."""
         arcs, beams = survivor.arc + gone.arc, survivor.beam + gone.beam
@@ -127,8 +137,4 @@ class VisibleArcEstimator(RmaEfaEstimator):
         return kept
 
 
-def _make_visible_arc(config) -> VisibleArcEstimator:
-    return VisibleArcEstimator(config.extent, config.extent.R(config.filter.R))
-
-
-EXTENT_ESTIMATORS.register("visible-arc", _make_visible_arc)
+EXTENT_ESTIMATORS.register("visible-arc", VisibleArcEstimator.from_config)

@@ -72,7 +72,7 @@ def compile_kernels(*funcs, replace=None):
 _K = compile_kernels(angles.wrap_pi_scalar, angles.wrap_2pi_scalar, layout.landmark_index,
                      ekf.innovation_cov_terms, ekf.gaussian_log_distance, ekf.sparse_jacobian, ekf.r_eff,
                      ekf.joseph_update_inplace, ekf.sensor_xy_measurement, ekf.polar_to_sensor_xy,
-                     ekf.rotate_to_sensor, replace={"joseph_apply": joseph_apply_loops})
+                     ekf.rotate_to_sensor, ekf.batch_noise, replace={"joseph_apply": joseph_apply_loops})
 _wrap_pi = _K["wrap_pi_scalar"]
 _landmark_index = _K["landmark_index"]
 _innovation_cov_terms = _K["innovation_cov_terms"]
@@ -82,7 +82,7 @@ _r_eff = _K["r_eff"]
 _joseph_update_inplace = _K["joseph_update_inplace"]
 _sensor_xy_measurement = _K["sensor_xy_measurement"]
 _polar_to_sensor_xy = _K["polar_to_sensor_xy"]
-_rotate_to_sensor = _K["rotate_to_sensor"]
+_batch_noise = _K["batch_noise"]
 
 
 @njit(cache=True)
@@ -193,11 +193,9 @@ def batch_associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta):  # 
         zbar = np.empty(2)
         zbar[0] = pts[:, 0].mean()
         zbar[1] = pts[:, 1].mean()
-        noise = R_xy.copy()
-        if has_gX[j]:
-            noise += _rotate_to_sensor(x[2], np.ascontiguousarray(gX[j]))
+        noise = _batch_noise(x[2], np.ascontiguousarray(gX[j]), has_gX[j], R_xy, m)
         h, Hs, idx = _sensor_xy_measurement(x, j)
-        q = _joseph_update_inplace(x, P, zbar - h, Hs, idx, noise / m)
+        q = _joseph_update_inplace(x, P, zbar - h, Hs, idx, noise)
         nis[n_up] = q
         n_up += 1
     return x, P, out, nis[:n_up]

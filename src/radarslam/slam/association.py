@@ -150,10 +150,9 @@ class BatchAssociator(NearestNeighbourAssociator):
         for j in np.unique(out[out >= 0]).tolist():
             dets = candidates[out == j]
             pts, R_xy = ekf.polar_to_sensor_xy(polar[dets], R)
-            spread = ekf.rotate_to_sensor(state.x[2], spreads.gX[j]) if spreads.has[j] else 0.0
+            noise = ekf.batch_noise(state.x[2], spreads.gX[j], spreads.has[j], R_xy, dets.size)
             h, Hs, idx = ekf.sensor_xy_measurement(state.x, j)
-            q = ekf.joseph_update_inplace(state.x, state.P, pts.mean(axis=0) - h, Hs, idx,
-                                          (spread + R_xy) / dets.size)
+            q = ekf.joseph_update_inplace(state.x, state.P, pts.mean(axis=0) - h, Hs, idx, noise)
             nis.append(q)
         return out, np.array(nis)
 

@@ -295,6 +295,16 @@ def rotate_to_sensor(theta: float, C: np.ndarray) -> np.ndarray:
     return Rt @ C @ Rt.T
 
 
+def batch_noise(theta: float, gX_j: np.ndarray, has_j: bool, R_xy: np.ndarray, m: int) -> np.ndarray:
+    """Covariance ``(2, 2)`` of the sensor-frame mean of ``m`` detections about a landmark's
+    predicted centroid (docs/method.md a.7.3 part 3): ``(Rot(-theta) gamma_z X Rot(-theta)^T + R_xy) / m``,
+    the spread term only where ``has_j``; ``R_xy`` is the detections' mean sensor noise. A kernel."""
+    noise = R_xy.copy()
+    if has_j:
+        noise += rotate_to_sensor(theta, gX_j)
+    return noise / m
+
+
 def r_eff(R: np.ndarray, Hs: np.ndarray, spread: np.ndarray) -> np.ndarray:
     """Extent-inflated noise ``R_eff = R + H_p (gamma_z X) H_p^T`` (docs/method.md a.7.2).
 

@@ -275,8 +275,7 @@ class Observation:
         """Covariance of ``zbar`` about landmark ``j``'s predicted centroid seen with heading ``theta``:
         ``(Rot(-theta) gamma_z X_j Rot(-theta)^T + R_xy) / m`` (docs/method.md a.7.3 part 3), the
         spread term only where ``spreads.has[j]``. Computed as the batch update does, bit for bit."""
-        spread = ekf.rotate_to_sensor(theta, spreads.gX[j]) if spreads.has[j] else 0.0
-        return (spread + self.R_xy) / self.members.size
+        return ekf.batch_noise(theta, spreads.gX[j], spreads.has[j], self.R_xy, self.members.size)
 
 
 def cluster_observations(polar: np.ndarray, R: np.ndarray, eps: float, min_samples: int) -> list[Observation]:
@@ -379,7 +378,7 @@ class JcbbAssociator(NearestNeighbourAssociator):
             for j in near.tolist():
                 h, Hs, idx = ekf.sensor_xy_measurement(x, j)
                 N = ob.noise(x[2], spreads, j)
-                S = Hs @ P[np.ix_(idx, idx)] @ Hs.T + N
+                S = ekf.innovation_cov(P, Hs, idx, N)
                 e = ob.zbar - h
                 a, b, dd = S[0, 0], 0.5 * (S[0, 1] + S[1, 0]), S[1, 1]
                 det = a * dd - b * b

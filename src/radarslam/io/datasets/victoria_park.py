@@ -82,8 +82,10 @@ N_BEAMS = 361
 BEAM_STEP = math.radians(0.5)
 NO_RETURN_M = 80.0               # >= 80 m: no return / status code (info.txt: > 8000 cm)
 MAX_CODE_CM = 8191               # 13-bit range word
-#: What a scan's detections are (``load_victoria_park(input=...)``, ``--input``).
-INPUTS = ("laser", "trees")
+#: What a scan's detections are (``load_victoria_park(input=...)``, ``--input``), with each input
+#: mode's parameter profile (docs/method.md v.3, v.5).
+INPUT_PROFILES = {"laser": "victoria-park", "trees": "victoria-park-trees"}
+INPUTS = tuple(INPUT_PROFILES)
 TIME_MATCH_S = 5e-4              # the h5 times are whole ms; the npz times are ms / 1000
 
 VEHICLE = {"L": 2.83, "H": 0.76, "a": 0.95, "b": 0.5}
@@ -633,5 +635,5 @@ def _tree_window(arrays, laser_t, all_laser_t, offset, s0, s1) -> TreeDetections
                           diameters=np.where(pad, np.nan, dia[idx]))
 
 
-__all__ = ["NOISE", "VEHICLE", "DeadReckoning", "GpsFixes", "NoiseModel", "TreeDetections",
+__all__ = ["INPUT_PROFILES", "NOISE", "VEHICLE", "DeadReckoning", "GpsFixes", "NoiseModel", "TreeDetections",
            "VictoriaParkData", "load_victoria_park"]
