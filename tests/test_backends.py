@@ -25,3 +25,123 @@ def test_numba_backend_agrees_with_python_backend():
             assert np.allclose(a.record.poses, b.record.poses, atol=1e-9, rtol=0)
             assert np.allclose(a.record.pose_covs, b.record.pose_covs, atol=1e-12, rtol=1e-9)
             assert np.allclose(a.record.maps[-1].positions, b.record.maps[-1].positions, atol=1e-9)
+            for key in ("rma", "efa"):  # the compiled extent step (one call per scan) against the reference
+                x, y = getattr(a.record.maps[-1], key), getattr(b.record.maps[-1], key)
+                assert np.array_equal(np.isnan(x), np.isnan(y))
+                assert np.allclose(x[~np.isnan(x)], y[~np.isnan(y)], atol=1e-9)
+
+
+# ------------------------------------------------------------------ the compiled per-scan steps, one by one
+def test_compiled_dbscan_equals_sklearn_dbscan():
+    """Labels and cluster centres of the compiled clustering equal scikit-learn's DBSCAN and the
+    reference's centres (smallest range, first on ties), on random scans and on a 0.2 m grid
+    (distance ties)."""
+    require("numba")
+    from sklearn.cluster import DBSCAN
+
+    from radarslam.landmarks._compiled import dbscan_centres, dbscan_labels
+
+    r = np.random.default_rng(11)
+    n_clusters = 0
+    for trial in range(400):
+        min_samples = int(r.integers(1, 6))
+        pts = r.uniform(0, 15, (int(r.integers(0, 40)), 2))
+        if trial % 3 == 0:
+            pts = np.round(pts / 0.2) * 0.2 + 0.1
+        ours = dbscan_labels(pts, 2.5, min_samples)
+        if pts.shape[0] == 0:
+            assert ours.size == 0
+            continue
+        assert np.array_equal(ours, DBSCAN(eps=2.5, min_samples=min_samples).fit(pts).labels_)
+        ranges = np.round(r.uniform(1, 5, pts.shape[0]), 1)  # ties in range are common
+        centres = dbscan_centres(ranges, ours)
+        for lab, c in enumerate(centres.tolist()):
+            rows = np.flatnonzero(ours == lab)
+            assert c == rows[np.argmin(ranges[rows])]
+        n_clusters += centres.size
+    assert n_clusters > 300  # the comparison saw clusters, not only noise
+
+
+def test_compiled_measurement_contour_equals_reference():
+    """The fused compiled gate test gives the reference's (m, N) matrix on random scans, poses and
+    maps, with about half the pairs inside so that both outcomes are exercised."""
+    require("numba")
+    from radarslam.extent._compiled import measurement_contour as compiled
+    from radarslam.extent.estimator import _reference_contour
+
+    r = np.random.default_rng(12)
+    inside = total = 0
+    for _ in range(200):
+        m, n = int(r.integers(1, 30)), int(r.integers(1, 12))
+        pose = np.array([r.normal(), r.normal(), r.uniform(-np.pi, np.pi)])
+        A = r.normal(size=(3, 3)) * 0.1
+        pose_cov = A @ A.T + 1e-4 * np.eye(3)
+        polar = np.column_stack([r.uniform(1, 20, m), r.uniform(-np.pi, np.pi, m)])
+        a = pose[2] + polar[:, 1]
+        pts = pose[:2] + polar[:, :1] * np.column_stack([np.cos(a), np.sin(a)])
+        cents = pts[r.integers(0, m, n)] + r.normal(0, 2.0, (n, 2))
+        B = r.normal(size=(n, 2, 2))
+        spreads = B @ B.transpose(0, 2, 1) + 0.1 * np.eye(2)
+        C = r.normal(size=(n, 2, 2)) * 0.2
+        covs = C @ C.transpose(0, 2, 1)
+        R = np.diag([0.01, 1e-4])
+        ref = _reference_contour(pts, polar, pose, pose_cov, R, cents, spreads, covs, 9.21)
+        assert np.array_equal(compiled(pts, polar, pose[2], pose_cov, R, cents, spreads, covs, 9.21), ref)
+        inside, total = inside + ref.sum(), total + ref.size
+    assert 0.05 < inside / total < 0.95
+
+
+def test_batched_extent_step_equals_per_landmark_steps():
+    """One compiled call for every landmark of a scan gives each landmark's reference step: the
+    same RMA extent and alpha to 1e-12 and the same EFA, through buffering, initialisation,
+    landmarks without detections and scans with dt = 0."""
+    require("numba")
+    from radarslam.extent.estimator import RmaEfaEstimator
+
+    cfg = profile_config()
+    ref, fast = (RmaEfaEstimator(cfg.extent, cfg.extent.R(cfg.filter.R), b) for b in ("python", "numba"))
+    assert fast._batched and not ref._batched
+    r = np.random.default_rng(13)
+    L = 9
+    states = {e: [e.new() for _ in range(L)] for e in (ref, fast)}
+    centres = r.uniform(-15, 15, (L, 2))
+    updated = 0
+    for k in range(1, 41):
+        pose = np.array([r.normal(), r.normal(), r.uniform(0, 2 * np.pi)])
+        pose_cov = np.diag([0.01, 0.01, 1e-4])
+        counts = r.integers(0, 7, L) * (r.random(L) < 0.8)
+        pts = np.concatenate([centres[j] + r.normal(0, [1.5, 0.7], (c, 2)) for j, c in enumerate(counts)])
+        d = pts - pose[:2]
+        polar = np.column_stack([np.hypot(d[:, 0], d[:, 1]), np.arctan2(d[:, 1], d[:, 0]) - pose[2]])
+        ends = np.cumsum(counts)
+        assoc = [list(range(e - c, e)) for e, c in zip(ends.tolist(), counts.tolist())]
+        cents = centres + r.normal(0, 0.05, (L, 2))
+        covs = np.tile(np.diag([0.02, 0.03]), (L, 1, 1))
+        dt = 0.0 if k % 7 == 0 else 0.1
+        for e in (ref, fast):
+            e.step_all(states[e], polar, pts, assoc, cents, covs, pose, pose_cov, dt, k)
+        for a, b in zip(states[ref], states[fast]):
+            assert a.initialized == b.initialized
+            if a.initialized:
+                updated += 1
+                assert np.allclose(a.X, b.X, rtol=1e-12, atol=1e-14) and abs(a.alpha - b.alpha) < 1e-9
+                assert np.allclose(a.X_efa, b.X_efa, rtol=1e-12, atol=1e-14)
+    assert updated > 200
+
+
+def test_merge_candidates_dense_path_equals_kd_tree_path(monkeypatch):
+    """The all-pairs search of small maps lists the kd-tree's pairs in the same order (integer
+    positions give equal distances, so the tie order is checked too)."""
+    from radarslam.landmarks import merging
+
+    r = np.random.default_rng(14)
+    for t in range(300):
+        pos = r.uniform(0, 20, (int(r.integers(0, 60)), 2))
+        if t % 2:
+            pos = np.round(pos)
+        tol = 1.0 if t % 3 else np.inf
+        dense = merging.merge_candidates(pos, 2.0, tol)
+        monkeypatch.setattr(merging, "DENSE_MAX", -1)
+        tree = merging.merge_candidates(pos, 2.0, tol)
+        monkeypatch.undo()
+        assert dense == tree

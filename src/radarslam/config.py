@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 import math
 import tomllib
 import typing
@@ -327,8 +328,14 @@ def profile_config(name: str = "apsipa") -> Config:
 # --------------------------------------------------------------------------------------------
 # Loading, validating, writing
 # --------------------------------------------------------------------------------------------
+@functools.cache
+def _type_hints(cls: type) -> dict[str, Any]:
+    """The resolved annotations of a config section (resolving them costs ~0.5 ms per call)."""
+    return typing.get_type_hints(cls)
+
+
 def _field_type(cls: type, name: str) -> Any:
-    return typing.get_type_hints(cls)[name]
+    return _type_hints(cls)[name]
 
 
 def _check_value(key: str, typ: Any, meta: dict, value: Any) -> Any:

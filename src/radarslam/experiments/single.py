@@ -11,7 +11,7 @@ from radarslam.config import Config, validate
 from radarslam.core.errors import ConfigError
 from radarslam.core.types import Odometry, Scan
 from radarslam.metrics.extent import extent_metrics, rectangle_centers
-from radarslam.metrics.landmarks import landmark_metrics
+from radarslam.metrics.landmarks import landmark_metrics, matches
 from radarslam.metrics.pose import avg_rmse, pose_errors, pose_nees
 from radarslam.simulation.scenario import Scenario, generate_scenario
 from radarslam.slam.filter import EkfSlam, MapSnapshot
@@ -88,10 +88,12 @@ def evaluate(config: Config, scenario: Scenario, rec: FilterRecord) -> dict:
     centers = rectangle_centers(rects)
     present = np.asarray(truth.present, dtype=bool)
     positions = [m.positions for m in rec.maps]
+    gate = config.metrics.match_gate_m
+    matched = matches(positions, centers, gate)  # every scan's landmarks to every vehicle, once
     lm = landmark_metrics(positions, truth.poses, centers, present,
-                          config.radar.max_range_m, config.metrics.match_gate_m, config.metrics.missed_grace_scans)
+                          config.radar.max_range_m, gate, config.metrics.missed_grace_scans, matched)
     ext = (extent_metrics(positions, [m.rma for m in rec.maps], [m.efa for m in rec.maps], rects, present,
-                          config.metrics.match_gate_m, config.metrics.include_stale) if config.extent.track else {})
+                          gate, config.metrics.include_stale, matched=matched) if config.extent.track else {})
     return {
         "position_avg_rmse_m": avg_rmse(pos_err),
         "heading_avg_rmse_deg": float(np.degrees(avg_rmse(head_err))),

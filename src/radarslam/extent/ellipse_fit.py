@@ -87,10 +87,23 @@ def _fit_ellipse(points: np.ndarray, upper_bound: bool = True,
     Plain-float sums and the closed-form eigen-decomposition: 2.4 us for m = 6, against 28 us
     with ``np.cov`` and ``np.linalg.eigh``.
     """
-    pts = points.tolist()
+    w11 = w12 = w22 = 0.0
+    if not upper_bound:
+        w11, w12, _, w22 = W.ravel().tolist()
+    ok, zx, zy, a, b, c = fit_entries(points.tolist(), upper_bound, w11, w12, w22)
+    if not ok:
+        return FIT_FAILED
+    return np.array((zx, zy)), np.array(((a, b), (b, c)))
+
+
+def fit_entries(pts, upper_bound: bool, w11: float, w12: float, w22: float):
+    """The EFA of d.3 on the detections ``pts`` (a list of ``[x, y]`` or an (m, 2) array):
+    ``(ok, zx, zy, X11, X12, X22)``, ``ok`` False (and zeros) for fewer than three points or
+    (nearly) collinear ones; ``W`` (its entries) is used only when ``upper_bound`` is False. A
+    kernel: :func:`_fit_ellipse` calls it on a list, the compiled backend compiles it as it is."""
     m = len(pts)
     if m < FIT_MIN_POINTS:
-        return FIT_FAILED
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0
     zx, zy, c11, c12, c22 = mean_and_scatter(pts)
     k = 1.0 / (m - 1)
     c11 *= k
@@ -98,13 +111,11 @@ def _fit_ellipse(points: np.ndarray, upper_bound: bool = True,
     c22 *= k
     l1, l2, p, q = spectral(c11, c12, c22)
     if l2 <= FIT_COLLINEAR_REL_TOL * l1:
-        return FIT_FAILED
-    center = np.array((zx, zy))
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0
     if upper_bound:
         # X = R(o) diag((2 sqrt l1)^2, (2 sqrt l2)^2) R(o)^T = 4 C exactly
-        return center, np.array(((4.0 * c11, 4.0 * c12), (4.0 * c12, 4.0 * c22)))
+        return True, zx, zy, 4.0 * c11, 4.0 * c12, 4.0 * c22
     # u_1 = (cos o, sin o) with cos^2 o = (1 + p)/2, sin^2 o = (1 - p)/2, sin o cos o = q/2
-    w11, w12, _, w22 = W.ravel().tolist()
     wu1 = 0.5 * (w11 * (1.0 + p) + w22 * (1.0 - p)) + w12 * q
     wu2 = 0.5 * (w11 * (1.0 - p) + w22 * (1.0 + p)) - w12 * q
     e1 = l1 - wu1
@@ -112,4 +123,4 @@ def _fit_ellipse(points: np.ndarray, upper_bound: bool = True,
     e1 = e1 if e1 > EFA_NOISE_FLOOR else EFA_NOISE_FLOOR
     e2 = e2 if e2 > EFA_NOISE_FLOOR else EFA_NOISE_FLOOR
     a, b, c = from_spectral(4.0 * e1, 4.0 * e2, p, q)
-    return center, np.array(((a, b), (b, c)))
+    return True, zx, zy, a, b, c

@@ -45,6 +45,13 @@ class ExtentEstimator(Protocol):
         """One scan for one landmark: ``polar`` its associated detections (m, 2), ``pts`` the same in
         the world frame (updated pose), ``dt`` the time since the last scan (0 at the first)."""
 
+    def step_all(self, states: list[Any], polar: np.ndarray, pts: np.ndarray, assoc: list[list[int]],
+                 centroids: np.ndarray, centroid_covs: np.ndarray, pose: np.ndarray, pose_cov: np.ndarray,
+                 dt: float, k: int) -> None:
+        """Optional: :meth:`step` for every landmark of the scan at once (landmark ``j`` has the
+        detections ``assoc[j]`` of ``polar``/``pts``, the centroid ``centroids[j]`` and its
+        covariance ``centroid_covs[j]``). The orchestrator calls it when present, else :meth:`step`."""
+
     def merge(self, survivor: Any, gone: Any) -> Any:
         """The extent state of the landmark that survives a merge (c.9)."""
 
@@ -95,12 +102,19 @@ class RmaEfaEstimator:
         The ``extent`` section.
     R_extent : ndarray (2, 2)
         Detection noise of the extent step (``ExtentConfig.R``: the sensor's own).
+    backend : {"python", "numba"}
+        ``filter.backend``: ``"numba"`` runs the sifting test compiled (the same arithmetic).
     """
 
     name = "rma-efa"
 
-    def __init__(self, extent_config, R_extent: np.ndarray):
+    def __init__(self, extent_config, R_extent: np.ndarray, backend: str = "python"):
         self.c = extent_config
+        self._contour = _contour_test(backend)
+        # The compiled scan step covers this class's own step() with the default EFA and W options;
+        # a subclass that overrides step(), or other options, run step() per landmark.
+        self._batched = (backend == "numba" and type(self).step is RmaEfaEstimator.step
+                         and extent_config.efa_mode == "per_scan" and extent_config.w_mode == "max_trace")
         self.R_extent = R_extent
         self.posterior_centroid = bool(extent_config.use_posterior_landmark)
         self.in_slam = bool(extent_config.use_in_slam)
@@ -113,7 +127,7 @@ class RmaEfaEstimator:
     def from_config(cls, config):
         """From the ``extent`` section, with the extent step's noise from ``extent`` or ``filter``
         (the registered factory of this class and its subclasses)."""
-        return cls(config.extent, config.extent.R(config.filter.R))
+        return cls(config.extent, config.extent.R(config.filter.R), config.filter.backend)
 
     def new(self) -> RmaEfaState:
         return RmaEfaState()
@@ -131,8 +145,8 @@ class RmaEfaEstimator:
         X = np.array([s.X if s.initialized else np.eye(2) for s in states])
         if self.c.sifting_mode == "literal":
             return literal_contour(points, centroids, X, self.c.kappa), has
-        W = _converted_measurement_covs(pose, pose_cov, polar, self.R_extent)
-        return measurement_contour(points, W, centroids, self.c.gamma_z * X, centroid_covs, self.gate), has
+        return self._contour(points, polar, pose, pose_cov, self.R_extent, centroids, self.c.gamma_z * X,
+                             centroid_covs, self.gate), has
 
     def _pre_init_spread(self, st: RmaEfaState) -> np.ndarray | None:
         """The spread of a landmark without an extent ([PROP] ``extent.pre_init_spread``)."""
@@ -205,6 +219,44 @@ class RmaEfaEstimator:
             if fit:
                 st.X_efa = fit[1]
 
+    def step_all(self, states: list[RmaEfaState], polar: np.ndarray, pts: np.ndarray, assoc: list[list[int]],
+                 centroids: np.ndarray, centroid_covs: np.ndarray, pose: np.ndarray, pose_cov: np.ndarray,
+                 dt: float, k: int) -> None:
+        """:meth:`step` for every landmark of the scan. With ``filter.backend = "numba"`` the
+        initialised landmarks go through one compiled call
+        (:func:`radarslam.extent._compiled.rma_efa_step`, the same kernels compiled); the ones still
+        buffering (a.3) are handled here as in :meth:`step`."""
+        if not self._batched:
+            for j, st in enumerate(states):
+                a = assoc[j]
+                self.step(st, polar[a], pts[a], centroids[j], centroid_covs[j], pose, pose_cov, dt, k)
+            return
+        if not self.c.track:
+            return
+        ready = []
+        for j, st in enumerate(states):
+            if st.initialized:
+                ready.append(j)
+            else:
+                self._buffer(st, pts[assoc[j]], k)
+        if not ready:
+            return
+        from radarslam.extent._compiled import rma_efa_step
+
+        ec = self.c
+        rows = [i for j in ready for i in assoc[j]]
+        offsets = np.zeros(len(ready) + 1, dtype=np.int64)
+        offsets[1:] = np.cumsum([len(assoc[j]) for j in ready])
+        X, alpha, efa, ok = rma_efa_step(
+            np.array([states[j].X for j in ready]), np.array([states[j].alpha for j in ready]),
+            centroids[ready], centroid_covs[ready], offsets, polar[rows].reshape(-1, 2), pts[rows].reshape(-1, 2),
+            pose, pose_cov, self.R_extent, dt, ec.tau_s, ec.gamma_z, ec.eig_floor_m2, not ec.efa_noise_correct)
+        for l, (j, fit) in enumerate(zip(ready, ok.tolist())):
+            st = states[j]
+            st.X, st.alpha = X[l], float(alpha[l])
+            if fit:
+                st.X_efa = efa[l]
+
     def _buffer(self, st: RmaEfaState, pts: np.ndarray, k: int) -> None:
         """a.3: buffer detections; once more than ``n_init`` are held, initialise X by EFA (upper
         bound) with ``alpha_0``; a degenerate fit keeps only the newest ``n_init`` and waits."""
@@ -236,6 +288,24 @@ class RmaEfaEstimator:
             survivor.buffer += gone.buffer
             survivor.n_buffered += gone.n_buffered
         return survivor
+
+
+def _reference_contour(points, polar, pose, pose_cov, R, centroids, spreads, centroid_covs, gate):
+    """The measurement-contour test of a.7.1 with every detection's ``W`` (seed eq. 5)."""
+    W = _converted_measurement_covs(pose, pose_cov, polar, R)
+    return measurement_contour(points, W, centroids, spreads, centroid_covs, gate)
+
+
+def _contour_test(backend: str):
+    """The measurement-contour test of ``backend``: the reference above, or the same arithmetic
+    compiled (:func:`radarslam.extent._compiled.measurement_contour`)."""
+    if backend != "numba":
+        return _reference_contour
+    from radarslam.extent._compiled import measurement_contour as compiled
+
+    def contour(points, polar, pose, pose_cov, R, centroids, spreads, centroid_covs, gate):
+        return compiled(points, polar, float(pose[2]), pose_cov, R, centroids, spreads, centroid_covs, gate)
+    return contour
 
 
 EXTENT_ESTIMATORS.register("rma-efa", RmaEfaEstimator.from_config)

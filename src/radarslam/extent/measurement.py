@@ -223,20 +223,26 @@ def _scan_W(pose: np.ndarray, pose_cov: np.ndarray, polar: np.ndarray, R: np.nda
     """
     if mode != "max_trace":
         return _select_scan_W(_converted_measurement_covs(pose, pose_cov, polar, R), mode)
-    theta = float(pose[2])
     (p00, p01, p02), (_, p11, p12), (_, _, p22) = pose_cov.tolist()
     (r00, r01), (_, r11) = R.tolist()
+    w00, w01, w11 = max_trace_w_entries(float(pose[2]), p00, p01, p02, p11, p12, p22, r00, r01, r11, polar.tolist())
+    return np.array(((w00, w01), (w01, w11)))
+
+
+def max_trace_w_entries(theta: float, p00: float, p01: float, p02: float, p11: float, p12: float, p22: float,
+                        r00: float, r01: float, r11: float, polar) -> tuple[float, float, float]:
+    """Entries of the ``W(i)`` of largest trace among the detections ``polar`` (a list of
+    ``[r, phi]`` or an (m, 2) array, ``m >= 1``), first on ties; ``p..`` the pose covariance and
+    ``r..`` R. A kernel: :func:`_scan_W` calls it on a list, the compiled backend compiles it."""
     q22 = p22 + r11
     best = -math.inf
-    best_rcs = (0.0, 1.0, 0.0)
-    for r, phi in polar.tolist():
+    br, bc, bs = 0.0, 1.0, 0.0
+    for r, phi in polar:
         ang = theta + phi
         c = math.cos(ang)
         s = math.sin(ang)
         tr = r * (2.0 * (p12 * c - p02 * s) + q22 * r)  # the trace up to its constant part
         if tr > best:
             best = tr
-            best_rcs = (r, c, s)
-    r, c, s = best_rcs
-    w00, w01, w11 = _w_entries(c, s, r, p00, p01, p02, p11, p12, q22, r00, r01)
-    return np.array(((w00, w01), (w01, w11)))
+            br, bc, bs = r, c, s
+    return _w_entries(bc, bs, br, p00, p01, p02, p11, p12, q22, r00, r01)

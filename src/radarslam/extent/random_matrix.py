@@ -73,7 +73,7 @@ def _rm_predict(X: np.ndarray, alpha: float, dt: float, tau: float) -> tuple[np.
     Returns ``X`` itself (not a copy: the extent kernels never modify their inputs) and the
     predicted ``alpha`` as a float (0.1 us).
     """
-    return X, 2.0 + math.exp(-dt / tau) * (alpha - 2.0)  # seed eqs. (8)-(9)
+    return X, rm_predict_alpha(alpha, dt, tau)  # seed eqs. (8)-(9)
 
 
 def rm_update(X: np.ndarray, alpha: float, centroid: np.ndarray, centroid_cov: np.ndarray,
@@ -140,13 +140,25 @@ def _rm_update(X: np.ndarray, alpha: float, centroid: np.ndarray, centroid_cov: 
     eigendecomposition-based roots (61 us with ``scipy.linalg.sqrtm``).
     """
     x11, x12, _, x22 = X.ravel().tolist()
-    pts = points.tolist()
-    m = len(pts)
-    # seed eqs. (10)-(11): mean of the detections and the scatter sum Zbar (zero for m = 1)
-    zx, zy, z11, z12, z22 = mean_and_scatter(pts)
     w11, w12, _, w22 = W.ravel().tolist()
     p11, p12, _, p22 = centroid_cov.ravel().tolist()
     cx, cy = centroid.tolist()
+    n11, n12, n22, alpha_post = rm_update_entries(x11, x12, x22, alpha, cx, cy, p11, p12, p22, points.tolist(),
+                                                  w11, w12, w22, gamma, eig_floor)
+    return np.array(((n11, n12), (n12, n22))), alpha_post
+
+
+def rm_update_entries(x11: float, x12: float, x22: float, alpha: float, cx: float, cy: float, p11: float,
+                      p12: float, p22: float, pts, w11: float, w12: float, w22: float, gamma: float,
+                      eig_floor: float) -> tuple[float, float, float, float]:
+    """Seed eqs. (10)-(20) on the entries of ``X``, ``P^n`` and ``W`` and the centroid, with the
+    detections ``pts`` (a list of ``[x, y]`` or an (m, 2) array, ``m >= 1``): the entries of the
+    updated ``X`` and ``alpha_{k|k}``. A kernel: :func:`_rm_update` calls it on floats and lists,
+    and the compiled backend compiles it as it is (:mod:`radarslam.extent._compiled`).
+    """
+    m = len(pts)
+    # seed eqs. (10)-(11): mean of the detections and the scatter sum Zbar (zero for m = 1)
+    zx, zy, z11, z12, z22 = mean_and_scatter(pts)
     # seed eq. (12): Y = gamma X + W
     y11 = gamma * x11 + w11
     y12 = gamma * x12 + w12
@@ -190,4 +202,9 @@ def _rm_update(X: np.ndarray, alpha: float, centroid: np.ndarray, centroid_cov: 
     n12 = (alpha * x12 + u0 * u1 + yh12) / alpha_post
     n22 = (alpha * x22 + u1 * u1 + yh22) / alpha_post
     n11, n12, n22 = floor2(n11, n12, n22, eig_floor)
-    return np.array(((n11, n12), (n12, n22))), alpha_post
+    return n11, n12, n22, alpha_post
+
+
+def rm_predict_alpha(alpha: float, dt: float, tau: float) -> float:
+    """Seed eq. (9): ``alpha_{k|k-1} = 2 + exp(-dt / tau) (alpha_{k-1|k-1} - 2)``. A kernel."""
+    return 2.0 + math.exp(-dt / tau) * (alpha - 2.0)

@@ -83,8 +83,8 @@ class VisibleArcEstimator(RmaEfaEstimator):
 
     name = "visible-arc"
 
-    def __init__(self, extent_config, R_extent: np.ndarray):
-        super().__init__(extent_config, R_extent)
+    def __init__(self, extent_config, R_extent: np.ndarray, backend: str = "python"):
+        super().__init__(extent_config, R_extent, backend)
         self.beam_step = math.radians(extent_config.beam_step_deg)
         self.min_scans = int(extent_config.arc_min_scans)
 

@@ -7,21 +7,30 @@ import math
 import numpy as np
 
 
+#: Up to this many landmarks the candidate pairs come from all pairwise distances, beyond from a kd-tree.
+DENSE_MAX = 64
+
+
 def merge_candidates(positions: np.ndarray, distance: float, axis_tol: float = math.inf) -> list[tuple[int, int, float]]:
     """Pairs ``(i, j, d)`` with ``i < j``, ``d < distance`` and ``|dx| <= axis_tol or |dy| <= axis_tol``,
     sorted by increasing ``d``."""
     n = positions.shape[0]
     if n < 2 or not distance > 0:
         return []
-    # Only pairs within ``distance`` (a kd-tree; O(n log n) instead of all n (n - 1) / 2 pairs),
-    # in the row-major order of the upper triangle so that equal distances keep that order.
-    from scipy.spatial import cKDTree
+    # Only pairs within ``distance``, in the row-major order of the upper triangle so that equal
+    # distances keep that order: all pairs for a small map (one n x n pass, ~10 us), a kd-tree
+    # beyond (O(n log n) instead of n (n - 1) / 2 pairs).
+    if n <= DENSE_MAX:
+        d = positions[:, None, :] - positions[None, :, :]
+        ii, jj = np.nonzero(np.triu(np.hypot(d[..., 0], d[..., 1]) < distance, 1))
+    else:
+        from scipy.spatial import cKDTree
 
-    pairs = cKDTree(positions).query_pairs(distance, output_type="ndarray")
-    if not pairs.size:
+        pairs = cKDTree(positions).query_pairs(distance, output_type="ndarray")
+        pairs = pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))] if pairs.size else pairs.reshape(0, 2)
+        ii, jj = pairs[:, 0], pairs[:, 1]
+    if not ii.size:
         return []
-    pairs = pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
-    ii, jj = pairs[:, 0], pairs[:, 1]
     diff = positions[ii] - positions[jj]
     dd = np.hypot(diff[:, 0], diff[:, 1])
     ok = dd < distance

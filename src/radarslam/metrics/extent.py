@@ -21,7 +21,7 @@ import numpy as np
 from radarslam.core.errors import InputError
 from radarslam.core.validation import as_array
 from radarslam.metrics.gwd import _gwds
-from radarslam.metrics.landmarks import match
+from radarslam.metrics.landmarks import match, matches
 
 #: Semi-axis factors (on L and W) of each ground-truth convention.
 CONVENTIONS: dict[str, float] = {
@@ -74,7 +74,7 @@ def ground_truth_extents(rectangles, convention: str = "moment") -> np.ndarray:
 
 def gwd_per_step(positions: Sequence[np.ndarray], rma: Sequence[np.ndarray], efa: Sequence[np.ndarray],
                  centers: np.ndarray, present: np.ndarray, gt_extents: np.ndarray | Mapping[str, np.ndarray],
-                 gate: float, include_stale: bool = False):
+                 gate: float, include_stale: bool = False, matched: Sequence[np.ndarray] | None = None):
     """Mean GWD over the matched landmarks with an initialised extent, per scan (docs/method.md e).
 
     Landmarks are matched one-to-one to the vehicles present at the scan (Hungarian, ``gate``);
@@ -95,6 +95,10 @@ def gwd_per_step(positions: Sequence[np.ndarray], rma: Sequence[np.ndarray], efa
         scan and every convention is evaluated on it.
     gate : float
     include_stale : bool
+    matched : sequence of K arrays, optional
+        The matches of every scan's landmarks to *all* the vehicles
+        (:func:`radarslam.metrics.landmarks.matches`); reused for the scans where every vehicle
+        takes part, instead of matching again.
 
     Returns
     -------
@@ -121,26 +125,45 @@ def gwd_per_step(positions: Sequence[np.ndarray], rma: Sequence[np.ndarray], efa
     rma_out = {c: np.full(K, np.nan) for c in gts}
     efa_out = {c: np.full(K, np.nan) for c in gts}
     count = np.zeros(K, dtype=int)
+    V = centers.shape[0]
+    everyone = np.arange(V)
+    # Gather every scan's qualifying (landmark, vehicle) pairs, then one vectorised GWD call over
+    # all scans: (RMA, EFA) x every convention.
+    p_all, xr_all, xe_all, v_all, scans = [], [], [], [], []
     for k in range(K):
         pos = np.asarray(positions[k], dtype=float).reshape(-1, 2)
         xr = np.asarray(rma[k], dtype=float).reshape(-1, 2, 2)
         xe = np.asarray(efa[k], dtype=float).reshape(-1, 2, 2)
-        cand = np.arange(centers.shape[0]) if include_stale else np.flatnonzero(present[k])
-        a = match(pos, centers[cand], gate)
+        if include_stale or present[k].all():
+            cand = everyone
+            a = matched[k] if matched is not None else match(pos, centers, gate)
+        else:
+            cand = np.flatnonzero(present[k])
+            a = match(pos, centers[cand], gate)
         ok = (a >= 0) & np.isfinite(xr[:, 0, 0]) & np.isfinite(xe[:, 0, 0])
-        if not np.any(ok):
-            continue
-        v = cand[a[ok]]
         n = int(ok.sum())
+        if not n:
+            continue
         count[k] = n
-        # One vectorised GWD call per scan: (RMA, EFA) x every convention, stacked.
+        p_all.append(pos[ok])
+        xr_all.append(xr[ok])
+        xe_all.append(xe[ok])
+        v_all.append(cand[a[ok]])
+        scans.append(k)
+    if scans:
         nc = len(gts)
-        est = np.concatenate([xr[ok], xe[ok]] * nc)
+        pos, xr, xe, v = (np.concatenate(p_all), np.concatenate(xr_all), np.concatenate(xe_all),
+                          np.concatenate(v_all))
+        n = pos.shape[0]
+        est = np.concatenate([xr, xe] * nc)
         ref = np.concatenate([g[v] for g in gts.values() for _ in (0, 1)])
-        p = np.tile(pos[ok], (2 * nc, 1))
-        d = _gwds(p, est, np.tile(centers[v], (2 * nc, 1)), ref).reshape(nc, 2, n).mean(axis=2)
+        d = _gwds(np.tile(pos, (2 * nc, 1)), est, np.tile(centers[v], (2 * nc, 1)), ref).reshape(nc, 2, n)
+        ends = np.cumsum([x.shape[0] for x in p_all])
+        starts = ends - count[scans]
         for ci, c in enumerate(gts):
-            rma_out[c][k], efa_out[c][k] = float(d[ci, 0]), float(d[ci, 1])
+            for k, s0, s1 in zip(scans, starts.tolist(), ends.tolist()):
+                rma_out[c][k] = float(d[ci, 0, s0:s1].mean())
+                efa_out[c][k] = float(d[ci, 1, s0:s1].mean())
     if single:
         return rma_out["_"], efa_out["_"], count
     return rma_out, efa_out, count
@@ -148,7 +171,8 @@ def gwd_per_step(positions: Sequence[np.ndarray], rma: Sequence[np.ndarray], efa
 
 def extent_metrics(positions: Sequence[np.ndarray], rma: Sequence[np.ndarray], efa: Sequence[np.ndarray],
                    rectangles, present: np.ndarray, gate: float, include_stale: bool = False,
-                   conventions=("moment", "full", "inscribed", "enclosing")) -> dict:
+                   conventions=("moment", "full", "inscribed", "enclosing"),
+                   matched: Sequence[np.ndarray] | None = None) -> dict:
     """Per-step and final mean GWD of RMA and EFA in each ground-truth convention.
 
     Parameters
@@ -158,6 +182,8 @@ def extent_metrics(positions: Sequence[np.ndarray], rma: Sequence[np.ndarray], e
     rectangles : array_like (V, 4)
         The vehicles ``[x_left, y_bottom, size_x, size_y]``.
     present : ndarray of bool (K, V)
+    matched : sequence of K arrays, optional
+        As in :func:`gwd_per_step`.
 
     Returns
     -------
@@ -166,7 +192,8 @@ def extent_metrics(positions: Sequence[np.ndarray], rma: Sequence[np.ndarray], e
     """
     centers = rectangle_centers(rectangles)
     gts = {c: ground_truth_extents(rectangles, c) for c in conventions}
-    g_rma, g_efa, count = gwd_per_step(positions, rma, efa, centers, present, gts, gate, include_stale)
+    g_rma, g_efa, count = gwd_per_step(positions, rma, efa, centers, present, gts, gate, include_stale,
+                                       matched)
     out: dict = {"gwd_count": count}
     for conv in conventions:
         out[f"gwd_rma_{conv}"] = g_rma[conv]

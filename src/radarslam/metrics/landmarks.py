@@ -35,6 +35,11 @@ def match(positions: np.ndarray, centers: np.ndarray, gate: float) -> np.ndarray
     return out
 
 
+def matches(positions_per_scan, centers: np.ndarray, gate: float) -> list[np.ndarray]:
+    """:func:`match` of every scan's landmarks ``(N_k, 2)`` to all the vehicles ``centers``."""
+    return [match(np.asarray(p, dtype=float).reshape(-1, 2), centers, gate) for p in positions_per_scan]
+
+
 def in_range_matrix(true_poses: np.ndarray, centers: np.ndarray, max_range: float) -> np.ndarray:
     """``(K, V)``: vehicle centre within ``max_range`` of the true platform position."""
     d = np.linalg.norm(true_poses[:, None, :2] - centers[None, :, :], axis=2)
@@ -42,7 +47,8 @@ def in_range_matrix(true_poses: np.ndarray, centers: np.ndarray, max_range: floa
 
 
 def landmark_metrics(positions_per_scan: list[np.ndarray], true_poses: np.ndarray, centers: np.ndarray,
-                     present: np.ndarray, max_range: float, gate: float, grace: int) -> dict:
+                     present: np.ndarray, max_range: float, gate: float, grace: int,
+                     matched: list[np.ndarray] | None = None) -> dict:
     """APSIPA Table II quantities of one run.
 
     Parameters
@@ -55,6 +61,8 @@ def landmark_metrics(positions_per_scan: list[np.ndarray], true_poses: np.ndarra
     max_range : float
     gate : float
     grace : int
+    matched : list of ndarray, optional
+        :func:`matches` of ``positions_per_scan`` (computed here when not given).
 
     Returns
     -------
@@ -70,9 +78,11 @@ def landmark_metrics(positions_per_scan: list[np.ndarray], true_poses: np.ndarra
     false = np.zeros(K, dtype=int)
     stale = np.zeros(K, dtype=int)
     final_err = np.full(V, np.nan)
+    if matched is None:
+        matched = matches(positions_per_scan, centers, gate)
     for k in range(K):
         pos = positions_per_scan[k]
-        a = match(pos, centers, gate)
+        a = matched[k]
         hit = a >= 0
         mapped[k, a[hit]] = True
         false[k] = int((~hit).sum())

@@ -12,61 +12,37 @@ its configuration.
 from __future__ import annotations
 
 import math
-import types
 
 import numpy as np
 from numba import njit
-from numba.extending import overload
 
 from radarslam.core import angles
+from radarslam.core.jit import compile_kernels
 from radarslam.core.registry import ASSOCIATORS
 from radarslam.slam import ekf, layout
 from radarslam.slam.association import Spreads
 from radarslam.slam.state import SlamState
 
 
-@overload(math.fmod)
-def _fmod(a, b):  # pragma: no cover - compiled
-    """numba has no ``math.fmod``; ``np.fmod`` is the same exact IEEE remainder."""
-    def impl(a, b):
-        return np.fmod(a, b)
-    return impl
-
-
 def joseph_apply_loops(P, K, PHt, KL):  # pragma: no cover - compiled
-    """:func:`radarslam.slam.ekf.joseph_apply` as one pass over P with no temporaries (the numpy
-    form makes four n x n passes and two n x n allocations). ``T_ij + T_ji`` and the ``KL`` term
-    are commutative in i and j, so P stays exactly symmetric. Agrees with the numpy form to
-    rounding (tests/test_backends.py)."""
+    """:func:`radarslam.slam.ekf.joseph_apply` as one pass over P with no n x n temporaries (the
+    numpy form makes four n x n passes and two n x n allocations). The columns of ``K``, ``PHt`` and
+    ``KL`` are first copied into contiguous vectors so the row loop runs on unit-stride data (SIMD;
+    2.2x faster at n = 100 and 1000 than reading the (n, 2) arrays in place, the same operations in
+    the same order). ``T_ij + T_ji`` and the ``KL`` term are commutative in i and j, so P stays
+    exactly symmetric. Agrees with the numpy form to rounding (tests/test_backends.py)."""
     n = P.shape[0]
+    k0v, k1v = np.ascontiguousarray(K[:, 0]), np.ascontiguousarray(K[:, 1])
+    p0v, p1v = np.ascontiguousarray(PHt[:, 0]), np.ascontiguousarray(PHt[:, 1])
+    l0v, l1v = np.ascontiguousarray(KL[:, 0]), np.ascontiguousarray(KL[:, 1])
     for i in range(n):
-        k0, k1 = K[i, 0], K[i, 1]
-        p0, p1 = PHt[i, 0], PHt[i, 1]
-        l0, l1 = KL[i, 0], KL[i, 1]
+        k0, k1 = k0v[i], k1v[i]
+        p0, p1 = p0v[i], p1v[i]
+        l0, l1 = l0v[i], l1v[i]
+        row = P[i]
         for j in range(n):
-            t = (k0 * PHt[j, 0] + k1 * PHt[j, 1]) + (K[j, 0] * p0 + K[j, 1] * p1)
-            P[i, j] = P[i, j] - t + (l0 * KL[j, 0] + l1 * KL[j, 1])
-
-
-def compile_kernels(*funcs, replace=None):
-    """Compile the plain-Python kernels ``funcs`` with numba, each calling the others' compiled form.
-
-    Each function is rebuilt from its own code object over a copy of its module's globals in which
-    every kernel name refers to the compiled kernel, so a kernel that calls another (``update``
-    calls ``wrap_2pi_scalar``) runs compiled throughout. ``replace`` maps a kernel name to a
-    loop form written for numba that the compiled kernels call instead (only the n x n pass of the
-    Joseph update has one). Returns ``{name: dispatcher}``.
-    """
-    compiled, spaces = {name: njit(cache=True)(f) for name, f in (replace or {}).items()}, []
-    for f in funcs:
-        g = dict(f.__globals__)
-        spaces.append(g)
-        clone = types.FunctionType(f.__code__, g, f.__name__, f.__defaults__, f.__closure__)
-        clone.__qualname__ = f.__qualname__
-        compiled[f.__name__] = njit(cache=True)(clone)
-    for g in spaces:
-        g.update(compiled)
-    return compiled
+            t = (k0 * p0v[j] + k1 * p1v[j]) + (k0v[j] * p0 + k1v[j] * p1)
+            row[j] = row[j] - t + (l0 * l0v[j] + l1 * l1v[j])
 
 
 _K = compile_kernels(angles.wrap_pi_scalar, angles.wrap_2pi_scalar, layout.landmark_index,

@@ -25,13 +25,14 @@ from radarslam.core.errors import InputError
 from radarslam.core.registry import ASSOCIATORS, EXTENT_ESTIMATORS, MEASUREMENT_MODELS
 from radarslam.core.types import Odometry, Scan
 from radarslam.core.validation import as_array
-from radarslam.landmarks.clustering import Cluster, clusters_of, dbscan_labels
+from radarslam.landmarks.clustering import DENSE_MAX, Cluster, clusters_of, dbscan_labels
 from radarslam.landmarks.confirmation import in_sensor_view, removal_step, rule2_step
 from radarslam.landmarks.merging import next_merge
 from radarslam.landmarks.sifting import sift
 from radarslam.models.motion import MotionModel, motion_model_from_config
 from radarslam.slam import ekf
 from radarslam.slam.association import Associator, Spreads
+from radarslam.slam.layout import POSE_DIM
 from radarslam.slam.state import LandmarkRecord, SlamState
 
 __all__ = ["EkfSlam", "LandmarkRecord", "MapSnapshot", "ScanReport"]
@@ -94,6 +95,7 @@ class EkfSlam:
         except ImportError:
             raise InputError("filter.backend: 'numba' needs numba; pip install 'radarslam[fast]'") from None
         self.extent = extent_estimator or EXTENT_ESTIMATORS.create(config.extent.estimator, config)
+        self._clusters = _cluster_kernel(f.backend)
         self.R = self.measurement.noise(f)
         self.U = self.model.control_cov(f)
         self.Q = f.Q
@@ -272,18 +274,22 @@ class EkfSlam:
                      k: int) -> None:
         """Step 6: each landmark's extent with this scan's associated detections (a.3-a.5)."""
         st, ext = self.state, self.extent
-        if not getattr(ext, "active", True):
+        if not getattr(ext, "active", True) or not st.landmarks:
             return
-        x_prior, blocks_prior, rows_prior = prior
+        if ext.posterior_centroid:
+            centroids, covs = st.positions, st.position_covs()
+        else:
+            x_prior, blocks_prior, rows_prior = prior
+            rows = [rows_prior[r.id] for r in st.landmarks]
+            centroids, covs = x_prior[POSE_DIM:].reshape(-1, 2)[rows], blocks_prior[rows]
+        states = [r.extent for r in st.landmarks]
         pose, pose_cov = st.pose, st.pose_cov
-        for j, r in enumerate(st.landmarks):
-            if ext.posterior_centroid:
-                c, C = st.position(j), st.position_cov(j)
-            else:
-                row = rows_prior[r.id]
-                i = st.index(row)
-                c, C = x_prior[i:i + 2], blocks_prior[row]
-            ext.step(r.extent, polar[assoc[j]], xy[assoc[j]], c, C, pose, pose_cov, dt, k)
+        step_all = getattr(ext, "step_all", None)
+        if step_all is not None:
+            step_all(states, polar, xy, assoc, centroids, covs, pose, pose_cov, dt, k)
+            return
+        for j, s in enumerate(states):
+            ext.step(s, polar[assoc[j]], xy[assoc[j]], centroids[j], covs[j], pose, pose_cov, dt, k)
 
     def _cluster(self, polar: np.ndarray, xy: np.ndarray, cand: np.ndarray) -> list[Cluster]:
         """Step 7: DBSCAN of the detections no landmark claimed (c.6)."""
@@ -291,8 +297,7 @@ class EkfSlam:
         rest = np.flatnonzero(~cand)
         if rest.size < lc.cluster_min_samples:
             return []
-        labels = dbscan_labels(xy[rest], lc.cluster_eps_m, lc.cluster_min_samples)
-        return clusters_of(polar[rest], xy[rest], labels, rest)
+        return self._clusters(polar[rest], xy[rest], rest, lc.cluster_eps_m, lc.cluster_min_samples)
 
     def _alpha_test(self, clusters: list[Cluster]) -> list[Cluster]:
         """Step 7: keep the clusters farther than ``alpha`` in log distance from every landmark
@@ -331,6 +336,30 @@ class EkfSlam:
             survivor.extent = self.extent.merge(survivor.extent, gone.extent)
             merged.append((survivor.id, gone.id))
         return merged
+
+
+def _reference_clusters(polar: np.ndarray, xy: np.ndarray, index: np.ndarray, eps: float,
+                        min_samples: int) -> list[Cluster]:
+    """DBSCAN of ``xy`` (c.6) and the clusters with their centres (h.13); ``index`` maps rows to the scan."""
+    return clusters_of(polar, xy, dbscan_labels(xy, eps, min_samples), index)
+
+
+def _cluster_kernel(backend: str):
+    """Step 7's clustering in ``backend``: the reference (scikit-learn's DBSCAN), or the same labels
+    and centres from compiled loops (:mod:`radarslam.landmarks._compiled`) for scans of up to
+    ``DENSE_MAX`` points."""
+    if backend != "numba":
+        return _reference_clusters
+    from radarslam.landmarks._compiled import dbscan_centres, dbscan_labels as compiled_labels
+
+    def clusters(polar, xy, index, eps, min_samples):
+        if xy.shape[0] > DENSE_MAX:
+            return _reference_clusters(polar, xy, index, eps, min_samples)
+        labels = compiled_labels(xy, eps, min_samples)
+        return [Cluster(polar[c].copy(), xy[c].copy(), int(rows.size), index[rows])
+                for c, rows in ((c, np.flatnonzero(labels == lab))
+                                for lab, c in enumerate(dbscan_centres(polar[:, 0], labels).tolist()))]
+    return clusters
 
 
 def _number(value, name: str) -> float:

@@ -15,7 +15,7 @@ import numpy as np
 
 from radarslam.landmarks.confirmation import Tentative
 from radarslam.slam import ekf
-from radarslam.slam.layout import POSE_DIM, landmark_index
+from radarslam.slam.layout import LANDMARK_DIM, POSE_DIM, landmark_index
 
 
 @dataclass
@@ -83,11 +83,12 @@ class SlamState:
 
     def position_covs(self) -> np.ndarray:
         """The landmarks' 2 x 2 marginal covariances ``(N, 2, 2)``."""
-        idx = np.array([self.index(j) for j in range(self.n_landmarks)], dtype=int)
-        covs = np.empty((idx.size, 2, 2))
-        covs[:, 0, 0] = self.P[idx, idx]
-        covs[:, 0, 1] = covs[:, 1, 0] = self.P[idx, idx + 1]
-        covs[:, 1, 1] = self.P[idx + 1, idx + 1]
+        first, step = self.index(0), LANDMARK_DIM      # the blocks sit on the diagonal from here
+        diag, upper = np.diagonal(self.P), np.diagonal(self.P, offset=1)
+        covs = np.empty((self.n_landmarks, 2, 2))
+        covs[:, 0, 0] = diag[first::step]
+        covs[:, 0, 1] = covs[:, 1, 0] = upper[first::step]
+        covs[:, 1, 1] = diag[first + 1::step]
         return covs
 
     def ids(self) -> np.ndarray:

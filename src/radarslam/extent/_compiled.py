@@ -1,0 +1,104 @@
+"""The extent step and the extent-aware sifting test compiled with numba (``filter.backend = "numba"``).
+
+Built from the reference's own kernels, compiled as they are by
+:func:`radarslam.core.jit.compile_kernels`: ``W`` of seed eq. (5) (:mod:`.measurement`), the
+random-matrix prediction and update (:mod:`.random_matrix`, seed eqs. 8-20) and the EFA
+(:mod:`.ellipse_fit`, d.3). Only the loops over landmarks, detections and landmarks are written
+for numba: one call per scan instead of one Python call chain per landmark, and no
+``(m, N, 2, 2)`` temporaries in the sifting test.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from radarslam.core.jit import compile_kernels
+from radarslam.extent import _sym2, ellipse_fit, measurement, random_matrix
+
+_K = compile_kernels(measurement._w_entries, measurement.max_trace_w_entries, random_matrix.rm_update_entries,
+                     random_matrix.rm_predict_alpha, ellipse_fit.fit_entries, _sym2.spectral, _sym2.from_spectral,
+                     _sym2.sqrt2, _sym2.inv_sqrt2, _sym2.floor2, _sym2.mean_and_scatter)
+_w_entries = _K["_w_entries"]
+_max_trace_w_entries = _K["max_trace_w_entries"]
+_rm_update_entries = _K["rm_update_entries"]
+_rm_predict_alpha = _K["rm_predict_alpha"]
+_fit_entries = _K["fit_entries"]
+
+
+@njit(cache=True)
+def measurement_contour(points, polar, theta, pose_cov, R, centroids, spreads, centroid_covs, gate):  # pragma: no cover
+    """:func:`radarslam.extent.sifting.measurement_contour` with the detections' ``W`` of seed eq. (5)
+    (:func:`radarslam.extent.measurement._w_entries`, compiled as it is) formed on the fly: the
+    ``(m, N)`` gate test ``(z_i - p_n)^T (gamma_z X_n + P_n + W_i)^-1 (z_i - p_n) <= gate``, summed
+    in the reference's order."""
+    m, N = points.shape[0], centroids.shape[0]
+    p00, p01, p02 = pose_cov[0, 0], pose_cov[0, 1], pose_cov[0, 2]
+    p11, p12, p22 = pose_cov[1, 1], pose_cov[1, 2], pose_cov[2, 2]
+    r00, r01, r11 = R[0, 0], R[0, 1], R[1, 1]
+    q22 = p22 + r11
+    out = np.empty((m, N), dtype=np.bool_)
+    for i in range(m):
+        ang = theta + polar[i, 1]
+        w00, w01, w11 = _w_entries(math.cos(ang), math.sin(ang), polar[i, 0], p00, p01, p02, p11, p12, q22,
+                                   r00, r01)
+        for n in range(N):
+            s00 = (spreads[n, 0, 0] + centroid_covs[n, 0, 0]) + w00
+            s01 = (spreads[n, 0, 1] + centroid_covs[n, 0, 1]) + w01
+            s11 = (spreads[n, 1, 1] + centroid_covs[n, 1, 1]) + w11
+            d0 = points[i, 0] - centroids[n, 0]
+            d1 = points[i, 1] - centroids[n, 1]
+            det = s00 * s11 - s01 * s01
+            out[i, n] = (s11 * (d0 * d0) - 2.0 * s01 * d0 * d1 + s00 * (d1 * d1)) / det <= gate
+    return out
+
+
+@njit(cache=True)
+def rma_efa_step(X, alpha, centroids, centroid_covs, offsets, polar, points, pose, pose_cov, R, dt, tau, gamma,
+                 eig_floor, upper_bound):  # pragma: no cover
+    """One scan of :meth:`radarslam.extent.estimator.RmaEfaEstimator.step` for L initialised
+    landmarks at once (a.4, a.5 and the per-scan EFA of Decision 5, W by largest trace, h.3).
+
+    Landmark ``l`` has the detections ``polar[offsets[l]:offsets[l + 1]]`` (world frame: ``points``).
+    Returns ``(X (L, 2, 2), alpha (L,), efa (L, 2, 2), efa_ok (L,))``: the predicted-and-updated
+    extents and confidences, and the EFA of the scan where it succeeded (three points or more, not
+    collinear).
+    """
+    L = X.shape[0]
+    X_out = X.copy()
+    a_out = alpha.copy()
+    efa = np.zeros((L, 2, 2))
+    efa_ok = np.zeros(L, dtype=np.bool_)
+    theta = pose[2]
+    p00, p01, p02 = pose_cov[0, 0], pose_cov[0, 1], pose_cov[0, 2]
+    p11, p12, p22 = pose_cov[1, 1], pose_cov[1, 2], pose_cov[2, 2]
+    r00, r01, r11 = R[0, 0], R[0, 1], R[1, 1]
+    for l in range(L):
+        a = alpha[l]
+        if dt > 0.0:
+            a = _rm_predict_alpha(a, dt, tau)
+        a_out[l] = a
+        lo, hi = offsets[l], offsets[l + 1]
+        if hi == lo:
+            continue
+        pol = polar[lo:hi]
+        pts = points[lo:hi]
+        w00, w01, w11 = _max_trace_w_entries(theta, p00, p01, p02, p11, p12, p22, r00, r01, r11, pol)
+        n11, n12, n22, a_post = _rm_update_entries(X[l, 0, 0], X[l, 0, 1], X[l, 1, 1], a, centroids[l, 0],
+                                                   centroids[l, 1], centroid_covs[l, 0, 0], centroid_covs[l, 0, 1],
+                                                   centroid_covs[l, 1, 1], pts, w00, w01, w11, gamma, eig_floor)
+        X_out[l, 0, 0] = n11
+        X_out[l, 0, 1] = n12
+        X_out[l, 1, 0] = n12
+        X_out[l, 1, 1] = n22
+        a_out[l] = a_post
+        ok, _, _, e11, e12, e22 = _fit_entries(pts, upper_bound, w00, w01, w11)
+        if ok:
+            efa[l, 0, 0] = e11
+            efa[l, 0, 1] = e12
+            efa[l, 1, 0] = e12
+            efa[l, 1, 1] = e22
+            efa_ok[l] = True
+    return X_out, a_out, efa, efa_ok
