@@ -1,36 +1,119 @@
-"""Median wall time of one complete trial on one core."""
+"""Wall time of one complete Monte Carlo trial on one core, and every stage's share of it.
+
+A trial is what a Monte Carlo worker does (``experiments.montecarlo.compute_trial``): simulate the
+car park, run the filter of each variant on it (RMA and EFA tracked), evaluate every run and encode
+the result. Two passes over the same trials:
+
+1. plain: ``compute_trial`` as the Monte Carlo calls it; median, p10, p90 (what the issue's
+   target is about);
+2. by stage: the same trials with a timer around each stage (simulation, configuration, the
+   filter's steps of docs/method.md a.8, evaluation, encoding). The timers cost ~1 us per call, so
+   the stages add up to a little more than pass 1.
+
+The machine this runs on (a VM) changes speed by up to 2x between minutes: compare figures from
+one invocation, or runs interleaved (``--repeat``), not numbers taken at different times.
+"""
 
 import argparse
 import time
+from collections import defaultdict
 from dataclasses import replace
 
 import _common  # noqa: F401  (single-threaded BLAS)
 import numpy as np
 
 from radarslam.config import profile_config
-from radarslam.experiments.montecarlo import compute_trial
+from radarslam.experiments import montecarlo
+from radarslam.experiments.variants import DEFAULT_VARIANTS, PAPER_VARIANTS
+from radarslam.slam.filter import EkfSlam
+
+#: The orchestrator's steps (docs/architecture.md "The orchestrator") timed in pass 2.
+FILTER_STEPS = ("predict", "_prior", "_sift", "_associate_and_update", "_remove_unseen", "_extent_step",
+                "_cluster", "_alpha_test", "_confirm_and_augment", "_merge", "snapshot")
+#: Module-level stages of compute_trial timed in pass 2.
+TRIAL_STAGES = {"generate_scenario": "simulation", "apply_variant": "configuration",
+                "evaluate": "evaluation", "encode_trial": "encoding"}
+
+
+def _timed(fn, name, acc):
+    def wrapper(*a, **k):
+        t0 = time.perf_counter()
+        try:
+            return fn(*a, **k)
+        finally:
+            acc[name] += time.perf_counter() - t0
+    return wrapper
+
+
+def stage_times(cfg, seed, trials, variants):
+    """Seconds per trial of each stage (pass 2); restores everything it wraps."""
+    acc = defaultdict(float)
+    saved_mc = {n: getattr(montecarlo, n) for n in TRIAL_STAGES}
+    saved_slam = {n: getattr(EkfSlam, n) for n in FILTER_STEPS + ("update", "process")}
+    try:
+        for n, label in TRIAL_STAGES.items():
+            setattr(montecarlo, n, _timed(saved_mc[n], label, acc))
+        for n in FILTER_STEPS + ("update", "process"):
+            setattr(EkfSlam, n, _timed(saved_slam[n], n, acc))
+        t0 = time.perf_counter()
+        for k in trials:
+            montecarlo.compute_trial(cfg, seed, k, variants)
+        total = time.perf_counter() - t0
+    finally:
+        for n, f in saved_mc.items():
+            setattr(montecarlo, n, f)
+        for n, f in saved_slam.items():
+            setattr(EkfSlam, n, f)
+    n = len(trials)
+    rows = {label: acc[label] / n for label in TRIAL_STAGES.values()}
+    steps = {s: acc[s] / n for s in FILTER_STEPS}
+    steps["update (rest)"] = (acc["update"] - sum(acc[s] for s in FILTER_STEPS if s not in ("predict", "snapshot"))) / n
+    steps["process + run_filter (rest)"] = (acc["process"] - acc["update"] - acc["predict"]) / n
+    filt = sum(steps.values())
+    rows["other (compute_trial, run_filter)"] = total / n - sum(rows.values()) - filt
+    return total / n, rows, steps
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__)
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--trials", type=int, default=30)
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--backend", choices=("python", "numba"), default="python",
-                    help="filter.backend (numba needs the [fast] extra)")
+    ap.add_argument("--backend", choices=("python", "numba"), default=None,
+                    help="filter.backend (default: the configuration's, numba)")
+    ap.add_argument("--variants", choices=("paper", "default"), default="paper",
+                    help="paper: No extent + With extent (the issue's trial); default: the Monte Carlo's three")
+    ap.add_argument("--no-stages", action="store_true", help="skip pass 2")
     a = ap.parse_args()
     cfg = profile_config()
-    cfg = replace(cfg, filter=replace(cfg.filter, backend=a.backend))
-    compute_trial(cfg, a.seed, 1)  # warm-up: imports, caches
+    if a.backend:
+        cfg = replace(cfg, filter=replace(cfg.filter, backend=a.backend))
+    variants = PAPER_VARIANTS if a.variants == "paper" else DEFAULT_VARIANTS
+    t0 = time.perf_counter()
+    montecarlo.compute_trial(cfg, a.seed, 1, variants)  # warm-up: imports, compiled-code cache
+    warm = time.perf_counter() - t0
+    trials = range(1, a.trials + 1)
     t = []
-    for k in range(1, a.trials + 1):
+    for k in trials:
         t0 = time.perf_counter()
-        compute_trial(cfg, a.seed, k)
+        montecarlo.compute_trial(cfg, a.seed, k, variants)
         t.append(time.perf_counter() - t0)
     t = np.array(t)
-    print(f"complete trial (simulation + No extent + With extent + RMA/EFA + evaluation), backend {a.backend}, "
-          f"{a.trials} trials, one core:")
-    print(f"  median {np.median(t):.3f} s   p10 {np.percentile(t, 10):.3f} s   p90 {np.percentile(t, 90):.3f} s"
-          f"   min {t.min():.3f} s   max {t.max():.3f} s")
+    names = " + ".join(v.name for v in variants)
+    print(f"complete trial (simulation, {names}, RMA + EFA, evaluation), backend {cfg.filter.backend}, "
+          f"{a.trials} trials, one core (first trial incl. warm-up: {warm:.2f} s):")
+    print(f"  median {1e3 * np.median(t):.1f} ms   p10 {1e3 * np.percentile(t, 10):.1f} ms   "
+          f"p90 {1e3 * np.percentile(t, 90):.1f} ms   min {1e3 * t.min():.1f} ms")
+    if a.no_stages:
+        return
+    total, rows, steps = stage_times(cfg, a.seed, trials, variants)
+    print(f"\nby stage (pass 2, timers on; {1e3 * total:.1f} ms per trial):")
+    print(f"  {'stage':40s} {'ms/trial':>9s} {'share':>7s}")
+    filt = sum(steps.values())
+    for label, s in rows.items():
+        print(f"  {label:40s} {1e3 * s:9.2f} {100 * s / total:6.1f}%")
+    print(f"  {'filter (all variants)':40s} {1e3 * filt:9.2f} {100 * filt / total:6.1f}%")
+    for label, s in sorted(steps.items(), key=lambda kv: -kv[1]):
+        print(f"    {label:38s} {1e3 * s:9.2f} {100 * s / total:6.1f}%")
 
 
 if __name__ == "__main__":

@@ -145,3 +145,44 @@ def test_merge_candidates_dense_path_equals_kd_tree_path(monkeypatch):
         tree = merging.merge_candidates(pos, 2.0, tol)
         monkeypatch.undo()
         assert dense == tree
+
+
+def test_compiled_joseph_update_equals_numpy_form():
+    """The loop form of the Joseph update (and of its n x n pass) against the numpy kernel of
+    slam/ekf.py on random SPD states, n from 5 to 203: the same x, P and NIS to rounding, P exactly
+    symmetric."""
+    require("numba")
+    from radarslam.slam import ekf
+    from radarslam.slam._numba import _K
+
+    compiled = _K["joseph_update_inplace"]
+    assert compiled.py_func.__name__ == "joseph_update_loops"
+    r = np.random.default_rng(15)
+    for N in (1, 2, 7, 20, 100):
+        n = 3 + 2 * N
+        for _ in range(10):
+            x = np.concatenate([[r.normal(), r.normal(), r.uniform(0, 2 * np.pi)], r.uniform(-20, 20, 2 * N)])
+            A = r.normal(size=(n, n)) * 0.1
+            P = A @ A.T + 0.01 * np.eye(n)
+            Hs, idx = ekf.sparse_jacobian(x, int(r.integers(0, N)))
+            R = np.diag([0.01, 1e-4])
+            e = r.normal(0, [0.3, 0.02])
+            x1, P1, x2, P2 = x.copy(), P.copy(), x.copy(), P.copy()
+            q1 = ekf.joseph_update_inplace(x1, P1, e, Hs, idx, R)
+            q2 = compiled(x2, P2, e, Hs, idx, R)
+            assert abs(q1 - q2) <= 1e-12 * max(1.0, abs(q1))
+            assert np.allclose(x1, x2, rtol=0, atol=1e-13) and np.allclose(P1, P2, rtol=0, atol=1e-13)
+            assert np.array_equal(P2, P2.T) and not np.array_equal(P2, P)
+
+
+def test_nearest_landmark_selection_equals_stable_argsort():
+    """The compiled associator's top-k selection is the head of a stable argsort, ties included."""
+    require("numba")
+    from radarslam.slam._numba import _smallest
+
+    r = np.random.default_rng(16)
+    for t in range(3000):
+        N = int(r.integers(1, 60))
+        k = min(int(r.integers(1, 8)), N)
+        d = r.integers(0, 10, N).astype(float) if t % 2 else r.random(N)
+        assert np.array_equal(_smallest(d, N, k), np.argsort(d, kind="mergesort")[:k])

@@ -30,8 +30,8 @@ def compile_kernels(*funcs, replace=None):
     Each function is rebuilt from its own code object over a copy of its module's globals in which
     every kernel name refers to the compiled kernel, so a kernel that calls another (``update``
     calls ``wrap_2pi_scalar``) runs compiled throughout. ``replace`` maps a kernel name to a
-    loop form written for numba that the compiled kernels call instead (only the n x n pass of the
-    Joseph update has one). Returns ``{name: dispatcher}``.
+    loop form written for numba that the compiled kernels call instead (the Joseph update and its
+    n x n pass have one each, :mod:`radarslam.slam._numba`). Returns ``{name: dispatcher}``.
     """
     compiled, spaces = {name: njit(cache=True)(f) for name, f in (replace or {}).items()}, []
     for f in funcs:

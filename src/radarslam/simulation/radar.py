@@ -44,7 +44,9 @@ def vehicle_points(v: Vehicle, radar: RadarConfig, rng: np.random.Generator,
     if n <= 0:
         return np.empty((0, 2))
     if model == "surface":
-        pts = rng.random((n, 2)) * [v.size_x, v.size_y] + [v.x_left, v.y_bottom]
+        pts = rng.random((n, 2))
+        pts *= v.size
+        pts += v.corner
     else:
         if sides is None:
             sides = _all_sides(v)
@@ -113,15 +115,15 @@ def simulate_scan(pose: np.ndarray, vehicles: list[Vehicle], k: int, radar: Rada
         Index of the vehicle that produced each detection, :data:`CLUTTER` for clutter.
     """
     pts, src = [], []
+    px, py = float(pose[0]), float(pose[1])
     for v in vehicles:
         if not v.present(k):
             continue
-        c = v.center
-        if math.hypot(c[0] - pose[0], c[1] - pose[1]) > radar.max_range_m:
+        if math.hypot(v.x_left + 0.5 * v.size_x - px, v.y_bottom + 0.5 * v.size_y - py) > radar.max_range_m:
             continue
         p = vehicle_points(v, radar, rng, pose[:2])
         pts.append(p)
-        src.append(np.full(p.shape[0], v.index))
+        src.append(p.shape[0])
     xy = np.concatenate(pts) if pts else np.empty((0, 2))
     d = xy - pose[:2]
     polar = np.column_stack([np.hypot(d[:, 0], d[:, 1]), np.arctan2(d[:, 1], d[:, 0]) - pose[2]])
@@ -135,8 +137,10 @@ def simulate_scan(pose: np.ndarray, vehicles: list[Vehicle], k: int, radar: Rada
     polar_c = np.column_stack([np.hypot(dc[:, 0], dc[:, 1]), np.arctan2(dc[:, 1], dc[:, 0]) - pose[2]])
     polar = np.concatenate([polar, polar_c])
     polar[:, 1] = wrap_pi(polar[:, 1]) if polar.shape[0] else polar[:, 1]
-    sources = np.concatenate([np.concatenate(src) if src else np.empty(0, int),
-                              np.full(clutter.shape[0], CLUTTER)]).astype(int)
+    owners = [v.index for v in vehicles if v.present(k)
+              and math.hypot(v.x_left + 0.5 * v.size_x - px, v.y_bottom + 0.5 * v.size_y - py) <= radar.max_range_m]
+    sources = np.concatenate([np.repeat(np.array(owners, dtype=int), src),
+                              np.full(clutter.shape[0], CLUTTER, dtype=int)])
     if radar.shuffle_detections and polar.shape[0] > 1:
         order = rng.permutation(polar.shape[0])
         polar, sources = polar[order], sources[order]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -26,6 +27,16 @@ class Vehicle:
         """Rectangle centre (2,)."""
         return np.array([self.x_left + 0.5 * self.size_x, self.y_bottom + 0.5 * self.size_y])
 
+    @functools.cached_property
+    def size(self) -> np.ndarray:
+        """``[size_x, size_y]`` (2,), read-only (kept: the simulator scales every scan's draws by it)."""
+        return _frozen([self.size_x, self.size_y])
+
+    @functools.cached_property
+    def corner(self) -> np.ndarray:
+        """``[x_left, y_bottom]`` (2,), read-only."""
+        return _frozen([self.x_left, self.y_bottom])
+
     @property
     def length(self) -> float:
         """Long side L (m)."""
@@ -48,6 +59,12 @@ class Vehicle:
     def present(self, k: int) -> bool:
         """Whether the vehicle is in the scene at step ``k`` (Decision 2)."""
         return self.departure is None or k < self.departure
+
+
+def _frozen(values) -> np.ndarray:
+    a = np.array(values, dtype=float)
+    a.flags.writeable = False
+    return a
 
 
 def carpark_vehicles(world: WorldConfig) -> list[Vehicle]:

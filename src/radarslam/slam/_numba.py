@@ -45,11 +45,60 @@ def joseph_apply_loops(P, K, PHt, KL):  # pragma: no cover - compiled
             row[j] = row[j] - t + (l0 * l0v[j] + l1 * l1v[j])
 
 
+def joseph_update_loops(x, P, e, Hs, idx, R):  # pragma: no cover - compiled
+    """:func:`radarslam.slam.ekf.joseph_update_inplace` written as loops for numba: the same
+    quantities in the same order (``PHt = P[:, idx] Hs^T``, ``S = Hs PHt[idx] + R`` symmetrised,
+    ``K = PHt S^-1`` by the adjugate, ``KL`` with the 2 x 2 Cholesky factor, then
+    :func:`joseph_apply_loops`), without the fancy-indexed copy of ``P[:, idx]`` and the small
+    matrix products that numba hands to BLAS one call each: 6 us instead of 13 us at n = 43, and
+    1.2 ms instead of 3.3 ms at n = 1003. Equal to the numpy form to rounding (tests/test_backends.py)."""
+    n = P.shape[0]
+    PHt = np.empty((n, 2))
+    for i in range(n):
+        s0 = 0.0
+        s1 = 0.0
+        for c in range(idx.shape[0]):
+            p = P[i, idx[c]]
+            s0 += p * Hs[0, c]
+            s1 += p * Hs[1, c]
+        PHt[i, 0] = s0
+        PHt[i, 1] = s1
+    s00 = s01 = s10 = s11 = 0.0
+    for c in range(idx.shape[0]):
+        s00 += Hs[0, c] * PHt[idx[c], 0]
+        s01 += Hs[0, c] * PHt[idx[c], 1]
+        s10 += Hs[1, c] * PHt[idx[c], 0]
+        s11 += Hs[1, c] * PHt[idx[c], 1]
+    a = s00 + R[0, 0]
+    b = 0.5 * ((s01 + R[0, 1]) + (s10 + R[1, 0]))
+    d = s11 + R[1, 1]
+    det = a * d - b * b
+    K = np.empty((n, 2))
+    for i in range(n):
+        K[i, 0] = (PHt[i, 0] * d + PHt[i, 1] * -b) / det
+        K[i, 1] = (PHt[i, 0] * -b + PHt[i, 1] * a) / det
+    for i in range(n):
+        x[i] += K[i, 0] * e[0] + K[i, 1] * e[1]
+    x[2] = _wrap_2pi(x[2])
+    l00 = math.sqrt(a)
+    l10 = b / l00
+    l11 = math.sqrt(d - l10 * l10)
+    KL = np.empty((n, 2))
+    for i in range(n):
+        KL[i, 0] = K[i, 0] * l00 + K[i, 1] * l10
+        KL[i, 1] = K[i, 1] * l11
+    _joseph_apply(P, K, PHt, KL)
+    return (d * e[0] * e[0] - 2.0 * b * e[0] * e[1] + a * e[1] * e[1]) / det
+
+
 _K = compile_kernels(angles.wrap_pi_scalar, angles.wrap_2pi_scalar, layout.landmark_index,
                      ekf.innovation_cov_terms, ekf.gaussian_log_distance, ekf.sparse_jacobian, ekf.r_eff,
-                     ekf.joseph_update_inplace, ekf.sensor_xy_measurement, ekf.polar_to_sensor_xy,
-                     ekf.rotate_to_sensor, ekf.batch_noise, replace={"joseph_apply": joseph_apply_loops})
+                     ekf.sensor_xy_measurement, ekf.polar_to_sensor_xy,
+                     ekf.rotate_to_sensor, ekf.batch_noise,
+                     replace={"joseph_apply": joseph_apply_loops, "joseph_update_inplace": joseph_update_loops})
 _wrap_pi = _K["wrap_pi_scalar"]
+_wrap_2pi = _K["wrap_2pi_scalar"]
+_joseph_apply = _K["joseph_apply"]
 _landmark_index = _K["landmark_index"]
 _innovation_cov_terms = _K["innovation_cov_terms"]
 _gaussian_log_distance = _K["gaussian_log_distance"]
@@ -59,6 +108,28 @@ _joseph_update_inplace = _K["joseph_update_inplace"]
 _sensor_xy_measurement = _K["sensor_xy_measurement"]
 _polar_to_sensor_xy = _K["polar_to_sensor_xy"]
 _batch_noise = _K["batch_noise"]
+
+
+@njit(cache=True)
+def _smallest(d, N, count):  # pragma: no cover - compiled
+    """Positions of the ``count`` smallest of ``d[:N]``, smallest first, ties by position: the first
+    ``count`` of ``np.argsort(d[:N], kind="mergesort")`` (stable) by insertion into a sorted list,
+    O(N count) instead of a full sort of the map for every detection."""
+    best = np.empty(count, dtype=np.int64)
+    filled = 0
+    for j in range(N):
+        v = d[j]
+        if filled == count and not v < d[best[count - 1]]:
+            continue
+        p = filled if filled < count else count - 1
+        while p > 0 and d[best[p - 1]] > v:     # strictly greater: an equal earlier one stays first
+            if p < count:
+                best[p] = best[p - 1]
+            p -= 1
+        best[p] = j
+        if filled < count:
+            filled += 1
+    return best
 
 
 @njit(cache=True)
@@ -74,8 +145,8 @@ def _best_landmark(x, P, z0, z1, n_nearest, R, gX, has_gX, d2):  # pragma: no co
     for j in range(N):
         i = _landmark_index(j)
         d2[j] = (x[i] - zx) ** 2 + (x[i + 1] - zy) ** 2
-    order = np.argsort(d2[:N], kind="mergesort")
     count = min(n_nearest, N)
+    order = _smallest(d2, N, count)
     pxx, pxy, pxt = P[0, 0], P[0, 1], P[0, 2]
     pyy, pyt, ptt = P[1, 1], P[1, 2], P[2, 2]
     best_j = -1
