@@ -22,7 +22,7 @@ def main() -> None:
     ap.add_argument("--path", type=Path, default=DEFAULT_PATH, help="the dataset directory")
     ap.add_argument("--scans", type=int, default=None, help="only the first N scans (default: all)")
     ap.add_argument("--backend", choices=("python", "numba"), default="numba",
-                    help="filter.backend (numba needs the [fast] extra)")
+                    help="filter.backend (default: the profile's, numba)")
     ap.add_argument("--input", choices=("laser", "trees"), default="laser",
                     help="raw laser returns (profile victoria-park) or ACFR's tree detections (victoria-park-trees)")
     a = ap.parse_args()

@@ -127,12 +127,24 @@ def test_unknown_component_names_are_refused_with_the_key(toys):
             from_dict({**base, section: {**base[section], key: value}})
 
 
-def test_a_component_without_the_requested_backend_is_refused(toys):
+def test_a_component_without_a_compiled_implementation_runs_its_reference_one(toys):
+    """filter.backend = "numba" (the default) picks the compiled implementation where one is
+    registered and the component's own (Python) one otherwise; a name registered only for
+    another backend is refused."""
     base = to_dict(from_dict({}))
     cfg = from_dict({**base, "landmarks": {**base["landmarks"], "associator": "toy-euclidean"},
                      "filter": {**base["filter"], "backend": "numba"}})
-    with pytest.raises(ConfigError, match=r"landmarks\.associator: .*'toy-euclidean' has no 'numba'"):
-        EkfSlam(cfg)
+    assert cfg.filter.backend == "numba"
+    slam = EkfSlam(cfg)
+    assert isinstance(slam.associator, EuclideanAssociator)
+    builtin = EkfSlam(from_dict({**base, "filter": {**base["filter"], "backend": "numba"}}))
+    assert builtin.associator.backend == "numba"
+    ASSOCIATORS.register("toy-compiled-only", lambda c: None, backend="numba")
+    try:
+        with pytest.raises(ConfigError, match=r"landmarks\.associator: .*'toy-compiled-only' has no 'python'"):
+            ASSOCIATORS.factory("toy-compiled-only", "python")
+    finally:
+        ASSOCIATORS.unregister("toy-compiled-only", backend="numba")
 
 
 def test_a_newly_registered_motion_model_is_selectable_from_toml(tmp_path):

@@ -144,8 +144,8 @@ class FilterConfig:
     motion_model: str = param("unicycle", "motion model of the platform (a registered name)", registry=MOTION_MODELS)
     measurement_model: str = param("range-azimuth", "sensor measurement model (a registered name)",
                                    registry=MEASUREMENT_MODELS)
-    backend: str = param("python", "implementation of the components: 'python' (reference) or 'numba' "
-                         "(compiled; the [fast] extra)", choices=BACKENDS)
+    backend: str = param("numba", "implementation of the per-scan steps: 'numba' (compiled, the default) or "
+                         "'python' (the reference, for checking)", choices=BACKENDS)
     initial_pose: list[float] = param([0.1, 0.1, math.pi / 180.0], "initial estimate [x_m, y_m, theta_rad]", length=3)
     initial_pose_std: list[float] = param([0.15, 0.15, math.pi / 180.0], "initial std [x_m, y_m, theta_rad]", length=3)
     range_std_m: float = param(0.5, "R: range std (m)", low=0.0, low_open=True)

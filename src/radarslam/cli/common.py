@@ -16,7 +16,7 @@ def add_config_args(p: argparse.ArgumentParser) -> None:
 
 def add_backend_arg(p: argparse.ArgumentParser) -> None:
     p.add_argument("--backend", choices=BACKENDS, default=None,
-                   help="association loop: python (reference, default) or numba (compiled; the [fast] extra)")
+                   help="per-scan steps: numba (compiled, the default) or python (the reference, for checking)")
 
 
 def with_backend(config: Config, args: argparse.Namespace) -> Config:

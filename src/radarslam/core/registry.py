@@ -110,13 +110,18 @@ class Registry:
         return sorted({b for n, b in self._factories if n == name} | {b for n, b in self._lazy if n == name})
 
     def factory(self, name: str, backend: str = DEFAULT_BACKEND) -> Callable[..., Any]:
-        """The factory of ``(name, backend)``; a :class:`ConfigError` naming the key otherwise."""
+        """The factory of ``(name, backend)``; a :class:`ConfigError` naming the key otherwise.
+
+        A component registered only for the reference backend (``"python"``, e.g. one of your
+        own) serves every backend: the backend chooses the compiled implementation where there is
+        one, it does not exclude components that have none.
+        """
         load_plugins()
-        key = (name, backend)
-        if key not in self._factories and key in self._lazy:
-            importlib.import_module(self._lazy[key])  # registers itself
-        if key in self._factories:
-            return self._factories[key]
+        for key in ((name, backend), (name, DEFAULT_BACKEND)):
+            if key not in self._factories and key in self._lazy:
+                importlib.import_module(self._lazy[key])  # registers itself
+            if key in self._factories:
+                return self._factories[key]
         if name not in self.names():
             raise ConfigError(f"{self.key}: expected one of {self.names()}, got {name!r}")
         raise ConfigError(f"{self.key}: {self.kind} {name!r} has no {backend!r} implementation "

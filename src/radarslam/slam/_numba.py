@@ -1,4 +1,4 @@
-"""The compiled nearest-neighbour associator (``filter.backend = "numba"``, the ``[fast]`` extra).
+"""The compiled associators (``filter.backend = "numba"``, the default).
 
 The same association scheme as :class:`radarslam.slam.association.NearestNeighbourAssociator`,
 compiled as one loop over the scan's candidates. It has no maths of its own: the measurement

@@ -93,7 +93,8 @@ class EkfSlam:
         try:
             self.associator = associator or ASSOCIATORS.create(config.landmarks.associator, config, backend=f.backend)
         except ImportError:
-            raise InputError("filter.backend: 'numba' needs numba; pip install 'radarslam[fast]'") from None
+            raise InputError("filter.backend: 'numba' needs numba (a dependency of radarslam: pip install numba), "
+                             "or choose filter.backend = 'python'") from None
         self.extent = extent_estimator or EXTENT_ESTIMATORS.create(config.extent.estimator, config)
         self._clusters = _cluster_kernel(f.backend)
         self.R = self.measurement.noise(f)
