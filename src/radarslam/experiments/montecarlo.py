@@ -205,14 +205,22 @@ def _run_locked(store, config, seed, n_trials, variants, jobs, scheduler, dask_l
         store.save(t, data)
         bar.update()
 
-    if todo:
+    local_workers = dask_local is not None or (scheduler is None and min(jobs, len(todo)) > 1)
+    rest = todo
+    if len(todo) > 1 and config.filter.backend == "numba" and local_workers:
+        # The first trial runs here before any local worker starts: on a machine whose numba cache
+        # is empty it compiles the kernels once and writes the cache, which the workers then load,
+        # instead of every worker compiling the same code at once (benchmarks/bench_compile.py).
+        finish(todo[0], compute_trial(config, seed, todo[0], variants, store.chash))
+        rest = todo[1:]
+    if rest:
         if scheduler is not None or dask_local is not None:
-            _run_dask(cfg_dict, seed, variants, todo, finish, scheduler, dask_local, store.chash)
-        elif min(jobs, len(todo)) == 1:
-            for t in todo:
+            _run_dask(cfg_dict, seed, variants, rest, finish, scheduler, dask_local, store.chash)
+        elif min(jobs, len(rest)) == 1:
+            for t in rest:
                 finish(t, compute_trial(config, seed, t, variants, store.chash))
         else:
-            _run_pool(cfg_dict, seed, variants, todo, finish, min(jobs, len(todo)), store.chash)   # no idle workers
+            _run_pool(cfg_dict, seed, variants, rest, finish, min(jobs, len(rest)), store.chash)   # no idle workers
     return MonteCarloSummary(Path(out), n_trials, len(todo), len(good), len(bad), time.perf_counter() - t0)
 
 
