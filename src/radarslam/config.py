@@ -244,6 +244,10 @@ class ExtentConfig:
                                  "docs/method.md a.9)", low=0.0, low_open=True, high=10.0)
     arc_min_scans: int = param(5, "[PROP] visible-arc estimator: per-scan widths needed before a trunk's circle "
                                "is reported (a.9)", low=1)
+    mem_ekf_init_std: list[float] = param([10.0, 0.5], "[PROP] mem-ekf estimator: std of the initial shape about "
+                                          "the EFA fit, [orientation_deg, semi_axis_m] (> 0; a.10)", length=2)
+    mem_ekf_process_std: list[float] = param([0.5, 0.01], "[PROP] mem-ekf estimator: shape random walk per "
+                                             "sqrt(s), [orientation_deg, semi_axis_m] (>= 0; a.10)", length=2)
     range_std_m: float = param(0.0, "[PROP] R of the extent step (W of seed eq. 5): range std (m); 0 = filter.range_std_m",
                                low=0.0)
     azimuth_std_deg: float = param(0.0, "[PROP] R of the extent step: azimuth std (deg); 0 = filter.azimuth_std_deg",
@@ -423,6 +427,10 @@ def validate(cfg: Config) -> Config:
         raise ConfigError(f"landmarks.removal_max_hits: expected < removal_window ({cfg.landmarks.removal_window}), got {cfg.landmarks.removal_max_hits}")
     if any(s <= 0 for s in cfg.filter.initial_pose_std):
         raise ConfigError(f"filter.initial_pose_std: expected positive values, got {cfg.filter.initial_pose_std}")
+    if any(s <= 0 for s in cfg.extent.mem_ekf_init_std):
+        raise ConfigError(f"extent.mem_ekf_init_std: expected positive values, got {cfg.extent.mem_ekf_init_std}")
+    if any(s < 0 for s in cfg.extent.mem_ekf_process_std):
+        raise ConfigError(f"extent.mem_ekf_process_std: expected values >= 0, got {cfg.extent.mem_ekf_process_std}")
     return cfg
 
 
