@@ -73,6 +73,8 @@ CARPARK_VEHICLES = [
 MAX_STEPS = 100_000
 #: Expected detections of one scan (vehicles and clutter) a simulation may draw.
 MAX_DETECTIONS_PER_SCAN = 100_000
+#: Most vehicles a generated car park may hold (world.layout = "rows").
+MAX_VEHICLES = 100_000
 
 
 @dataclass
@@ -129,7 +131,22 @@ class RadarConfig:
 class WorldConfig:
     """The car park (docs/method.md b.1)."""
 
-    vehicles: list[list[float]] = param(CARPARK_VEHICLES, "rectangles [x_left, y_bottom, size_x, size_y] (m)")
+    layout: str = param("paper", "where the vehicles come from (b.1): 'paper' (the list world.vehicles, with the "
+                        "trajectory of b.2) or 'rows' (a generated car park of parked rows driven past by a "
+                        "serpentine through its aisles, b.1.1)", choices=("paper", "rows"))
+    vehicles: list[list[float]] = param(CARPARK_VEHICLES, "rectangles [x_left, y_bottom, size_x, size_y] (m); "
+                                        "layout 'paper'")
+    rows: int = param(10, "[PROP] layout 'rows': rows of parked cars, two per aisle (b.1.1)", low=1, high=1000)
+    cars_per_row: int = param(50, "[PROP] layout 'rows': cars side by side in each row", low=1, high=10_000)
+    car_length_m: float = param(4.5, "[PROP] layout 'rows': car length, across the row (m)", low=0.0, low_open=True)
+    car_width_m: float = param(1.8, "[PROP] layout 'rows': car width, along the row (m)", low=0.0, low_open=True)
+    car_gap_m: float = param(0.8, "[PROP] layout 'rows': gap between neighbouring cars of a row (m)", low=0.0)
+    aisle_width_m: float = param(8.0, "[PROP] layout 'rows': width of the aisle the platform drives along (m)",
+                                 low=0.0, low_open=True)
+    row_back_gap_m: float = param(0.0, "[PROP] layout 'rows': strip between two rows parked back to back (m)",
+                                  low=0.0)
+    row_margin_m: float = param(5.0, "[PROP] layout 'rows': straight driving before the first and after the last "
+                                "car of a row (m)", low=0.0)
     departing_vehicle: int = param(5, "index of the vehicle that leaves (-1: none); 5 is the car at (-13, 6)", low=-1)
     departure_step: int = param(60, "[PROP] first step k at which it is gone (Decision 2, h.10)", low=1)
 
@@ -412,8 +429,16 @@ def validate(cfg: Config) -> Config:
     for i, v in enumerate(cfg.world.vehicles):
         if len(v) != 4 or v[2] <= 0 or v[3] <= 0:
             raise ConfigError(f"world.vehicles[{i}]: expected [x, y, size_x > 0, size_y > 0], got {v}")
-    r = cfg.radar
-    area = sum(v[2] * v[3] for v in cfg.world.vehicles)
+    r, w = cfg.radar, cfg.world
+    if w.layout == "rows":
+        n_vehicles = w.rows * w.cars_per_row
+        if n_vehicles > MAX_VEHICLES:
+            raise ConfigError(f"world.cars_per_row: expected at most {MAX_VEHICLES} cars in all (rows x cars_per_row), "
+                              f"got {w.rows} x {w.cars_per_row} = {n_vehicles}")
+        area = n_vehicles * w.car_length_m * w.car_width_m
+    else:
+        n_vehicles = len(w.vehicles)
+        area = sum(v[2] * v[3] for v in w.vehicles)
     clutter = r.clutter_rate_per_m2 * (r.scene_max_m - r.scene_min_m) ** 2
     if r.points_per_m2 * area > MAX_DETECTIONS_PER_SCAN:
         raise ConfigError(f"radar.points_per_m2: expected at most {MAX_DETECTIONS_PER_SCAN} expected vehicle detections "
@@ -421,8 +446,8 @@ def validate(cfg: Config) -> Config:
     if clutter > MAX_DETECTIONS_PER_SCAN:
         raise ConfigError(f"radar.clutter_rate_per_m2: expected at most {MAX_DETECTIONS_PER_SCAN} clutter points per "
                           f"scan, got {clutter:.3g} ({r.clutter_rate_per_m2} per m^2 over the scene)")
-    if cfg.world.departing_vehicle >= len(cfg.world.vehicles):
-        raise ConfigError(f"world.departing_vehicle: expected -1 or an index < {len(cfg.world.vehicles)}, got {cfg.world.departing_vehicle}")
+    if w.departing_vehicle >= n_vehicles:
+        raise ConfigError(f"world.departing_vehicle: expected -1 or an index < {n_vehicles}, got {w.departing_vehicle}")
     if cfg.landmarks.removal_max_hits >= cfg.landmarks.removal_window:
         raise ConfigError(f"landmarks.removal_max_hits: expected < removal_window ({cfg.landmarks.removal_window}), got {cfg.landmarks.removal_max_hits}")
     if any(s <= 0 for s in cfg.filter.initial_pose_std):

@@ -9,7 +9,8 @@ import numpy as np
 from radarslam.config import Config
 from radarslam.core.types import Odometry, Scan
 from radarslam.simulation.radar import simulate_scan
-from radarslam.simulation.trajectory import commanded_controls, odometer_readings, process_noise, true_path
+from radarslam.simulation.trajectory import (commanded_controls, driven_path, odometer_readings, process_noise,
+                                              true_path)
 from radarslam.simulation.world import Vehicle, carpark_vehicles, presence
 
 
@@ -57,8 +58,11 @@ def generate_scenario(config: Config, rng: np.random.Generator) -> Scenario:
     """
     traj = config.trajectory
     vehicles = carpark_vehicles(config.world)
-    controls = commanded_controls(traj)
-    poses = true_path(traj, process_noise(traj, rng))
+    if config.world.layout == "rows":      # a driver follows the planned route (b.1.1)
+        poses, controls = driven_path(traj, config.world, process_noise(traj, rng))
+    else:
+        controls = commanded_controls(traj)
+        poses = true_path(traj, process_noise(traj, rng))
     odo = odometer_readings(controls, config.odometer, rng)
     events: list[Odometry | Scan] = []
     sources = []

@@ -67,10 +67,39 @@ def _frozen(values) -> np.ndarray:
     return a
 
 
-def carpark_vehicles(world: WorldConfig) -> list[Vehicle]:
-    """The vehicles of ``world`` with the departure applied."""
+def row_geometry(world: WorldConfig) -> tuple[float, float, float]:
+    """``(pitch, row_length, straight)`` of the generated car park (docs/method.md b.1.1): the
+    distance between neighbouring aisles, the length of a row of cars and the straight drive along
+    an aisle (the row plus a margin at each end), in metres."""
+    pitch = 2.0 * world.car_length_m + world.aisle_width_m + world.row_back_gap_m
+    row_length = world.cars_per_row * world.car_width_m + (world.cars_per_row - 1) * world.car_gap_m
+    return pitch, row_length, row_length + 2.0 * world.row_margin_m
+
+
+def rows_layout(world: WorldConfig) -> list[list[float]]:
+    """Rectangles ``[x_left, y_bottom, size_x, size_y]`` of the generated car park (b.1.1).
+
+    Aisle ``a`` runs along x at ``y = a * pitch`` from ``x = 0``; row ``i`` lies below aisle
+    ``i // 2`` (even ``i``) or above it (odd ``i``), its cars parked across the row (``size_y`` is
+    the car's length) from ``x = row_margin`` on, ``car_gap`` apart. Rows ``2a + 1`` and ``2a + 2``
+    stand back to back between aisles ``a`` and ``a + 1``, ``row_back_gap`` apart.
+    """
+    pitch, _, _ = row_geometry(world)
+    L, W, half = world.car_length_m, world.car_width_m, 0.5 * world.aisle_width_m
     out = []
-    for i, (x, y, sx, sy) in enumerate(world.vehicles):
+    for i in range(world.rows):
+        y_aisle = (i // 2) * pitch
+        y_bottom = y_aisle - half - L if i % 2 == 0 else y_aisle + half
+        for c in range(world.cars_per_row):
+            out.append([world.row_margin_m + c * (W + world.car_gap_m), y_bottom, W, L])
+    return out
+
+
+def carpark_vehicles(world: WorldConfig) -> list[Vehicle]:
+    """The vehicles of ``world`` (its list, or the generated rows of b.1.1) with the departure applied."""
+    out = []
+    rects = rows_layout(world) if world.layout == "rows" else world.vehicles
+    for i, (x, y, sx, sy) in enumerate(rects):
         dep = world.departure_step if i == world.departing_vehicle else None
         out.append(Vehicle(i, float(x), float(y), float(sx), float(sy), dep))
     return out
