@@ -369,7 +369,7 @@ def test_estimator_initialises_from_efa_and_tracks():
     assert shape_gwd(st_.p) < 2 * GWD_BOUND_END    # process noise on: a little above the q = 0 bound
     gX, has = est.spreads([st_, est.new()])
     assert has.tolist() == [True, False]
-    np.testing.assert_array_equal(gX[0], cfg.extent.gamma_z * st_.X)
+    np.testing.assert_array_equal(gX[0], cfg.extent.spread_factor * st_.X)
     fresh = est.new()
     assert est.merge(fresh, st_) is st_          # an uninitialised survivor takes the other's shape
 

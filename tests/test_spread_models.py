@@ -81,3 +81,57 @@ def test_spread_model_key_is_checked_and_every_model_runs_a_scenario():
     assert abs(counts["surface"] - counts["contour"]) < 0.05 * counts["surface"]
     # ... while the visible faces give fewer: a car shows at most two sides' projected width
     assert counts["visible-faces"] < counts["surface"]
+
+
+# ------------------------------------------------------------------ the estimators' spread factor (a.11)
+def test_spread_factor_follows_the_spread_model_unless_gamma_z_is_set():
+    from radarslam.config import SPREAD_FACTORS
+
+    base = to_dict(profile_config())
+    assert profile_config().extent.spread_factor == 0.25 == SPREAD_FACTORS["surface"]
+    for model, gamma in (("contour", 0.5), ("visible-faces", 0.5)):
+        cfg = from_dict({**base, "extent": {**base["extent"], "spread_model": model}})
+        assert cfg.extent.spread_factor == gamma
+    cfg = from_dict({**base, "extent": {**base["extent"], "spread_model": "contour", "gamma_z": 0.3}})
+    assert cfg.extent.spread_factor == 0.3
+    with pytest.raises(ConfigError, match=r"extent\.spread_model: expected one of \['surface', 'contour', 'visible-faces'\], got 'edge'"):
+        from_dict({**base, "extent": {**base["extent"], "spread_model": "edge"}})
+
+
+def _ellipse_outline(rng, n, a, b, angle):
+    """Points uniform in angle on the outline of the ellipse of semi-axes a, b: covariance X / 2."""
+    u = rng.uniform(0, 2 * np.pi, n)
+    c, s = np.cos(angle), np.sin(angle)
+    p = np.column_stack([a * np.cos(u), b * np.sin(u)])
+    return p @ np.array([[c, s], [-s, c]])
+
+
+def test_contour_spread_factor_recovers_the_outline_ellipse_and_the_surface_one_does_not():
+    """RMA and EFA on detections on an ellipse's outline (no noise, known centroid): with the contour
+    factor 1/2 both converge to the true X; with the surface factor 1/4 (negative control) their
+    axes come out sqrt(2) too long, as a.11 predicts."""
+    from radarslam.extent.ellipse import _ellipse_to_matrix
+    from radarslam.extent.ellipse_fit import _fit_ellipse
+    from radarslam.extent.random_matrix import _rm_update
+    from radarslam.metrics.gwd import gaussian_wasserstein_distance
+
+    rng = np.random.default_rng(21)
+    a, b, angle = 2.3, 1.1, 0.4
+    X_true = _ellipse_to_matrix(a, b, angle)
+    zero, W = np.zeros(2), 1e-6 * np.eye(2)
+    sizes = {}
+    for gamma in (0.5, 0.25):
+        X, alpha = _fit_ellipse(_ellipse_outline(rng, 40, a, b, angle), True, None, gamma)[1], 50.0
+        efa = []
+        for _ in range(200):
+            pts = _ellipse_outline(rng, 8, a, b, angle)
+            X, alpha = _rm_update(X, alpha, zero, 1e-6 * np.eye(2), pts, W, gamma)
+            alpha = 2.0 + np.exp(-0.16 / 100.0) * (alpha - 2.0)
+            efa.append(_fit_ellipse(pts, True, None, gamma)[1])
+        efa_mean = np.mean(efa, axis=0)
+        sizes[gamma] = (np.sqrt(np.linalg.eigvalsh(X)), np.sqrt(np.linalg.eigvalsh(efa_mean)))
+        if gamma == 0.5:
+            assert gaussian_wasserstein_distance(zero, X, zero, X_true) < 0.08
+            assert gaussian_wasserstein_distance(zero, efa_mean, zero, X_true) < 0.08
+    for k in (0, 1):  # the RMA's and the EFA's axes
+        assert np.allclose(sizes[0.25][k] / sizes[0.5][k], np.sqrt(2), rtol=0.05)

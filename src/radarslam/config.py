@@ -73,6 +73,11 @@ CARPARK_VEHICLES = [
 MAX_STEPS = 100_000
 #: Expected detections of one scan (vehicles and clutter) a simulation may draw.
 MAX_DETECTIONS_PER_SCAN = 100_000
+#: The spread factor gamma_z of each spread model (docs/method.md a.11): the detection scatter about
+#: the centroid is gamma_z X for an object whose extent is X. Uniform over an ellipse's surface:
+#: 1/4 (d.4); on its outline: 1/2; on the faces in view (points on the outline): 1/2.
+SPREAD_FACTORS = {"surface": 0.25, "contour": 0.5, "visible-faces": 0.5}
+
 #: Most vehicles a generated car park may hold (world.layout = "rows").
 MAX_VEHICLES = 100_000
 
@@ -249,7 +254,11 @@ class ExtentConfig:
     n_init: int = param(20, "N_i: initialise once more than this many detections are buffered", low=1)
     alpha0: float = param(50.0, "alpha_0 at initialisation", low=2.0, low_open=True)
     tau_s: float = param(100.0, "tau: extent decay constant (s)", low=0.0, low_open=True)
-    gamma_z: float = param(0.25, "gamma_z: spread factor of the uniform-surface model", low=0.0, low_open=True)
+    spread_model: str = param("surface", "[PROP] where a landmark's detections lie, which sets the spread factor "
+                              "gamma_z (docs/method.md a.11): surface (1/4, the paper's), contour or visible-faces "
+                              "(1/2)", choices=tuple(SPREAD_FACTORS))
+    gamma_z: float = param(0.0, "gamma_z: spread factor, detection scatter = gamma_z X (seed eq. 4); 0 = the factor "
+                           "of extent.spread_model (1/4 for the paper's surface model)", low=0.0)
     kappa: float = param(1.0, "contour-sifting scale kappa (a.7, h.12)", low=0.0, low_open=True)
     w_mode: str = param("max_trace", "scan-level W from the W(i) (h.3)", choices=("max_trace", "max_det", "mean"))
     eig_floor_m2: float = param(1e-4, "[PROP] eigenvalue floor of X after each update (m^2)", low=0.0, low_open=True)
@@ -269,6 +278,11 @@ class ExtentConfig:
                                low=0.0)
     azimuth_std_deg: float = param(0.0, "[PROP] R of the extent step: azimuth std (deg); 0 = filter.azimuth_std_deg",
                                    low=0.0)
+
+    @property
+    def spread_factor(self) -> float:
+        """gamma_z: ``extent.gamma_z`` when set, else the factor of ``extent.spread_model`` (a.11)."""
+        return self.gamma_z or SPREAD_FACTORS[self.spread_model]
 
     def R(self, filter_R: np.ndarray) -> np.ndarray:
         """Detection noise of the extent step: the sensor's, where the SLAM R also carries a point

@@ -94,7 +94,7 @@ def rma_efa_step(X, alpha, centroids, centroid_covs, offsets, polar, points, pos
         X_out[l, 1, 0] = n12
         X_out[l, 1, 1] = n22
         a_out[l] = a_post
-        ok, _, _, e11, e12, e22 = _fit_entries(pts, upper_bound, w00, w01, w11)
+        ok, _, _, e11, e12, e22 = _fit_entries(pts, upper_bound, w00, w01, w11, gamma)
         if ok:
             efa[l, 0, 0] = e11
             efa[l, 0, 1] = e12

@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from radarslam.core.errors import InputError
-from radarslam.core.validation import as_points, as_spd
+from radarslam.core.validation import as_points, as_scalar, as_spd
 from radarslam.extent._sym2 import from_spectral, mean_and_scatter, spectral
 
 #: Returned by :func:`fit_ellipse` when no ellipse can be fitted (falsy; a success is a 2-tuple).
@@ -39,8 +39,8 @@ FIT_COLLINEAR_REL_TOL = 1e-10
 EFA_NOISE_FLOOR = 2.5e-5
 
 
-def fit_ellipse(points: np.ndarray, upper_bound: bool = True,
-                W: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray] | None:
+def fit_ellipse(points: np.ndarray, upper_bound: bool = True, W: np.ndarray | None = None,
+                gamma: float = 0.25) -> tuple[np.ndarray, np.ndarray] | None:
     """Fit an extent ellipse to a set of detections (EFA, docs/method.md d.3).
 
     Parameters
@@ -75,11 +75,12 @@ def fit_ellipse(points: np.ndarray, upper_bound: bool = True,
         raise InputError("W: expected a (2, 2) covariance when upper_bound=False, got None")
     else:
         W = as_spd("W", W, 2)
-    return _fit_ellipse(points, upper_bound, W)
+    gamma = as_scalar("gamma", gamma, low=0.0, low_open=True)
+    return _fit_ellipse(points, upper_bound, W, gamma)
 
 
-def _fit_ellipse(points: np.ndarray, upper_bound: bool = True,
-                 W: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray] | None:
+def _fit_ellipse(points: np.ndarray, upper_bound: bool = True, W: np.ndarray | None = None,
+                 gamma: float = 0.25) -> tuple[np.ndarray, np.ndarray] | None:
     """Kernel of :func:`fit_ellipse`; no validation.
 
     Contract: ``points`` a finite (m, 2) float64 array (any m), ``W`` a symmetric PSD (2, 2) array
@@ -90,17 +91,19 @@ def _fit_ellipse(points: np.ndarray, upper_bound: bool = True,
     w11 = w12 = w22 = 0.0
     if not upper_bound:
         w11, w12, _, w22 = W.ravel().tolist()
-    ok, zx, zy, a, b, c = fit_entries(points.tolist(), upper_bound, w11, w12, w22)
+    ok, zx, zy, a, b, c = fit_entries(points.tolist(), upper_bound, w11, w12, w22, gamma)
     if not ok:
         return FIT_FAILED
     return np.array((zx, zy)), np.array(((a, b), (b, c)))
 
 
-def fit_entries(pts, upper_bound: bool, w11: float, w12: float, w22: float):
+def fit_entries(pts, upper_bound: bool, w11: float, w12: float, w22: float, gamma: float = 0.25):
     """The EFA of d.3 on the detections ``pts`` (a list of ``[x, y]`` or an (m, 2) array):
     ``(ok, zx, zy, X11, X12, X22)``, ``ok`` False (and zeros) for fewer than three points or
     (nearly) collinear ones; ``W`` (its entries) is used only when ``upper_bound`` is False. A
-    kernel: :func:`_fit_ellipse` calls it on a list, the compiled backend compiles it as it is."""
+    kernel: :func:`_fit_ellipse` calls it on a list, the compiled backend compiles it as it is.
+    ``gamma`` is the spread factor (docs/method.md a.11): ``X = C / gamma``, ``4 C`` for the
+    paper's 1/4 (exactly: a division by a power of two)."""
     m = len(pts)
     if m < FIT_MIN_POINTS:
         return False, 0.0, 0.0, 0.0, 0.0, 0.0
@@ -113,8 +116,8 @@ def fit_entries(pts, upper_bound: bool, w11: float, w12: float, w22: float):
     if l2 <= FIT_COLLINEAR_REL_TOL * l1:
         return False, 0.0, 0.0, 0.0, 0.0, 0.0
     if upper_bound:
-        # X = R(o) diag((2 sqrt l1)^2, (2 sqrt l2)^2) R(o)^T = 4 C exactly
-        return True, zx, zy, 4.0 * c11, 4.0 * c12, 4.0 * c22
+        # X = R(o) diag(l1 / gamma, l2 / gamma) R(o)^T = C / gamma (4 C for the surface model)
+        return True, zx, zy, c11 / gamma, c12 / gamma, c22 / gamma
     # u_1 = (cos o, sin o) with cos^2 o = (1 + p)/2, sin^2 o = (1 - p)/2, sin o cos o = q/2
     wu1 = 0.5 * (w11 * (1.0 + p) + w22 * (1.0 - p)) + w12 * q
     wu2 = 0.5 * (w11 * (1.0 - p) + w22 * (1.0 + p)) - w12 * q
@@ -122,5 +125,5 @@ def fit_entries(pts, upper_bound: bool, w11: float, w12: float, w22: float):
     e2 = l2 - wu2
     e1 = e1 if e1 > EFA_NOISE_FLOOR else EFA_NOISE_FLOOR
     e2 = e2 if e2 > EFA_NOISE_FLOOR else EFA_NOISE_FLOOR
-    a, b, c = from_spectral(4.0 * e1, 4.0 * e2, p, q)
+    a, b, c = from_spectral(e1 / gamma, e2 / gamma, p, q)
     return True, zx, zy, a, b, c

@@ -121,7 +121,7 @@ class RmaEfaEstimator:
         self.active = bool(extent_config.track)
         self.gate = chi2_2dof_quantile(extent_config.gate_probability)
         #: gamma_z X0 of the circular prior extent X0 = r^2 I ([PROP], docs/method.md a.7.3).
-        self.prior_spread = extent_config.gamma_z * extent_config.prior_extent_radius_m ** 2 * np.eye(2)
+        self.prior_spread = extent_config.spread_factor * extent_config.prior_extent_radius_m ** 2 * np.eye(2)
 
     @classmethod
     def from_config(cls, config):
@@ -145,7 +145,7 @@ class RmaEfaEstimator:
         X = np.array([s.X if s.initialized else np.eye(2) for s in states])
         if self.c.sifting_mode == "literal":
             return literal_contour(points, centroids, X, self.c.kappa), has
-        return self._contour(points, polar, pose, pose_cov, self.R_extent, centroids, self.c.gamma_z * X,
+        return self._contour(points, polar, pose, pose_cov, self.R_extent, centroids, self.c.spread_factor * X,
                              centroid_covs, self.gate), has
 
     def _pre_init_spread(self, st: RmaEfaState) -> np.ndarray | None:
@@ -165,7 +165,7 @@ class RmaEfaEstimator:
         gX, has = np.zeros((n, 2, 2)), np.zeros(n, dtype=np.bool_)
         if self.in_slam and self.c.inflate_noise:
             for j, s in enumerate(states):
-                spread = self.c.gamma_z * s.X if s.X is not None else self._pre_init_spread(s)
+                spread = self.c.spread_factor * s.X if s.X is not None else self._pre_init_spread(s)
                 if spread is not None:
                     gX[j] = spread
                     has[j] = True
@@ -186,11 +186,12 @@ class RmaEfaEstimator:
     def round_diameter(self, X: np.ndarray) -> np.ndarray:
         """Diameters (m) of round objects seen by a laser whose RMA extents are ``X (..., 2, 2)``
         (the laser-arc reading with this estimator's ``gamma_z``; docs/method.md v.4)."""
-        return trunk_diameter(X, self.c.gamma_z)
+        return trunk_diameter(X, self.c.spread_factor)
 
     def baseline_round_diameter(self, X: np.ndarray) -> np.ndarray:
-        """The same for the EFA baseline, ``X_EFA = 4 C`` (gamma 1/4, Decision 4)."""
-        return trunk_diameter(X, 0.25)
+        """The same for the EFA baseline, ``X_EFA = C / gamma_z`` (``4 C`` for the surface model,
+        Decision 4; a.11)."""
+        return trunk_diameter(X, self.c.spread_factor)
 
     # ------------------------------------------------------------------ life cycle
     def step(self, st: RmaEfaState, polar: np.ndarray, pts: np.ndarray, centroid: np.ndarray,
@@ -208,14 +209,21 @@ class RmaEfaEstimator:
         if polar.shape[0] == 0:
             return
         W = _scan_W(pose, pose_cov, polar, self.R_extent, ec.w_mode)  # seed eq. (5), h.3
-        st.X, st.alpha = _rm_update(st.X, st.alpha, centroid, centroid_cov, pts, W, ec.gamma_z, ec.eig_floor_m2)
+        st.X, st.alpha = _rm_update(st.X, st.alpha, centroid, centroid_cov, pts, W, ec.spread_factor, ec.eig_floor_m2)
+        self._efa_baseline(st, pts, W)
+
+    def _efa_baseline(self, st: RmaEfaState, pts: np.ndarray, W: np.ndarray | None) -> None:
+        """The EFA baseline of the scan (Decision 5, d.3): the fit of this scan's detections (or of
+        the sliding buffer), with the spread factor of a.11; ``W`` (the scan's, seed eq. 5) is used
+        only by the noise-corrected fit. Kept when the fit fails."""
+        ec = self.c
         if ec.efa_mode == "sliding":
             data = np.concatenate(st.efa_buffer + [pts])[-ec.efa_window:]
             st.efa_buffer = [data]
         else:
             data = pts
         if data.shape[0] >= 3:
-            fit = _fit_ellipse(data, not ec.efa_noise_correct, W if ec.efa_noise_correct else None)
+            fit = _fit_ellipse(data, not ec.efa_noise_correct, W if ec.efa_noise_correct else None, ec.spread_factor)
             if fit:
                 st.X_efa = fit[1]
 
@@ -250,7 +258,7 @@ class RmaEfaEstimator:
         X, alpha, efa, ok = rma_efa_step(
             np.array([states[j].X for j in ready]), np.array([states[j].alpha for j in ready]),
             centroids[ready], centroid_covs[ready], offsets, polar[rows].reshape(-1, 2), pts[rows].reshape(-1, 2),
-            pose, pose_cov, self.R_extent, dt, ec.tau_s, ec.gamma_z, ec.eig_floor_m2, not ec.efa_noise_correct)
+            pose, pose_cov, self.R_extent, dt, ec.tau_s, ec.spread_factor, ec.eig_floor_m2, not ec.efa_noise_correct)
         for l, (j, fit) in enumerate(zip(ready, ok.tolist())):
             st = states[j]
             st.X, st.alpha = X[l], float(alpha[l])
@@ -267,7 +275,7 @@ class RmaEfaEstimator:
         if st.n_buffered <= ec.n_init:
             return
         data = np.concatenate(st.buffer)
-        fit = _fit_ellipse(data, upper_bound=True)
+        fit = _fit_ellipse(data, True, None, ec.spread_factor)
         if fit:
             st.X = fit[1]
             st.alpha = ec.alpha0

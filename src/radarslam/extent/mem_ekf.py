@@ -473,19 +473,11 @@ class MemEkfEstimator(RmaEfaEstimator):
         if polar.shape[0] == 0:
             return
         cvs = _detection_covs(pose, pose_cov, polar, self.R_extent)
-        st.p, st.Cp = _mem_ekf_update_scan(st.p, st.Cp, centroid, centroid_cov, pts, cvs, ec.gamma_z, AXIS_FLOOR)
+        st.p, st.Cp = _mem_ekf_update_scan(st.p, st.Cp, centroid, centroid_cov, pts, cvs, ec.spread_factor, AXIS_FLOOR)
         st.X = _shape_matrix(st.p)
         # the EFA baseline, as in RmaEfaEstimator.step (Decision 5, d.3)
-        if ec.efa_mode == "sliding":
-            data = np.concatenate(st.efa_buffer + [pts])[-ec.efa_window:]
-            st.efa_buffer = [data]
-        else:
-            data = pts
-        if data.shape[0] >= 3:
-            W = _scan_W(pose, pose_cov, polar, self.R_extent, ec.w_mode) if ec.efa_noise_correct else None
-            fit = _fit_ellipse(data, not ec.efa_noise_correct, W)
-            if fit:
-                st.X_efa = fit[1]
+        W = _scan_W(pose, pose_cov, polar, self.R_extent, ec.w_mode) if ec.efa_noise_correct else None
+        self._efa_baseline(st, pts, W)
 
 
 EXTENT_ESTIMATORS.register("mem-ekf", MemEkfEstimator.from_config)
