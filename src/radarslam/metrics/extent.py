@@ -158,12 +158,11 @@ def gwd_per_step(positions: Sequence[np.ndarray], rma: Sequence[np.ndarray], efa
         est = np.concatenate([xr, xe] * nc)
         ref = np.concatenate([g[v] for g in gts.values() for _ in (0, 1)])
         d = _gwds(np.tile(pos, (2 * nc, 1)), est, np.tile(centers[v], (2 * nc, 1)), ref).reshape(nc, 2, n)
-        ends = np.cumsum([x.shape[0] for x in p_all])
-        starts = ends - count[scans]
+        starts = np.concatenate([[0], np.cumsum(count[scans])[:-1]])
+        means = np.add.reduceat(d, starts, axis=2) / count[scans]     # (conventions, 2, scans)
         for ci, c in enumerate(gts):
-            for k, s0, s1 in zip(scans, starts.tolist(), ends.tolist()):
-                rma_out[c][k] = float(d[ci, 0, s0:s1].mean())
-                efa_out[c][k] = float(d[ci, 1, s0:s1].mean())
+            rma_out[c][scans] = means[ci, 0]
+            efa_out[c][scans] = means[ci, 1]
     if single:
         return rma_out["_"], efa_out["_"], count
     return rma_out, efa_out, count
