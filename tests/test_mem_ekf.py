@@ -374,6 +374,31 @@ def test_estimator_initialises_from_efa_and_tracks():
     assert est.merge(fresh, st_) is st_          # an uninitialised survivor takes the other's shape
 
 
+def test_noise_modes_count_the_shared_errors_or_not():
+    """extent.mem_ekf_noise (a.10): with a large centroid and pose covariance, "full" counts them per
+    detection and shrinks the axes; "sensor" (the default) ignores them and converges to the truth;
+    "no-centroid" lies between."""
+    rng = np.random.default_rng(5)
+    pose, pose_cov = np.zeros(3), np.diag([0.3, 0.3, 1e-3])
+    polar = np.column_stack([np.full(8, 12.0), np.zeros(8)])
+    C_m = np.eye(2) * 0.5
+    err = {}
+    for mode in ("full", "no-centroid", "sensor"):
+        cfg = mem_ekf_config(use_in_slam=True, range_std_m=SIGMA, azimuth_std_deg=math.degrees(SIGMA / 12.0),
+                             mem_ekf_noise=mode)
+        est = EXTENT_ESTIMATORS.create("mem-ekf", cfg)
+        st_ = est.new()
+        r = np.random.default_rng(rng.integers(1 << 30))
+        for k in range(150):
+            est.step(st_, polar, ellipse_detections(r, 8, "surface"), CENTRE, C_m, pose, pose_cov, 0.16, k)
+        err[mode] = shape_gwd(st_.p)
+        if mode == "full":
+            assert min(st_.p[1:]) < 0.8 * TRUE_P[2]     # the minor axis shrunk by the double counting
+    assert err["sensor"] < 2 * GWD_BOUND_END < err["full"]
+    assert err["sensor"] < err["no-centroid"] < err["full"]
+    assert mem_ekf_config().extent.mem_ekf_noise == "sensor"
+
+
 def test_estimator_inside_slam_on_a_short_car_park_run():
     """'With extent' on 70 car-park steps: the run finishes, every landmark with an extent has a
     finite SPD matrix equal to shape_matrix(p), a valid shape and a positive definite C_p."""

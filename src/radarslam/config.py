@@ -272,6 +272,11 @@ class ExtentConfig:
                                "is reported (a.9)", low=1)
     mem_ekf_init_std: list[float] = param([10.0, 0.5], "[PROP] mem-ekf estimator: std of the initial shape about "
                                           "the EFA fit, [orientation_deg, semi_axis_m] (> 0; a.10)", length=2)
+    mem_ekf_noise: str = param("sensor", "[PROP] mem-ekf estimator: what each detection's noise holds besides the "
+                               "shape (a.10): full (the centroid's covariance and W(i) with the pose's), "
+                               "no-centroid (W(i) only) or sensor (W(i) of the sensor noise alone; chosen on training "
+                               "seeds, scripts/mem_ekf_noise.py)",
+                               choices=("full", "no-centroid", "sensor"))
     mem_ekf_process_std: list[float] = param([0.5, 0.01], "[PROP] mem-ekf estimator: shape random walk per "
                                              "sqrt(s), [orientation_deg, semi_axis_m] (>= 0; a.10)", length=2)
     range_std_m: float = param(0.0, "[PROP] R of the extent step (W of seed eq. 5): range std (m); 0 = filter.range_std_m",

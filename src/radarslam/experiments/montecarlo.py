@@ -31,7 +31,7 @@ from radarslam.simulation.scenario import generate_scenario
 
 PER_STEP = ("position_error_m", "heading_error_rad", "nees", "nis_sum", "nis_count", "false_per_scan", "missed_per_scan",
             "stale_per_scan", "gwd_count") + tuple(
-    f"gwd_{a}_{c}" for a in ("rma", "efa") for c in ("moment", "full", "inscribed", "enclosing"))
+    f"gwd_{a}_{c}" for a in ("rma", "efa") for c in ("moment", "full", "inscribed", "enclosing", "shape"))
 PER_VEHICLE = ("final_errors", "inclusion_delay", "removal_delay")
 SCALARS = ("position_avg_rmse_m", "heading_avg_rmse_deg", "landmark_mae_m", "mean_inclusion_delay",
            "mean_removal_delay", "mean_false", "max_false", "mean_missed", "max_missed", "final_false",

@@ -14,15 +14,14 @@ shape by a Kalman update with the pseudo-measurement ``Y = [e1^2, e2^2, e1 e2]``
 In radarslam the centroid is a state of the EKF-SLAM filter, which updates it with the detections
 (docs/method.md a.2, c.4). So, as the random-matrix extent (:mod:`.random_matrix`), this module
 estimates only the shape ``p`` and its 3 x 3 covariance ``C_p``; the centroid ``m`` and its 2 x 2
-covariance ``C_m`` are inputs and MEM-EKF*'s own kinematic update is not applied. ``C_m`` enters
-the predicted covariance of a detection,
+covariance ``C_m`` are inputs and MEM-EKF*'s own kinematic update is not applied. The kernels
+take ``C_m`` and each detection's ``C_v``, entering the predicted covariance of a detection as
 
-    C_y = C_m + c_h S S^T + C^II + C_v,
+    C_y = C_m + c_h S S^T + C^II + C_v;
 
-which is the kinematic term ``H C_r H^T`` of the paper with ``H C_r H^T = C_m`` (docs/method.md a.10).
-The pose-landmark cross-covariance is not available here (as in docs/method.md h.2): in SLAM it
-is large, so ``C_m + C_v`` overstates the spread of ``y - m`` and the axes come out small where the
-centroid and the pose are uncertain (a.10, "Caveat").
+the estimator passes what ``extent.mem_ekf_noise`` says: by default (``"sensor"``) ``C_m = 0`` and
+``C_v`` the sensor noise alone, because the centroid's and the pose's errors are shared by all the
+detections of a scan and counting them per detection shrinks the axes (docs/method.md a.10).
 
 Conventions: the orientation is kept in ``[0, pi)`` (``theta`` and ``theta + pi`` are the same
 ellipse: ``S`` only changes sign and ``h`` is symmetric, so every moment below is unchanged); the
@@ -406,6 +405,9 @@ def _detection_covs(pose: np.ndarray, pose_cov: np.ndarray, polar: np.ndarray, R
             for r, phi in polar.tolist()]
 
 
+_ZERO2, _ZERO3 = np.zeros((2, 2)), np.zeros((3, 3))
+
+
 # --------------------------------------------------------------------------- the component
 @dataclass
 class MemEkfState(RmaEfaState):
@@ -472,8 +474,12 @@ class MemEkfEstimator(RmaEfaEstimator):
             st.Cp = _mem_ekf_predict(st.Cp, dt, self.q_theta, self.q_axis)
         if polar.shape[0] == 0:
             return
-        cvs = _detection_covs(pose, pose_cov, polar, self.R_extent)
-        st.p, st.Cp = _mem_ekf_update_scan(st.p, st.Cp, centroid, centroid_cov, pts, cvs, ec.spread_factor, AXIS_FLOOR)
+        # extent.mem_ekf_noise (a.10): the centroid's and the pose's errors are shared by every
+        # detection of a scan, so counting them per detection understates the shape in SLAM
+        mode = ec.mem_ekf_noise
+        cvs = _detection_covs(pose, pose_cov if mode != "sensor" else _ZERO3, polar, self.R_extent)
+        C_m = centroid_cov if mode == "full" else _ZERO2
+        st.p, st.Cp = _mem_ekf_update_scan(st.p, st.Cp, centroid, C_m, pts, cvs, ec.spread_factor, AXIS_FLOOR)
         st.X = _shape_matrix(st.p)
         # the EFA baseline, as in RmaEfaEstimator.step (Decision 5, d.3)
         W = _scan_W(pose, pose_cov, polar, self.R_extent, ec.w_mode) if ec.efa_noise_correct else None

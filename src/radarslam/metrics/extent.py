@@ -32,6 +32,10 @@ CONVENTIONS: dict[str, float] = {
 }
 
 
+#: The extra "convention" of :func:`extent_metrics`: the moment ellipse compared centred (shape only).
+SHAPE = "shape"
+
+
 def _rectangles(rectangles) -> np.ndarray:
     r = as_array("rectangles", rectangles, (None, 4))
     if np.any(r[:, 2:] <= 0):
@@ -74,7 +78,8 @@ def ground_truth_extents(rectangles, convention: str = "moment") -> np.ndarray:
 
 def gwd_per_step(positions: Sequence[np.ndarray], rma: Sequence[np.ndarray], efa: Sequence[np.ndarray],
                  centers: np.ndarray, present: np.ndarray, gt_extents: np.ndarray | Mapping[str, np.ndarray],
-                 gate: float, include_stale: bool = False, matched: Sequence[np.ndarray] | None = None):
+                 gate: float, include_stale: bool = False, matched: Sequence[np.ndarray] | None = None,
+                 centred: Sequence[str] = ()):
     """Mean GWD over the matched landmarks with an initialised extent, per scan (docs/method.md e).
 
     Landmarks are matched one-to-one to the vehicles present at the scan (Hungarian, ``gate``);
@@ -99,6 +104,9 @@ def gwd_per_step(positions: Sequence[np.ndarray], rma: Sequence[np.ndarray], efa
         The matches of every scan's landmarks to *all* the vehicles
         (:func:`radarslam.metrics.landmarks.matches`); reused for the scans where every vehicle
         takes part, instead of matching again.
+    centred : sequence of str
+        Keys of ``gt_extents`` compared *centred*: the ground-truth ellipse is placed on the
+        estimate's centroid, so that the GWD measures the shape alone (docs/method.md e).
 
     Returns
     -------
@@ -157,7 +165,8 @@ def gwd_per_step(positions: Sequence[np.ndarray], rma: Sequence[np.ndarray], efa
         n = pos.shape[0]
         est = np.concatenate([xr, xe] * nc)
         ref = np.concatenate([g[v] for g in gts.values() for _ in (0, 1)])
-        d = _gwds(np.tile(pos, (2 * nc, 1)), est, np.tile(centers[v], (2 * nc, 1)), ref).reshape(nc, 2, n)
+        ref_centres = np.concatenate([pos if c in centred else centers[v] for c in gts for _ in (0, 1)])
+        d = _gwds(np.tile(pos, (2 * nc, 1)), est, ref_centres, ref).reshape(nc, 2, n)
         starts = np.concatenate([[0], np.cumsum(count[scans])[:-1]])
         means = np.add.reduceat(d, starts, axis=2) / count[scans]     # (conventions, 2, scans)
         for ci, c in enumerate(gts):
@@ -187,14 +196,17 @@ def extent_metrics(positions: Sequence[np.ndarray], rma: Sequence[np.ndarray], e
     Returns
     -------
     dict
-        ``gwd_count`` (K,), ``gwd_{rma,efa}_{convention}`` (K,) and ``gwd_{rma,efa}_final_{convention}``.
+        ``gwd_count`` (K,), ``gwd_{rma,efa}_{convention}`` (K,) and ``gwd_{rma,efa}_final_{convention}``,
+        and the same for ``shape``: the moment ellipse centred on the estimate (the shape alone,
+        without the centroid's error).
     """
     centers = rectangle_centers(rectangles)
     gts = {c: ground_truth_extents(rectangles, c) for c in conventions}
+    gts[SHAPE] = gts["moment"] if "moment" in gts else ground_truth_extents(rectangles, "moment")
     g_rma, g_efa, count = gwd_per_step(positions, rma, efa, centers, present, gts, gate, include_stale,
-                                       matched)
+                                       matched, centred=(SHAPE,))
     out: dict = {"gwd_count": count}
-    for conv in conventions:
+    for conv in (*conventions, SHAPE):
         out[f"gwd_rma_{conv}"] = g_rma[conv]
         out[f"gwd_efa_{conv}"] = g_efa[conv]
         out[f"gwd_rma_final_{conv}"] = float(g_rma[conv][-1]) if len(g_rma[conv]) else float("nan")
