@@ -46,7 +46,6 @@ from radarslam.core.registry import EXTENT_ESTIMATORS
 from radarslam.core.validation import as_array, as_points, as_scalar, as_spd
 from radarslam.extent._sym2 import spectral
 from radarslam.extent.ellipse import _axis_angle_mod_pi, _ellipse_to_matrix
-from radarslam.extent.ellipse_fit import _fit_ellipse
 from radarslam.extent.estimator import RmaEfaEstimator, RmaEfaState
 from radarslam.extent.measurement import _scan_W, _w_entries
 from radarslam.extent.random_matrix import GAMMA_Z

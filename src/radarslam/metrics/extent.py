@@ -21,7 +21,7 @@ import numpy as np
 from radarslam.core.errors import InputError
 from radarslam.core.validation import as_array
 from radarslam.metrics.gwd import _gwds
-from radarslam.metrics.landmarks import match, matches
+from radarslam.metrics.landmarks import match
 
 #: Semi-axis factors (on L and W) of each ground-truth convention.
 CONVENTIONS: dict[str, float] = {
