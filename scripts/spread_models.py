@@ -31,7 +31,9 @@ import numpy as np
 from radarslam.config import profile_config, to_dict
 from radarslam.experiments.montecarlo import load_results, run_montecarlo
 from radarslam.experiments.report.tables import GWD_SETTLED_FROM, gwd_curves, table1
-from radarslam.metrics.statistics import rmse_over_defined
+from radarslam.metrics.pose import avg_rmse
+from radarslam.metrics.statistics import (bootstrap_avg_rmse, bootstrap_counts, percentile_interval,
+                                          rmse_over_defined)
 from radarslam.experiments.store import TrialStore
 from radarslam.experiments.variants import CONSISTENT, Variant
 
@@ -90,7 +92,20 @@ def summarise(out: Path) -> dict:
         }
         curves[name] = {"moment": (c["rma"]["rmse"].tolist(), c["efa"]["rmse"].tolist()),
                         "shape": (sh["rma"].tolist(), sh["efa"].tolist())}
-    return {"n_trials": int(res["trials"].size), "rows": rows, "seconds": filter_seconds(out), "curves": curves}
+    return {"n_trials": int(res["trials"].size), "rows": rows, "seconds": filter_seconds(out), "curves": curves,
+            "paired": paired_changes(res)}
+
+
+def paired_changes(res: dict, n_boot: int = 2000, level: float = 0.95) -> dict:
+    """Position average RMSE of MEM-EKF* feeding SLAM against the RMA feeding it, in percent, with
+    the paired bootstrap interval (the same resampled trials for both; seed 0 as the report's)."""
+    counts = bootstrap_counts(res["trials"].size, n_boot, np.random.default_rng(0))
+    out = {}
+    for mem, rma in (("ext-mem", "ext-rma"), ("cons-mem", "cons-rma")):
+        a, b = res[mem]["position_error_m"], res[rma]["position_error_m"]
+        boot = 100.0 * (bootstrap_avg_rmse(a, counts) / bootstrap_avg_rmse(b, counts) - 1.0)
+        out[mem] = {"estimate": 100.0 * (avg_rmse(a) / avg_rmse(b) - 1.0), "ci": percentile_interval(boot, level)}
+    return out
 
 
 def _ci(d: dict, nd: int) -> str:
@@ -116,6 +131,11 @@ def markdown(summary: dict, seed: int) -> str:
                          f"{r['shape_mean_k10']['efa']:.3f} / {r['shape_final']['efa']:.3f} | "
                          f"{r['gwd_mean_k10']['est']:.3f} / {r['gwd_mean_k10']['efa']:.3f} | "
                          f"{1e3 * s['seconds'][name]:.0f} |")
+        lines.append("")
+        for mem, label in (("ext-mem", "With extent"), ("cons-mem", "Consistent")):
+            c = s["paired"][mem]
+            lines.append(f"- {label}: position avg. RMSE with MEM-EKF* feeding SLAM against the RMA, paired: "
+                         f"{c['estimate']:+.1f}% [{c['ci'][0]:+.1f}, {c['ci'][1]:+.1f}]")
         lines.append("")
     return "\n".join(lines)
 
