@@ -34,7 +34,6 @@ from radarslam.experiments.report.tables import GWD_SETTLED_FROM, gwd_curves, ta
 from radarslam.metrics.pose import avg_rmse
 from radarslam.metrics.statistics import (bootstrap_avg_rmse, bootstrap_counts, percentile_interval,
                                           rmse_over_defined)
-from radarslam.experiments.store import TrialStore
 from radarslam.experiments.variants import CONSISTENT, Variant
 
 MODELS = ("surface", "contour", "visible-faces")
@@ -52,17 +51,6 @@ def variants() -> tuple[Variant, ...]:
                         {**CONSISTENT.overlay, "extent": {**CONSISTENT.overlay["extent"], "estimator": est}})]
     order = ["noext-rma", "noext-mem", "ext-rma", "ext-mem", "cons-rma", "cons-mem"]
     return tuple(sorted(out, key=lambda v: order.index(v.name)))
-
-
-def filter_seconds(out: Path) -> dict[str, float]:
-    """Median filter wall time per trial of every variant (from the trials' metadata)."""
-    store = TrialStore.read(out)
-    per: dict[str, list[float]] = {}
-    for t in store.stored():
-        _, meta = store.load(t)
-        for name, s in meta["filter_seconds"].items():
-            per.setdefault(name, []).append(s)
-    return {name: float(np.median(v)) for name, v in per.items()}
 
 
 def shape_curves(res: dict, name: str) -> dict[str, np.ndarray]:
@@ -92,7 +80,8 @@ def summarise(out: Path) -> dict:
         }
         curves[name] = {"moment": (c["rma"]["rmse"].tolist(), c["efa"]["rmse"].tolist()),
                         "shape": (sh["rma"].tolist(), sh["efa"].tolist())}
-    return {"n_trials": int(res["trials"].size), "rows": rows, "seconds": filter_seconds(out), "curves": curves,
+    return {"n_trials": int(res["trials"].size), "rows": rows, "curves": curves,
+            "seconds": {name: float(np.median(t)) for name, t in res["filter_seconds"].items()},
             "paired": paired_changes(res)}
 
 

@@ -342,6 +342,9 @@ def test_load_results_has_every_variant_in_order(three_variant_run):
     _, meta = decode_trial(TrialStore.read(three_variant_run).path(1))
     names = ["noext", "ext", "consistent", "nosift"]
     assert meta["variants"] == names and set(meta["filter_seconds"]) == set(names)
+    assert list(res["filter_seconds"]) == names
+    assert res["filter_seconds"]["ext"][0] == meta["filter_seconds"]["ext"] > 0    # trial 1, from its file
+    assert all(t.shape == (3,) and np.all(t > 0) for t in res["filter_seconds"].values())
     man = json.loads((three_variant_run / "manifest.json").read_text())
     assert [(v["name"], v["label"], v["overlay"]) for v in man["variants"]] == \
         [(v.name, v.label, v.overlay) for v in THREE]

@@ -312,6 +312,7 @@ def load_results(out: str | Path, n_trials: int | None = None) -> dict:
         ``true_poses`` (N, K, 3), and per variant name a dict of stacked arrays: per-step ``(N, K)``,
         per-vehicle ``(N, V)``, ``poses`` ``(N, K, 3)`` and ``scalars`` as a dict of ``(N,)``.
         ``corrupt`` maps skipped trial numbers to the reason (a file lacking a variant is one).
+        ``seconds`` (N,) is each trial's wall time, ``filter_seconds`` {variant name: (N,)} its filter's.
     """
     store = TrialStore.read(out)
     numbers = store.stored() if n_trials is None else list(range(1, n_trials + 1))
@@ -329,7 +330,9 @@ def load_results(out: str | Path, n_trials: int | None = None) -> dict:
         raise InputError(f"DIR: {out} holds no valid trial")
     res: dict = {"config": store.config, "seed": store.seed, "variants": store.variants,
                  "trials": np.array([t for t, _, _ in loaded]),
-                 "corrupt": corrupt, "stray": [str(p) for p in store.strays()], "seconds": np.array([m["seconds"] for _, _, m in loaded])}
+                 "corrupt": corrupt, "stray": [str(p) for p in store.strays()], "seconds": np.array([m["seconds"] for _, _, m in loaded]),
+                 "filter_seconds": {v.name: np.array([m["filter_seconds"][v.name] for _, _, m in loaded])
+                                    for v in store.variants}}
     res["true_poses"] = np.stack([a["true_poses"] for _, a, _ in loaded])
     names = loaded[0][2]["scalar_names"]
     for v in store.variants:

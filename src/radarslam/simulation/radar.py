@@ -114,7 +114,7 @@ def simulate_scan(pose: np.ndarray, vehicles: list[Vehicle], k: int, radar: Rada
     sources : ndarray of int, shape (m,)
         Index of the vehicle that produced each detection, :data:`CLUTTER` for clutter.
     """
-    pts, src = [], []
+    pts, owners, counts = [], [], []
     px, py = float(pose[0]), float(pose[1])
     for v in vehicles:
         if not v.present(k):
@@ -123,7 +123,8 @@ def simulate_scan(pose: np.ndarray, vehicles: list[Vehicle], k: int, radar: Rada
             continue
         p = vehicle_points(v, radar, rng, pose[:2])
         pts.append(p)
-        src.append(p.shape[0])
+        owners.append(v.index)
+        counts.append(p.shape[0])
     xy = np.concatenate(pts) if pts else np.empty((0, 2))
     d = xy - pose[:2]
     polar = np.column_stack([np.hypot(d[:, 0], d[:, 1]), np.arctan2(d[:, 1], d[:, 0]) - pose[2]])
@@ -137,9 +138,7 @@ def simulate_scan(pose: np.ndarray, vehicles: list[Vehicle], k: int, radar: Rada
     polar_c = np.column_stack([np.hypot(dc[:, 0], dc[:, 1]), np.arctan2(dc[:, 1], dc[:, 0]) - pose[2]])
     polar = np.concatenate([polar, polar_c])
     polar[:, 1] = wrap_pi(polar[:, 1]) if polar.shape[0] else polar[:, 1]
-    owners = [v.index for v in vehicles if v.present(k)
-              and math.hypot(v.x_left + 0.5 * v.size_x - px, v.y_bottom + 0.5 * v.size_y - py) <= radar.max_range_m]
-    sources = np.concatenate([np.repeat(np.array(owners, dtype=int), src),
+    sources = np.concatenate([np.repeat(np.array(owners, dtype=int), counts),
                               np.full(clutter.shape[0], CLUTTER, dtype=int)])
     if radar.shuffle_detections and polar.shape[0] > 1:
         order = rng.permutation(polar.shape[0])

@@ -82,7 +82,7 @@ def driven_path(traj: TrajectoryConfig, world: WorldConfig, process_noise: np.nd
     """
     model = UnicycleModel()
     plan_u = serpentine_controls(traj, world)
-    plan = true_path(traj, np.zeros((traj.n_steps, 3)), world)
+    plan = _integrate(traj, plan_u, np.zeros((traj.n_steps, 3)))
     k_lat, k_head, k_along = DRIVER_GAINS
     u = plan_u.copy()
     poses = np.empty((traj.n_steps, 3))
@@ -109,8 +109,12 @@ def noise_free_path(traj: TrajectoryConfig, world: WorldConfig | None = None) ->
 
 def true_path(traj: TrajectoryConfig, process_noise: np.ndarray, world: WorldConfig | None = None) -> np.ndarray:
     """Poses ``(K, 3)``: APSIPA eq. (5) with the process noise ``omega_k`` (row k-1) added."""
+    return _integrate(traj, commanded_controls(traj, world), process_noise)
+
+
+def _integrate(traj: TrajectoryConfig, u: np.ndarray, process_noise: np.ndarray) -> np.ndarray:
+    """Poses ``(K, 3)`` of the controls ``u`` from the initial pose, APSIPA eq. (5) plus the noise."""
     model = UnicycleModel()
-    u = commanded_controls(traj, world)
     poses = np.empty((traj.n_steps, 3))
     poses[0] = traj.initial_pose
     poses[0, 2] = wrap_2pi_scalar(poses[0, 2])

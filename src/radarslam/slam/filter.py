@@ -205,7 +205,7 @@ class EkfSlam:
         k = scan.index
         dt = self._take_scan_interval()
         prior = self._prior()                                             # Decision 3
-        cand = self._sift(polar)                                          # 3
+        cand = self._sift(polar, prior)                                   # 3
         assoc, nis = self._associate_and_update(polar, cand)              # 4
         associations = {r.id: np.array(a, dtype=int) for r, a in zip(self.state.landmarks, assoc) if a}
         removed, assoc = self._remove_unseen(assoc, k)                    # 5
@@ -234,14 +234,16 @@ class EkfSlam:
         st = self.state
         return st.x.copy(), st.position_covs(), st.rows_by_id()
 
-    def _sift(self, polar: np.ndarray) -> np.ndarray:
-        """Step 3: candidates for association, with the predicted pose (c.3; a.7.1)."""
+    def _sift(self, polar: np.ndarray, prior) -> np.ndarray:
+        """Step 3: candidates for association, with the predicted state (c.3; a.7.1), which is the
+        one ``prior`` holds (:meth:`_prior`: its centroids and covariance blocks are reused)."""
         st = self.state
+        x_prior, blocks_prior, _ = prior
         xy = self.measurement.to_world(st.pose, polar)
-        positions = st.positions
+        positions = x_prior[POSE_DIM:].reshape(-1, 2)
         test = None
         if st.landmarks:
-            test = self.extent.sift([r.extent for r in st.landmarks], xy, polar, positions, st.position_covs(),
+            test = self.extent.sift([r.extent for r in st.landmarks], xy, polar, positions, blocks_prior,
                                     st.pose, st.pose_cov)
         inside, has = test if test is not None else (None, None)
         return sift(xy, positions, self.config.landmarks.sift_radius_m, inside, has)
