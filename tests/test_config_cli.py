@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from radarslam.cli.main import main
-from radarslam.config import from_dict, load_config, profile_config, to_toml
+from radarslam.config import from_dict, load_config, profile_config, to_dict, to_toml
 from radarslam.core.errors import ConfigError
 
 from conftest import require
@@ -294,3 +294,25 @@ def test_montecarlo_argument_errors_leave_no_directory(tmp_path, capsys, args, k
     assert main(["montecarlo", "--out", str(out), "--quiet"] + args) == 1
     assert key in capsys.readouterr().err
     assert not (tmp_path / "new").exists()
+
+
+def test_a_profile_extends_another_and_cycles_are_refused(monkeypatch):
+    """large-carpark extends apsipa: every value of apsipa it does not set is apsipa's; a profile
+    naming an unknown base, or extending itself through another, is a one-line ConfigError."""
+    from radarslam import config as cfgmod
+
+    big, paper = to_dict(profile_config("large-carpark")), to_dict(profile_config("apsipa"))
+    own = cfgmod._read_profile("large-carpark")
+    assert own["extends"] == "apsipa" and "landmarks" not in own
+    assert big["landmarks"] == paper["landmarks"] and big["extent"] == paper["extent"]
+    for section, table in own.items():
+        if isinstance(table, dict):
+            for key, value in table.items():
+                assert big[section][key] == value
+    fake = {"a": {"extends": "b", "landmarks": {"beta": 5.0}}, "b": {"extends": "a"}, "c": {"extends": "nope"}}
+    monkeypatch.setattr(cfgmod, "list_profiles", lambda: sorted(fake))
+    monkeypatch.setattr(cfgmod, "_read_profile", lambda name: dict(fake[name]))
+    with pytest.raises(ConfigError, match=r"profile 'b': extends: expected no cycle, got a -> b -> a"):
+        cfgmod.profile_overlay("a")
+    with pytest.raises(ConfigError, match=r"profile 'c': extends: expected one of \['a', 'b', 'c'\], got 'nope'"):
+        cfgmod.profile_overlay("c")

@@ -26,6 +26,7 @@ import typing
 from importlib import resources
 from dataclasses import dataclass, field
 from pathlib import Path
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -349,12 +350,32 @@ def list_profiles() -> list[str]:
                   if p.name.endswith(".toml"))
 
 
-def profile_overlay(name: str) -> dict:
-    """The overrides of profile ``name`` as a nested dict (the TOML file's content)."""
+def profile_overlay(name: str, _seen: tuple[str, ...] = ()) -> dict:
+    """The overrides of profile ``name`` as a nested dict: its TOML file's content, laid over the
+    overrides of the profile it names in ``extends = "..."`` (if any; tables merge key by key)."""
     if name not in list_profiles():
-        raise ConfigError(f"profile: expected one of {list_profiles()}, got {name!r}")
+        key = f"profile {_seen[-1]!r}: extends" if _seen else "profile"
+        raise ConfigError(f"{key}: expected one of {list_profiles()}, got {name!r}")
+    if name in _seen:
+        raise ConfigError(f"profile {_seen[-1]!r}: extends: expected no cycle, got {' -> '.join(_seen + (name,))}")
+    own = _read_profile(name)
+    base = own.pop("extends", None)
+    return merge_tables(profile_overlay(base, _seen + (name,)), own) if base is not None else own
+
+
+def _read_profile(name: str) -> dict:
+    """The TOML file of profile ``name`` as a dict."""
     with resources.files("radarslam").joinpath(PROFILE_DIR, f"{name}.toml").open("rb") as fh:
         return tomllib.load(fh)
+
+
+def merge_tables(base: dict, overlay: Mapping) -> dict:
+    """``base`` with ``overlay`` laid over it (a new dict): tables merge key by key, any other value
+    replaces (copied). Profiles extending others and variant overlays both merge this way."""
+    out = dict(base)
+    for k, v in overlay.items():
+        out[k] = merge_tables(out[k], v) if isinstance(v, Mapping) and isinstance(out.get(k), dict) else copy.deepcopy(v)
+    return out
 
 
 def profile_config(name: str = "apsipa") -> Config:

@@ -20,7 +20,7 @@ import tomllib
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 
-from radarslam.config import Config, from_dict, read_toml, to_dict
+from radarslam.config import Config, from_dict, merge_tables, read_toml, to_dict
 from radarslam.core.errors import ConfigError, InputError
 
 #: Configuration sections that define the simulated data, shared by every variant of a run.
@@ -93,14 +93,6 @@ CONSISTENT = Variant("consistent", "Consistent (beyond the paper)", {
 DEFAULT_VARIANTS: tuple[Variant, ...] = PAPER_VARIANTS + (CONSISTENT,)
 
 
-def _merge(base: dict, overlay: Mapping) -> dict:
-    """``base`` with ``overlay`` merged in: tables merge key by key, anything else replaces."""
-    out = dict(base)
-    for k, v in overlay.items():
-        out[k] = _merge(out[k], v) if isinstance(v, Mapping) and isinstance(out.get(k), dict) else copy.deepcopy(v)
-    return out
-
-
 def apply_variant(config: Config, variant: Variant) -> Config:
     """The configuration ``config`` with ``variant``'s overlay applied (every key validated).
 
@@ -112,7 +104,7 @@ def apply_variant(config: Config, variant: Variant) -> Config:
     if not isinstance(variant, Variant):
         raise InputError(f"variant: expected a Variant, got {type(variant).__name__}")
     try:
-        return from_dict(_merge(to_dict(config), variant.overlay))
+        return from_dict(merge_tables(to_dict(config), variant.overlay))
     except ConfigError as exc:
         raise ConfigError(f"variant {variant.name!r}: {exc}") from None
 
