@@ -7,8 +7,10 @@ the result. Two passes over the same trials:
 1. plain: ``compute_trial`` as the Monte Carlo calls it; median, p10, p90 (what the issue's
    target is about);
 2. by stage: the same trials with a timer around each stage (simulation, configuration, the
-   filter's steps of docs/method.md a.8, evaluation, encoding). The timers cost ~1 us per call, so
-   the stages add up to a little more than pass 1.
+   filter, evaluation, encoding). Within the filter: with the fused engine (the default,
+   ``filter.fused``) its three parts (the event stream as arrays, the compiled run, the record);
+   with the orchestrator (``--no-fused`` or ``--backend python``) the steps of docs/method.md a.8.
+   The timers cost ~1 us per call, so the stages add up to a little more than pass 1.
 
 The machine this runs on (a VM) changes speed by up to 2x between minutes: compare figures from
 one invocation, or runs interleaved (``--repeat``), not numbers taken at different times.
@@ -25,6 +27,7 @@ import numpy as np
 from radarslam.config import profile_config
 from radarslam.experiments import montecarlo
 from radarslam.experiments.variants import DEFAULT_VARIANTS, PAPER_VARIANTS
+from radarslam.slam import _fused
 from radarslam.slam.filter import EkfSlam
 
 #: The orchestrator's steps (docs/architecture.md "The orchestrator") timed in pass 2.
@@ -32,7 +35,9 @@ FILTER_STEPS = ("predict", "_prior", "_sift", "_associate_and_update", "_remove_
                 "_cluster", "_alpha_test", "_confirm_and_augment", "_merge", "snapshot")
 #: Module-level stages of compute_trial timed in pass 2.
 TRIAL_STAGES = {"generate_scenario": "simulation", "apply_variant": "configuration",
-                "evaluate": "evaluation", "encode_trial": "encoding"}
+                "evaluate": "evaluation", "encode_trial": "encoding", "run_filter": "filter"}
+#: The fused engine's parts (radarslam.slam._fused) timed in pass 2.
+FUSED_PARTS = {"_stream_arrays": "fused: events as arrays", "run_stream": "fused: compiled run (run_stream)"}
 
 
 def _timed(fn, name, acc):
@@ -50,11 +55,14 @@ def stage_times(cfg, seed, trials, variants):
     acc = defaultdict(float)
     saved_mc = {n: getattr(montecarlo, n) for n in TRIAL_STAGES}
     saved_slam = {n: getattr(EkfSlam, n) for n in FILTER_STEPS + ("update", "process")}
+    saved_fused = {n: getattr(_fused, n) for n in FUSED_PARTS}
     try:
         for n, label in TRIAL_STAGES.items():
             setattr(montecarlo, n, _timed(saved_mc[n], label, acc))
         for n in FILTER_STEPS + ("update", "process"):
             setattr(EkfSlam, n, _timed(saved_slam[n], n, acc))
+        for n, label in FUSED_PARTS.items():
+            setattr(_fused, n, _timed(saved_fused[n], label, acc))
         t0 = time.perf_counter()
         for k in trials:
             montecarlo.compute_trial(cfg, seed, k, variants)
@@ -64,13 +72,19 @@ def stage_times(cfg, seed, trials, variants):
             setattr(montecarlo, n, f)
         for n, f in saved_slam.items():
             setattr(EkfSlam, n, f)
+        for n, f in saved_fused.items():
+            setattr(_fused, n, f)
     n = len(trials)
-    rows = {label: acc[label] / n for label in TRIAL_STAGES.values()}
-    steps = {s: acc[s] / n for s in FILTER_STEPS}
-    steps["update (rest)"] = (acc["update"] - sum(acc[s] for s in FILTER_STEPS if s not in ("predict", "snapshot"))) / n
-    steps["process + run_filter (rest)"] = (acc["process"] - acc["update"] - acc["predict"]) / n
-    filt = sum(steps.values())
-    rows["other (compute_trial, run_filter)"] = total / n - sum(rows.values()) - filt
+    rows = {label: acc[label] / n for label in TRIAL_STAGES.values() if label != "filter"}
+    if acc["process"] > 0:        # the orchestrator: its steps
+        steps = {s: acc[s] / n for s in FILTER_STEPS}
+        steps["update (rest)"] = (acc["update"] - sum(acc[s] for s in FILTER_STEPS
+                                                      if s not in ("predict", "snapshot"))) / n
+        steps["run_filter (rest)"] = (acc["filter"] - acc["process"]) / n
+    else:                         # the fused engine: its parts
+        steps = {label: acc[label] / n for label in FUSED_PARTS.values()}
+        steps["run_filter (rest: EkfSlam, record)"] = (acc["filter"] - sum(acc[v] for v in FUSED_PARTS.values())) / n
+    rows["other (compute_trial)"] = total / n - sum(rows.values()) - acc["filter"] / n
     return total / n, rows, steps
 
 
@@ -82,11 +96,14 @@ def main() -> None:
                     help="filter.backend (default: the configuration's, numba)")
     ap.add_argument("--variants", choices=("paper", "default"), default="paper",
                     help="paper: No extent + With extent (the issue's trial); default: the Monte Carlo's three")
+    ap.add_argument("--no-fused", action="store_true", help="filter.fused = false: the orchestrator, scan by scan")
     ap.add_argument("--no-stages", action="store_true", help="skip pass 2")
     a = ap.parse_args()
     cfg = profile_config()
     if a.backend:
         cfg = replace(cfg, filter=replace(cfg.filter, backend=a.backend))
+    if a.no_fused:
+        cfg = replace(cfg, filter=replace(cfg.filter, fused=False))
     variants = PAPER_VARIANTS if a.variants == "paper" else DEFAULT_VARIANTS
     t0 = time.perf_counter()
     montecarlo.compute_trial(cfg, a.seed, 1, variants)  # warm-up: imports, compiled-code cache
@@ -99,7 +116,8 @@ def main() -> None:
         t.append(time.perf_counter() - t0)
     t = np.array(t)
     names = " + ".join(v.name for v in variants)
-    print(f"complete trial (simulation, {names}, RMA + EFA, evaluation), backend {cfg.filter.backend}, "
+    engine = "fused" if cfg.filter.fused and cfg.filter.backend == "numba" else "orchestrator"
+    print(f"complete trial (simulation, {names}, RMA + EFA, evaluation), backend {cfg.filter.backend}, {engine}, "
           f"{a.trials} trials, one core (first trial incl. warm-up: {warm:.2f} s):")
     print(f"  median {1e3 * np.median(t):.1f} ms   p10 {1e3 * np.percentile(t, 10):.1f} ms   "
           f"p90 {1e3 * np.percentile(t, 90):.1f} ms   min {1e3 * t.min():.1f} ms")

@@ -169,6 +169,9 @@ class FilterConfig:
                                    registry=MEASUREMENT_MODELS)
     backend: str = param("numba", "implementation of the per-scan steps: 'numba' (compiled, the default) or "
                          "'python' (the reference, for checking)", choices=BACKENDS)
+    fused: bool = param(True, "with backend 'numba': run a whole event stream in one compiled call when every "
+                        "component is a built-in one the fused engine covers (docs/architecture.md \"The fused "
+                        "engine\"); false = the orchestrator, scan by scan")
     initial_pose: list[float] = param([0.1, 0.1, math.pi / 180.0], "initial estimate [x_m, y_m, theta_rad]", length=3)
     initial_pose_std: list[float] = param([0.15, 0.15, math.pi / 180.0], "initial std [x_m, y_m, theta_rad]", length=3)
     range_std_m: float = param(0.5, "R: range std (m)", low=0.0, low_open=True)

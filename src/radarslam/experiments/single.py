@@ -14,6 +14,7 @@ from radarslam.metrics.extent import extent_metrics, rectangle_centers
 from radarslam.metrics.landmarks import landmark_metrics, matches
 from radarslam.metrics.pose import avg_rmse, pose_errors, pose_nees
 from radarslam.simulation.scenario import Scenario, generate_scenario
+from radarslam.slam import _fused
 from radarslam.slam.filter import EkfSlam, MapSnapshot
 
 
@@ -49,8 +50,11 @@ def run_filter(config: Config, events: list[Odometry | Scan], slam: EkfSlam | No
                on_scan=None) -> FilterRecord:
     """Run :class:`EkfSlam` over an event stream, recording the estimate after every scan;
     ``on_scan()`` (optional) is called after each scan (a progress bar)."""
-    slam = slam or EkfSlam(config)
     t0 = time.perf_counter()
+    if slam is None:
+        slam = EkfSlam(config)
+        if _fused.why_not(slam) is None:
+            return _fused_record(slam, events, t0, on_scan)
     poses, covs, maps, ndet, nass, nlm, nis_sum, nis_n = [], [], [], [], [], [], [], []
     for ev in events:
         rep = slam.process(ev)
@@ -69,6 +73,20 @@ def run_filter(config: Config, events: list[Odometry | Scan], slam: EkfSlam | No
     return FilterRecord(np.array(poses).reshape(-1, 3), np.array(covs).reshape(-1, 3, 3), maps,
                         np.array(ndet), np.array(nass), np.array(nlm), time.perf_counter() - t0,
                         nis_sum=np.array(nis_sum), nis_count=np.array(nis_n, dtype=float))
+
+
+def _fused_record(slam: EkfSlam, events, t0: float, on_scan) -> FilterRecord:
+    """:func:`run_filter` by the fused engine (:mod:`radarslam.slam._fused`): the same record."""
+    r, _ = _fused.run(slam, events)
+    off = r["map_offsets"].tolist()
+    maps = [MapSnapshot(r["ids"][a:b], r["positions"][a:b], r["covs"][a:b], r["rma"][a:b], r["efa"][a:b],
+                        r["created"][a:b]) for a, b in zip(off[:-1], off[1:])]
+    seconds = time.perf_counter() - t0
+    if on_scan is not None:
+        for _ in maps:
+            on_scan()
+    return FilterRecord(r["poses"], r["pose_covs"], maps, r["n_detections"], r["n_associated"], r["n_landmarks"],
+                        seconds, nis_sum=r["nis_sum"], nis_count=r["nis_count"].astype(float))
 
 
 def vehicle_rectangles(vehicles) -> np.ndarray:

@@ -1,0 +1,210 @@
+"""The fused engine (radarslam.slam._fused) against the orchestrator it stands in for.
+
+It must make the very same decisions (every association, every landmark id after every scan) and
+the same estimates to rounding, for every configuration it claims to cover, and refuse the ones it
+does not. The oracle is ``EkfSlam`` run scan by scan (numba backend), and the golden recording.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from conftest import require
+from golden import CARPARK_RUNS, GOLDEN, carpark_run
+
+require("numba")
+
+from radarslam.config import from_dict, profile_config, to_dict  # noqa: E402
+from radarslam.config import merge_tables  # noqa: E402
+from radarslam.core.errors import InputError  # noqa: E402
+from radarslam.core.types import Odometry, Scan  # noqa: E402
+from radarslam.experiments.montecarlo import trial_seed  # noqa: E402
+from radarslam.experiments.single import run_filter  # noqa: E402
+from radarslam.experiments.variants import DEFAULT_VARIANTS, apply_variant  # noqa: E402
+from radarslam.simulation.scenario import generate_scenario  # noqa: E402
+from radarslam.slam import _fused  # noqa: E402
+from radarslam.slam.filter import EkfSlam  # noqa: E402
+
+
+def _overlay(cfg, overlay: dict):
+    return from_dict(merge_tables(to_dict(cfg), overlay))
+
+
+def _scenario(cfg, trial: int):
+    return generate_scenario(cfg, np.random.default_rng(trial_seed(1, trial)))
+
+
+def _orchestrated(cfg, events):
+    """Scan by scan: associations ``(scan position, detection, id)``, and per scan the pose, its
+    covariance, the NIS sum and every snapshot."""
+    slam = EkfSlam(replace(cfg, filter=replace(cfg.filter, fused=False)))
+    rows, poses, covs, nis, snaps = [], [], [], [], []
+    for ev in events:
+        rep = slam.process(ev)
+        if rep is None:
+            continue
+        s = len(poses)
+        for lid, dets in rep.associations.items():
+            rows += [(s, int(d), int(lid)) for d in dets]
+        poses.append(slam.pose)
+        covs.append(slam.pose_cov)
+        nis.append(rep.nis.sum())
+        snaps.append(slam.snapshot())
+    return sorted(rows), np.array(poses), np.array(covs), np.array(nis), snaps
+
+
+def _assert_same_run(cfg, events, tol=1e-9):
+    assert _fused.why_not(EkfSlam(cfg)) is None
+    rows, poses, covs, nis, snaps = _orchestrated(cfg, events)
+    r, arows = _fused.run(EkfSlam(cfg), events)
+    assert sorted(map(tuple, arows.tolist())) == rows                      # every association
+    off = r["map_offsets"]
+    assert off.shape[0] == len(snaps) + 1
+    assert np.array_equal(r["n_landmarks"], [s.ids.size for s in snaps])
+    for s, a, b in zip(snaps, off[:-1], off[1:]):
+        assert np.array_equal(r["ids"][a:b], s.ids)                        # the same landmarks, in state order
+        assert np.array_equal(r["created"][a:b], s.created)
+        for key in ("positions", "covs", "rma", "efa"):
+            np.testing.assert_allclose(r[key][a:b], getattr(s, key), rtol=tol, atol=tol, err_msg=key)
+    np.testing.assert_allclose(r["poses"], poses, rtol=tol, atol=tol)
+    np.testing.assert_allclose(r["pose_covs"], covs, rtol=tol, atol=tol)
+    np.testing.assert_allclose(r["nis_sum"], nis, rtol=tol, atol=tol)
+    return len(rows)
+
+
+@pytest.mark.parametrize("variant", DEFAULT_VARIANTS, ids=[v.name for v in DEFAULT_VARIANTS])
+@pytest.mark.parametrize("trial", [1, 2])
+def test_default_variants_same_as_orchestrator(variant, trial):
+    cfg = profile_config("apsipa")
+    n = _assert_same_run(apply_variant(cfg, variant), _scenario(cfg, trial).events)
+    assert n > 1500                                     # a real run: thousands of associations compared
+
+
+OVERLAYS = {
+    "narrow-fov": {"filter": {"field_of_view_deg": 120.0}},
+    "merge-axis-and-cap": {"landmarks": {"merge_axis_tol_m": 0.5, "merge_max_per_scan": 1, "merge_distance_m": 3.0}},
+    "posterior-centroid": {"extent": {"use_in_slam": True, "use_posterior_landmark": True}},
+    "noise-corrected-efa": {"extent": {"efa_noise_correct": True}},
+    "cluster-init-no-spread": {"landmarks": {"init": "cluster"}, "extent": {"use_in_slam": True}},
+    "radius-sifting": {"extent": {"use_in_slam": True, "contour_sifting": False}},
+    "no-inflation": {"extent": {"use_in_slam": True, "inflate_noise": False, "pre_init_spread": "prior"}},
+    "literal-sifting": {"extent": {"use_in_slam": True, "sifting_mode": "literal"}},
+    "batch-noext": {"landmarks": {"associator": "batch"}},
+    "early-extents": {"extent": {"use_in_slam": True, "n_init": 3}, "landmarks": {"merge_distance_m": 4.0}},
+    "no-tracking": {"extent": {"track": False}},
+    "rule1-only": {"landmarks": {"confirm_points": 2, "alpha": 50.0}},
+}
+
+
+@pytest.mark.parametrize("name", sorted(OVERLAYS))
+def test_covered_options_same_as_orchestrator(name):
+    """Each option the engine claims to cover, on a whole run (trial 3)."""
+    cfg = _overlay(profile_config("apsipa"), OVERLAYS[name])
+    _assert_same_run(cfg, _scenario(profile_config("apsipa"), 3).events)
+
+
+def test_large_map_same_as_orchestrator():
+    """The records and buffers outgrow their first capacity (16 landmarks): a two-row large car
+    park, 400 scans."""
+    cfg = _overlay(profile_config("large-carpark"), {"world": {"rows": 2, "cars_per_row": 20},
+                                                     "trajectory": {"n_steps": 400}})
+    events = generate_scenario(cfg, np.random.default_rng(5)).events
+    _assert_same_run(cfg, events)
+    r, _ = _fused.run(EkfSlam(cfg), events)
+    assert r["n_landmarks"].max() > 16
+
+
+def test_golden_runs_reproduced():
+    """The golden recording's car-park runs (tests/golden.py), by the fused engine: the same
+    associations and landmark ids, values to 1e-12."""
+    with np.load(GOLDEN) as z:
+        golden = {k: z[k] for k in z.files}
+    for name, profile, seed, extent in CARPARK_RUNS:
+        cfg = profile_config(profile)
+        cfg = replace(cfg, extent=replace(cfg.extent, use_in_slam=extent, sifting_mode="literal"))
+        scenario = generate_scenario(cfg, np.random.default_rng(np.random.SeedSequence(seed)))
+        r, arows = _fused.run(EkfSlam(cfg), scenario.events)
+        k = [e.index for e in scenario.events if isinstance(e, Scan)]
+        a = np.array([(k[s], d, lid) for s, d, lid in arows.tolist()], dtype=np.int64)
+        a = a[np.lexsort((a[:, 1], a[:, 2], a[:, 0]))]
+        want = {key.split("/")[-1]: v for key, v in golden.items() if key.startswith(f"numba/{name}/")}
+        assert np.array_equal(a, want["associations"]), name
+        assert np.array_equal(r["n_landmarks"], want["n_landmarks"]), name
+        last = slice(r["map_offsets"][-2], r["map_offsets"][-1])
+        assert np.array_equal(r["ids"][last], want["ids"]), name
+        for key, got in (("poses", r["poses"]), ("positions", r["positions"][last]), ("rma", r["rma"][last]),
+                         ("efa", r["efa"][last])):
+            np.testing.assert_allclose(got, want[key], rtol=1e-12, atol=1e-12, err_msg=f"{name}/{key}")
+        # and the reference run of the same module agrees on the decisions
+        assert np.array_equal(want["associations"], carpark_run(profile, seed, extent, "numba")["associations"])
+
+
+@pytest.mark.parametrize("overlay,reason", [
+    ({"filter": {"fused": False}}, "filter.fused"),
+    ({"filter": {"backend": "python"}}, "filter.backend"),
+    ({"extent": {"estimator": "mem-ekf"}}, "extent estimator"),
+    ({"extent": {"efa_mode": "sliding"}}, "extent.efa_mode"),
+    ({"extent": {"w_mode": "mean"}}, "extent.w_mode"),
+    ({"extent": {"pre_init_spread": "scatter"}}, "extent.pre_init_spread"),
+    ({"landmarks": {"associator": "jcbb"}}, "associator"),
+])
+def test_uncovered_configurations_are_refused(overlay, reason):
+    assert reason in _fused.why_not(EkfSlam(_overlay(profile_config("apsipa"), overlay)))
+
+
+def test_run_filter_takes_the_fused_engine_only_when_covered(monkeypatch):
+    cfg = profile_config("apsipa")
+    events = _scenario(cfg, 4).events
+    fused = run_filter(cfg, events)
+    calls = []
+    monkeypatch.setattr(_fused, "run", lambda *a: calls.append(1))
+    slow = run_filter(replace(cfg, filter=replace(cfg.filter, fused=False)), events)
+    assert calls == []                                     # not taken when filter.fused is false
+    np.testing.assert_allclose(fused.poses, slow.poses, rtol=1e-9, atol=1e-9)
+    assert np.array_equal(fused.n_associated, slow.n_associated)
+    assert np.array_equal(fused.nis_count, slow.nis_count)
+    assert [m.ids.tolist() for m in fused.maps] == [m.ids.tolist() for m in slow.maps]
+
+
+def _message(cfg, events) -> str:
+    with pytest.raises(InputError) as exc:
+        run_filter(cfg, events)
+    return str(exc.value)
+
+
+@pytest.mark.parametrize("bad", ["negative-range", "time-backwards", "nan-control", "zero-dt", "overflow", "not-an-event"])
+def test_bad_input_same_error_as_orchestrator(bad):
+    cfg = profile_config("apsipa")
+    events = list(_scenario(cfg, 1).events[:41])
+    i = next(n for n in range(20, 41) if isinstance(events[n], Scan))
+    j = next(n for n in range(20, 41) if isinstance(events[n], Odometry))
+    if bad == "negative-range":
+        polar = events[i].polar.copy()
+        polar[0, 0] = -1.0
+        events[i] = replace(events[i], polar=polar)
+    elif bad == "time-backwards":
+        events[i] = replace(events[i], t=-5.0)
+    elif bad == "nan-control":
+        events[j] = replace(events[j], control=np.array([np.nan, 0.0]))
+    elif bad == "zero-dt":
+        events[j] = replace(events[j], dt=0.0)
+    elif bad == "overflow":
+        events[j] = replace(events[j], control=np.array([1e308, 0.0]), dt=1e10)
+    else:
+        events[j] = "odometry"
+    fused = _message(cfg, events)
+    assert fused == _message(replace(cfg, filter=replace(cfg.filter, fused=False)), events)
+    assert "\n" not in fused and ("expected" in fused)
+
+
+def test_comparison_detects_a_different_run():
+    """Negative control: the comparison above fails for a run with another association threshold."""
+    cfg = profile_config("apsipa")
+    events = _scenario(cfg, 3).events
+    rows = _orchestrated(cfg, events)[0]
+    other = replace(cfg, landmarks=replace(cfg.landmarks, beta=cfg.landmarks.beta * 0.8))
+    _, arows = _fused.run(EkfSlam(other), events)
+    assert sorted(map(tuple, arows.tolist())) != rows
