@@ -50,11 +50,13 @@ class Scenario:
         return [e for e in self.events if isinstance(e, Scan)]
 
 
-def generate_scenario(config: Config, rng: np.random.Generator) -> Scenario:
+def generate_scenario(config: Config, rng: np.random.Generator, *, compiled: bool = True) -> Scenario:
     """Simulate one trial of the car park from ``rng``.
 
     The draws happen in a fixed order (process noise, odometer noise, then the scans in time
-    order), so a scenario is reproducible bit for bit from its seed.
+    order), so a scenario is reproducible bit for bit from its seed. With the surface spread model
+    the scans are drawn in one compiled call (:mod:`._compiled`, the same draws bit for bit);
+    ``compiled=False`` runs the reference, :func:`~.radar.simulate_scan` per scan.
     """
     traj = config.trajectory
     vehicles = carpark_vehicles(config.world)
@@ -66,10 +68,19 @@ def generate_scenario(config: Config, rng: np.random.Generator) -> Scenario:
     odo = odometer_readings(controls, config.odometer, rng)
     events: list[Odometry | Scan] = []
     sources = []
+    batch = None
+    if compiled and config.radar.spread_model == "surface":
+        from radarslam.simulation._compiled import simulate
+
+        batch = simulate(poses[:traj.n_steps], vehicles, config.radar, rng)
     for k in range(1, traj.n_steps + 1):
         if k > 1:
             events.append(Odometry(t=(k - 1) * traj.dt_s, dt=traj.dt_s, control=odo[k - 1]))
-        polar, src = simulate_scan(poses[k - 1], vehicles, k, config.radar, rng)
+        if batch is None:
+            polar, src = simulate_scan(poses[k - 1], vehicles, k, config.radar, rng)
+        else:
+            a, b = batch[0][k - 1], batch[0][k]
+            polar, src = batch[1][a:b], batch[2][a:b]
         events.append(Scan(t=(k - 1) * traj.dt_s, index=k, polar=polar))
         sources.append(src)
     truth = GroundTruth(poses, controls, vehicles, presence(vehicles, traj.n_steps), sources)
