@@ -34,7 +34,7 @@ from radarslam.slam.filter import EkfSlam
 FILTER_STEPS = ("predict", "_prior", "_sift", "_associate_and_update", "_remove_unseen", "_extent_step",
                 "_cluster", "_alpha_test", "_confirm_and_augment", "_merge", "snapshot")
 #: Module-level stages of compute_trial timed in pass 2.
-TRIAL_STAGES = {"generate_scenario": "simulation", "apply_variant": "configuration",
+TRIAL_STAGES = {"generate_scenario": "simulation", "variant_config": "configuration",
                 "evaluate": "evaluation", "encode_trial": "encoding", "run_filter": "filter"}
 #: The fused engine's parts (radarslam.slam._fused) timed in pass 2.
 FUSED_PARTS = {"_stream_arrays": "fused: events as arrays", "run_stream": "fused: compiled run (run_stream)"}

@@ -816,9 +816,28 @@ def _parameters(slam):
     return ip, fp
 
 
-def _stream_arrays(events):
+def _stream_arrays(events, fast: bool = True):
     """The event stream as arrays, each event checked as :meth:`EkfSlam.predict` and
-    :meth:`EkfSlam.update` check it (the same one-line errors)."""
+    :meth:`EkfSlam.update` check it (the same one-line errors, the first bad event's).
+
+    ``fast``: a scan whose detections are already a float ``(m, 2)`` array is checked with all the
+    others at once at the end (finite, ranges >= 0); if anything is wrong, the stream is checked
+    again event by event, so that the error is the one the orchestrator raises first."""
+    from radarslam.core.errors import InputError
+
+    if not fast:
+        return _stream_arrays_checked(events, False)
+    try:
+        out = _stream_arrays_checked(events, True)
+    except InputError:
+        return _stream_arrays_checked(events, False)
+    polar = out[4]
+    if not (np.isfinite(polar).all() and (polar[:, 0] >= 0).all()):
+        return _stream_arrays_checked(events, False)
+    return out
+
+
+def _stream_arrays_checked(events, defer_polar: bool):
     from radarslam.core.errors import InputError
     from radarslam.core.types import Odometry, Scan
     from radarslam.core.validation import as_array
@@ -838,7 +857,10 @@ def _stream_arrays(events):
             odo.append(u)
             odo_dt.append(dt)
         elif isinstance(ev, Scan):
-            polar = _scan_polar(ev)
+            polar = ev.polar
+            if not (defer_polar and type(polar) is np.ndarray and polar.dtype == np.float64 and polar.ndim == 2
+                    and polar.shape[1] == 2):
+                polar = _scan_polar(ev)
             t = _number(ev.t, "scan.t")
             if last_t is not None and t < last_t:
                 raise InputError(f"scan.t: expected scan times that do not go backwards, got {t!r} after "
