@@ -11,7 +11,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--trials", type=int, default=1000)
     ap.add_argument("--keep", metavar="DIR", help="write into DIR instead of a temporary directory")
-    ap.add_argument("--backend", choices=("python", "numba"), default="python")
+    ap.add_argument("--backend", choices=("python", "numba"), default="numba",
+                    help="filter.backend (default numba, the configuration's)")
     a = ap.parse_args()
     with tempfile.TemporaryDirectory() as d:
         out = a.keep or f"{d}/reproduce"
