@@ -21,7 +21,7 @@ import numpy as np
 from radarslam.core.errors import InputError
 from radarslam.core.validation import as_array
 from radarslam.metrics.gwd import _gwds
-from radarslam.metrics.landmarks import match
+from radarslam.metrics.landmarks import flatten, match_flat
 
 #: Semi-axis factors (on L and W) of each ground-truth convention.
 CONVENTIONS: dict[str, float] = {
@@ -132,36 +132,30 @@ def gwd_per_step(positions: Sequence[np.ndarray], rma: Sequence[np.ndarray], efa
                              + ("" if single else f" for {c!r}"))
     rma_out = {c: np.full(K, np.nan) for c in gts}
     efa_out = {c: np.full(K, np.nan) for c in gts}
-    count = np.zeros(K, dtype=int)
-    V = centers.shape[0]
-    everyone = np.arange(V)
-    # Gather every scan's qualifying (landmark, vehicle) pairs, then one vectorised GWD call over
-    # all scans: (RMA, EFA) x every convention.
-    p_all, xr_all, xe_all, v_all, scans = [], [], [], [], []
-    for k in range(K):
-        pos = np.asarray(positions[k], dtype=float).reshape(-1, 2)
-        xr = np.asarray(rma[k], dtype=float).reshape(-1, 2, 2)
-        xe = np.asarray(efa[k], dtype=float).reshape(-1, 2, 2)
-        if include_stale or present[k].all():
-            cand = everyone
-            a = matched[k] if matched is not None else match(pos, centers, gate)
-        else:
-            cand = np.flatnonzero(present[k])
-            a = match(pos, centers[cand], gate)
-        ok = (a >= 0) & np.isfinite(xr[:, 0, 0]) & np.isfinite(xe[:, 0, 0])
-        n = int(ok.sum())
-        if not n:
-            continue
-        count[k] = n
-        p_all.append(pos[ok])
-        xr_all.append(xr[ok])
-        xe_all.append(xe[ok])
-        v_all.append(cand[a[ok]])
-        scans.append(k)
+    # Every scan's landmarks as rows; each matched to the vehicles of its scan (all of them, or
+    # those present), all scans in one compiled call; then the qualifying (landmark, vehicle) pairs
+    # of all scans in one vectorised GWD call: (RMA, EFA) x every convention.
+    pos_all, off = flatten(positions, (2,))
+    xr_all, off_r = flatten(rma, (2, 2))
+    xe_all, off_e = flatten(efa, (2, 2))
+    if not (np.array_equal(off, off_r) and np.array_equal(off, off_e)):
+        raise InputError("rma, efa: expected as many extents as positions at every scan, got other counts")
+    everyone = np.ones(K, dtype=bool) if include_stale else present.all(axis=1)
+    reuse = everyone & (matched is not None)
+    vehicles = np.where(everyone[:, None], True, present) & ~reuse[:, None]
+    a = match_flat(pos_all, off, centers, vehicles, gate)
+    if reuse.any():
+        given, off_m = flatten(matched, ())
+        if not np.array_equal(off_m, off):
+            raise InputError("matched: expected one match per landmark at every scan, got other counts")
+        rows = np.repeat(reuse, np.diff(off))
+        a[rows] = given[rows].astype(np.int64)
+    ok = (a >= 0) & np.isfinite(xr_all[:, 0, 0]) & np.isfinite(xe_all[:, 0, 0])
+    count = np.bincount(np.repeat(np.arange(K), np.diff(off))[ok], minlength=K).astype(int)
+    scans = np.flatnonzero(count).tolist()
     if scans:
         nc = len(gts)
-        pos, xr, xe, v = (np.concatenate(p_all), np.concatenate(xr_all), np.concatenate(xe_all),
-                          np.concatenate(v_all))
+        pos, xr, xe, v = pos_all[ok], xr_all[ok], xe_all[ok], a[ok]
         n = pos.shape[0]
         est = np.concatenate([xr, xe] * nc)
         ref = np.concatenate([g[v] for g in gts.values() for _ in (0, 1)])

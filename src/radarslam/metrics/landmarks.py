@@ -35,9 +35,34 @@ def match(positions: np.ndarray, centers: np.ndarray, gate: float) -> np.ndarray
     return out
 
 
+def flatten(per_scan, shape: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """Per-scan arrays as one array of rows ``shape`` and the scans' row offsets ``(K + 1,)``."""
+    parts = [np.asarray(p, dtype=float).reshape((-1,) + shape) for p in per_scan]
+    offsets = np.zeros(len(parts) + 1, dtype=np.int64)
+    offsets[1:] = np.cumsum([p.shape[0] for p in parts])
+    return (np.concatenate(parts) if parts else np.empty((0,) + shape)), offsets
+
+
+def match_flat(positions: np.ndarray, offsets: np.ndarray, centers: np.ndarray, vehicles: np.ndarray,
+               gate: float) -> np.ndarray:
+    """:func:`match` of every scan at once: scan ``k``'s landmarks ``positions[offsets[k]:offsets[k + 1]]``
+    against the vehicles ``centers[vehicles[k]]`` (boolean ``(K, V)``); the vehicle index (into
+    ``centers``) of every landmark, -1 for none. Compiled (:mod:`._compiled`), the same matches."""
+    from radarslam.metrics._compiled import match_scans
+
+    centers = np.ascontiguousarray(centers, dtype=float).reshape(-1, 2)
+    return match_scans(np.ascontiguousarray(positions, dtype=float).reshape(-1, 2),
+                       np.ascontiguousarray(offsets, dtype=np.int64), centers,
+                       np.ascontiguousarray(vehicles, dtype=np.bool_).reshape(len(offsets) - 1, centers.shape[0]),
+                       float(gate))
+
+
 def matches(positions_per_scan, centers: np.ndarray, gate: float) -> list[np.ndarray]:
     """:func:`match` of every scan's landmarks ``(N_k, 2)`` to all the vehicles ``centers``."""
-    return [match(np.asarray(p, dtype=float).reshape(-1, 2), centers, gate) for p in positions_per_scan]
+    pos, off = flatten(positions_per_scan, (2,))
+    centers = np.asarray(centers, dtype=float).reshape(-1, 2)
+    a = match_flat(pos, off, centers, np.ones((off.shape[0] - 1, centers.shape[0]), dtype=bool), gate)
+    return [a[off[k]:off[k + 1]].astype(int) for k in range(off.shape[0] - 1)]
 
 
 def in_range_matrix(true_poses: np.ndarray, centers: np.ndarray, max_range: float) -> np.ndarray:
@@ -80,17 +105,19 @@ def landmark_metrics(positions_per_scan: list[np.ndarray], true_poses: np.ndarra
     final_err = np.full(V, np.nan)
     if matched is None:
         matched = matches(positions_per_scan, centers, gate)
-    for k in range(K):
-        pos = positions_per_scan[k]
-        a = matched[k]
-        hit = a >= 0
-        mapped[k, a[hit]] = True
-        false[k] = int((~hit).sum())
-        stale[k] = int(np.sum(~present[k, a[hit]]))
-        if k == K - 1:
-            for i in np.flatnonzero(hit):
-                if present[k, a[i]]:
-                    final_err[a[i]] = np.linalg.norm(pos[i] - centers[a[i]])
+    a, off = flatten(matched, ())
+    a = a.astype(np.int64)
+    scan = np.repeat(np.arange(K), np.diff(off))
+    hit = a >= 0
+    mapped[scan[hit], a[hit]] = True
+    false[:] = np.bincount(scan[~hit], minlength=K)
+    stale[:] = np.bincount(scan[hit][~present[scan[hit], a[hit]]], minlength=K)
+    if K:
+        pos = np.asarray(positions_per_scan[K - 1], dtype=float).reshape(-1, 2)
+        last = a[off[K - 1]:]
+        for i in np.flatnonzero(last >= 0):
+            if present[K - 1, last[i]]:
+                final_err[last[i]] = np.linalg.norm(pos[i] - centers[last[i]])
     missed = np.sum(present & (seen >= max(grace, 1)) & ~mapped, axis=1)
     inclusion = np.full(V, np.nan)
     removal = np.full(V, np.nan)
