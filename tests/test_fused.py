@@ -208,3 +208,21 @@ def test_comparison_detects_a_different_run():
     other = replace(cfg, landmarks=replace(cfg.landmarks, beta=cfg.landmarks.beta * 0.8))
     _, arows = _fused.run(EkfSlam(other), events)
     assert sorted(map(tuple, arows.tolist())) != rows
+
+
+def test_timing_reports_each_scan_and_changes_nothing():
+    """``timing=True`` (benchmarks/bench_scaling.py) adds each scan's wall time and leaves every
+    result as it was, to the bit."""
+    import time
+
+    cfg = profile_config("apsipa")
+    events = _scenario(cfg, 2).events
+    plain, rows = _fused.run(EkfSlam(cfg), events)
+    t0 = time.perf_counter()
+    timed, rows_t = _fused.run(EkfSlam(cfg), events, timing=True)
+    wall = time.perf_counter() - t0
+    assert "seconds" not in plain and timed["seconds"].shape == plain["poses"][:, 0].shape
+    assert np.all(timed["seconds"] > 0) and timed["seconds"].sum() < wall
+    assert np.array_equal(rows, rows_t)
+    for key, value in plain.items():
+        assert np.array_equal(value, timed[key], equal_nan=True), key

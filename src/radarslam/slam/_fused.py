@@ -23,9 +23,10 @@ rounding) on whole runs.
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
-from numba import njit
+from numba import njit, objmode
 
 from radarslam.extent._compiled import _fit_entries, measurement_contour, rma_efa_step
 from radarslam.landmarks._compiled import dbscan_centres, dbscan_labels
@@ -41,8 +42,8 @@ from radarslam.slam._numba import (
 # Integer parameters (``ip``), by position.
 I_ASSOC, I_N_NEAR, I_N_NEW, I_MIN_SAMPLES, I_CONFIRM_PTS, I_CONFIRM_WIN, I_CONFIRM_HITS = 0, 1, 2, 3, 4, 5, 6
 I_REMOVAL_WIN, I_REMOVAL_MAX, I_MERGE_MAX, I_INIT_CLUSTER, I_TRACK, I_CONTOUR, I_INFLATE = 7, 8, 9, 10, 11, 12, 13
-I_PRE_PRIOR, I_N_INIT, I_POSTERIOR, I_UPPER, I_SPREAD_AT_BIRTH, I_LITERAL = 14, 15, 16, 17, 18, 19
-N_IP = 20
+I_PRE_PRIOR, I_N_INIT, I_POSTERIOR, I_UPPER, I_SPREAD_AT_BIRTH, I_LITERAL, I_TIMING = 14, 15, 16, 17, 18, 19, 20
+N_IP = 21
 # Float parameters (``fp``), by position.
 F_BETA, F_ALPHA, F_SIFT_R, F_EPS, F_TENT_GATE, F_MERGE_D, F_MERGE_AXIS, F_MAX_RANGE = 0, 1, 2, 3, 4, 5, 6, 7
 F_HALF_FOV, F_GATE, F_GAMMA, F_ALPHA0, F_TAU, F_EIG_FLOOR, F_KAPPA = 8, 9, 10, 11, 12, 13, 14
@@ -295,7 +296,8 @@ def run_stream(kinds, odo, odo_dt, scan_off, polar_all, scan_k, x0, P0, R, R_ext
     per scan the pose ``(S, 3)``, its covariance ``(S, 3, 3)``, detections, associated detections,
     landmarks, NIS sum and count; the maps after every scan as rows ``map_off[s]:map_off[s + 1]``
     of ids, centroids, covariances, RMA and EFA extents (NaN where not initialised) and creation
-    scans; and the per-scan associations as ``(scan, detection, landmark id)`` rows.
+    scans; the per-scan associations as ``(scan, detection, landmark id)`` rows; and, with
+    ``ip[I_TIMING]``, the wall time of each scan with the predictions before it (else zeros).
     """
     S = scan_off.shape[0] - 1
     x = x0.copy()
@@ -344,6 +346,12 @@ def run_stream(kinds, odo, odo_dt, scan_off, polar_all, scan_k, x0, P0, R, R_ext
     a_rows = np.empty((64, 3), dtype=np.int64)
     n_arows = 0
     status = np.zeros(2, dtype=np.int64)
+    seconds = np.zeros(S)                 # per scan, with ip[I_TIMING]: wall time since the previous scan's end
+    t_last = 0.0
+    if ip[I_TIMING] == 1:
+        with objmode(t0="float64"):
+            t0 = time.perf_counter()
+        t_last = t0
 
     dt_since = 0.0
     e_odo = 0
@@ -746,11 +754,16 @@ def run_stream(kinds, odo, odo_dt, scan_off, polar_all, scan_k, x0, P0, R, R_ext
             else:
                 m_rma[r] = np.nan
                 m_efa[r] = np.nan
+        if ip[I_TIMING] == 1:
+            with objmode(t1="float64"):
+                t1 = time.perf_counter()
+            seconds[s] = t1 - t_last
+            t_last = t1
         s += 1
     T_rows = map_off[s]
     return (status, s, poses[:s], pcovs[:s], n_det[:s], n_ass[:s], n_lm[:s], nis_sum[:s], nis_cnt[:s],
             map_off[:s + 1], m_ids[:T_rows], m_pos[:T_rows], m_cov[:T_rows], m_rma[:T_rows], m_efa[:T_rows],
-            m_created[:T_rows], a_rows[:n_arows])
+            m_created[:T_rows], a_rows[:n_arows], seconds[:s])
 
 
 # ---------------------------------------------------------------------------------------- Python side
@@ -879,10 +892,11 @@ def _stream_arrays_checked(events, defer_polar: bool):
             scan_t)
 
 
-def run(slam, events):
+def run(slam, events, timing: bool = False):
     """Run ``events`` through the fused engine with ``slam``'s configuration and components
     (:func:`why_not` must be None). Returns ``(record, associations)``: the arrays of
-    :func:`run_stream` by name, and the ``(scan, detection, landmark id)`` rows.
+    :func:`run_stream` by name, and the ``(scan, detection, landmark id)`` rows. ``timing`` adds
+    ``"seconds"``: each scan's wall time with the predictions before it (``benchmarks/bench_scaling.py``).
 
     Raises
     ------
@@ -893,6 +907,7 @@ def run(slam, events):
 
     kinds, odo, odo_dt, off, polar, scan_k, scan_t = _stream_arrays(events)
     ip, fp = _parameters(slam)
+    ip[I_TIMING] = int(bool(timing))
     st = slam.state
     ext = slam.extent
     prior_spread = ext.prior_spread if ext.initial_spread() is not None or ip[I_PRE_PRIOR] else np.zeros((2, 2))
@@ -908,4 +923,7 @@ def run(slam, events):
         raise InputError(f"{what}: expected an input that keeps the state finite, got one that makes it non-finite")
     names = ("poses", "pose_covs", "n_detections", "n_associated", "n_landmarks", "nis_sum", "nis_count",
              "map_offsets", "ids", "positions", "covs", "rma", "efa", "created")
-    return dict(zip(names, res[2:16])), res[16]
+    out = dict(zip(names, res[2:16]))
+    if timing:
+        out["seconds"] = res[17]
+    return out, res[16]
