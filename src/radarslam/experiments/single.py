@@ -49,7 +49,11 @@ class FilterRecord:
 def run_filter(config: Config, events: list[Odometry | Scan], slam: EkfSlam | None = None,
                on_scan=None) -> FilterRecord:
     """Run :class:`EkfSlam` over an event stream, recording the estimate after every scan;
-    ``on_scan()`` (optional) is called after each scan (a progress bar)."""
+    ``on_scan()`` (optional) is called after each scan (a progress bar).
+
+    Without ``slam``, a configuration the fused engine covers (:func:`radarslam.slam._fused.why_not`)
+    runs the whole stream in one compiled call: the same record (docs/architecture.md "The fused
+    engine"); ``on_scan`` is then called once per scan at the end."""
     t0 = time.perf_counter()
     if slam is None:
         slam = EkfSlam(config)
