@@ -126,3 +126,50 @@ def test_io_imports_no_estimation_simulation_experiments_or_evaluation(name, pat
 def test_estimation_imports_no_evaluation_output_or_experiments(name, path):
     bad = sorted(m for m in radarslam_imports(name, path) if _inside(m, OUTSIDE_ESTIMATION))
     assert not bad, f"{name} imports {bad}"
+
+
+def test_numba_cache_stamp_covers_every_compiled_source():
+    """Every file with compiled code is stamped (core.numba_cache): the modules that import numba
+    and the modules whose kernels compile_kernels compiled."""
+    import importlib
+    from pathlib import Path
+
+    from conftest import require
+
+    require("numba")
+    from radarslam.core import jit, numba_cache
+
+    root = numba_cache.ROOT
+    for mod in ("slam._numba", "slam._fused", "extent._compiled", "landmarks._compiled", "metrics._compiled",
+                "simulation._compiled"):
+        importlib.import_module(f"radarslam.{mod}")
+    with_numba = {p.relative_to(root).as_posix() for p in root.rglob("*.py") if "from numba" in p.read_text()}
+    kernels = {Path(importlib.import_module(m).__file__).resolve().relative_to(root).as_posix()
+               for m in jit.COMPILED_MODULES}
+    assert kernels >= {"slam/ekf.py", "core/angles.py", "extent/random_matrix.py"}   # it saw the kernels
+    assert with_numba | kernels <= set(numba_cache.COMPILED_SOURCES)
+
+
+def test_numba_cache_refresh_deletes_stale_machine_code(tmp_path):
+    """A changed compiled source deletes the cached code once; an unchanged one keeps it."""
+    import os
+
+    from radarslam.core import numba_cache
+
+    for rel in numba_cache.COMPILED_SOURCES:
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / rel).write_text("x = 1\n")
+    cache = tmp_path / "slam" / "__pycache__"
+    cache.mkdir()
+    (cache / "_fused.run_stream-1.py311.nbi").write_text("old")
+    assert numba_cache.refresh(tmp_path)                       # no stamp yet: cleared, stamped
+    assert not (cache / "_fused.run_stream-1.py311.nbi").exists()
+    (cache / "_fused.run_stream-1.py311.nbi").write_text("new")
+    assert not numba_cache.refresh(tmp_path)                   # nothing changed: kept
+    assert (cache / "_fused.run_stream-1.py311.nbi").exists()
+    src = tmp_path / "slam" / "_numba.py"                       # a callee's file changes
+    src.write_text("x = 2\n")
+    st = src.stat()
+    os.utime(src, ns=(st.st_atime_ns, st.st_mtime_ns + 10**9))
+    assert numba_cache.refresh(tmp_path)
+    assert not (cache / "_fused.run_stream-1.py311.nbi").exists()

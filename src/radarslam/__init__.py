@@ -13,7 +13,10 @@ Sub-packages, dependencies pointing one way
 - :mod:`radarslam.experiments` single runs and Monte Carlo
 """
 
+from radarslam.core import numba_cache as _numba_cache
 from radarslam.core.errors import ConfigError, InputError, RadarSlamError
+
+_numba_cache.refresh()
 
 __version__ = "0.1.0"
 

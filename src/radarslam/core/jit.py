@@ -24,6 +24,11 @@ def _fmod(a, b):  # pragma: no cover - compiled
     return impl
 
 
+#: Modules whose functions :func:`compile_kernels` compiled (their files must be in
+#: :data:`radarslam.core.numba_cache.COMPILED_SOURCES`; tests/test_layering.py).
+COMPILED_MODULES: set[str] = set()
+
+
 def compile_kernels(*funcs, replace=None):
     """Compile the plain-Python kernels ``funcs`` with numba, each calling the others' compiled form.
 
@@ -33,6 +38,7 @@ def compile_kernels(*funcs, replace=None):
     loop form written for numba that the compiled kernels call instead (the Joseph update and its
     n x n pass have one each, :mod:`radarslam.slam._numba`). Returns ``{name: dispatcher}``.
     """
+    COMPILED_MODULES.update(f.__module__ for f in (*funcs, *(replace or {}).values()))
     compiled, spaces = {name: njit(cache=True)(f) for name, f in (replace or {}).items()}, []
     for f in funcs:
         g = dict(f.__globals__)

@@ -1,0 +1,62 @@
+"""Keep numba's on-disk cache in step with the package's sources (docs/architecture.md "Backends").
+
+numba keys a cached function by its own file only: a compiled function whose callee lives in
+another module (the fused engine calls the associators of ``slam/_numba.py``, which call the
+kernels of ``slam/ekf.py``) keeps its old machine code when only the callee's file changes. An
+edited kernel would then run in the orchestrator but not in the fused engine. So at import the
+package stamps the size and modification time of every file with compiled code; when the stamp
+changes, the package's cached machine code is deleted (it is rebuilt on first use, ~90 s).
+Nothing here imports numba or touches its configuration.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+
+#: Files (relative to the package) whose functions numba compiles, directly or as kernels
+#: (``core.jit.compile_kernels``); ``tests/test_layering.py`` checks that it is complete.
+COMPILED_SOURCES = (
+    "core/angles.py", "core/jit.py", "slam/ekf.py", "slam/layout.py", "slam/_numba.py", "slam/_fused.py",
+    "extent/_compiled.py", "extent/_sym2.py", "extent/measurement.py", "extent/random_matrix.py",
+    "extent/ellipse_fit.py", "landmarks/_compiled.py", "metrics/_compiled.py", "simulation/_compiled.py",
+)
+ROOT = Path(__file__).resolve().parents[1]
+STAMP = ROOT / "__pycache__" / "numba-sources.stamp"
+
+
+def sources_stamp(root: Path = ROOT) -> str:
+    """Digest of the size and modification time of every file in :data:`COMPILED_SOURCES`."""
+    h = hashlib.sha1()
+    for rel in COMPILED_SOURCES:
+        try:
+            st = (root / rel).stat()
+            h.update(f"{rel}:{st.st_size}:{st.st_mtime_ns};".encode())
+        except OSError:
+            h.update(f"{rel}:missing;".encode())
+    return h.hexdigest()
+
+
+def cached_files(root: Path = ROOT) -> list[Path]:
+    """numba's cache files of the package (index ``.nbi`` and data ``.nbc``)."""
+    return [p for pattern in ("*.nbi", "*.nbc") for p in root.rglob(f"__pycache__/{pattern}")]
+
+
+def refresh(root: Path = ROOT, stamp_file: Path | None = None) -> bool:
+    """Delete the package's cached machine code if a compiled source changed since the stamp was
+    written; True when it did. An unwritable install (numba then caches elsewhere) is left alone."""
+    stamp_file = stamp_file or root / "__pycache__" / "numba-sources.stamp"
+    now = sources_stamp(root)
+    try:
+        if stamp_file.read_text() == now:
+            return False
+    except OSError:
+        pass
+    try:
+        for p in cached_files(root):
+            p.unlink(missing_ok=True)
+        stamp_file.parent.mkdir(exist_ok=True)
+        stamp_file.write_text(now)
+    except OSError:
+        return False
+    return True
