@@ -7,8 +7,9 @@ length) and times every scan (with the predictions before it): the fused engine 
 in bins of the landmark count, the power-law exponent fitted to the bins above ``--fit-from``
 landmarks (cost ~ N^b), and writes a figure of the curve (``--out``).
 
-The variants are the Monte Carlo's: ``noext`` (sequential nearest-neighbour updates, one per
-detection: O(m N^2) per scan) and ``consistent`` (one batch update per landmark seen: O(L N^2)).
+The variants: ``noext`` (sequential nearest-neighbour updates, one per detection: O(m N^2) per
+scan), ``consistent`` (one batch update per landmark seen: L passes over the N x N covariance) and
+``joint`` (the consistent filter with all landmarks of the scan in one stacked update: one pass).
 """
 
 import argparse
@@ -21,12 +22,16 @@ import numpy as np
 
 from radarslam.config import profile_config
 from radarslam.core.types import Scan
-from radarslam.experiments.variants import CONSISTENT, PAPER_VARIANTS, apply_variant
+from radarslam.config import merge_tables
+from radarslam.experiments.variants import CONSISTENT, PAPER_VARIANTS, Variant, apply_variant
 from radarslam.simulation.scenario import generate_scenario
 from radarslam.slam import _fused
 from radarslam.slam.filter import EkfSlam
 
-VARIANTS = {v.name: v for v in PAPER_VARIANTS + (CONSISTENT,)}
+#: The consistent filter with the stacked per-scan update (docs/method.md a.7.4).
+JOINT = Variant("joint", "Consistent, one stacked update per scan",
+                merge_tables(CONSISTENT.overlay, {"landmarks": {"associator": "batch-joint"}}))
+VARIANTS = {v.name: v for v in PAPER_VARIANTS + (CONSISTENT, JOINT)}
 
 
 def run(cfg, scenario):
@@ -55,7 +60,8 @@ def run(cfg, scenario):
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--variants", default="noext,consistent", help="comma-separated: noext, ext, consistent")
+    ap.add_argument("--variants", default="noext,consistent,joint",
+                    help="comma-separated: noext, ext, consistent, joint (consistent with associator batch-joint)")
     ap.add_argument("--steps", type=int, default=None, help="scans (default: the profile's, 2000)")
     ap.add_argument("--rows", type=int, default=None, help="rows of cars (default: the profile's, 12)")
     ap.add_argument("--seed", type=int, default=1)

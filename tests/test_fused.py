@@ -93,6 +93,8 @@ OVERLAYS = {
     "no-inflation": {"extent": {"use_in_slam": True, "inflate_noise": False, "pre_init_spread": "prior"}},
     "literal-sifting": {"extent": {"use_in_slam": True, "sifting_mode": "literal"}},
     "batch-noext": {"landmarks": {"associator": "batch"}},
+    "batch-joint": {"landmarks": {"associator": "batch-joint", "init": "cluster"},
+                    "extent": {"use_in_slam": True, "pre_init_spread": "prior"}},
     "early-extents": {"extent": {"use_in_slam": True, "n_init": 3}, "landmarks": {"merge_distance_m": 4.0}},
     "no-tracking": {"extent": {"track": False}},
     "rule1-only": {"landmarks": {"confirm_points": 2, "alpha": 50.0}},

@@ -205,7 +205,8 @@ class LandmarkConfig:
     """Landmark management (docs/method.md c.1; APSIPA Table I unless marked)."""
 
     associator: str = param("nearest-neighbour", "data association (a registered name; c.4): nearest-neighbour "
-                            "(sequential, the paper), batch (one update per landmark per scan) or jcbb (joint compatibility "
+                            "(sequential, the paper), batch (one update per landmark per scan), batch-joint (the batch measurements of "
+                            "all landmarks in one stacked update per scan; a.7.4) or jcbb (joint compatibility "
                             "per cluster with batch updates; c.4.1)", registry=ASSOCIATORS)
     init: str = param("nearest", "[PROP] new landmark from its cluster: nearest (the detection of smallest range "
                       "with R, the paper) or cluster (the cluster mean, with the mean's noise and the extent "

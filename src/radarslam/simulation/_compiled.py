@@ -52,7 +52,7 @@ def simulate_scans(poses, rects, departures, ids, rng, points_per_m2, points_std
     step = side / cells
     lam = clutter_rate * side * side
     for k in range(1, K + 1):
-        px, py, th = poses[k - 1, 0], poses[k - 1, 1], poses[k - 1, 2]
+        px, py = poses[k - 1, 0], poses[k - 1, 1]
         # vehicle points (simulate_scan / vehicle_points, surface model)
         xs = np.empty((0, 2))
         owners = np.empty(0, dtype=np.int64)

@@ -3,7 +3,7 @@
 :class:`~radarslam.slam.filter.EkfSlam` runs docs/method.md a.8 as a dozen Python calls per scan,
 each cheap, together ~0.4 ms a scan: the orchestration, not the arithmetic, is the cost of a
 car-park trial. For the built-in components (unicycle motion, range-azimuth radar, the
-nearest-neighbour or batch associator, the RMA/EFA estimator, DBSCAN) this module runs the same
+nearest-neighbour, batch or batch-joint associator, the RMA/EFA estimator, DBSCAN) this module runs the same
 steps over the whole stream inside numba, with the landmark records held in arrays (ids, creation
 scans, M/N windows, extent states and their buffers) instead of Python objects, and records what
 :func:`radarslam.experiments.single.run_filter` records after every scan.
@@ -36,6 +36,7 @@ from radarslam.slam._numba import (
     _wrap_pi,
     associate_scan,
     batch_associate_scan,
+    joint_batch_associate_scan,
     min_log_distance,
 )
 
@@ -101,6 +102,19 @@ def _drop_state_rows(x, P, keep):  # pragma: no cover - compiled
 
 # ---------------------------------------------------------------------------------------- EKF steps
 @njit(cache=True)
+def _matmul(A, B):  # pragma: no cover - compiled
+    """``A @ B`` for small matrices, each entry summed over k in order."""
+    C = np.zeros((A.shape[0], B.shape[1]))
+    for i in range(A.shape[0]):
+        for j in range(B.shape[1]):
+            acc = 0.0
+            for k in range(A.shape[1]):
+                acc += A[i, k] * B[k, j]
+            C[i, j] = acc
+    return C
+
+
+@njit(cache=True)
 def _predict(x, P, v, psi, dt, U, Q):  # pragma: no cover - compiled
     """c.2 with the unicycle model (APSIPA eq. 5, App. A; models.motion.UnicycleModel), in place.
     Returns False, leaving the state as it was, if the prediction is not finite."""
@@ -112,20 +126,8 @@ def _predict(x, P, v, psi, dt, U, Q):  # pragma: no cover - compiled
     pose0 = x[0] + v * dt * math.cos(a)
     pose1 = x[1] + v * dt * math.sin(a)
     pose2 = _wrap_2pi(th + psi * dt)
-    T = np.zeros((3, 3))
-    for i in range(3):
-        for j in range(3):
-            s = 0.0
-            for k in range(3):
-                s += Fx[i, k] * P[k, j]
-            T[i, j] = s
-    FU = np.zeros((3, 2))
-    for i in range(3):
-        for j in range(2):
-            s = 0.0
-            for k in range(2):
-                s += Fu[i, k] * U[k, j]
-            FU[i, j] = s
+    T = _matmul(Fx, P[:3, :3])
+    FU = _matmul(Fu, U)
     Ppp = np.empty((3, 3))
     ok = math.isfinite(pose0) and math.isfinite(pose1) and math.isfinite(pose2)
     for i in range(3):
@@ -431,8 +433,11 @@ def run_stream(kinds, odo, odo_dt, scan_off, polar_all, scan_k, x0, P0, R, R_ext
                         has[j] = True
             if ip[I_ASSOC] == 0:
                 x, P, out, nis = associate_scan(x, P, polar, cidx, R, gX, has, ip[I_N_NEAR], fp[F_BETA])
-            else:
+            elif ip[I_ASSOC] == 1:
                 x, P, out, nis = batch_associate_scan(x, P, polar, cidx, R, gX, has, ip[I_N_NEAR], fp[F_BETA])
+            else:
+                x, P, out, nis = joint_batch_associate_scan(x, P, polar, cidx, R, gX, has, ip[I_N_NEAR],
+                                                            fp[F_BETA])
         n_assoc = 0
         cnt = np.zeros(N + 1, dtype=np.int64)
         for c in range(out.shape[0]):
@@ -691,6 +696,8 @@ def run_stream(kinds, odo, odo_dt, scan_off, polar_all, scan_k, x0, P0, R, R_ext
                 for j in range(i + 1, N):
                     dx = x[3 + 2 * i] - x[3 + 2 * j]
                     dy = x[4 + 2 * i] - x[4 + 2 * j]
+                    if not (abs(dx) < fp[F_MERGE_D] and abs(dy) < fp[F_MERGE_D]):
+                        continue            # hypot(dx, dy) >= max(|dx|, |dy|): out of reach, exactly
                     dd = math.hypot(dx, dy)
                     if not dd < fp[F_MERGE_D]:
                         continue
@@ -774,7 +781,8 @@ def why_not(slam) -> str | None:
     from radarslam.extent.estimator import RmaEfaEstimator
     from radarslam.models.motion import UnicycleModel
     from radarslam.models.radar import RangeAzimuthModel
-    from radarslam.slam._numba import CompiledBatchAssociator, CompiledNearestNeighbourAssociator
+    from radarslam.slam._numba import (CompiledBatchAssociator, CompiledJointBatchAssociator,
+                                       CompiledNearestNeighbourAssociator)
 
     f, ec = slam.config.filter, slam.config.extent
     checks = (
@@ -782,7 +790,8 @@ def why_not(slam) -> str | None:
         (f.backend == "numba", f"filter.backend is {f.backend!r}"),
         (type(slam.model) is UnicycleModel, f"motion model {type(slam.model).__name__}"),
         (type(slam.measurement) is RangeAzimuthModel, f"measurement model {type(slam.measurement).__name__}"),
-        (type(slam.associator) in (CompiledNearestNeighbourAssociator, CompiledBatchAssociator),
+        (type(slam.associator) in (CompiledNearestNeighbourAssociator, CompiledBatchAssociator,
+                                   CompiledJointBatchAssociator),
          f"associator {type(slam.associator).__name__}"),
         (type(slam.extent) is RmaEfaEstimator, f"extent estimator {type(slam.extent).__name__}"),
         (ec.efa_mode == "per_scan", f"extent.efa_mode {ec.efa_mode!r}"),
@@ -799,11 +808,11 @@ def why_not(slam) -> str | None:
 def _parameters(slam):
     """``(ip, fp)`` of :func:`run_stream` from ``slam``'s configuration and components."""
     lc, ec, f = slam.config.landmarks, slam.config.extent, slam.config.filter
-    from radarslam.slam._numba import CompiledBatchAssociator
+    from radarslam.slam._numba import CompiledBatchAssociator, CompiledJointBatchAssociator
 
     ip = np.zeros(N_IP, dtype=np.int64)
     in_slam = bool(ec.use_in_slam)
-    ip[I_ASSOC] = int(type(slam.associator) is CompiledBatchAssociator)
+    ip[I_ASSOC] = {CompiledBatchAssociator: 1, CompiledJointBatchAssociator: 2}.get(type(slam.associator), 0)
     ip[I_N_NEAR], ip[I_N_NEW] = slam.associator.n_nearest, slam.associator.n_nearest_new
     ip[I_MIN_SAMPLES] = lc.cluster_min_samples
     ip[I_CONFIRM_PTS], ip[I_CONFIRM_WIN], ip[I_CONFIRM_HITS] = lc.confirm_points, lc.confirm_window, lc.confirm_hits

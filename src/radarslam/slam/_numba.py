@@ -215,21 +215,30 @@ def associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta):  # pragma
 
 
 @njit(cache=True)
-def batch_associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta):  # pragma: no cover - compiled
-    """The per-landmark batch update (:class:`radarslam.slam.association.BatchAssociator`): score
-    every candidate at the prior state, then one update per landmark with the mean of its
-    detections. Returns ``(x, P, out, nis)``."""
+def _batch_scores(x, P, polar, cand, R, gX, has_gX, n_nearest, beta):  # pragma: no cover - compiled
+    """The landmark of each candidate (-1 for none), all scored at the state ``x``, ``P``
+    (:meth:`radarslam.slam.association.BatchAssociator.scores`); at least one landmark."""
     N = (x.shape[0] - 3) // 2
     out = np.full(cand.shape[0], -1)
-    nis = np.empty(N)
-    if N == 0:
-        return x, P, out, nis[:0]
     d2 = np.empty(N)
     for c in range(cand.shape[0]):
         best_j, best_D, be0, be1 = _best_landmark(x, P, polar[cand[c], 0], polar[cand[c], 1], n_nearest, R, gX,
                                                   has_gX, d2)
         if best_j >= 0 and best_D < beta:
             out[c] = best_j
+    return out
+
+
+@njit(cache=True)
+def batch_associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta):  # pragma: no cover - compiled
+    """The per-landmark batch update (:class:`radarslam.slam.association.BatchAssociator`): score
+    every candidate at the prior state, then one update per landmark with the mean of its
+    detections. Returns ``(x, P, out, nis)``."""
+    N = (x.shape[0] - 3) // 2
+    nis = np.empty(N)
+    if N == 0:
+        return x, P, np.full(cand.shape[0], -1), nis[:0]
+    out = _batch_scores(x, P, polar, cand, R, gX, has_gX, n_nearest, beta)
     n_up = 0
     for j in range(N):
         rows = cand[out == j]
@@ -246,6 +255,147 @@ def batch_associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta):  # 
         nis[n_up] = q
         n_up += 1
     return x, P, out, nis[:n_up]
+
+
+#: Columns of P per block of the rank-q downdate in :func:`joint_update_loops` (B^T's block stays in L1).
+_COLUMN_BLOCK = 128
+#: Tile of the mirroring pass of :func:`joint_update_loops`.
+_TILE = 32
+
+
+@njit(cache=True)
+def joint_update_loops(x, P, e, Hs, idx, Rb):  # pragma: no cover - compiled
+    """:func:`radarslam.slam.ekf.joint_update_inplace` on the sparse blocks: landmark ``a``'s two
+    rows of H are ``Hs[a] (2, 5)`` on the columns ``idx[a]``, its noise ``Rb[a] (2, 2)``. ``P H^T``
+    reads 5 columns per landmark; the q x q Cholesky and triangular solves are loops; ``P <- P - B B^T``
+    is one pass over P's upper triangle in column blocks (the products ``B[r, i] B[c, i]`` four
+    at a time), then mirrored tile by tile, so P stays exactly symmetric at half the arithmetic. Returns the pairwise sums of the whitened innovation squared."""
+    n = P.shape[0]
+    L = Hs.shape[0]
+    q = 2 * L
+    PHt = np.empty((n, q))
+    for r in range(n):
+        for a in range(L):
+            for t in range(2):
+                acc = 0.0
+                for c in range(5):
+                    acc += P[r, idx[a, c]] * Hs[a, t, c]
+                PHt[r, 2 * a + t] = acc
+    S = np.empty((q, q))
+    for a in range(L):
+        for t in range(2):
+            for col in range(q):
+                acc = 0.0
+                for c in range(5):
+                    acc += Hs[a, t, c] * PHt[idx[a, c], col]
+                S[2 * a + t, col] = acc
+    for a in range(L):
+        for t in range(2):
+            for u in range(2):
+                S[2 * a + t, 2 * a + u] += Rb[a, t, u]
+    for i in range(q):
+        for j in range(i + 1, q):
+            v = 0.5 * (S[i, j] + S[j, i])
+            S[i, j] = v
+            S[j, i] = v
+    Lc = np.zeros((q, q))                                  # S = Lc Lc^T
+    for j in range(q):
+        acc = S[j, j]
+        for k in range(j):
+            acc -= Lc[j, k] * Lc[j, k]
+        Lc[j, j] = math.sqrt(acc)
+        for i in range(j + 1, q):
+            acc = S[i, j]
+            for k in range(j):
+                acc -= Lc[i, k] * Lc[j, k]
+            Lc[i, j] = acc / Lc[j, j]
+    Bt = np.empty((q, n))                                  # (P H^T L^-T)^T, rows contiguous
+    b = np.empty(q)
+    for r in range(n):
+        for i in range(q):
+            acc = PHt[r, i]
+            for k in range(i):
+                acc -= Lc[i, k] * b[k]
+            b[i] = acc / Lc[i, i]
+            Bt[i, r] = b[i]
+    w = np.empty(q)
+    for i in range(q):
+        acc = e[i]
+        for k in range(i):
+            acc -= Lc[i, k] * w[k]
+        w[i] = acc / Lc[i, i]
+    for r in range(n):
+        acc = 0.0
+        for i in range(q):
+            acc += Bt[i, r] * w[i]
+        x[r] += acc
+    x[2] = _wrap_2pi(x[2])
+    # P <- P - B B^T on the upper triangle, column block by column block, then mirrored
+    for c0 in range(0, n, _COLUMN_BLOCK):
+        c1 = min(n, c0 + _COLUMN_BLOCK)
+        blk = np.ascontiguousarray(Bt[:, c0:c1])           # the block's columns of B^T, indexed from 0
+        for r in range(c1):
+            first = r - c0 if r > c0 else 0                 # row r from column max(r, c0)
+            row = P[r, c0 + first:c1]
+            width = row.shape[0]
+            i = 0
+            while i + 4 <= q:                              # four terms per pass over the row block
+                a0, a1, a2, a3 = Bt[i, r], Bt[i + 1, r], Bt[i + 2, r], Bt[i + 3, r]
+                b0, b1, b2, b3 = blk[i, first:], blk[i + 1, first:], blk[i + 2, first:], blk[i + 3, first:]
+                for c in range(width):
+                    row[c] -= ((a0 * b0[c] + a1 * b1[c]) + (a2 * b2[c] + a3 * b3[c]))
+                i += 4
+            while i < q:
+                a0 = Bt[i, r]
+                b0 = blk[i, first:]
+                for c in range(width):
+                    row[c] -= a0 * b0[c]
+                i += 1
+    for r0 in range(0, n, _TILE):                          # lower triangle <- upper, tile by tile
+        r1 = min(n, r0 + _TILE)
+        for c0 in range(r0, n, _TILE):
+            c1 = min(n, c0 + _TILE)
+            for r in range(r0, r1):
+                for c in range(max(c0, r + 1), c1):
+                    P[c, r] = P[r, c]
+    nis = np.empty(L)
+    for a in range(L):
+        nis[a] = w[2 * a] * w[2 * a] + w[2 * a + 1] * w[2 * a + 1]
+    return nis
+
+
+@njit(cache=True)
+def joint_batch_associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta):  # pragma: no cover - compiled
+    """:class:`radarslam.slam.association.JointBatchAssociator`: the batch scoring, then every
+    landmark seen in one stacked update at the prior state. Returns ``(x, P, out, nis)``."""
+    N = (x.shape[0] - 3) // 2
+    if N == 0:
+        return x, P, np.full(cand.shape[0], -1), np.empty(0)
+    out = _batch_scores(x, P, polar, cand, R, gX, has_gX, n_nearest, beta)
+    seen = np.zeros(N, dtype=np.bool_)
+    for c in range(cand.shape[0]):
+        if out[c] >= 0:
+            seen[out[c]] = True
+    js = np.flatnonzero(seen)
+    L = js.shape[0]
+    if L == 0:
+        return x, P, out, np.empty(0)
+    e = np.empty(2 * L)
+    Hs_all = np.empty((L, 2, 5))
+    idx_all = np.empty((L, 5), dtype=np.int64)
+    Rb = np.empty((L, 2, 2))
+    for a in range(L):
+        j = js[a]
+        rows = cand[out == j]
+        pts, R_xy = _polar_to_sensor_xy(polar[rows], R)
+        h, Hs, idx = _sensor_xy_measurement(x, j)
+        e[2 * a] = pts[:, 0].mean() - h[0]
+        e[2 * a + 1] = pts[:, 1].mean() - h[1]
+        Hs_all[a] = Hs
+        idx_all[a] = idx
+        Rb[a] = _batch_noise(x[2], np.ascontiguousarray(gX[j]), has_gX[j], R_xy, rows.shape[0])
+    nis = joint_update_loops(x, P, e, Hs_all, idx_all, Rb)
+    return x, P, out, nis
 
 
 class _CompiledAssociator:
@@ -291,6 +441,13 @@ class CompiledBatchAssociator(_CompiledAssociator):
     scan = staticmethod(batch_associate_scan)
 
 
+class CompiledJointBatchAssociator(_CompiledAssociator):
+    """:class:`~radarslam.slam.association.JointBatchAssociator`, compiled."""
+
+    name = "batch-joint"
+    scan = staticmethod(joint_batch_associate_scan)
+
+
 def _factory(cls):
     def make(config):
         """From the ``landmarks`` section: ``beta``, ``n_nearest_assoc``, ``n_nearest_new``."""
@@ -301,3 +458,4 @@ def _factory(cls):
 
 ASSOCIATORS.register("nearest-neighbour", _factory(CompiledNearestNeighbourAssociator), backend="numba")
 ASSOCIATORS.register("batch", _factory(CompiledBatchAssociator), backend="numba")
+ASSOCIATORS.register("batch-joint", _factory(CompiledJointBatchAssociator), backend="numba")

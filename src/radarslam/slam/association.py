@@ -139,13 +139,19 @@ class BatchAssociator(NearestNeighbourAssociator):
 
     name = "batch"
 
-    def associate(self, state: SlamState, polar: np.ndarray, candidates: np.ndarray, R: np.ndarray,
-                  spreads: Spreads) -> tuple[np.ndarray, np.ndarray]:
+    def scores(self, state: SlamState, polar: np.ndarray, candidates: np.ndarray, R: np.ndarray,
+               spreads: Spreads) -> np.ndarray:
+        """The landmark of each candidate (-1 for none), all scored at the current state."""
         out = np.full(candidates.shape[0], -1, dtype=int)
         for c, i in enumerate(candidates.tolist()):
             j, D = self.best_match(state, polar[i], self.n_nearest, R, spreads)[:2]
             if j >= 0 and D < self.beta:
                 out[c] = j
+        return out
+
+    def associate(self, state: SlamState, polar: np.ndarray, candidates: np.ndarray, R: np.ndarray,
+                  spreads: Spreads) -> tuple[np.ndarray, np.ndarray]:
+        out = self.scores(state, polar, candidates, R, spreads)
         nis = []
         for j in np.unique(out[out >= 0]).tolist():
             dets = candidates[out == j]
@@ -155,6 +161,38 @@ class BatchAssociator(NearestNeighbourAssociator):
             q = ekf.joseph_update_inplace(state.x, state.P, pts.mean(axis=0) - h, Hs, idx, noise)
             nis.append(q)
         return out, np.array(nis)
+
+
+class JointBatchAssociator(BatchAssociator):
+    """The batch scheme with all landmarks of the scan in one update (docs/method.md a.7.4).
+
+    Scoring and grouping are :class:`BatchAssociator`'s; then the L landmarks' mean detections are
+    stacked into one measurement of 2L rows, linearised at the state before the scan's updates,
+    with the block-diagonal noise of :func:`~radarslam.slam.ekf.batch_noise`, and applied by
+    :func:`~radarslam.slam.ekf.joint_update_inplace`: one pass over the n x n covariance per scan
+    instead of one per landmark. For a linear model this is the same update as the L sequential
+    ones (tested); here it differs from them only by where each landmark's measurement is
+    linearised (the sequential form relinearises after every landmark)."""
+
+    name = "batch-joint"
+
+    def associate(self, state: SlamState, polar: np.ndarray, candidates: np.ndarray, R: np.ndarray,
+                  spreads: Spreads) -> tuple[np.ndarray, np.ndarray]:
+        out = self.scores(state, polar, candidates, R, spreads)
+        seen = np.unique(out[out >= 0]).tolist()
+        if not seen:
+            return out, np.empty(0)
+        n = state.x.shape[0]
+        e, H, Rb = np.empty(2 * len(seen)), np.zeros((2 * len(seen), n)), np.zeros((2 * len(seen), 2 * len(seen)))
+        for a, j in enumerate(seen):
+            dets = candidates[out == j]
+            pts, R_xy = ekf.polar_to_sensor_xy(polar[dets], R)
+            h, Hs, idx = ekf.sensor_xy_measurement(state.x, j)
+            e[2 * a:2 * a + 2] = pts.mean(axis=0) - h
+            H[2 * a:2 * a + 2, idx] = Hs
+            Rb[2 * a:2 * a + 2, 2 * a:2 * a + 2] = ekf.batch_noise(state.x[2], spreads.gX[j], spreads.has[j], R_xy,
+                                                                   dets.size)
+        return out, ekf.joint_update_inplace(state.x, state.P, e, H, Rb)
 
 
 def _factory(cls):
@@ -167,3 +205,4 @@ def _factory(cls):
 
 ASSOCIATORS.register("nearest-neighbour", _factory(NearestNeighbourAssociator))
 ASSOCIATORS.register("batch", _factory(BatchAssociator))
+ASSOCIATORS.register("batch-joint", _factory(JointBatchAssociator))

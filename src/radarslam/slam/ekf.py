@@ -136,6 +136,31 @@ def joseph_update_inplace(x: np.ndarray, P: np.ndarray, e: np.ndarray, Hs: np.nd
     return (d * e[0] * e[0] - 2.0 * b * e[0] * e[1] + a * e[1] * e[1]) / det
 
 
+def joint_update_inplace(x: np.ndarray, P: np.ndarray, e: np.ndarray, H: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """One EKF update with q stacked measurements (docs/method.md a.7.4), in place; returns the
+    whitened innovation's squares summed in pairs (q/2 values, each chi-square with 2 degrees of
+    freedom for a consistent filter; their sum is the update's NIS).
+
+    ``S = H P H^T + R = L L^T`` (Cholesky), ``B = P H^T L^-T``, ``w = L^-1 e``; then
+    ``x <- x + B w`` (``K e`` with ``K = P H^T S^-1 = B L^-1``) and ``P <- P - B B^T``
+    (``K S K^T``, the Joseph form's value for this optimal gain, as one rank-q term). ``H`` is
+    dense ``(q, n)`` here, the reference; :func:`radarslam.slam._numba.joint_update_loops` is the
+    compiled form on the sparse blocks.
+    """
+    from scipy.linalg import solve_triangular
+
+    PHt = P @ H.T                                            # (n, q)
+    S = H @ PHt + R
+    L = np.linalg.cholesky(0.5 * (S + S.T))
+    B = solve_triangular(L, PHt.T, lower=True).T             # P H^T L^-T
+    w = solve_triangular(L, e, lower=True)
+    x += B @ w
+    x[2] = wrap_2pi_scalar(x[2])
+    BBt = B @ B.T
+    P -= np.triu(BBt) + np.triu(BBt, 1).T                    # exactly symmetric
+    return (w * w).reshape(-1, 2).sum(axis=1)
+
+
 def joseph_apply(P: np.ndarray, K: np.ndarray, PHt: np.ndarray, KL: np.ndarray) -> None:
     """The n x n part of the Joseph update, in place: ``P <- P - (T + T^T) + KL KL^T``,
     ``T = K PHt^T`` (:func:`joseph_update_inplace`). The compiled backend replaces it by one fused
