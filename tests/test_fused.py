@@ -228,3 +228,21 @@ def test_timing_reports_each_scan_and_changes_nothing():
     assert np.array_equal(rows, rows_t)
     for key, value in plain.items():
         assert np.array_equal(value, timed[key], equal_nan=True), key
+
+
+def test_a_scan_too_large_for_the_compiled_dbscan_runs_the_orchestrator(monkeypatch):
+    """A scan beyond DENSE_MAX detections goes to the orchestrator (scikit-learn's DBSCAN) instead
+    of an m x m neighbourhood in the fused engine."""
+    from radarslam.landmarks.clustering import DENSE_MAX
+
+    cfg = profile_config("apsipa")
+    events = list(_scenario(cfg, 1).events[:5])
+    rng = np.random.default_rng(0)
+    big = np.column_stack([rng.uniform(1, 20, DENSE_MAX + 1), rng.uniform(-np.pi, np.pi, DENSE_MAX + 1)])
+    events[2] = replace(events[2], polar=big)
+    assert "clusters up to" in _fused.why_not(EkfSlam(cfg), events)
+    assert _fused.why_not(EkfSlam(cfg), events[:2]) is None
+    calls = []
+    monkeypatch.setattr(_fused, "run", lambda *a, **k: calls.append(1))
+    rec = run_filter(cfg, events)
+    assert calls == [] and rec.n_detections.max() == DENSE_MAX + 1

@@ -6,7 +6,8 @@ kernels of ``slam/ekf.py``) keeps its old machine code when only the callee's fi
 edited kernel would then run in the orchestrator but not in the fused engine. So at import the
 package stamps the size and modification time of every file with compiled code; when the stamp
 changes, the package's cached machine code is deleted (it is rebuilt on first use, ~90 s).
-Nothing here imports numba or touches its configuration.
+Nothing here imports numba or touches its configuration; a ``NUMBA_CACHE_DIR`` of your own is
+yours to clear after editing a compiled source.
 """
 
 from __future__ import annotations

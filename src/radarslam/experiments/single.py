@@ -57,7 +57,7 @@ def run_filter(config: Config, events: list[Odometry | Scan], slam: EkfSlam | No
     t0 = time.perf_counter()
     if slam is None:
         slam = EkfSlam(config)
-        if _fused.why_not(slam) is None:
+        if _fused.why_not(slam, events) is None:
             return _fused_record(slam, events, t0, on_scan)
     poses, covs, maps, ndet, nass, nlm, nis_sum, nis_n = [], [], [], [], [], [], [], []
     for ev in events:

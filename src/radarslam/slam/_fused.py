@@ -774,10 +774,12 @@ def run_stream(kinds, odo, odo_dt, scan_off, polar_all, scan_k, x0, P0, R, R_ext
 
 
 # ---------------------------------------------------------------------------------------- Python side
-def why_not(slam) -> str | None:
+def why_not(slam, events=None) -> str | None:
     """Why :func:`run` cannot stand in for ``slam`` (an :class:`~radarslam.slam.filter.EkfSlam`
-    that has processed nothing yet), or None when it can: the configuration's components must be
-    the built-in ones this engine reproduces."""
+    that has processed nothing yet) on ``events``, or None when it can: the configuration's
+    components must be the built-in ones this engine reproduces, and no scan may hold more than
+    ``landmarks.clustering.DENSE_MAX`` detections (the compiled DBSCAN builds an m x m
+    neighbourhood; the orchestrator hands such scans to scikit-learn's)."""
     from radarslam.extent.estimator import RmaEfaEstimator
     from radarslam.models.motion import UnicycleModel
     from radarslam.models.radar import RangeAzimuthModel
@@ -802,6 +804,13 @@ def why_not(slam) -> str | None:
     for ok, reason in checks:
         if not ok:
             return reason
+    if events is not None:
+        from radarslam.core.types import Scan
+        from radarslam.landmarks.clustering import DENSE_MAX
+
+        big = max((np.shape(e.polar)[0] for e in events if isinstance(e, Scan) and np.ndim(e.polar) == 2), default=0)
+        if big > DENSE_MAX:
+            return f"a scan of {big} detections (the fused engine clusters up to {DENSE_MAX})"
     return None
 
 
@@ -903,7 +912,7 @@ def _stream_arrays_checked(events, defer_polar: bool):
 
 def run(slam, events, timing: bool = False):
     """Run ``events`` through the fused engine with ``slam``'s configuration and components
-    (:func:`why_not` must be None). Returns ``(record, associations)``: the arrays of
+    (:func:`why_not` of both must be None). Returns ``(record, associations)``: the arrays of
     :func:`run_stream` by name, and the ``(scan, detection, landmark id)`` rows. ``timing`` adds
     ``"seconds"``: each scan's wall time with the predictions before it (``benchmarks/bench_scaling.py``).
 
