@@ -24,17 +24,14 @@ from radarslam.slam.association import Spreads
 from radarslam.slam.state import SlamState
 
 
-def joseph_apply_loops(P, K, PHt, KL):  # pragma: no cover - compiled
-    """:func:`radarslam.slam.ekf.joseph_apply` as one pass over P with no n x n temporaries (the
-    numpy form makes four n x n passes and two n x n allocations). The columns of ``K``, ``PHt`` and
-    ``KL`` are first copied into contiguous vectors so the row loop runs on unit-stride data (SIMD;
-    2.2x faster at n = 100 and 1000 than reading the (n, 2) arrays in place, the same operations in
-    the same order). ``T_ij + T_ji`` and the ``KL`` term are commutative in i and j, so P stays
-    exactly symmetric. Agrees with the numpy form to rounding (tests/test_backends.py)."""
+def joseph_apply_rows(P, W):  # pragma: no cover - compiled
+    """The n x n pass of the Joseph update on the rows of ``W (6, n)``: the two columns of ``PHt``,
+    of ``K`` and of ``KL``, each contiguous (unit-stride SIMD; 2.2x faster at n = 100 and 1000
+    than reading (n, 2) arrays). ``P <- P - (T + T^T) + KL KL^T`` with ``T = K PHt^T``, the same
+    operations in the same order as :func:`radarslam.slam.ekf.joseph_apply`; ``T_ij + T_ji`` and
+    the ``KL`` term are commutative in i and j, so P stays exactly symmetric."""
     n = P.shape[0]
-    k0v, k1v = np.ascontiguousarray(K[:, 0]), np.ascontiguousarray(K[:, 1])
-    p0v, p1v = np.ascontiguousarray(PHt[:, 0]), np.ascontiguousarray(PHt[:, 1])
-    l0v, l1v = np.ascontiguousarray(KL[:, 0]), np.ascontiguousarray(KL[:, 1])
+    p0v, p1v, k0v, k1v, l0v, l1v = W[0], W[1], W[2], W[3], W[4], W[5]
     for i in range(n):
         k0, k1 = k0v[i], k1v[i]
         p0, p1 = p0v[i], p1v[i]
@@ -45,15 +42,27 @@ def joseph_apply_loops(P, K, PHt, KL):  # pragma: no cover - compiled
             row[j] = row[j] - t + (l0 * l0v[j] + l1 * l1v[j])
 
 
+def joseph_apply_loops(P, K, PHt, KL):  # pragma: no cover - compiled
+    """:func:`radarslam.slam.ekf.joseph_apply` as one pass over P with no n x n temporaries (the
+    numpy form makes four n x n passes and two n x n allocations): the columns gathered into rows,
+    then :func:`joseph_apply_rows`. Agrees with the numpy form to rounding (tests/test_backends.py)."""
+    W = np.empty((6, P.shape[0]))
+    W[0], W[1] = PHt[:, 0], PHt[:, 1]
+    W[2], W[3] = K[:, 0], K[:, 1]
+    W[4], W[5] = KL[:, 0], KL[:, 1]
+    _joseph_apply_rows(P, W)
+
+
 def joseph_update_loops(x, P, e, Hs, idx, R):  # pragma: no cover - compiled
     """:func:`radarslam.slam.ekf.joseph_update_inplace` written as loops for numba: the same
     quantities in the same order (``PHt = P[:, idx] Hs^T``, ``S = Hs PHt[idx] + R`` symmetrised,
-    ``K = PHt S^-1`` by the adjugate, ``KL`` with the 2 x 2 Cholesky factor, then
-    :func:`joseph_apply_loops`), without the fancy-indexed copy of ``P[:, idx]`` and the small
-    matrix products that numba hands to BLAS one call each: 6 us instead of 13 us at n = 43, and
-    1.2 ms instead of 3.3 ms at n = 1003. Equal to the numpy form to rounding (tests/test_backends.py)."""
+    ``K = PHt S^-1`` by the adjugate, ``KL`` with the 2 x 2 Cholesky factor, then the pass of
+    :func:`joseph_apply_rows`), without the fancy-indexed copy of ``P[:, idx]`` and the small
+    matrix products that numba hands to BLAS one call each, and with one work array for the six
+    n-vectors: 6 us instead of 13 us at n = 43, and 1.2 ms instead of 3.3 ms at n = 1003. Equal to
+    the numpy form to rounding (tests/test_backends.py)."""
     n = P.shape[0]
-    PHt = np.empty((n, 2))
+    W = np.empty((6, n))                       # rows: PHt (2), K (2), KL (2)
     for i in range(n):
         s0 = 0.0
         s1 = 0.0
@@ -61,44 +70,60 @@ def joseph_update_loops(x, P, e, Hs, idx, R):  # pragma: no cover - compiled
             p = P[i, idx[c]]
             s0 += p * Hs[0, c]
             s1 += p * Hs[1, c]
-        PHt[i, 0] = s0
-        PHt[i, 1] = s1
+        W[0, i] = s0
+        W[1, i] = s1
     s00 = s01 = s10 = s11 = 0.0
     for c in range(idx.shape[0]):
-        s00 += Hs[0, c] * PHt[idx[c], 0]
-        s01 += Hs[0, c] * PHt[idx[c], 1]
-        s10 += Hs[1, c] * PHt[idx[c], 0]
-        s11 += Hs[1, c] * PHt[idx[c], 1]
+        s00 += Hs[0, c] * W[0, idx[c]]
+        s01 += Hs[0, c] * W[1, idx[c]]
+        s10 += Hs[1, c] * W[0, idx[c]]
+        s11 += Hs[1, c] * W[1, idx[c]]
     a = s00 + R[0, 0]
     b = 0.5 * ((s01 + R[0, 1]) + (s10 + R[1, 0]))
     d = s11 + R[1, 1]
     det = a * d - b * b
-    K = np.empty((n, 2))
     for i in range(n):
-        K[i, 0] = (PHt[i, 0] * d + PHt[i, 1] * -b) / det
-        K[i, 1] = (PHt[i, 0] * -b + PHt[i, 1] * a) / det
+        W[2, i] = (W[0, i] * d + W[1, i] * -b) / det
+        W[3, i] = (W[0, i] * -b + W[1, i] * a) / det
     for i in range(n):
-        x[i] += K[i, 0] * e[0] + K[i, 1] * e[1]
+        x[i] += W[2, i] * e[0] + W[3, i] * e[1]
     x[2] = _wrap_2pi(x[2])
     l00 = math.sqrt(a)
     l10 = b / l00
     l11 = math.sqrt(d - l10 * l10)
-    KL = np.empty((n, 2))
     for i in range(n):
-        KL[i, 0] = K[i, 0] * l00 + K[i, 1] * l10
-        KL[i, 1] = K[i, 1] * l11
-    _joseph_apply(P, K, PHt, KL)
+        W[4, i] = W[2, i] * l00 + W[3, i] * l10
+        W[5, i] = W[3, i] * l11
+    _joseph_apply_rows(P, W)
     return (d * e[0] * e[0] - 2.0 * b * e[0] * e[1] + a * e[1] * e[1]) / det
+
+
+def r_eff_loops(R, Hs, spread):  # pragma: no cover - compiled
+    """:func:`radarslam.slam.ekf.r_eff` on scalars: ``R + (H_p spread) H_p^T`` with ``H_p`` the
+    last two columns of ``Hs``, each entry summed in the matrix products' order, without the two
+    small BLAS calls numba would make."""
+    t00 = Hs[0, 3] * spread[0, 0] + Hs[0, 4] * spread[1, 0]
+    t01 = Hs[0, 3] * spread[0, 1] + Hs[0, 4] * spread[1, 1]
+    t10 = Hs[1, 3] * spread[0, 0] + Hs[1, 4] * spread[1, 0]
+    t11 = Hs[1, 3] * spread[0, 1] + Hs[1, 4] * spread[1, 1]
+    out = np.empty((2, 2))
+    out[0, 0] = R[0, 0] + (t00 * Hs[0, 3] + t01 * Hs[0, 4])
+    out[0, 1] = R[0, 1] + (t00 * Hs[1, 3] + t01 * Hs[1, 4])
+    out[1, 0] = R[1, 0] + (t10 * Hs[0, 3] + t11 * Hs[0, 4])
+    out[1, 1] = R[1, 1] + (t10 * Hs[1, 3] + t11 * Hs[1, 4])
+    return out
 
 
 _K = compile_kernels(angles.wrap_pi_scalar, angles.wrap_2pi_scalar, layout.landmark_index,
                      ekf.innovation_cov_terms, ekf.gaussian_log_distance, ekf.sparse_jacobian, ekf.r_eff,
                      ekf.sensor_xy_measurement, ekf.polar_to_sensor_xy,
                      ekf.rotate_to_sensor, ekf.batch_noise,
-                     replace={"joseph_apply": joseph_apply_loops, "joseph_update_inplace": joseph_update_loops})
+                     replace={"joseph_apply_rows": joseph_apply_rows, "joseph_apply": joseph_apply_loops,
+                              "joseph_update_inplace": joseph_update_loops, "r_eff": r_eff_loops})
 _wrap_pi = _K["wrap_pi_scalar"]
 _wrap_2pi = _K["wrap_2pi_scalar"]
 _joseph_apply = _K["joseph_apply"]
+_joseph_apply_rows = _K["joseph_apply_rows"]
 _landmark_index = _K["landmark_index"]
 _innovation_cov_terms = _K["innovation_cov_terms"]
 _gaussian_log_distance = _K["gaussian_log_distance"]
