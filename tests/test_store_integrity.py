@@ -149,3 +149,52 @@ def test_sigterm_is_handled_like_ctrl_c_and_leaves_no_worker(tmp_path):
     assert good and not bad and len(good) < 40
     json.loads((out / "manifest.json").read_text())
     assert np.isfinite(load_results(out)["noext"]["position_error_m"]).all()
+
+
+def _trial_bytes() -> bytes:
+    from radarslam.experiments.store import encode_trial
+
+    rng = np.random.default_rng(2)
+    arrays = {"true_poses": rng.normal(size=(120, 3)), "noext/n_landmarks": np.arange(120),
+              "noext/scalars": rng.normal(size=12), "noext/flag": np.array([True, False]),
+              "noext/empty": np.empty((0, 2)), "noext/one": np.float64(3.5) * np.ones(())}
+    return encode_trial(arrays, {"trial": 1, "seed": 1, "variants": ["noext"]})
+
+
+def test_fast_trial_reader_equals_numpy_and_falls_back():
+    """decode_trial reads uncompressed trial files straight from the ZIP (store._read_npz_stored):
+    the same arrays, dtypes and shapes as np.load; a compressed .npz goes to np.load."""
+    import io
+
+    from radarslam.experiments.store import _read_npz_stored
+
+    raw = _trial_bytes()
+    fast = _read_npz_stored(raw)
+    with np.load(io.BytesIO(raw)) as z:
+        ref = {k: z[k] for k in z.files}
+    assert fast is not None and set(fast) == set(ref)
+    for k in ref:
+        assert fast[k].dtype == ref[k].dtype and fast[k].shape == ref[k].shape and np.array_equal(fast[k], ref[k])
+        assert fast[k].flags.writeable
+    buf = io.BytesIO()
+    np.savez_compressed(buf, **ref)
+    assert _read_npz_stored(buf.getvalue()) is None              # not the simple form: np.load reads it
+    arrays, meta = decode_trial(raw)
+    assert meta["trial"] == 1 and np.array_equal(arrays["noext/n_landmarks"], np.arange(120))
+
+
+@pytest.mark.parametrize("where", ["data", "header", "truncated"])
+def test_fast_trial_reader_refuses_damage(where):
+    """A flipped byte in an array's data or .npy header, or a cut file: CorruptTrial, never values."""
+    from radarslam.experiments.store import CorruptTrial
+
+    raw = bytearray(_trial_bytes())
+    at = raw.find(b"\x93NUMPY", raw.find(b"true_poses.npy"))
+    if where == "data":
+        raw[at + 200] ^= 0xFF
+    elif where == "header":
+        raw[at + 20] ^= 0x01
+    else:
+        raw = raw[:len(raw) // 2]
+    with pytest.raises(CorruptTrial):
+        decode_trial(bytes(raw))

@@ -21,7 +21,10 @@ import io
 import json
 import os
 import re
+import struct
 import tomllib
+import zipfile
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -85,6 +88,45 @@ def encode_trial(arrays: dict[str, np.ndarray], meta: dict) -> bytes:
     return buf.getvalue()
 
 
+#: The header of an ``.npy`` member as ``np.savez`` writes it (format 1.0, NEP 1): a dict literal
+#: with the dtype, the order and the shape. Anything else is read by ``np.load``.
+_NPY_HEADER = re.compile(rb"\{'descr': '([<>|][a-zA-Z]\d+)', 'fortran_order': False, 'shape': \(([0-9, ]*)\), \}\s*")
+_LOCAL_HEADER = struct.Struct("<4s2B4HL2L2H")          # a ZIP local file header (APPNOTE 4.3.7)
+
+
+def _read_npz_stored(raw: bytes) -> dict[str, np.ndarray] | None:
+    """The arrays of an uncompressed ``.npz`` (what :func:`encode_trial` writes) read straight
+    from the bytes: each member located through the ZIP directory, its CRC-32 checked, its
+    ``.npy`` header parsed by :data:`_NPY_HEADER`. About 10x faster than ``np.load`` for a trial's
+    ~80 small arrays. None when the file is not of that simple form (then ``np.load`` reads it)."""
+    out = {}
+    with zipfile.ZipFile(io.BytesIO(raw)) as zf:
+        for info in zf.infolist():
+            if info.compress_type != zipfile.ZIP_STORED or not info.filename.endswith(".npy"):
+                return None
+            head = _LOCAL_HEADER.unpack_from(raw, info.header_offset)
+            if head[0] != b"PK\x03\x04":
+                return None
+            start = info.header_offset + _LOCAL_HEADER.size + head[10] + head[11]
+            member = raw[start:start + info.file_size]
+            if len(member) != info.file_size or zlib.crc32(member) != info.CRC:
+                raise zipfile.BadZipFile(f"bad CRC-32 or size of {info.filename}")
+            if member[:8] != b"\x93NUMPY\x01\x00":
+                return None
+            hlen = int.from_bytes(member[8:10], "little")
+            m = _NPY_HEADER.fullmatch(member[10:10 + hlen])
+            if m is None:
+                return None
+            shape = tuple(int(v) for v in m.group(2).split(b",") if v.strip())
+            dtype = np.dtype(m.group(1).decode())
+            count = int(np.prod(shape, dtype=np.int64)) if shape else 1
+            body = member[10 + hlen:]
+            if len(body) != count * dtype.itemsize:
+                raise ValueError(f"{info.filename}: {len(body)} bytes for shape {shape} of {dtype}")
+            out[info.filename[:-4]] = np.frombuffer(body, dtype=dtype, count=count).reshape(shape).copy()
+    return out
+
+
 def decode_trial(data: bytes | Path, expect_trial: int | None = None,
                  expect_variants: tuple[str, ...] | list[str] | None = None) -> tuple[dict[str, np.ndarray], dict]:
     """Inverse of :func:`encode_trial`; raises :class:`CorruptTrial` on any inconsistency.
@@ -96,8 +138,10 @@ def decode_trial(data: bytes | Path, expect_trial: int | None = None,
     try:
         # Read the bytes first: np.load on a path leaks its handle when the zip is damaged.
         raw = data if isinstance(data, bytes) else Path(data).read_bytes()
-        with np.load(io.BytesIO(raw), allow_pickle=False) as z:
-            arrays = {k: z[k] for k in z.files}
+        arrays = _read_npz_stored(raw)
+        if arrays is None:
+            with np.load(io.BytesIO(raw), allow_pickle=False) as z:
+                arrays = {k: z[k] for k in z.files}
         meta = json.loads(arrays.pop("__meta__").tobytes().decode())
     except Exception as exc:  # zipfile, CRC, JSON, missing key: all mean "do not trust"
         raise CorruptTrial(f"unreadable ({type(exc).__name__}: {exc})") from None
