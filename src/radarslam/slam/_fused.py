@@ -28,8 +28,11 @@ import time
 import numpy as np
 from numba import njit, objmode
 
+from radarslam.core.jit import compile_kernels
 from radarslam.extent._compiled import _fit_entries, measurement_contour, rma_efa_step
 from radarslam.landmarks._compiled import dbscan_centres, dbscan_labels
+from radarslam.models.radar import inverse_jacobians, polar_to_xy
+from radarslam.slam import ekf
 from radarslam.slam._numba import (
     _polar_to_sensor_xy,
     _wrap_2pi,
@@ -39,6 +42,12 @@ from radarslam.slam._numba import (
     joint_batch_associate_scan,
     min_log_distance,
 )
+
+# The reference's own kernels, compiled as they are: seed eq. (3) and the augmentation (c.8).
+_K = compile_kernels(polar_to_xy, inverse_jacobians, ekf.augment, ekf.augment_point)
+_to_world = _K["polar_to_xy"]
+_augment = _K["augment"]
+_augment_point = _K["augment_point"]
 
 # Integer parameters (``ip``), by position.
 I_ASSOC, I_N_NEAR, I_N_NEW, I_MIN_SAMPLES, I_CONFIRM_PTS, I_CONFIRM_WIN, I_CONFIRM_HITS = 0, 1, 2, 3, 4, 5, 6
@@ -162,64 +171,6 @@ def _predict(x, P, v, psi, dt, U, Q):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _augment_point(x, P, p0, p1, Gx, C):  # pragma: no cover - compiled
-    """ekf.augment_point: append landmark ``p`` with ``P_pp = Gx P_pose Gx^T + C``, ``P_p* = Gx P_pose,*``."""
-    n = x.shape[0]
-    x_new = np.empty(n + 2)
-    x_new[:n] = x
-    x_new[n] = p0
-    x_new[n + 1] = p1
-    P_new = np.empty((n + 2, n + 2))
-    P_new[:n, :n] = P
-    for r in range(2):
-        for j in range(n):
-            s = 0.0
-            for k in range(3):
-                s += Gx[r, k] * P[k, j]
-            P_new[n + r, j] = s
-            P_new[j, n + r] = s
-    T = np.zeros((2, 3))
-    for r in range(2):
-        for j in range(3):
-            s = 0.0
-            for k in range(3):
-                s += Gx[r, k] * P[k, j]
-            T[r, j] = s
-    for r in range(2):
-        for c in range(2):
-            s = 0.0
-            for k in range(3):
-                s += T[r, k] * Gx[c, k]
-            P_new[n + r, n + c] = s + C[r, c]
-    return x_new, P_new
-
-
-@njit(cache=True)
-def _sandwich(A, B):  # pragma: no cover - compiled
-    """``(A B) A^T`` for 2 x 2 matrices, in numpy's order of products."""
-    T = np.zeros((2, 2))
-    for i in range(2):
-        for j in range(2):
-            T[i, j] = A[i, 0] * B[0, j] + A[i, 1] * B[1, j]
-    C = np.empty((2, 2))
-    for i in range(2):
-        for j in range(2):
-            C[i, j] = T[i, 0] * A[j, 0] + T[i, 1] * A[j, 1]
-    return C
-
-
-@njit(cache=True)
-def _augment_nearest(x, P, r, phi, R):  # pragma: no cover - compiled
-    """ekf.augment: a landmark at detection ``[r, phi]`` with R (APSIPA eqs. 10-11)."""
-    a = x[2] + phi
-    c, sn = math.cos(a), math.sin(a)
-    Gx = np.array([[1.0, 0.0, -r * sn], [0.0, 1.0, r * c]])
-    Gs = np.array([[c, -r * sn], [sn, r * c]])
-    C = _sandwich(Gs, R)
-    return _augment_point(x, P, x[0] + r * math.cos(a), x[1] + r * math.sin(a), Gx, C)
-
-
-@njit(cache=True)
 def _augment_mean(x, P, polar, R, spread, has_spread):  # pragma: no cover - compiled
     """ekf.augment_mean: a landmark at the mean of detections ``polar``, with the mean's noise and
     the prior spread (c.8, [PROP])."""
@@ -231,22 +182,10 @@ def _augment_mean(x, P, polar, R, spread, has_spread):  # pragma: no cover - com
     p0 = x[0] + (rot[0, 0] * z0 + rot[0, 1] * z1)
     p1 = x[1] + (rot[1, 0] * z0 + rot[1, 1] * z1)
     Gx = np.array([[1.0, 0.0, x[1] - p1], [0.0, 1.0, p0 - x[0]]])
-    C = _sandwich(rot, R_xy / polar.shape[0])
+    C = rot @ (R_xy / polar.shape[0]) @ np.ascontiguousarray(rot.T)
     if has_spread:
         C = C + spread
-    return _augment_point(x, P, p0, p1, Gx, C)
-
-
-@njit(cache=True)
-def _to_world(x, polar):  # pragma: no cover - compiled
-    """Seed eq. (3) from the pose in ``x`` (models.radar.polar_to_xy)."""
-    m = polar.shape[0]
-    out = np.empty((m, 2))
-    for i in range(m):
-        psi = x[2] + polar[i, 1]
-        out[i, 0] = x[0] + polar[i, 0] * math.cos(psi)
-        out[i, 1] = x[1] + polar[i, 0] * math.sin(psi)
-    return out
+    return _augment_point(x, P, np.array([p0, p1]), Gx, C)
 
 
 @njit(cache=True)
@@ -670,7 +609,7 @@ def run_stream(kinds, odo, odo_dt, scan_off, polar_all, scan_k, x0, P0, R, R_ext
                 x, P = _augment_mean(x, P, members, R_plain, prior_spread, ip[I_SPREAD_AT_BIRTH] == 1)
             else:
                 i = cl_centre[c]
-                x, P = _augment_nearest(x, P, polar[i, 0], polar[i, 1], R_plain)
+                x, P = _augment(x, P, polar[i].copy(), R_plain)
             if N + 1 > ids.shape[0]:
                 ids = _grow_rows(ids, N + 1)
                 created = _grow_rows(created, N + 1)

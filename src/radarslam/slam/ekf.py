@@ -343,7 +343,7 @@ def augment(x: np.ndarray, P: np.ndarray, s: np.ndarray, R: np.ndarray) -> tuple
     """Append a landmark initialised from detection ``s = [r, phi]`` (APSIPA eqs. 10-11, App. C).
 
     ``p = [x + r cos(theta + phi), y + r sin(theta + phi)]``,
-    ``P_aug = J1 P J1^T + J2 R J2^T`` with ``J1 = [I; Gx 0]`` and ``J2 = [0; Gs]``.
+    ``P_aug = J1 P J1^T + J2 R J2^T`` with ``J1 = [I; Gx 0]`` and ``J2 = [0; Gs]``. A kernel.
     """
     Gx, Gs = inverse_jacobians(x[:3], s)
     a = x[2] + s[1]
@@ -375,15 +375,16 @@ def augment_mean(x: np.ndarray, P: np.ndarray, polar: np.ndarray, R: np.ndarray,
 def augment_point(x: np.ndarray, P: np.ndarray, p: np.ndarray, Gx: np.ndarray,
                   C: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Append landmark ``p`` whose position depends on the pose through ``Gx (2, 3)`` and carries its
-    own covariance ``C (2, 2)``: ``P_pp = Gx P_pose Gx^T + C``, ``P_p* = Gx P_pose,*``."""
+    own covariance ``C (2, 2)``: ``P_pp = Gx P_pose Gx^T + C``, ``P_p* = Gx P_pose,*``. A kernel
+    (the fused engine compiles it as it is)."""
     n = x.shape[0]
-    x_new = np.concatenate([x, p])
+    x_new = np.concatenate((x, p))
     P_new = np.empty((n + 2, n + 2))
     P_new[:n, :n] = P
-    cross = Gx @ P[:3, :]                                    # (2, n)
+    cross = Gx @ np.ascontiguousarray(P[:3, :])              # (2, n)
     P_new[n:, :n] = cross
     P_new[:n, n:] = cross.T
-    P_new[n:, n:] = Gx @ P[:3, :3] @ Gx.T + C
+    P_new[n:, n:] = Gx @ np.ascontiguousarray(P[:3, :3]) @ Gx.T + C
     return x_new, P_new
 
 
