@@ -27,6 +27,7 @@ from radarslam.core.errors import InputError, RadarSlamError
 from radarslam.experiments.single import check_simulation_config, evaluate, run_filter
 from radarslam.experiments.store import CorruptTrial, TrialStore, check_identity, config_hash, decode_trial, encode_trial
 from radarslam.experiments.variants import DEFAULT_VARIANTS, Variant, apply_variant, check_variants
+from radarslam.experiments.warmup import warm_up
 from radarslam.simulation.scenario import generate_scenario
 
 PER_STEP = ("position_error_m", "heading_error_rad", "nees", "nis_sum", "nis_count", "false_per_scan", "missed_per_scan",
@@ -129,6 +130,10 @@ class Progress:
         self._last = 0.0
         self._last_decile = -1
 
+    def restart(self) -> None:
+        """Measure the rate from now on (after a compilation that is not a trial's cost)."""
+        self.t0, self.start_done = time.perf_counter(), self.done
+
     def update(self, n: int = 1) -> None:
         self.done += n
         if not self.enabled:
@@ -225,12 +230,12 @@ def _run_locked(store, config, seed, n_trials, variants, jobs, scheduler, dask_l
 
     local_workers = dask_local is not None or (scheduler is None and min(jobs, len(todo)) > 1)
     rest = todo
-    if len(todo) > 1 and config.filter.backend == "numba" and local_workers:
-        # The first trial runs here before any local worker starts: on a machine whose numba cache
-        # is empty it compiles the kernels once and writes the cache, which the workers then load,
-        # instead of every worker compiling the same code at once (benchmarks/bench_compile.py).
-        finish(todo[0], compute_trial(config, seed, todo[0], variants, store.chash))
-        rest = todo[1:]
+    if todo and scheduler is None:
+        # A cold numba cache is filled here, on two cores, before any trial or local worker starts
+        # (experiments/warmup.py), and the progress output says so; the workers then load it
+        # instead of each compiling the same code (benchmarks/bench_compile.py).
+        warm_up(config, variants, log, parallel=local_workers)
+        bar.restart()
     if rest:
         if scheduler is not None or dask_local is not None:
             _run_dask(cfg_dict, seed, variants, rest, finish, scheduler, dask_local, store.chash)

@@ -1,0 +1,78 @@
+"""The first run on a machine: compile the numba backend on both cores, and say that it is doing so.
+
+numba compiles on first use and caches the machine code on disk (docs/architecture.md "Backends").
+On a machine whose cache is empty a Monte Carlo's first trial pays for all of it: the fused
+engine (``slam/_fused.py: run_stream`` and the kernels it calls) and, independently of it, the
+compiled scan simulation and the evaluation's matching. Those two parts share no compiled code, so
+:func:`warm_up` compiles them at the same time: the fused engine in this process, on a stream of
+two events made up for the purpose, and the simulation and the evaluation in a second process that
+runs one trial with the Python filter (``filter.backend = "python"`` runs no compiled filter code).
+Both write numba's cache, from which the first real trial and every worker then load. Results are
+not touched: the warm-up's outputs are thrown away.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
+
+import numpy as np
+
+from radarslam.config import Config, from_dict, to_dict
+from radarslam.core.types import Odometry, Scan
+from radarslam.experiments.single import run_filter
+from radarslam.experiments.variants import Variant, apply_variant
+
+#: What the progress output says while the cache is filled.
+COMPILING = "compiling the numba kernels (once per machine, about a minute); later runs load them in about a second"
+
+
+def cache_is_cold() -> bool:
+    """True when numba has no cached machine code of the fused engine (its index file is absent),
+    so that the next compiled run compiles first. Where that cannot be told, False."""
+    from radarslam.slam._fused import run_stream
+    try:
+        index = run_stream._cache._cache_file._index_path   # numba's FunctionCache, in-tree or user-wide
+    except AttributeError:                                    # pragma: no cover - another numba layout
+        return False
+    return not os.path.exists(index)
+
+
+def _tiny_stream() -> list:
+    """Two events that take every part of the fused engine's code through the compiler (numba
+    compiles a whole function whatever the data)."""
+    return [Odometry(0.1, 0.1, np.array([1.0, 0.0])),
+            Scan(0.1, 1, np.array([[5.0, 0.10], [5.1, 0.11], [5.2, 0.12]]))]
+
+
+def _side(cfg_dict: dict, overlay: dict) -> None:
+    """Second process: one simulated trial with the Python filter compiles the scan simulation and
+    the evaluation's matching (and nothing of the filter)."""
+    from radarslam.experiments.montecarlo import compute_trial
+    cfg = from_dict(cfg_dict)
+    python = {**overlay, "filter": {**overlay.get("filter", {}), "backend": "python"}}
+    compute_trial(cfg, 1, 1, (Variant("warmup", "warm-up", python),))
+
+
+def warm_up(config: Config, variants: tuple[Variant, ...], log: Callable[[str], None], parallel: bool = True) -> None:
+    """Compile the backend before the first trial when the cache is cold (module docstring); a
+    no-op, silent, when it is warm or the backend is ``python``."""
+    if config.filter.backend != "numba" or not cache_is_cold():
+        return
+    log(f"montecarlo: {COMPILING}")
+    side = None
+    if parallel:
+        side = ProcessPoolExecutor(max_workers=1)
+        job = side.submit(_side, to_dict(config), dict(variants[0].overlay))
+    try:
+        for v in variants:                       # one signature covers them; variants outside the engine compile here too
+            run_filter(apply_variant(config, v), _tiny_stream())
+    finally:
+        if side is not None:
+            try:
+                job.result()
+            except Exception as exc:             # only a warm-up: the first trial compiles what is missing
+                log(f"montecarlo: the second compiling process failed ({type(exc).__name__}); compiling on one core")
+            side.shutdown(wait=True)
+

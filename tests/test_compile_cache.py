@@ -1,0 +1,101 @@
+"""numba's compiled-code cache as a user meets it: a read-only install, a cold cache, the warm-up.
+
+docs/architecture.md "Backends": numba caches machine code beside the sources, or in a user cache
+directory when the package directory cannot be written (a system install); the first Monte Carlo
+on a machine says that it is compiling and compiles on two cores (experiments/warmup.py).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import radarslam
+from radarslam.config import profile_config
+from radarslam.experiments import montecarlo as mc
+from radarslam.experiments import warmup
+
+from conftest import require
+
+PACKAGE = Path(radarslam.__file__).resolve().parent
+
+# A small cached kernel of the package, run in a fresh interpreter; prints numba's cache hits.
+PROBE = """
+import numpy as np
+from radarslam.metrics._compiled import _assign
+print(_assign(np.array([[1.0, 2.0], [2.0, 0.5]])).tolist(), sum(_assign.stats.cache_hits.values()))
+"""
+
+
+def _read_only_copy(tmp_path: Path) -> Path:
+    """The package copied and made unwritable: read-only modes, and in every package directory a
+    plain file where ``__pycache__`` would go, so that nothing can be cached beside the sources
+    even by root (for whom the modes alone do not stop writes)."""
+    root = tmp_path / "site"
+    shutil.copytree(PACKAGE, root / "radarslam", ignore=shutil.ignore_patterns("__pycache__"))
+    dirs = [Path(d) for d, _, _ in os.walk(root / "radarslam")]
+    for d in dirs:
+        (d / "__pycache__").write_text("not a directory: this install is read-only\n")
+        for p in d.iterdir():
+            if p.is_file():
+                p.chmod(0o444)
+    for d in sorted(dirs, reverse=True):
+        d.chmod(0o555)
+    return root
+
+
+def _probe(site: Path, cache_home: Path) -> tuple[str, int]:
+    env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "PYTHONPATH")}
+    env.update(PYTHONPATH=str(site), XDG_CACHE_HOME=str(cache_home), HOME=str(cache_home))
+    out = subprocess.run([sys.executable, "-c", PROBE], env=env, capture_output=True, text=True, check=True)
+    assignment, hits = out.stdout.rsplit(" ", 1)
+    return assignment, int(hits)
+
+
+def test_read_only_install_caches_in_the_user_cache_directory(tmp_path):
+    """A package directory that cannot be written: the compiled code goes to the user's cache
+    directory, the package is left as it was, and a second process loads the code from there."""
+    require("numba")
+    site, home = _read_only_copy(tmp_path), tmp_path / "home"
+    first, hits1 = _probe(site, home)
+    assert first == "[0, 1]" and hits1 == 0                       # compiled in this process
+    assert not [p for p in (site / "radarslam").rglob("*") if p.suffix in (".nbi", ".nbc")]   # install untouched
+    assert list(home.rglob("*.nbi")) and list(home.rglob("*.nbc"))
+    second, hits2 = _probe(site, home)
+    assert second == first and hits2 >= 1                         # loaded from the user cache
+
+
+def test_cache_is_cold_in_an_empty_cache_directory(tmp_path):
+    """The cold-cache test the warm-up relies on: True with an empty NUMBA_CACHE_DIR (a fresh
+    interpreter, nothing compiled), False in this process once the engine's code is cached."""
+    require("numba")
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "empty"))
+    code = "from radarslam.experiments.warmup import cache_is_cold; print(cache_is_cold())"
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "True"
+    warmup.warm_up(profile_config(), mc.DEFAULT_VARIANTS, lambda s: None, parallel=False)
+    assert warmup.cache_is_cold() is False
+
+
+def test_warm_up_says_it_compiles_and_leaves_results_unchanged(tmp_path, monkeypatch):
+    """With the cache taken as cold, the Monte Carlo logs the compiling line once, runs the
+    two-process warm-up, and stores the same trials bit for bit as a run without it."""
+    require("numba")
+    cfg = profile_config()
+    logs: list[str] = []
+    mc.run_montecarlo(cfg, 5, 2, tmp_path / "plain", jobs=1, progress=False, log=logs.append)
+    assert not any(warmup.COMPILING in line for line in logs)
+    monkeypatch.setattr(warmup, "cache_is_cold", lambda: True)
+    logs.clear()
+    mc.run_montecarlo(cfg, 5, 2, tmp_path / "warm", jobs=2, progress=False, log=logs.append)
+    assert sum(warmup.COMPILING in line for line in logs) == 1
+    for t in (1, 2):
+        a = np.load(tmp_path / "plain" / "trials" / f"trial_{t:06d}.npz")
+        b = np.load(tmp_path / "warm" / "trials" / f"trial_{t:06d}.npz")
+        for key in a.files:
+            if key != "__meta__":                                   # meta holds wall times
+                assert np.array_equal(a[key], b[key], equal_nan=True), key
