@@ -1,7 +1,7 @@
-"""RMA, EFA and MEM-EKF* under three radar spread models: a Monte Carlo per model (docs/method.md
-b.4.1, a.10, a.11).
+"""RMA, EFA and MEM-EKF* under four radar spread models: a Monte Carlo per model (docs/method.md
+b.4.1, b.4.2, a.10, a.11).
 
-For each ``radar.spread_model`` (surface, the paper's; contour; visible-faces) the car park is
+For each ``radar.spread_model`` (surface, the paper's; contour; visible-faces; scatter-centres) the car park is
 simulated ``--trials`` times, and every trial runs six variants on the same data, the estimators
 using the spread factor of that model (``extent.spread_model``, a.11):
 
@@ -36,7 +36,7 @@ from radarslam.metrics.statistics import (bootstrap_avg_rmse, bootstrap_counts, 
                                           rmse_over_defined)
 from radarslam.experiments.variants import CONSISTENT, Variant
 
-MODELS = ("surface", "contour", "visible-faces")
+MODELS = ("surface", "contour", "visible-faces", "scatter-centres")
 #: What each variant's "rma" slot holds (its estimator's matrix); the "efa" slot is the EFA baseline.
 ESTIMATOR = {"rma-efa": "RMA", "mem-ekf": "MEM-EKF*"}
 

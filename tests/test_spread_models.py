@@ -94,7 +94,7 @@ def test_spread_factor_follows_the_spread_model_unless_gamma_z_is_set():
         assert cfg.extent.spread_factor == gamma
     cfg = from_dict({**base, "extent": {**base["extent"], "spread_model": "contour", "gamma_z": 0.3}})
     assert cfg.extent.spread_factor == 0.3
-    with pytest.raises(ConfigError, match=r"extent\.spread_model: expected one of \['surface', 'contour', 'visible-faces'\], got 'edge'"):
+    with pytest.raises(ConfigError, match=r"extent\.spread_model: expected one of \['surface', 'contour', 'visible-faces', 'scatter-centres'\], got 'edge'"):
         from_dict({**base, "extent": {**base["extent"], "spread_model": "edge"}})
 
 

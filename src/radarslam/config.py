@@ -76,8 +76,9 @@ MAX_STEPS = 100_000
 MAX_DETECTIONS_PER_SCAN = 100_000
 #: The spread factor gamma_z of each spread model (docs/method.md a.11): the detection scatter about
 #: the centroid is gamma_z X for an object whose extent is X. Uniform over an ellipse's surface:
-#: 1/4 (d.4); on its outline: 1/2; on the faces in view (points on the outline): 1/2.
-SPREAD_FACTORS = {"surface": 0.25, "contour": 0.5, "visible-faces": 0.5}
+#: 1/4 (d.4); on its outline: 1/2; on the faces in view (points on the outline): 1/2; scatter-centres:
+#: 0.6, measured on the simulated car parks (b.4.2, scripts/scatter_centres_stats.py).
+SPREAD_FACTORS = {"surface": 0.25, "contour": 0.5, "visible-faces": 0.5, "scatter-centres": 0.6}
 
 #: Most vehicles a generated car park may hold (world.layout = "rows").
 MAX_VEHICLES = 100_000
@@ -126,11 +127,32 @@ class RadarConfig:
     scene_max_m: float = param(45.0, "upper corner of the square clutter scene (m)")
     shuffle_detections: bool = param(True, "[PROP] shuffle each scan's detection order (b.4)")
     spread_model: str = param("surface", "where a car's detections lie (b.4.1): surface (uniform over the rectangle, "
-                              "the paper's), contour (uniform on its outline) or visible-faces (on the sides that "
-                              "face the sensor, count set by the projected width)",
-                              choices=("surface", "contour", "visible-faces"))
+                              "the paper's), contour (uniform on its outline), visible-faces (on the sides that "
+                              "face the sensor, count set by the projected width) or scatter-centres (Poisson "
+                              "returns from the visible corners and wheel houses, the visible faces and the "
+                              "footprint, fewer with range)",
+                              choices=("surface", "contour", "visible-faces", "scatter-centres"))
     points_per_m: float = param(1.5, "[PROP] visible-faces: mean potential detections per metre of the car's width "
                                 "seen from the sensor (at most 100)", low=0.0, high=100.0)
+    # scatter-centres (docs/method.md b.4.2): expected potential returns per scan at the reference range
+    scatter_corner_points: float = param(1.0, "[PROP] scatter-centres: mean returns of each visible corner (at most "
+                                         "100)", low=0.0, high=100.0)
+    scatter_wheel_points: float = param(0.75, "[PROP] scatter-centres: mean returns of each visible wheel house (at "
+                                        "most 100)", low=0.0, high=100.0)
+    scatter_face_points_per_m: float = param(0.55, "[PROP] scatter-centres: mean face returns per metre of the width "
+                                             "the car presents (at most 100)", low=0.0, high=100.0)
+    scatter_underbody_points: float = param(0.4, "[PROP] scatter-centres: mean far-side / under-body returns, uniform "
+                                            "on the footprint (at most 100)", low=0.0, high=100.0)
+    scatter_wheel_inset_m: float = param(0.85, "[PROP] scatter-centres: wheel centre from the nearer end of the car "
+                                         "(m; at most a quarter of the length is used)", low=0.0, high=10.0)
+    scatter_jitter_m: float = param(0.1, "[PROP] scatter-centres: std of a corner or wheel return about its "
+                                     "scatterer, per axis (m)", low=0.0, high=1.0)
+    scatter_ref_range_m: float = param(10.0, "[PROP] scatter-centres: range at which the means above hold (m)",
+                                       low=0.0, low_open=True, high=1000.0)
+    scatter_near_range_m: float = param(3.0, "[PROP] scatter-centres: the count stops growing inside this range (m)",
+                                        low=0.1, high=1000.0)
+    scatter_range_exponent: float = param(1.0, "[PROP] scatter-centres: the means scale as (ref_range / range)^p "
+                                          "(p, at most 4)", low=0.0, high=4.0)
 
 
 @dataclass
@@ -261,7 +283,7 @@ class ExtentConfig:
     tau_s: float = param(100.0, "tau: extent decay constant (s)", low=0.0, low_open=True)
     spread_model: str = param("surface", "[PROP] where a landmark's detections lie, which sets the spread factor "
                               "gamma_z (docs/method.md a.11): surface (1/4, the paper's), contour or visible-faces "
-                              "(1/2)", choices=tuple(SPREAD_FACTORS))
+                              "(1/2), scatter-centres (0.6)", choices=tuple(SPREAD_FACTORS))
     gamma_z: float = param(0.0, "gamma_z: spread factor, detection scatter = gamma_z X (seed eq. 4); 0 = the factor "
                            "of extent.spread_model (1/4 for the paper's surface model)", low=0.0)
     kappa: float = param(1.0, "contour-sifting scale kappa (a.7, h.12)", low=0.0, low_open=True)
@@ -487,6 +509,15 @@ def validate(cfg: Config) -> Config:
     if r.points_per_m2 * area > MAX_DETECTIONS_PER_SCAN:
         raise ConfigError(f"radar.points_per_m2: expected at most {MAX_DETECTIONS_PER_SCAN} expected vehicle detections "
                           f"per scan, got {r.points_per_m2 * area:.3g} ({r.points_per_m2} per m^2 over {area:.3g} m^2)")
+    if r.spread_model == "scatter-centres":   # the most a scan can expect, nearest range (b.4.2)
+        sides = (2 * w.rows * w.cars_per_row * (w.car_length_m + w.car_width_m) if w.layout == "rows"
+                 else sum(2 * (v[2] + v[3]) for v in w.vehicles))
+        peak = (r.scatter_ref_range_m / r.scatter_near_range_m) ** r.scatter_range_exponent * (
+            n_vehicles * (4 * r.scatter_corner_points + 4 * r.scatter_wheel_points + r.scatter_underbody_points)
+            + r.scatter_face_points_per_m * sides / 2)
+        if peak > MAX_DETECTIONS_PER_SCAN:
+            raise ConfigError(f"radar.scatter_ref_range_m: expected at most {MAX_DETECTIONS_PER_SCAN} expected vehicle "
+                              f"detections per scan at the nearest range, got {peak:.3g}")
     if clutter > MAX_DETECTIONS_PER_SCAN:
         raise ConfigError(f"radar.clutter_rate_per_m2: expected at most {MAX_DETECTIONS_PER_SCAN} clutter points per "
                           f"scan, got {clutter:.3g} ({r.clutter_rate_per_m2} per m^2 over the scene)")

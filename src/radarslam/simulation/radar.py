@@ -27,11 +27,21 @@ def vehicle_points(v: Vehicle, radar: RadarConfig, rng: np.random.Generator,
     - ``"visible-faces"``: on the sides whose outward normal points towards the ``sensor`` position,
       uniform by arc length, ``n = floor(N(points_per_m w, 1.5))`` with ``w`` the width of the
       rectangle seen from the sensor (the sum of the visible sides' lengths projected across the line
-      of sight): a car seen broadside gets more points than one seen end-on.
+      of sight): a car seen broadside gets more points than one seen end-on;
+    - ``"scatter-centres"``: Poisson returns from the visible corners and wheel houses, the visible
+      faces and the footprint, fewer with range (b.4.2,
+      :func:`radarslam.simulation.scatterers.scatter_centre_points`).
 
     Each potential point is kept with P_D.
     """
     model = radar.spread_model
+    if model == "scatter-centres":     # docs/method.md b.4.2; never compiled (simulation._compiled: surface only)
+        if sensor is None:
+            raise InputError("sensor: expected the sensor position (2,) for radar.spread_model = 'scatter-centres', "
+                             "got None")
+        from radarslam.simulation.scatterers import scatter_centre_points   # it builds on this module
+
+        return scatter_centre_points(v, radar, rng, sensor)
     noise = math.sqrt(radar.points_var) * rng.standard_normal()
     if model == "visible-faces":
         if sensor is None:

@@ -69,6 +69,8 @@ def generate_scenario(config: Config, rng: np.random.Generator, *, compiled: boo
     events: list[Odometry | Scan] = []
     sources = []
     batch = None
+    # only the surface model is compiled; contour, visible-faces and scatter-centres (docs/method.md
+    # b.4.1, b.4.2) always run through the Python reference, simulate_scan
     if compiled and config.radar.spread_model == "surface":
         from radarslam.simulation._compiled import simulate
 
