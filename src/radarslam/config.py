@@ -79,6 +79,9 @@ MAX_DETECTIONS_PER_SCAN = 100_000
 #: 1/4 (d.4); on its outline: 1/2; on the faces in view (points on the outline): 1/2; scatter-centres:
 #: 0.6, measured on the simulated car parks (b.4.2, scripts/scatter_centres_stats.py).
 SPREAD_FACTORS = {"surface": 0.25, "contour": 0.5, "visible-faces": 0.5, "scatter-centres": 0.6}
+#: Spread models whose detections come from the part of a car in view (a.12): extent.view_model
+#: "auto" takes the partial-view model for these.
+PARTIAL_VIEW_SPREAD_MODELS = ("visible-faces", "scatter-centres")
 
 #: Most vehicles a generated car park may hold (world.layout = "rows").
 MAX_VEHICLES = 100_000
@@ -310,6 +313,30 @@ class ExtentConfig:
                                low=0.0)
     azimuth_std_deg: float = param(0.0, "[PROP] R of the extent step: azimuth std (deg); 0 = filter.azimuth_std_deg",
                                    low=0.0)
+    view_model: str = param("auto", "[PROP] with use_in_slam: where a landmark's detections centre (a.12): full (its "
+                            "centroid), partial (the mean of its outline's visible arc), auto (partial where "
+                            "extent.spread_model is a partial-view model)", choices=("auto", "full", "partial"))
+    view_shape: str = param("estimated", "[PROP] partial view: the shape of the arc model, estimated (the "
+                            "partial-view estimator's), rma, or prior (X0); for ablations (a.12.8)",
+                            choices=("estimated", "rma", "prior"))
+    view_model_error_m: float = param(0.5, "[PROP] partial view: std (m) per axis of the model error of a "
+                                      "landmark's mean detection, per scan (a.12.5)", low=0.0)
+    view_init_correct: bool = param(True, "[PROP] partial view: a new landmark's cluster mean moved to the "
+                                    "centroid of the prior shape seen from the sensor (a.12.6)")
+    view_prior_std: float = param(1.0, "[PROP] partial-view estimator: std of each log-matrix entry of the "
+                                  "newborn shape about X0 (a.12.7)", low=0.0, low_open=True)
+    view_process_std: float = param(0.01, "[PROP] partial-view estimator: random walk of the log-matrix entries "
+                                    "per scan (a.12.7)", low=0.0)
+    view_spread_rel_error: float = param(0.3, "[PROP] partial-view estimator: relative model error of the "
+                                         "detections' spread (a.12.7)", low=0.0)
+
+    @property
+    def partial_view(self) -> bool:
+        """True when SLAM uses the partial-view measurement model (a.12): ``use_in_slam`` and
+        ``view_model`` partial, or auto with a partial-view ``spread_model``."""
+        if not self.use_in_slam or self.view_model == "full":
+            return False
+        return self.view_model == "partial" or self.spread_model in PARTIAL_VIEW_SPREAD_MODELS
 
     @property
     def spread_factor(self) -> float:

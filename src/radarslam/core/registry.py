@@ -150,6 +150,7 @@ ASSOCIATORS.register_lazy("jcbb", "radarslam.slam.jcbb", backend="numba")
 EXTENT_ESTIMATORS.register_lazy("rma-efa", "radarslam.extent.estimator")
 EXTENT_ESTIMATORS.register_lazy("visible-arc", "radarslam.extent.visible_arc")
 EXTENT_ESTIMATORS.register_lazy("mem-ekf", "radarslam.extent.mem_ekf")
+EXTENT_ESTIMATORS.register_lazy("partial-view", "radarslam.extent.view_estimator")
 
 #: Every backend some built-in implements (``filter.backend``).
 BACKENDS = ("python", "numba")

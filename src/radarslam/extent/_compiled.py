@@ -108,3 +108,20 @@ def rma_efa_step(X, alpha, centroids, centroid_covs, offsets, polar, points, pos
             efa[l, 1, 1] = e22
             efa_ok[l] = True
     return X_out, a_out, efa, efa_ok
+
+
+@njit(cache=True)
+def arc_moments_many(d, X):  # pragma: no cover - compiled
+    """:func:`radarslam.extent.partial_view.arc_moments` of every row: ``d (N, 2)`` sensor minus
+    centroid, ``X (N, 2, 2)`` shapes; returns ``g (N, 2)``, ``G (N, 2, 2)`` and ``S (N, 2, 2)``
+    (docs/method.md a.12)."""
+    N = d.shape[0]
+    g = np.empty((N, 2))
+    G = np.empty((N, 2, 2))
+    S = np.empty((N, 2, 2))
+    for n in range(N):
+        r = arc_moments(d[n, 0], d[n, 1], X[n, 0, 0], X[n, 0, 1], X[n, 1, 1])
+        g[n, 0], g[n, 1] = r[0], r[1]
+        G[n, 0, 0], G[n, 0, 1], G[n, 1, 0], G[n, 1, 1] = r[2], r[3], r[4], r[5]
+        S[n, 0, 0], S[n, 0, 1], S[n, 1, 0], S[n, 1, 1] = r[6], r[7], r[7], r[8]
+    return g, G, S

@@ -34,6 +34,10 @@ class Spreads:
 
     gX: np.ndarray  # (N, 2, 2)
     has: np.ndarray  # (N,) bool
+    #: Under the partial view (docs/method.md a.12): every landmark's shape X (N, 2, 2) for the
+    #: visible-arc model, and the model-error covariance Q_v (2, 2) of a landmark's mean detection.
+    shapes: np.ndarray | None = None
+    model_error: np.ndarray | None = None
 
     @classmethod
     def none(cls, n: int) -> "Spreads":

@@ -33,6 +33,7 @@ from radarslam.models.motion import MotionModel, motion_model_from_config
 from radarslam.slam import ekf
 from radarslam.slam.association import Associator, Spreads
 from radarslam.slam.layout import POSE_DIM
+from radarslam.slam.partial_view import partial_view_associator, view_corrected_centroid
 from radarslam.slam.state import LandmarkRecord, SlamState
 
 __all__ = ["EkfSlam", "LandmarkRecord", "MapSnapshot", "ScanReport"]
@@ -96,6 +97,8 @@ class EkfSlam:
             raise InputError("filter.backend: 'numba' needs numba (a dependency of radarslam: pip install numba), "
                              "or choose filter.backend = 'python'") from None
         self.extent = extent_estimator or EXTENT_ESTIMATORS.create(config.extent.estimator, config)
+        #: The partial-view measurement model (docs/method.md a.12), or None for the full view.
+        self.view = self._view_model(config, extent_estimator, associator)
         self._clusters = _cluster_kernel(f.backend)
         self.R = self.measurement.noise(f)
         self.U = self.model.control_cov(f)
@@ -104,6 +107,22 @@ class EkfSlam:
         self._dt_since_scan = 0.0
         self._scans = 0
         self._last_scan_t: float | None = None
+
+    def _view_model(self, config: EstimatorConfig, extent_estimator, associator):
+        """Under ``extent.view_model`` partial (a.12): the partial-view estimator in place of the
+        default ``rma-efa`` and the partial-view form of the associator; the model-error
+        covariance ``Q_v``. None under the full view."""
+        ec = config.extent
+        if not ec.partial_view:
+            return None
+        if extent_estimator is None and ec.estimator == "rma-efa":
+            self.extent = EXTENT_ESTIMATORS.create("partial-view", config)
+        if not hasattr(self.extent, "view_shapes"):
+            raise InputError(f"extent.estimator: expected one with shapes for the partial view (partial-view), "
+                             f"got {ec.estimator!r} with extent.view_model = {ec.view_model!r}")
+        if associator is None:
+            self.associator = partial_view_associator(config)
+        return ec.view_model_error_m ** 2 * np.eye(2)
 
     # ------------------------------------------------------------------ views
     @property
@@ -256,7 +275,10 @@ class EkfSlam:
         if not st.landmarks:
             return assoc, np.empty(0)
         candidates = np.flatnonzero(cand)
-        spreads = Spreads(*self.extent.spreads([r.extent for r in st.landmarks]))
+        states = [r.extent for r in st.landmarks]
+        spreads = Spreads(*self.extent.spreads(states))
+        if self.view is not None:
+            spreads = Spreads(spreads.gX, spreads.has, self.extent.view_shapes(states), self.view)
         out, nis = self.associator.associate(st, polar, candidates, self.R, spreads)
         for i, j in zip(candidates.tolist(), np.asarray(out).tolist()):
             if j >= 0:
@@ -320,8 +342,14 @@ class EkfSlam:
                                               hits=lc.confirm_hits)
         if lc.init == "cluster":
             spread = self.extent.initial_spread()
-            return [st.add_landmark_at_mean(polar[c.members], self.R, k, self.extent.new(), spread)
-                    for c in confirmed]
+            ids = [st.add_landmark_at_mean(polar[c.members], self.R, k, self.extent.new(), spread)
+                   for c in confirmed]
+            if self.view is not None and self.config.extent.view_init_correct:
+                X0 = self.extent.prior_shape()
+                for j in range(st.n_landmarks - len(ids), st.n_landmarks):     # a.12.6
+                    i = POSE_DIM + 2 * j
+                    st.x[i:i + 2] = view_corrected_centroid(st.x[i:i + 2].copy(), st.x[:2], X0)
+            return ids
         return [st.add_landmark(c.centre_polar, self.R, k, self.extent.new()) for c in confirmed]
 
     def _merge(self) -> list[tuple[int, int]]:

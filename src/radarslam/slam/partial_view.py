@@ -1,0 +1,257 @@
+"""The partial-view measurement model inside EKF-SLAM (docs/method.md a.12.4-a.12.6).
+
+Under a partial view the detections of a landmark do not scatter about its centroid ``p`` but
+about the mean ``mu = p + g(t - p, X)`` of the part of its outline that the sensor at ``t`` sees
+(:mod:`radarslam.extent.partial_view`, a.12.1-a.12.3), with the arc's own spread ``S`` instead
+of ``gamma_z X``. With ``G = dg/dd`` and ``B = I - G``, ``d mu / dp = B`` and ``d mu / dt = G``,
+so the relative vector ``delta = mu - t`` moves as ``B (delta p - delta t)``: every
+measurement of the full-view filter keeps its form with ``p - t`` replaced by ``mu - t`` and its
+``(t, p)`` Jacobian columns multiplied by ``B`` (a.12.4). This module holds those measurements:
+
+- :func:`view_terms`: ``mu``, ``B`` and ``S`` of every landmark at a state;
+- per detection, in polar form (the sequential nearest-neighbour update and every log distance):
+  ``h = [|delta|, atan2(delta) - theta]``, ``Hs = [-Hp B, (0, -1)^T, Hp B]``,
+  ``R_j = R + Hp (S + Q_v) Hp^T`` (a.12.5);
+- per landmark, in the sensor's Cartesian frame (the batch and stacked updates, a.7.3-a.7.4):
+  ``h = Rot(-theta) delta``, ``Hs = [-Rot(-theta) B, (h_1, -h_0)^T, Rot(-theta) B]`` and the noise
+  ``(Rot(-theta) S Rot(-theta)^T + R_xy) / m + Rot(-theta) Q_v Rot(-theta)^T``, where ``Q_v`` is
+  the model-error covariance, which does not shrink with ``m`` (a.12.5);
+- the associators that use them (the partial-view forms of ``nearest-neighbour``, ``batch`` and
+  ``batch-joint``), and the view-corrected centroid of a new landmark (a.12.6).
+
+The shapes ``X`` come from the extent estimator (``view_shapes``); the orchestrator passes them in
+:class:`~radarslam.slam.association.Spreads` (``shapes``, ``model_error``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from radarslam.core.errors import InputError
+from radarslam.slam import ekf
+from radarslam.slam.association import (BatchAssociator, JointBatchAssociator, NearestNeighbourAssociator,
+                                        Spreads)
+from radarslam.slam.layout import landmark_index
+from radarslam.slam.state import SlamState
+
+_LOG_2PI2 = math.log((2.0 * math.pi) ** 2)
+
+
+def _arc_moments_many():
+    from radarslam.extent._compiled import arc_moments_many
+    return arc_moments_many
+
+
+def view_terms(x: np.ndarray, shapes: np.ndarray, js: np.ndarray | None = None):
+    """``mu (N, 2)``, ``B (N, 2, 2)`` and ``S (N, 2, 2)`` of the landmarks ``js`` (all by default)
+    of state ``x`` seen from its pose, with the shapes ``shapes (N_all, 2, 2)`` (a.12.4)."""
+    n = (x.shape[0] - 3) // 2
+    js = np.arange(n) if js is None else np.asarray(js, dtype=np.int64)
+    p = x[3:].reshape(-1, 2)[js]
+    g, G, S = _arc_moments_many()(np.ascontiguousarray(x[:2] - p), np.ascontiguousarray(shapes[js]))
+    B = np.eye(2) - G
+    return p + g, B, S
+
+
+def _pose_landmark_blocks(P: np.ndarray, js: np.ndarray) -> np.ndarray:
+    """``P`` restricted to ``(x, y, theta, p_j)`` for every ``j`` of ``js``: ``(N, 5, 5)``."""
+    idx = np.empty((js.size, 5), dtype=np.int64)
+    idx[:, :3] = (0, 1, 2)
+    idx[:, 3] = 3 + 2 * js
+    idx[:, 4] = 4 + 2 * js
+    return P[idx[:, :, None], idx[:, None, :]], idx
+
+
+def polar_terms(x: np.ndarray, mu: np.ndarray, B: np.ndarray, S: np.ndarray, R: np.ndarray, Qv: np.ndarray):
+    """Per landmark, the polar measurement of one detection (a.12.5): ``h (N, 2)``, ``Hs (N, 2, 5)``
+    over ``(x, y, theta, p_x, p_y)`` and ``R_j (N, 2, 2)``; ``ok (N,)`` False where ``mu`` sits on
+    the sensor (no bearing: such a landmark cannot be scored)."""
+    d = mu - x[:2]
+    r2 = np.einsum("ni,ni->n", d, d)
+    ok = r2 > 1e-12
+    r2 = np.where(ok, r2, 1.0)
+    r = np.sqrt(r2)
+    Hp = np.empty((mu.shape[0], 2, 2))
+    Hp[:, 0, 0], Hp[:, 0, 1] = d[:, 0] / r, d[:, 1] / r
+    Hp[:, 1, 0], Hp[:, 1, 1] = -d[:, 1] / r2, d[:, 0] / r2
+    HB = Hp @ B
+    Hs = np.zeros((mu.shape[0], 2, 5))
+    Hs[:, :, :2] = -HB
+    Hs[:, 1, 2] = -1.0
+    Hs[:, :, 3:] = HB
+    h = np.column_stack([r, np.arctan2(d[:, 1], d[:, 0]) - x[2]])
+    Rj = R + Hp @ (S + Qv) @ np.swapaxes(Hp, 1, 2)
+    return h, Hs, Rj, ok
+
+
+def sensor_xy_terms(x: np.ndarray, mu: np.ndarray, B: np.ndarray):
+    """Per landmark, the sensor-frame Cartesian measurement of the batch update (a.12.5):
+    ``h = Rot(-theta)(mu - t)`` ``(N, 2)`` and ``Hs (N, 2, 5)`` over ``(x, y, theta, p_x, p_y)``."""
+    c, s = math.cos(x[2]), math.sin(x[2])
+    Rt = np.array([[c, s], [-s, c]])
+    d = mu - x[:2]
+    h = d @ Rt.T
+    RB = Rt @ B
+    Hs = np.zeros((mu.shape[0], 2, 5))
+    Hs[:, :, :2] = -RB
+    Hs[:, 0, 2], Hs[:, 1, 2] = h[:, 1], -h[:, 0]
+    Hs[:, :, 3:] = RB
+    return h, Hs
+
+
+def log_distances(z: np.ndarray, h: np.ndarray, Hs: np.ndarray, Pb: np.ndarray, Rj: np.ndarray) -> np.ndarray:
+    """APSIPA eq. (9) of detections ``z (C, 2)`` against landmarks with ``h, Hs, Rj`` and covariance
+    blocks ``Pb (N, 5, 5)``: ``D (C, N)``, ``inf`` where the innovation covariance is not positive
+    definite (c.4)."""
+    Sn = Hs @ Pb @ np.swapaxes(Hs, 1, 2) + Rj                         # (N, 2, 2)
+    det = Sn[:, 0, 0] * Sn[:, 1, 1] - Sn[:, 0, 1] * Sn[:, 1, 0]
+    good = (det > 0.0) & (Sn[:, 0, 0] > 0.0)
+    det = np.where(good, det, 1.0)
+    e0 = z[:, None, 0] - h[None, :, 0]
+    e1 = np.mod(z[:, None, 1] - h[None, :, 1] + math.pi, 2.0 * math.pi) - math.pi
+    q = (Sn[None, :, 1, 1] * e0 * e0 - 2.0 * Sn[None, :, 0, 1] * e0 * e1 + Sn[None, :, 0, 0] * e1 * e1) / det[None]
+    D = 0.5 * q + 0.5 * (_LOG_2PI2 + np.log(det))[None]
+    return np.where(good[None], D, np.inf)
+
+
+class _PartialView:
+    """The scoring shared by the partial-view associators: every candidate against its ``N_s``
+    landmarks nearest to it by their predicted detection means ``mu`` (not their centroids)."""
+
+    def _terms(self, state: SlamState, R: np.ndarray, spreads: Spreads):
+        if spreads.shapes is None:
+            raise InputError("extent.view_model: 'partial' needs the extent estimator's shapes "
+                             "(extent.estimator = 'partial-view'), got none")
+        mu, B, S = view_terms(state.x, spreads.shapes)
+        h, Hs, Rj, ok = polar_terms(state.x, mu, B, S, R, spreads.model_error)
+        return mu, B, S, h, Hs, Rj, ok
+
+    def _score(self, state, polar, rows, R, spreads, count, terms=None):
+        """``(best landmark (C,), D (C,))`` of detections ``polar[rows]`` at the current state."""
+        mu, B, S, h, Hs, Rj, ok = terms if terms is not None else self._terms(state, R, spreads)
+        z = polar[rows]
+        th = state.x[2] + z[:, 1]
+        zw = state.x[:2] + z[:, :1] * np.column_stack([np.cos(th), np.sin(th)])
+        d2 = ((zw[:, None, :] - mu[None, :, :]) ** 2).sum(axis=2)     # (C, N)
+        d2[:, ~ok] = np.inf
+        near = np.argsort(d2, axis=1, kind="stable")[:, :count]
+        Pb, _ = _pose_landmark_blocks(state.P, np.arange(mu.shape[0]))
+        D_all = log_distances(z, h, Hs, Pb, Rj)
+        D = np.take_along_axis(D_all, near, axis=1)
+        D = np.where(np.take_along_axis(d2, near, axis=1) < np.inf, D, np.inf)
+        k = np.argmin(D, axis=1)
+        best = near[np.arange(len(rows)), k]
+        return np.where(np.isfinite(D[np.arange(len(rows)), k]), best, -1), D[np.arange(len(rows)), k]
+
+    def min_log_distance(self, state: SlamState, s: np.ndarray, R: np.ndarray) -> float:
+        """The alpha test (c.6) keeps the point model with the plain ``R``, as the full view does
+        (a.7.2): a new cluster is compared with the landmarks' centroids."""
+        return NearestNeighbourAssociator.min_log_distance(self, state, s, R)
+
+
+class PartialViewNearestNeighbour(_PartialView, NearestNeighbourAssociator):
+    """Sequential nearest-neighbour association and point updates under the partial view (a.12.5)."""
+
+    name = "nearest-neighbour"
+
+    def associate(self, state, polar, candidates, R, spreads):
+        out = np.full(candidates.shape[0], -1, dtype=int)
+        if not state.landmarks or candidates.size == 0:
+            return out, np.empty(0)
+        nis = []
+        for c, i in enumerate(candidates.tolist()):
+            terms = self._terms(state, R, spreads)
+            j, D = self._score(state, polar, np.array([i]), R, spreads, self.n_nearest, terms)
+            j, D = int(j[0]), float(D[0])
+            if j >= 0 and D < self.beta:
+                h, Hs, Rj = terms[3][j], terms[4][j], terms[5][j]
+                e = np.array([polar[i, 0] - h[0], math.remainder(polar[i, 1] - h[1], 2.0 * math.pi)])
+                i0 = landmark_index(j)
+                nis.append(ekf.joseph_update_inplace(state.x, state.P, e, Hs, np.array([0, 1, 2, i0, i0 + 1]), Rj))
+                out[c] = j
+        return out, np.array(nis)
+
+
+def _batch_measurements(state, polar, candidates, out, R, spreads, seen):
+    """The mean detection, its measurement and noise of every landmark of ``seen`` (a.12.5), at
+    the current state: ``[(j, e (2,), Hs (2, 5), idx (5,), noise (2, 2))]``."""
+    js = np.array(seen, dtype=np.int64)
+    mu, B, S = view_terms(state.x, spreads.shapes, js)
+    h, Hs = sensor_xy_terms(state.x, mu, B)
+    Qs = ekf.rotate_to_sensor(state.x[2], spreads.model_error)
+    rows = []
+    for a, j in enumerate(seen):
+        dets = candidates[out == j]
+        pts, R_xy = ekf.polar_to_sensor_xy(polar[dets], R)
+        noise = ekf.batch_noise(state.x[2], S[a], True, R_xy, dets.size) + Qs
+        i0 = landmark_index(j)
+        rows.append((j, pts.mean(axis=0) - h[a], Hs[a], np.array([0, 1, 2, i0, i0 + 1]), noise))
+    return rows
+
+
+class PartialViewBatch(_PartialView, BatchAssociator):
+    """The per-landmark batch update (a.7.3 part 3) under the partial view (a.12.5): each
+    landmark relinearised after the previous one's update, as the full-view form."""
+
+    name = "batch"
+
+    def scores(self, state, polar, candidates, R, spreads):
+        if not state.landmarks or candidates.size == 0:
+            return np.full(candidates.shape[0], -1, dtype=int)
+        j, D = self._score(state, polar, candidates, R, spreads, self.n_nearest)
+        return np.where(D < self.beta, j, -1)
+
+    def associate(self, state, polar, candidates, R, spreads):
+        out = self.scores(state, polar, candidates, R, spreads)
+        nis = []
+        for j in np.unique(out[out >= 0]).tolist():
+            (_, e, Hs, idx, noise), = _batch_measurements(state, polar, candidates, out, R, spreads, [j])
+            nis.append(ekf.joseph_update_inplace(state.x, state.P, e, Hs, idx, noise))
+        return out, np.array(nis)
+
+
+class PartialViewJointBatch(PartialViewBatch, JointBatchAssociator):
+    """The stacked update of a scan (a.7.4) under the partial view (a.12.5)."""
+
+    name = "batch-joint"
+
+    def associate(self, state, polar, candidates, R, spreads):
+        out = self.scores(state, polar, candidates, R, spreads)
+        seen = np.unique(out[out >= 0]).tolist()
+        if not seen:
+            return out, np.empty(0)
+        n, L = state.x.shape[0], len(seen)
+        e, H, Rb = np.empty(2 * L), np.zeros((2 * L, n)), np.zeros((2 * L, 2 * L))
+        for a, (_, ea, Hs, idx, noise) in enumerate(_batch_measurements(state, polar, candidates, out, R, spreads, seen)):
+            e[2 * a:2 * a + 2] = ea
+            H[2 * a:2 * a + 2, idx] = Hs
+            Rb[2 * a:2 * a + 2, 2 * a:2 * a + 2] = noise
+        return out, ekf.joint_update_inplace(state.x, state.P, e, H, Rb)
+
+
+PARTIAL_VIEW_ASSOCIATORS = {"nearest-neighbour": PartialViewNearestNeighbour, "batch": PartialViewBatch,
+                            "batch-joint": PartialViewJointBatch}
+
+
+def partial_view_associator(config):
+    """The partial-view form of ``landmarks.associator`` (a.12.5), or a one-line error naming it."""
+    lc = config.landmarks
+    cls = PARTIAL_VIEW_ASSOCIATORS.get(lc.associator)
+    if cls is None:
+        raise InputError(f"landmarks.associator: expected one of {sorted(PARTIAL_VIEW_ASSOCIATORS)} with "
+                         f"extent.view_model = 'partial', got {lc.associator!r}")
+    return cls(lc.beta, lc.n_nearest_assoc, lc.n_nearest_new)
+
+
+def view_corrected_centroid(mean: np.ndarray, t: np.ndarray, X: np.ndarray, iterations: int = 5) -> np.ndarray:
+    """The centroid ``p`` whose predicted detection mean seen from ``t`` is ``mean`` under the shape
+    ``X``: the fixed point of ``p = mean - g(t - p, X)`` (a.12.6), a few iterations from
+    ``p = mean`` (``g`` changes slowly with ``p`` far from the outline)."""
+    p = np.array(mean, dtype=float)
+    f = _arc_moments_many()
+    for _ in range(iterations):
+        g, _, _ = f(np.ascontiguousarray((t - p)[None]), np.ascontiguousarray(X[None]))
+        p = mean - g[0]
+    return p
