@@ -111,6 +111,34 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None) -> RecordingR
     return RecordingRun(config, rec, m, events, times, record, truth, metrics)
 
 
+def animation_frames(run: RecordingRun) -> list[dict]:
+    """What the animation draws, as plain arrays (viz sees no estimator objects).
+
+    The associations are not in the run's record, so the stream is run once more scan by scan
+    (the orchestrator, whose estimate equals the fused engine's) to read each scan's report.
+    """
+    from radarslam.models.radar import polar_to_xy
+    from radarslam.slam.filter import EkfSlam
+
+    slam = EkfSlam(run.config)
+    frames = []
+    for ev in run.events:
+        rep = slam.process(ev)
+        if rep is None:
+            continue
+        k = len(frames)
+        pose = slam.x[:3].copy()
+        labels = np.full(ev.polar.shape[0], -1)
+        for lid, idx in rep.associations.items():
+            labels[np.asarray(idx, dtype=int)] = lid
+        mp = slam.snapshot()
+        frames.append({"t": ev.t, "pose": pose, "pose_cov": slam.P[:3, :3].copy(),
+                       "detections": polar_to_xy(pose, ev.polar) if ev.polar.size else np.empty((0, 2)),
+                       "labels": labels, "positions": mp.positions, "covs": mp.covs, "extents": mp.rma,
+                       "truth": None if run.truth is None else run.truth[k]})
+    return frames
+
+
 def map_rows(run: RecordingRun) -> list[dict]:
     """The final map: id, centroid (m), centroid covariance (m^2), extent matrix (m^2) per landmark."""
     mp = run.record.maps[-1]
