@@ -106,7 +106,7 @@ def _read_csv(path: Path, table: str) -> dict[str, np.ndarray]:
 def _read_npz_tables(path: Path) -> dict[str, dict[str, np.ndarray]]:
     where = str(path)
     try:
-        with np.load(path, allow_pickle=False) as z:
+        with path.open("rb") as fh, np.load(fh, allow_pickle=False) as z:   # our handle: closed on failure too
             arrays = {k: z[k] for k in z.files}
     except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
         raise InputError(f"{where}: expected an NPZ file of arrays TABLE.COLUMN, got an unreadable file ({exc})") from None
