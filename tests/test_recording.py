@@ -363,3 +363,30 @@ def test_animation_is_written(tmp_path):
     assert len(frames) == 4 and frames[0]["labels"].shape == (5,)
     animate_run(tmp_path / "a.gif", frames)
     assert (tmp_path / "a.gif").stat().st_size > 1000
+
+
+def test_evo_ape_equals_radarslams_own_figure(tmp_path):
+    """evo's APE (translation, no alignment) on the written TUM files: its mean is radarslam's
+    position avg. RMSE of a single run, its RMSE the root mean square of the position errors."""
+    require("rosbags")
+    evo = require("evo")  # noqa: F841
+    from evo.core import metrics, sync
+    from evo.tools import file_interface
+
+    (tmp_path / "small.toml").write_text("[trajectory]\nn_steps = 40\n")
+    ex, out = tmp_path / "trial", tmp_path / "run"
+    assert main(["export", "--seed", "5", "--config", str(tmp_path / "small.toml"), "--out", str(ex)]) == 0
+    assert main(["run", "--recording", str(ex / "bag"), *TOPICS, "--truth-topic", "/truth",
+                 "--config", str(ex / "config.toml"), "--out", str(out)]) == 0
+    ref = file_interface.read_tum_trajectory_file(str(out / "groundtruth_tum.txt"))
+    est = file_interface.read_tum_trajectory_file(str(out / "trajectory_tum.txt"))
+    ref, est = sync.associate_trajectories(ref, est)
+    ape = metrics.APE(metrics.PoseRelation.translation_part)
+    ape.process_data((ref, est))
+    import json
+
+    m = json.loads((out / "metrics.json").read_text())
+    err = np.loadtxt(out / "trajectory.csv", delimiter=",", skiprows=1)
+    own_rmse = float(np.sqrt(np.mean((err[:, 2] - err[:, 5]) ** 2 + (err[:, 3] - err[:, 6]) ** 2)))
+    assert ape.get_statistic(metrics.StatisticsType.mean) == pytest.approx(m["position_avg_rmse_m"], abs=1e-5)
+    assert ape.get_statistic(metrics.StatisticsType.rmse) == pytest.approx(own_rmse, abs=1e-5)
