@@ -360,6 +360,22 @@ class MetricsConfig:
     missed_grace_scans: int = param(5, "[PROP] scans in range before an unmapped vehicle counts as missed", low=0)
 
 
+@dataclass
+class SensorConfig:
+    """Where the radar sits on the platform, for recordings (docs/recordings.md "Mounting").
+
+    The filter measures from the platform origin facing forward; a recording's detections are
+    moved into that frame with this mounting before they reach it. The simulator's radar sits at
+    the origin (all zero), and a bag's ``/tf_static`` wins over these values when it has the radar's
+    frame.
+    """
+
+    mount_x_m: float = param(0.0, "sensor position ahead of the platform origin (m)")
+    mount_y_m: float = param(0.0, "sensor position to the left of the platform origin (m)")
+    mount_yaw_deg: float = param(0.0, "sensor boresight relative to the platform heading, counter-clockwise (deg)",
+                                 low=-360.0, high=360.0)
+
+
 @dataclass(frozen=True)
 class EstimatorConfig:
     """The sections the estimator receives (config by owner): ``filter``, ``landmarks``, ``extent``.
@@ -386,6 +402,7 @@ class Config:
     landmarks: LandmarkConfig = field(default_factory=LandmarkConfig)
     extent: ExtentConfig = field(default_factory=ExtentConfig)
     metrics: MetricsConfig = field(default_factory=MetricsConfig)
+    sensor: SensorConfig = field(default_factory=SensorConfig)
 
     @property
     def estimator(self) -> EstimatorConfig:

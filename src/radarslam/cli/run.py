@@ -18,7 +18,8 @@ from radarslam.io.results import (atomic_write_text, prepare_out_dir, refuse_fin
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser("run", help="run one seeded trial of the simulated car park")
+    p = sub.add_parser("run", help="run one seeded trial of the simulated car park, a dataset (--dataset) or your "
+                       "own recording (--recording)")
     p.add_argument("--seed", type=int, default=1, help="trial seed (default 1)")
     add_config_args(p)
     ext = p.add_mutually_exclusive_group()
@@ -40,6 +41,9 @@ def add_parser(sub) -> None:
     p.add_argument("--first-scan", type=int, default=None, help="--dataset: first scan (0-based)")
     p.add_argument("--scans", type=int, default=None, help="--dataset: number of scans")
     p.add_argument("--no-plot", action="store_true", help="skip the figure even if matplotlib is installed")
+    from radarslam.cli.recording import add_recording_args
+
+    add_recording_args(p, run=True)
     add_backend_arg(p)
     p.set_defaults(func=run)
 
@@ -51,6 +55,10 @@ LONG_RUN_SCANS = 2000
 def run(args: argparse.Namespace) -> int:
     from radarslam.experiments.single import check_simulation_config, run_trial
 
+    if args.recording:
+        from radarslam.cli.recording import run_recording_cmd
+
+        return run_recording_cmd(args)
     if args.dataset:
         return run_dataset_cmd(args)
     if args.seed < 0:

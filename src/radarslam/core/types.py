@@ -57,11 +57,18 @@ class Scan:
         Scan number ``k`` (1-based in the car park).
     polar : ndarray, shape (m, 2)
         Detections ``[range (m), azimuth (rad)]``, azimuth relative to the heading; ``m`` may be 0.
+    channels : dict of str to ndarray of shape (m,), optional
+        What a recording carries per detection besides range and azimuth, passed through and not
+        used by the filter yet (docs/recordings.md "What reaches the filter"): ``doppler_mps``
+        (radial velocity in the sensor frame, positive receding), ``rcs`` (rcs or intensity, as
+        recorded), ``sensor_id`` and ``z_m`` (height in the sensor frame, 3-D radars). ``None``
+        for the simulator.
     """
 
     t: float
     index: int
     polar: np.ndarray
+    channels: dict | None = None
 
     @classmethod
     def checked(cls, t: float, index: int, polar: object) -> "Scan":

@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from radarslam import __version__
-from radarslam.config import Config, from_dict, to_dict, to_toml
+from radarslam.config import Config, SensorConfig, from_dict, to_dict, to_toml
 from radarslam.core.errors import InputError, RadarSlamError
 from radarslam.experiments.variants import (DEFAULT_VARIANTS, PAPER_VARIANTS, Variant, check_variants, variant_hash_data,
                                             variants_from_json, variants_to_json)
@@ -63,8 +63,10 @@ def config_hash(config: Config, variants: tuple[Variant, ...] | None = None) -> 
     before variants existed (they ran :data:`~.variants.PAPER_VARIANTS`).
     """
     # json writes inf as Infinity, so an infinite threshold and a missing one never collide.
-    data = to_dict(config) if variants is None else {"config": to_dict(config),
-                                                      "variants": variant_hash_data(variants)}
+    cfg = to_dict(config)
+    if cfg.get("sensor") == to_dict(SensorConfig()):
+        del cfg["sensor"]   # the recordings' section (added later): at its default, the hash of older runs holds
+    data = cfg if variants is None else {"config": cfg, "variants": variant_hash_data(variants)}
     text = json.dumps(data, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()
 

@@ -1,0 +1,219 @@
+"""Your own recording: run EKF-SLAM on it, evaluate against its truth, write the results; and the
+simulated car park exported as a recording (docs/recordings.md, issue 24)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from radarslam.config import Config, to_toml, validate
+from radarslam.core.angles import wrap_pi
+from radarslam.core.errors import InputError
+from radarslam.core.types import Scan
+from radarslam.experiments.single import FilterRecord, run_filter
+from radarslam.io.recording.mounting import Mounting, to_sensor
+from radarslam.io.recording.stream import Recording, check_motion_model, to_events
+from radarslam.metrics.pose import avg_rmse, pose_errors
+
+
+@dataclass
+class RecordingRun:
+    """EKF-SLAM over a recording.
+
+    Attributes
+    ----------
+    config : Config
+        The effective configuration (``sensor`` holds the mounting used).
+    recording : Recording
+    mounting : Mounting
+    events : list of Event
+        The stream the filter consumed (detections in the platform frame).
+    times : ndarray, shape (K,)
+        Scan times (s).
+    record : FilterRecord
+        Pose, covariance and map after every scan.
+    truth : ndarray, shape (K, 3), or None
+        The truth at the scan times (NaN outside its time span).
+    metrics : dict
+    """
+
+    config: Config
+    recording: Recording
+    mounting: Mounting
+    events: list
+    times: np.ndarray
+    record: FilterRecord
+    truth: np.ndarray | None
+    metrics: dict
+
+
+def effective_mounting(rec: Recording, config: Config) -> Mounting:
+    """The bag's ``/tf_static`` mounting when it has one, else the config's ``[sensor]``.
+
+    With the ``ackermann`` model the pose already is the sensor's (``filter.sensor_a_m``,
+    ``sensor_b_m``), so only a yaw may be added.
+    """
+    m = rec.mounting or Mounting.from_config(config.sensor)
+    if config.filter.motion_model == "ackermann" and (m.x or m.y):
+        raise InputError(f"{m.source}: the ackermann model's pose is the sensor's own (filter.sensor_a_m, sensor_b_m); "
+                         f"expected a mounting with x = y = 0, got ({m.x}, {m.y})")
+    return m
+
+
+def truth_at(times: np.ndarray, truth_t: np.ndarray, truth: np.ndarray) -> np.ndarray:
+    """Truth poses ``(K, 3)`` at ``times`` by linear interpolation (yaw unwrapped); NaN outside its span
+    (and within 1 ns of a truth sample, that sample exactly)."""
+    out = np.full((times.size, 3), np.nan)
+    ok = (times >= truth_t[0] - 1e-9) & (times <= truth_t[-1] + 1e-9)
+    tc = np.clip(times[ok], truth_t[0], truth_t[-1])
+    yaw = np.unwrap(truth[:, 2])
+    out[ok] = np.column_stack([np.interp(tc, truth_t, truth[:, 0]), np.interp(tc, truth_t, truth[:, 1]),
+                               wrap_pi(np.interp(tc, truth_t, yaw))])
+    j = np.searchsorted(truth_t, tc).clip(0, truth_t.size - 1)
+    exact = np.abs(truth_t[j] - tc) <= 1e-9
+    idx = np.flatnonzero(ok)[exact]
+    out[idx] = truth[j[exact]]
+    return out
+
+
+def evaluate_truth(poses: np.ndarray, truth: np.ndarray) -> dict:
+    """Pose errors against the truth at the scans where it is known, as the simulator's are."""
+    ok = np.all(np.isfinite(truth), axis=1)
+    if not ok.any():
+        return {"truth_scans": 0}
+    pos, head = pose_errors(poses[ok], truth[ok])
+    return {"truth_scans": int(ok.sum()), "position_avg_rmse_m": avg_rmse(pos),
+            "heading_avg_rmse_deg": math.degrees(avg_rmse(head)), "final_position_error_m": float(pos[-1]),
+            "final_heading_error_deg": math.degrees(abs(float(head[-1]))), "position_max_error_m": float(pos.max())}
+
+
+def run_recording(rec: Recording, config: Config, *, on_scan=None) -> RecordingRun:
+    """Run :class:`~radarslam.slam.EkfSlam` over ``rec`` with ``config`` and evaluate against its truth."""
+    config = validate(config)
+    check_motion_model(rec, config.filter.motion_model)
+    m = effective_mounting(rec, config)
+    config = dataclasses.replace(config, sensor=dataclasses.replace(
+        config.sensor, mount_x_m=m.x, mount_y_m=m.y, mount_yaw_deg=math.degrees(m.yaw)))
+    events = to_events(rec, m)
+    record = run_filter(config, events, on_scan=on_scan)
+    times = np.array([e.t for e in events if isinstance(e, Scan)])
+    truth = None if rec.truth is None else truth_at(times, rec.truth_t, rec.truth)
+    metrics = {"scans": int(times.size), "detections": int(record.n_detections.sum()),
+               "associated": int(record.n_associated.sum()), "landmarks_final": int(record.n_landmarks[-1]),
+               "filter_seconds": record.seconds, "mounting": {"x_m": m.x, "y_m": m.y, "yaw_rad": m.yaw,
+                                                              "source": m.source}}
+    if truth is not None:
+        metrics.update(evaluate_truth(record.poses, truth))
+    return RecordingRun(config, rec, m, events, times, record, truth, metrics)
+
+
+def animation_frames(run: RecordingRun) -> list[dict]:
+    """What the animation draws, as plain arrays (viz sees no estimator objects).
+
+    The associations are not in the run's record, so the stream is run once more scan by scan
+    (the orchestrator, whose estimate equals the fused engine's) to read each scan's report.
+    """
+    from radarslam.models.radar import polar_to_xy
+    from radarslam.slam.filter import EkfSlam
+
+    slam = EkfSlam(run.config)
+    frames = []
+    for ev in run.events:
+        rep = slam.process(ev)
+        if rep is None:
+            continue
+        k = len(frames)
+        pose = slam.x[:3].copy()
+        labels = np.full(ev.polar.shape[0], -1)
+        for lid, idx in rep.associations.items():
+            labels[np.asarray(idx, dtype=int)] = lid
+        mp = slam.snapshot()
+        frames.append({"t": ev.t, "pose": pose, "pose_cov": slam.P[:3, :3].copy(),
+                       "detections": polar_to_xy(pose, ev.polar) if ev.polar.size else np.empty((0, 2)),
+                       "labels": labels, "positions": mp.positions, "covs": mp.covs, "extents": mp.rma,
+                       "truth": None if run.truth is None else run.truth[k]})
+    return frames
+
+
+def map_rows(run: RecordingRun) -> list[dict]:
+    """The final map: id, centroid (m), centroid covariance (m^2), extent matrix (m^2) per landmark."""
+    mp = run.record.maps[-1]
+    rows = []
+    for i, p, c, x, e, cr in zip(mp.ids, mp.positions, mp.covs, mp.rma, mp.efa, mp.created):
+        rows.append({"id": int(i), "centroid": p, "centroid_cov": c, "created_scan": int(cr),
+                     "extent": x if np.all(np.isfinite(x)) else None,
+                     "efa_extent": e if np.all(np.isfinite(e)) else None})
+    return rows
+
+
+def write_recording_outputs(out: Path, run: RecordingRun, extra: dict) -> list[str]:
+    """Every result file of a recording run in ``out``; returns their names (``run.json`` last, the marker)."""
+    from radarslam.io.results import atomic_write_text, write_json, write_trajectory_csv, write_tum
+
+    t, poses = run.times, run.record.poses
+    write_tum(out / "trajectory_tum.txt", t, poses)
+    write_trajectory_csv(out / "trajectory.csv", t, poses, run.truth)
+    names = ["trajectory_tum.txt", "trajectory.csv"]
+    if run.recording.truth is not None:
+        write_tum(out / "groundtruth_tum.txt", run.recording.truth_t, run.recording.truth)
+        names.append("groundtruth_tum.txt")
+    rows = map_rows(run)
+    write_json(out / "map.json", {"frame": "platform pose of the first scan's estimate (the odometry frame)",
+                                  "landmarks": rows})
+    lines = ["id,x_m,y_m,cov_xx_m2,cov_xy_m2,cov_yy_m2,extent_xx_m2,extent_xy_m2,extent_yy_m2"]
+    for r in rows:
+        ext = r["extent"] if r["extent"] is not None else np.full((2, 2), np.nan)
+        vals = [*r["centroid"], r["centroid_cov"][0, 0], r["centroid_cov"][0, 1], r["centroid_cov"][1, 1],
+                ext[0, 0], ext[0, 1], ext[1, 1]]
+        lines.append(",".join([str(r["id"])] + [repr(float(v)) for v in vals]))
+    atomic_write_text(out / "map.csv", "\n".join(lines) + "\n")
+    atomic_write_text(out / "config.toml", to_toml(run.config))
+    write_json(out / "metrics.json", run.metrics)
+    names += ["map.json", "map.csv", "config.toml", "metrics.json", "run.json"]
+    write_json(out / "run.json", {**extra, "source": run.recording.source, "t0_ns": run.recording.t0_ns,
+                                  "notes": run.recording.notes})
+    return names
+
+
+def recording_from_scenario(scenario, dt: float, mounting: Mounting | None = None) -> Recording:
+    """A simulated trial as a :class:`Recording`: every scan's detections (in the sensor frame of
+    ``mounting``), the odometer readings at the scan times and the true poses."""
+    m = mounting or Mounting()
+    scans = scenario.scans
+    t = np.concatenate([np.full(s.polar.shape[0], s.t) for s in scans])
+    polar = np.concatenate([to_sensor(s.polar, m) for s in scans]).reshape(-1, 2)
+    scan_t = np.array([s.t for s in scans])
+    odo_t = (np.arange(scenario.odometry.shape[0]) * dt)
+    odo_t[: scan_t.size] = scan_t        # the readings at exactly the scan times (row 0: the start)
+    return Recording(t, polar, {}, odo_t, np.asarray(scenario.odometry, dtype=float), "unicycle", scan_t,
+                     np.asarray(scenario.truth.poses, dtype=float), None, "simulation", [], scan_t)
+
+
+def export_simulation(config: Config, seed: int, out: Path, *, fmt: str = "mcap",
+                      mounting: Mounting | None = None) -> dict[str, Path]:
+    """Simulate the car-park trial ``seed`` and write it as a bag (``out/bag``, ``out/bag.bag`` for
+    ROS 1), the plain format (``out/plain/``), its truth (``out/groundtruth_tum.txt``) and the
+    configuration to run it with (``out/config.toml``, with the mounting)."""
+    from radarslam.experiments.single import check_simulation_config
+    from radarslam.io.recording.bag_write import write_bag
+    from radarslam.io.recording.plain import write_plain
+    from radarslam.io.results import atomic_write_text, make_dir, write_tum
+    from radarslam.simulation.scenario import generate_scenario
+
+    config = check_simulation_config(validate(config))
+    m = mounting or Mounting()
+    config = dataclasses.replace(config, sensor=dataclasses.replace(
+        config.sensor, mount_x_m=m.x, mount_y_m=m.y, mount_yaw_deg=math.degrees(m.yaw)))
+    scenario = generate_scenario(config, np.random.default_rng(np.random.SeedSequence(seed)))
+    rec = recording_from_scenario(scenario, config.trajectory.dt_s, m)
+    bag = out / ("bag.bag" if fmt == "ros1" else "bag")
+    write_bag(rec, bag, fmt, mounting=m)
+    plain = make_dir(out / "plain")
+    write_plain(rec, plain)
+    write_tum(out / "groundtruth_tum.txt", rec.truth_t, rec.truth)
+    atomic_write_text(out / "config.toml", to_toml(config))
+    return {"bag": bag, "plain": plain, "truth": out / "groundtruth_tum.txt", "config": out / "config.toml"}
