@@ -116,9 +116,9 @@ def test_jobs_are_capped_at_the_trials_to_compute(run_a, tmp_path, monkeypatch):
     assert used == [2]                                             # two trials to compute: two workers, not eight
     used.clear()
     run_montecarlo(short(), 5, 5, out, jobs=8, progress=False, log=lambda s: None)
-    # numba: two trials left, the first runs here (it fills the compiled-code cache the workers
-    # would load), so the last one needs no pool at all; never eight workers
-    assert used == [] and sorted(TrialStore.read(out).stored()) == [1, 2, 3, 4, 5]
+    # numba: two trials left (a cold compiled-code cache is filled here first, experiments/warmup.py),
+    # so two workers; never eight
+    assert used == [2]
     used.clear()
     s = run_montecarlo(short(), 5, 3, out, jobs=8, progress=False, log=lambda s: None)
     assert used == [] and s.computed == 0
