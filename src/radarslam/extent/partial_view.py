@@ -80,18 +80,20 @@ def arc_geometry(e1: float, e2: float, scale: float, l1: float,
         rn = 1.0
         qn0 = 1.0
         qn1 = 0.0
-        r = 0.0
-    else:
+        inv = math.inf
+    elif scale < 1.0:                  # 1 / |q| never overflows: 5e-155 <= rn <= 2e10 by eq. (15)
         r = rn * scale
+        inv = math.inf if r < R_MIN else 1.0 / r
+    else:
+        inv = (1.0 / rn) / scale
     h0 = qn0 / rn
     h1 = qn1 / rn
     phi = math.atan2(h1, h0)
-    if r < R_MIN:                      # eq. (14): clamp, zero radial derivative
-        b = math.acos(1.0 / R_MIN)
-        return phi, b, qn0, qn1, -h1 / R_MIN, h0 / R_MIN, 0.0, 0.0, True
-    b = math.acos(1.0 / r)
-    dbdr = 1.0 / (r * math.sqrt((r - 1.0) * (r + 1.0)))   # eq. (10)
-    return phi, b, qn0, qn1, -h1 / r, h0 / r, dbdr * h0, dbdr * h1, False
+    if inv > 1.0 / R_MIN:              # eq. (14): clamp to the floor, zero radial derivative
+        return phi, math.acos(1.0 / R_MIN), qn0, qn1, -h1 / R_MIN, h0 / R_MIN, 0.0, 0.0, True
+    b = math.acos(inv)
+    dbdr = inv * inv / math.sqrt((1.0 - inv) * (1.0 + inv))   # eq. (10), 1 / (r sqrt(r^2 - 1))
+    return phi, b, qn0, qn1, -h1 * inv, h0 * inv, dbdr * h0, dbdr * h1, False
 
 
 def arc_sums(phi: float, b: float, l1: float, l2: float) -> tuple[float, float, float, float, float, float,
