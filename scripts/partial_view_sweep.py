@@ -1,0 +1,73 @@
+"""Choosing the partial-view model's parameters on training seeds (docs/method.md a.12.5, a.12.7).
+
+    python scripts/partial_view_sweep.py --seed 777 --trials 60 --out runs/pv-sweep-777
+
+Simulates the car park under ``--spread-model`` (visible-faces by default) and runs, on the same
+data, the consistent pipeline under the partial view with each parameter of a small grid changed
+on its own around the defaults (``extent.view_model_error_m``, ``view_spread_rel_error``,
+``view_prior_std``, ``prior_extent_radius_m``), and the full view as the reference. Prints the
+ablation table (position, heading, NEES, NIS). Refuses the reporting seed 1: the values shipped in
+``config.py`` were chosen from this script's output on seeds 777 and 778.
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+from ablation_consistent import markdown, table
+
+from radarslam.experiments.montecarlo import load_results, run_montecarlo
+from radarslam.experiments.report import nees_summary
+from radarslam.experiments.variants import CONSISTENT, Variant
+from radarslam.config import profile_config
+
+GRID = {
+    "view_model_error_m": (0.3, 0.7),
+    "view_spread_rel_error": (0.15, 0.6),
+    "view_prior_std": (0.5, 1.5),
+    "prior_extent_radius_m": (1.5, 2.5),
+}
+
+
+def sweep_variants() -> list[Variant]:
+    def cons(name, label, **extent):
+        ov = copy.deepcopy(CONSISTENT.overlay)
+        ov["extent"].update(extent)
+        return Variant(name, label, ov)
+    out = [cons("full", "consistent, full view", view_model="full"),
+           cons("partial", "consistent, partial view (defaults)", view_model="partial")]
+    for key, values in GRID.items():
+        for v in values:
+            out.append(cons(f"{key.replace('_', '-')}-{v}".replace(".", "p"), f"partial, {key} = {v}",
+                            view_model="partial", **{key: v}))
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--trials", type=int, default=60)
+    p.add_argument("--seed", type=int, default=777)
+    p.add_argument("--jobs", type=int, default=2)
+    p.add_argument("--spread-model", default="visible-faces")
+    p.add_argument("--out", default="runs/pv-sweep")
+    a = p.parse_args(argv)
+    if a.seed == 1:
+        print("partial_view_sweep: --seed 1 is the reporting seed; choose parameters on other seeds", file=sys.stderr)
+        return 2
+    cfg = profile_config()
+    cfg = replace(cfg, radar=replace(cfg.radar, spread_model=a.spread_model),
+                  extent=replace(cfg.extent, spread_model=a.spread_model))
+    run_montecarlo(cfg, a.seed, a.trials, a.out, jobs=a.jobs, variants=sweep_variants())
+    res = load_results(a.out)
+    text = markdown(table(res), res["trials"].size, res["seed"], nees_summary(res)["band"])
+    print(text)
+    Path(a.out, "sweep.md").write_text(text + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
