@@ -319,14 +319,22 @@ class ExtentConfig:
     view_shape: str = param("estimated", "[PROP] partial view: the shape of the arc model, estimated (the "
                             "partial-view estimator's), rma, or prior (X0); for ablations (a.12.8)",
                             choices=("estimated", "rma", "prior"))
-    view_model_error_m: float = param(0.5, "[PROP] partial view: std (m) per axis of the model error of a "
-                                      "landmark's mean detection, per scan (a.12.5)", low=0.0)
+    view_model_error_m: float = param(0.3, "[PROP] partial view: std (m) per axis of the model error of a "
+                                      "landmark's mean detection, per scan (a.12.5; chosen on training seeds "
+                                      "777-778, scripts/partial_view_sweep.py)", low=0.0)
     view_init_correct: bool = param(True, "[PROP] partial view: a new landmark's cluster mean moved to the "
                                     "centroid of the prior shape seen from the sensor (a.12.6)")
+    view_prior_radius_m: float = param(1.0, "[PROP] partial view: radius of the circular prior shape X0 = r^2 I of "
+                                       "a newborn landmark, and of its prior spread (m; chosen on training seeds "
+                                       "777-778, scripts/partial_view_sweep.py; a.12.6-a.12.7)",
+                                       low=0.0, low_open=True)
     view_prior_std: float = param(1.0, "[PROP] partial-view estimator: std of each log-matrix entry of the "
                                   "newborn shape about X0 (a.12.7)", low=0.0, low_open=True)
     view_process_std: float = param(0.01, "[PROP] partial-view estimator: random walk of the log-matrix entries "
                                     "per scan (a.12.7)", low=0.0)
+    view_shape_data: str = param("mean-spread", "[PROP] partial-view estimator: what of each scan updates the "
+                                 "shape, the detections' mean and spread, or the spread alone (which does not "
+                                 "depend on the centroid's estimate; a.12.7)", choices=("mean-spread", "spread"))
     view_spread_rel_error: float = param(0.3, "[PROP] partial-view estimator: relative model error of the "
                                          "detections' spread (a.12.7)", low=0.0)
 

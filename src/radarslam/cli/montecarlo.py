@@ -59,6 +59,10 @@ def add_parser(sub) -> None:
                        epilog=VARIANT_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
     r.add_argument("--trials", "-n", type=int, default=1000, help="number of trials (default 1000, as in the paper)")
     r.add_argument("--out", default="out/reproduce", metavar="DIR", help="result directory (default out/reproduce)")
+    r.add_argument("--study", choices=("paper", "partial-view"), default="paper",
+                   help="paper: Table 1, Figs. 2-3 (default); partial-view: the Monte Carlo under the surface, "
+                        "visible-faces and scatter-centres radar models side by side (docs/method.md a.12), "
+                        "a directory per model and DIR/partial_view_study.md")
     _add_exec_args(r, os.cpu_count() or 1)
     r.set_defaults(func=run_reproduce_cmd)
 
@@ -114,4 +118,25 @@ def run_montecarlo_cmd(args: argparse.Namespace) -> int:
 
 def run_reproduce_cmd(args: argparse.Namespace) -> int:
     # The paper's settings: the default (apsipa, APSIPA Table I) profile, seed Section 4 extents.
-    return _execute(with_backend(validate(profile_config("apsipa")), args), args)
+    config = with_backend(validate(profile_config("apsipa")), args)
+    if args.study == "paper":
+        return _execute(config, args)
+    return _study(config, args)
+
+
+def _study(config, args: argparse.Namespace) -> int:
+    """``reproduce --study partial-view`` (experiments/partial_view_study.py)."""
+    from radarslam.experiments.partial_view_study import run_study
+
+    if args.variant or args.scheduler or args.dask_local:
+        raise InputError("--study partial-view: runs its own variants on local workers; --variant, --scheduler and "
+                         "--dask-local are not taken")
+    if args.trials < 1 or args.jobs < 1 or args.seed < 0:
+        raise InputError(f"--trials, --jobs: expected integers >= 1 and --seed >= 0, got {args.trials}, {args.jobs}, "
+                         f"{args.seed}")
+    out = prepare_out_dir(args.out)
+    run_study(config, args.seed, args.trials, out, jobs=args.jobs, progress=not args.quiet,
+              log=lambda s: print(s, file=sys.stderr))
+    print((out / "partial_view_study.md").read_text(encoding="utf-8"), end="")
+    print(f"per-model reports: {out}/<model>/report/ (radarslam report {out}/<model>)", file=sys.stderr)
+    return 0

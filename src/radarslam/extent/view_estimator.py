@@ -17,7 +17,7 @@ object, and the offsets and spreads seen from several sides fix the shape.
 The shape is the symmetric log-matrix ``A`` of ``X = expm(A)``, ``xi = (A11, A12, A22)``: every
 ``xi`` is a valid ellipse and a circle is a regular point, so the filter needs no constraint and
 no orientation wrap. Each landmark carries ``xi`` and its covariance, born at the circular prior
-``X0 = r0^2 I`` (``extent.prior_extent_radius_m``) with ``extent.view_prior_std`` on each log
+``X0 = r0^2 I`` (``extent.view_prior_radius_m``) with ``extent.view_prior_std`` on each log
 entry, and a small random walk per scan (``extent.view_process_std``). Each scan with detections
 makes one iterated EKF update (Gauss-Newton on the posterior, ``VIEW_ITERATIONS`` steps) of the
 measurement ``y = [zbar - p; vech C]`` with the noise
@@ -48,6 +48,10 @@ from radarslam.extent.estimator import RmaEfaEstimator, RmaEfaState
 VIEW_ITERATIONS = 3
 #: Central-difference step on the log-matrix entries.
 FD_STEP = 1e-4
+#: Chi-square 99% quantiles (2 and 5 dof): a scan whose innovation lies beyond has its noise
+#: scaled up by ``d^2 / gate`` (a Huber-type weight), so that one scan of another object's returns,
+#: or of returns the arc model cannot produce, does not drag the shape.
+ROBUST_GATE = {2: 9.210, 5: 15.086}
 
 
 def log_matrix_to_X(xi: np.ndarray) -> np.ndarray:
@@ -104,7 +108,9 @@ class PartialViewEstimator(RmaEfaEstimator):
         # The RMA/EFA step stays the compiled batch step where it would be (this class adds a
         # second step after it instead of overriding step()).
         self._batched = (backend == "numba" and ec.efa_mode == "per_scan" and ec.w_mode == "max_trace")
-        self.xi0 = X_to_log_matrix(ec.prior_extent_radius_m ** 2 * np.eye(2))
+        self.xi0 = X_to_log_matrix(ec.view_prior_radius_m ** 2 * np.eye(2))
+        #: gamma_z X0 of the partial view's own prior shape (a.12.6), in place of the full view's.
+        self.prior_spread = ec.spread_factor * ec.view_prior_radius_m ** 2 * np.eye(2)
         s = ec.view_prior_std
         self.P0 = np.diag([s * s, 0.5 * s * s, s * s])
         q = ec.view_process_std
@@ -112,6 +118,7 @@ class PartialViewEstimator(RmaEfaEstimator):
         self.Qv = ec.view_model_error_m ** 2 * np.eye(2)
         self.rel = ec.view_spread_rel_error
         self.shape_mode = ec.view_shape
+        self.spread_only = ec.view_shape_data == "spread"
 
     def new(self) -> PartialViewState:
         return PartialViewState(xi=self.xi0.copy(), P_xi=self.P0.copy())
@@ -176,10 +183,10 @@ class PartialViewEstimator(RmaEfaEstimator):
         from radarslam.extent._compiled import arc_moments
         X = log_matrix_to_X(xi)
         r = arc_moments(float(d[0]), float(d[1]), X[0, 0], X[0, 1], X[1, 1])
-        return np.array(r[:2]), np.array([[r[6], r[7]], [r[7], r[8]]])
+        return np.array(r[:2]), np.array([[r[6], r[7]], [r[7], r[8]]]), bool(r[9])
 
     def _predict_y(self, xi, d, Ws, spread: bool) -> np.ndarray:
-        g, S = self._moments(xi, d)
+        g, S, _ = self._moments(xi, d)
         if not spread:
             return g
         C = S + Ws
@@ -214,14 +221,24 @@ class PartialViewEstimator(RmaEfaEstimator):
                 dxi = np.zeros(3)
                 dxi[i] = FD_STEP
                 H[:, i] = (self._predict_y(xi + dxi, d, Ws, spread) - self._predict_y(xi - dxi, d, Ws, spread)) / (2 * FD_STEP)
-            _, S = self._moments(xi, d)
+            _, S, clamped = self._moments(xi, d)
+            if clamped:
+                return                                  # the sensor inside the outline: no arc to fit (a.12.3)
             Rn = np.zeros((h.size, h.size))
             Rn[:2, :2] = (S + Ws) / m + centroid_cov + self.Qv
+            if self.spread_only and spread:
+                Rn[:2, :2] += 1e6 * np.eye(2)      # extent.view_shape_data = "spread": no mean rows
             if spread:
                 Sig = S + Ws
                 v = np.array([Sig[0, 0], Sig[0, 1], Sig[1, 1]])
                 Rn[2:, 2:] = _wishart_vech_cov(Sig, m - 1) + np.diag((self.rel * np.abs(v)) ** 2 + 1e-6)
             Sy = H @ P0 @ H.T + Rn
+            r = y - h
+            d2 = float(r @ np.linalg.solve(Sy, r))
+            gate = ROBUST_GATE[h.size]
+            if d2 > gate:                               # a scan the model cannot explain: down-weighted (a.12.7)
+                Rn = Rn * (d2 / gate)
+                Sy = H @ P0 @ H.T + Rn
             K = np.linalg.solve(Sy, H @ P0).T
             xi = xi0 + K @ (y - h - H @ (xi0 - xi))
         if not np.all(np.isfinite(xi)):
