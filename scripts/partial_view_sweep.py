@@ -33,6 +33,7 @@ GRID = {
     "view_shape_data": ("spread",),
 }
 #: Pairs changed together (the second round, after the first showed r0 and the shape data matter most).
+WALK = (0.05, 0.1, 0.2, 0.4)
 PAIRS = [{"view_prior_radius_m": r, "view_shape_data": d, "view_model_error_m": q}
          for r in (1.0, 1.25) for d in ("mean-spread", "spread") for q in (0.2, 0.3)]
 
@@ -54,6 +55,13 @@ def sweep_variants(grid: bool = True, pairs: bool = True) -> list[Variant]:
     return out
 
 
+def walk_variants() -> list[Variant]:
+    base = sweep_variants(True, False)
+    return base + [Variant(f"walk-{str(q).replace('.', 'p')}", f"partial, view_walk_m2_per_rad = {q}",
+                           {**base[1].overlay, "extent": {**base[1].overlay["extent"], "view_walk_m2_per_rad": q}})
+                   for q in WALK]
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--trials", type=int, default=60)
@@ -63,6 +71,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--out", default="runs/pv-sweep")
     p.add_argument("--pairs-only", action="store_true", help="the second round only (PAIRS)")
     p.add_argument("--defaults-only", action="store_true", help="the full view and the shipped defaults only")
+    p.add_argument("--walk", action="store_true", help="the view random walk q_w (WALK) around the defaults")
     a = p.parse_args(argv)
     if a.seed == 1:
         print("partial_view_sweep: --seed 1 is the reporting seed; choose parameters on other seeds", file=sys.stderr)
@@ -70,7 +79,7 @@ def main(argv: list[str] | None = None) -> int:
     cfg = profile_config()
     cfg = replace(cfg, radar=replace(cfg.radar, spread_model=a.spread_model),
                   extent=replace(cfg.extent, spread_model=a.spread_model))
-    run_montecarlo(cfg, a.seed, a.trials, a.out, jobs=a.jobs, variants=sweep_variants(not a.pairs_only, not a.defaults_only))
+    run_montecarlo(cfg, a.seed, a.trials, a.out, jobs=a.jobs, variants=walk_variants() if a.walk else sweep_variants(not a.pairs_only, not a.defaults_only))
     res = load_results(a.out)
     text = markdown(table(res), res["trials"].size, res["seed"], nees_summary(res)["band"])
     print(text)

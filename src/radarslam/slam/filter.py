@@ -105,6 +105,7 @@ class EkfSlam:
         self.Q = f.Q
         self.state = SlamState.initial(f.initial_pose, f.initial_pose_std)
         self._dt_since_scan = 0.0
+        self._view_angle: dict[int, float] = {}        # a.12.5: bearing landmark -> sensor at the last scan
         self._scans = 0
         self._last_scan_t: float | None = None
 
@@ -223,6 +224,8 @@ class EkfSlam:
         self._last_scan_t = t
         k = scan.index
         dt = self._take_scan_interval()
+        if self.view is not None:
+            self._view_walk()                                             # a.12.5
         prior = self._prior()                                             # Decision 3
         cand = self._sift(polar, prior)                                   # 3
         assoc, nis = self._associate_and_update(polar, cand)              # 4
@@ -240,6 +243,27 @@ class EkfSlam:
                           confirmed, merged, len(clusters), len(self.state.tentatives), nis)
 
     # ------------------------------------------------------------------ the steps
+    def _view_walk(self) -> None:
+        """Under the partial view (a.12.5): the model error of a landmark's mean detection persists
+        while the landmark is seen from one side and changes as the view turns, so the centroid the
+        filter tracks (the true centroid plus that error) takes a random walk in the viewing angle:
+        ``P_pp += q_w |delta phi| I`` for the change ``delta phi`` of the bearing from the landmark to
+        the sensor since the previous scan (``extent.view_walk_m2_per_rad`` = ``q_w``)."""
+        q = self.config.extent.view_walk_m2_per_rad
+        st = self.state
+        if q <= 0.0 or not st.landmarks:
+            return
+        d = st.x[:2] - st.positions
+        phi = np.arctan2(d[:, 1], d[:, 0])
+        last = np.array([self._view_angle.get(r.id, np.nan) for r in st.landmarks])
+        step = np.abs(np.remainder(phi - last + math.pi, 2.0 * math.pi) - math.pi)
+        step = np.where(np.isfinite(step), step, 0.0)
+        for j in np.flatnonzero(step > 0.0).tolist():
+            i = POSE_DIM + 2 * j
+            st.P[i, i] += q * step[j]
+            st.P[i + 1, i + 1] += q * step[j]
+        self._view_angle = {r.id: float(a) for r, a in zip(st.landmarks, phi)}
+
     def _take_scan_interval(self) -> float:
         """Time since the previous scan (0 at the first), for the extent prediction (a.4)."""
         dt = self._dt_since_scan if self._scans else 0.0
