@@ -224,3 +224,24 @@ def test_reproduce_partial_view_study_writes_the_models_side_by_side(tmp_path):
             assert np.isfinite(row["position_m"]["estimate"]) and np.isfinite(row["nees_time_avg"])
     assert main(["reproduce", "--study", "partial-view", "--trials", "2", "--variant", "x=y.toml",
                  "--out", str(tmp_path / "bad")]) == 1
+
+
+def test_compiled_shape_update_equals_the_python_kernel():
+    """extent/_compiled.py compiles view_estimator.view_update as it is: the same update to 1e-10
+    on random shapes, views and scans (5 rows and 2 rows)."""
+    require("numba")
+    from radarslam.extent._compiled import view_update as compiled
+    from radarslam.extent.view_estimator import view_update
+
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        xi = np.array([rng.uniform(-1, 2), rng.uniform(-0.5, 0.5), rng.uniform(-1, 2)])
+        P = np.diag(rng.uniform(0.1, 1.0, 3))
+        d = rng.uniform(-12, 12, 2)
+        y = np.concatenate([rng.normal(0, 1, 2), [rng.uniform(0.5, 3), rng.normal(0, 0.3), rng.uniform(0.2, 2)]])
+        for m in (2, 8):
+            Ws, Pc = 0.01 * np.eye(2), 0.1 * np.eye(2)
+            a = view_update(xi, P, d[0], d[1], y, m, Ws, Pc, 0.09, 0.3, False)
+            b = compiled(xi, P, d[0], d[1], y, m, Ws, Pc, 0.09, 0.3, False)
+            assert a[2] == b[2]
+            assert np.allclose(a[0], b[0], rtol=1e-10, atol=1e-10) and np.allclose(a[1], b[1], rtol=1e-10, atol=1e-12)

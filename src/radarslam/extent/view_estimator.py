@@ -43,6 +43,7 @@ import numpy as np
 
 from radarslam.core.registry import EXTENT_ESTIMATORS
 from radarslam.extent.estimator import RmaEfaEstimator, RmaEfaState
+from radarslam.extent.partial_view import arc_moments
 
 #: Gauss-Newton steps of the iterated update.
 VIEW_ITERATIONS = 3
@@ -51,7 +52,142 @@ FD_STEP = 1e-4
 #: Chi-square 99% quantiles (2 and 5 dof): a scan whose innovation lies beyond has its noise
 #: scaled up by ``d^2 / gate`` (a Huber-type weight), so that one scan of another object's returns,
 #: or of returns the arc model cannot produce, does not drag the shape.
-ROBUST_GATE = {2: 9.210, 5: 15.086}
+GATE_2, GATE_5 = 9.210, 15.086
+
+
+def exp_sym2(a: float, b: float, c: float):
+    """Entries ``(X11, X12, X22)`` of ``expm([[a, b], [b, c]])``: with ``m = (a + c) / 2`` and
+    ``d = |(a - c) / 2, b|``, ``exp(m) (cosh d I + sinh(d) / d (A - m I))``. A kernel."""
+    m = 0.5 * (a + c)
+    d = math.hypot(0.5 * (a - c), b)
+    sh = math.sinh(d) / d if d > 1e-12 else 1.0
+    e = math.exp(m)
+    ch = math.cosh(d)
+    return e * (ch + sh * (a - m)), e * sh * b, e * (ch + sh * (c - m))
+
+
+def predicted_rows(x0: float, x1: float, x2: float, dx: float, dy: float, W00: float, W01: float, W11: float,
+                   out: np.ndarray) -> bool:
+    """``E[y]`` of a.12.7 for the shape ``xi = (x0, x1, x2)`` seen along ``d = t - p``: ``out[:2]``
+    the mean offset ``g``, ``out[2:5]`` the entries 00, 01, 11 of ``S + W_s``; returns the kernel's
+    clamp flag (the sensor inside the outline). A kernel."""
+    X11, X12, X22 = exp_sym2(x0, x1, x2)
+    r = arc_moments(dx, dy, X11, X12, X22)
+    out[0] = r[0]
+    out[1] = r[1]
+    out[2] = r[6] + W00
+    out[3] = r[7] + W01
+    out[4] = r[8] + W11
+    return r[9] > 0.5
+
+
+def solve_spd(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """``A^-1 B`` for a small symmetric positive definite ``A (n, n)`` by Cholesky, ``B (n, k)``;
+    NaN where ``A`` is not positive definite. A kernel."""
+    n = A.shape[0]
+    L = np.zeros((n, n))
+    for i in range(n):
+        for j in range(i + 1):
+            acc = A[i, j]
+            for k in range(j):
+                acc -= L[i, k] * L[j, k]
+            if i == j:
+                L[i, i] = math.sqrt(acc) if acc > 0.0 else math.nan
+            else:
+                L[i, j] = acc / L[j, j]
+    Y = B.copy()
+    for c in range(B.shape[1]):
+        for i in range(n):
+            acc = Y[i, c]
+            for k in range(i):
+                acc -= L[i, k] * Y[k, c]
+            Y[i, c] = acc / L[i, i]
+        for i in range(n - 1, -1, -1):
+            acc = Y[i, c]
+            for k in range(i + 1, n):
+                acc -= L[k, i] * Y[k, c]
+            Y[i, c] = acc / L[i, i]
+    return Y
+
+
+def view_update(xi: np.ndarray, P: np.ndarray, dx: float, dy: float, y: np.ndarray, m: int, Ws: np.ndarray,
+                Pc: np.ndarray, qv2: float, rel: float, spread_only: bool):
+    """One scan's iterated EKF update of a landmark's shape (a.12.7): ``xi (3,)`` and its covariance
+    ``P (3, 3)`` (process noise already added), the view ``d = t - p``, the measurement ``y (5,)``
+    (``zbar - p`` and the entries 00, 01, 11 of the sample covariance; only the first two when
+    ``m < 3``), the mean sensor noise ``Ws (2, 2)``, the centroid's covariance ``Pc (2, 2)``.
+    Returns ``(xi, P, status)``: status 0 updated, 1 seen from inside the outline (unchanged), 2
+    not finite (unchanged). A kernel."""
+    nr = 5 if m >= 3 else 2
+    h = np.empty(5)
+    hp = np.empty(5)
+    hm = np.empty(5)
+    H = np.empty((nr, 3))
+    Rn = np.zeros((nr, nr))
+    x = xi.copy()
+    K = np.zeros((3, nr))
+    for _ in range(VIEW_ITERATIONS):
+        if predicted_rows(x[0], x[1], x[2], dx, dy, Ws[0, 0], Ws[0, 1], Ws[1, 1], h):
+            return xi, P, 1
+        for i in range(3):
+            x[i] += FD_STEP
+            predicted_rows(x[0], x[1], x[2], dx, dy, Ws[0, 0], Ws[0, 1], Ws[1, 1], hp)
+            x[i] -= 2.0 * FD_STEP
+            predicted_rows(x[0], x[1], x[2], dx, dy, Ws[0, 0], Ws[0, 1], Ws[1, 1], hm)
+            x[i] += FD_STEP
+            for r in range(nr):
+                H[r, i] = (hp[r] - hm[r]) / (2.0 * FD_STEP)
+        # noise: the mean rows (S + Ws) / m + P_c + Q_v; the spread rows Wishart(m - 1) + relative error
+        S00, S01, S11 = h[2], h[3], h[4]                      # S + W_s
+        Rn[:, :] = 0.0
+        big = 1e6 if (spread_only and nr == 5) else 0.0
+        Rn[0, 0] = S00 / m + Pc[0, 0] + qv2 + big
+        Rn[0, 1] = Rn[1, 0] = S01 / m + Pc[0, 1]
+        Rn[1, 1] = S11 / m + Pc[1, 1] + qv2 + big
+        if nr == 5:
+            Sg = np.array([[S00, S01], [S01, S11]])
+            pi = (0, 0, 1)
+            pj = (0, 1, 1)
+            for a in range(3):
+                i, j = pi[a], pj[a]
+                for b in range(3):
+                    k, l = pi[b], pj[b]
+                    Rn[2 + a, 2 + b] = (Sg[i, k] * Sg[j, l] + Sg[i, l] * Sg[j, k]) / (m - 1)
+                Rn[2 + a, 2 + a] += (rel * Sg[i, j]) ** 2 + 1e-6
+        HP = H @ P
+        Ht = np.ascontiguousarray(H.T)
+        Sy = HP @ Ht + Rn
+        r = np.empty((nr, 1))
+        for a in range(nr):
+            acc = 0.0
+            for i in range(3):
+                acc += H[a, i] * (xi[i] - x[i])
+            r[a, 0] = y[a] - h[a] - acc                        # y - h(x) - H (xi0 - x)
+        inn = np.empty((nr, 1))
+        for a in range(nr):
+            inn[a, 0] = y[a] - h[a]
+        sol = solve_spd(Sy, inn)
+        d2 = 0.0
+        for a in range(nr):
+            d2 += inn[a, 0] * sol[a, 0]
+        gate = GATE_2 if nr == 2 else GATE_5
+        if d2 > gate:
+            Rn *= d2 / gate
+            Sy = HP @ Ht + Rn
+        K = np.ascontiguousarray(solve_spd(Sy, HP).T)
+        step = K @ r
+        for i in range(3):
+            x[i] = xi[i] + step[i, 0]
+    for i in range(3):
+        if not math.isfinite(x[i]):
+            return xi, P, 2
+    I_KH = np.eye(3) - K @ H
+    P_new = I_KH @ P @ np.ascontiguousarray(I_KH.T) + K @ Rn @ np.ascontiguousarray(K.T)
+    return x, 0.5 * (P_new + P_new.T), 0
+
+
+#: The kernels of this module, compiled with the arc kernels (extent/_compiled.py).
+KERNELS = (exp_sym2, predicted_rows, solve_spd, view_update)
 
 
 def log_matrix_to_X(xi: np.ndarray) -> np.ndarray:
@@ -85,17 +221,6 @@ class PartialViewState(RmaEfaState):
         return log_matrix_to_X(self.xi)
 
 
-def _wishart_vech_cov(Sig: np.ndarray, dof: int) -> np.ndarray:
-    """Covariance of ``vech`` (entries 00, 01, 11) of a sample covariance with ``dof`` degrees of
-    freedom about ``Sig``: ``cov(C_ij, C_kl) = (Sig_ik Sig_jl + Sig_il Sig_jk) / dof``."""
-    pairs = ((0, 0), (0, 1), (1, 1))
-    out = np.empty((3, 3))
-    for a, (i, j) in enumerate(pairs):
-        for b, (k, l) in enumerate(pairs):
-            out[a, b] = (Sig[i, k] * Sig[j, l] + Sig[i, l] * Sig[j, k]) / dof
-    return out
-
-
 class PartialViewEstimator(RmaEfaEstimator):
     """Shapes from the visible arcs (module docstring); RMA/EFA underneath as the baseline."""
 
@@ -119,6 +244,12 @@ class PartialViewEstimator(RmaEfaEstimator):
         self.rel = ec.view_spread_rel_error
         self.shape_mode = ec.view_shape
         self.spread_only = ec.view_shape_data == "spread"
+        self.qv2 = ec.view_model_error_m ** 2
+        if backend == "numba":
+            from radarslam.extent._compiled import view_update as compiled
+            self._update = compiled
+        else:
+            self._update = view_update
 
     def new(self) -> PartialViewState:
         return PartialViewState(xi=self.xi0.copy(), P_xi=self.P0.copy())
@@ -179,74 +310,30 @@ class PartialViewEstimator(RmaEfaEstimator):
             a = assoc[j]
             self.view_step(st, polar[a], pts[a], centroids[j], centroid_covs[j], pose)
 
-    def _moments(self, xi: np.ndarray, d: np.ndarray):
-        from radarslam.extent._compiled import arc_moments
-        X = log_matrix_to_X(xi)
-        r = arc_moments(float(d[0]), float(d[1]), X[0, 0], X[0, 1], X[1, 1])
-        return np.array(r[:2]), np.array([[r[6], r[7]], [r[7], r[8]]]), bool(r[9])
-
-    def _predict_y(self, xi, d, Ws, spread: bool) -> np.ndarray:
-        g, S, _ = self._moments(xi, d)
-        if not spread:
-            return g
-        C = S + Ws
-        return np.array([g[0], g[1], C[0, 0], C[0, 1], C[1, 1]])
-
     def view_step(self, st: PartialViewState, polar: np.ndarray, pts: np.ndarray, centroid: np.ndarray,
                   centroid_cov: np.ndarray, pose: np.ndarray) -> None:
-        """One scan's iterated EKF update of the landmark's shape (module docstring, a.12.7)."""
+        """One scan's iterated EKF update of the landmark's shape (module docstring, a.12.7), by
+        the kernel :func:`view_update` (compiled under the numba backend)."""
         st.P_xi = st.P_xi + self.Q
         m = pts.shape[0]
         if m == 0 or not self.c.track:
             return
         d = pose[:2] - centroid
-        zbar = pts.mean(axis=0)
         # the sensor's noise of each detection in the world frame, averaged (seed eq. 5 without P^m)
         a = pose[2] + polar[:, 1]
         c, s, r = np.cos(a), np.sin(a), polar[:, 0]
-        R = self.R_extent
         J = np.stack([np.stack([c, -r * s], 1), np.stack([s, r * c], 1)], 1)        # (m, 2, 2)
-        Ws = (J @ R @ np.swapaxes(J, 1, 2)).mean(axis=0)
-        spread = m >= 3
-        y = zbar - centroid
-        if spread:
+        Ws = (J @ self.R_extent @ np.swapaxes(J, 1, 2)).mean(axis=0)
+        y = np.zeros(5)
+        y[:2] = pts.mean(axis=0) - centroid
+        if m >= 3:
             C = np.cov(pts.T)
-            y = np.array([y[0], y[1], C[0, 0], C[0, 1], C[1, 1]])
-        xi0, P0 = st.xi.copy(), st.P_xi
-        xi = xi0.copy()
-        for _ in range(VIEW_ITERATIONS):
-            h = self._predict_y(xi, d, Ws, spread)
-            H = np.empty((h.size, 3))
-            for i in range(3):
-                dxi = np.zeros(3)
-                dxi[i] = FD_STEP
-                H[:, i] = (self._predict_y(xi + dxi, d, Ws, spread) - self._predict_y(xi - dxi, d, Ws, spread)) / (2 * FD_STEP)
-            _, S, clamped = self._moments(xi, d)
-            if clamped:
-                return                                  # the sensor inside the outline: no arc to fit (a.12.3)
-            Rn = np.zeros((h.size, h.size))
-            Rn[:2, :2] = (S + Ws) / m + centroid_cov + self.Qv
-            if self.spread_only and spread:
-                Rn[:2, :2] += 1e6 * np.eye(2)      # extent.view_shape_data = "spread": no mean rows
-            if spread:
-                Sig = S + Ws
-                v = np.array([Sig[0, 0], Sig[0, 1], Sig[1, 1]])
-                Rn[2:, 2:] = _wishart_vech_cov(Sig, m - 1) + np.diag((self.rel * np.abs(v)) ** 2 + 1e-6)
-            Sy = H @ P0 @ H.T + Rn
-            r = y - h
-            d2 = float(r @ np.linalg.solve(Sy, r))
-            gate = ROBUST_GATE[h.size]
-            if d2 > gate:                               # a scan the model cannot explain: down-weighted (a.12.7)
-                Rn = Rn * (d2 / gate)
-                Sy = H @ P0 @ H.T + Rn
-            K = np.linalg.solve(Sy, H @ P0).T
-            xi = xi0 + K @ (y - h - H @ (xi0 - xi))
-        if not np.all(np.isfinite(xi)):
-            return                                      # a failed update leaves the shape as it was
-        I_KH = np.eye(3) - K @ H
-        st.xi = xi
-        st.P_xi = I_KH @ P0 @ I_KH.T + K @ Rn @ K.T
-        st.n_view += 1
+            y[2:] = C[0, 0], C[0, 1], C[1, 1]
+        xi, P, status = self._update(st.xi, st.P_xi, float(d[0]), float(d[1]), y, m, Ws,
+                                     np.ascontiguousarray(centroid_cov), self.qv2, self.rel, self.spread_only)
+        if status == 0:
+            st.xi, st.P_xi = xi, P
+            st.n_view += 1
 
     def merge(self, survivor: PartialViewState, gone: PartialViewState) -> PartialViewState:
         """As :meth:`RmaEfaEstimator.merge`; the survivor keeps the better-known shape of the two."""

@@ -152,7 +152,9 @@ class _PartialView:
 
 
 class PartialViewNearestNeighbour(_PartialView, NearestNeighbourAssociator):
-    """Sequential nearest-neighbour association and point updates under the partial view (a.12.5)."""
+    """Sequential nearest-neighbour association and point updates under the partial view (a.12.5):
+    each candidate is scored against its ``N_s`` landmarks nearest by their predicted means, with
+    the terms of those landmarks at the current state (after the previous candidates' updates)."""
 
     name = "nearest-neighbour"
 
@@ -160,17 +162,26 @@ class PartialViewNearestNeighbour(_PartialView, NearestNeighbourAssociator):
         out = np.full(candidates.shape[0], -1, dtype=int)
         if not state.landmarks or candidates.size == 0:
             return out, np.empty(0)
+        if spreads.shapes is None:
+            self._terms(state, R, spreads)                 # the one-line error
         nis = []
+        mu_all = view_terms(state.x, spreads.shapes)[0]
         for c, i in enumerate(candidates.tolist()):
-            terms = self._terms(state, R, spreads)
-            j, D = self._score(state, polar, np.array([i]), R, spreads, self.n_nearest, terms)
-            j, D = int(j[0]), float(D[0])
-            if j >= 0 and D < self.beta:
-                h, Hs, Rj = terms[3][j], terms[4][j], terms[5][j]
-                e = np.array([polar[i, 0] - h[0], math.remainder(polar[i, 1] - h[1], 2.0 * math.pi)])
-                i0 = landmark_index(j)
-                nis.append(ekf.joseph_update_inplace(state.x, state.P, e, Hs, np.array([0, 1, 2, i0, i0 + 1]), Rj))
-                out[c] = j
+            x = state.x
+            a = x[2] + polar[i, 1]
+            zw = x[:2] + polar[i, 0] * np.array([math.cos(a), math.sin(a)])
+            d2 = ((mu_all - zw) ** 2).sum(axis=1)
+            js = np.argsort(d2, kind="stable")[:self.n_nearest]
+            mu, B, S = view_terms(x, spreads.shapes, js)
+            h, Hs, Rj, ok = polar_terms(x, mu, B, S, R, spreads.model_error)
+            Pb, idx = _pose_landmark_blocks(state.P, js)
+            D = np.where(ok, log_distances(polar[i:i + 1], h, Hs, Pb, Rj)[0], np.inf)
+            k = int(np.argmin(D))
+            if D[k] < self.beta:
+                e = np.array([polar[i, 0] - h[k, 0], math.remainder(polar[i, 1] - h[k, 1], 2.0 * math.pi)])
+                nis.append(ekf.joseph_update_inplace(state.x, state.P, e, Hs[k], idx[k], Rj[k]))
+                out[c] = int(js[k])
+                mu_all = view_terms(state.x, spreads.shapes)[0]
         return out, np.array(nis)
 
 
