@@ -156,6 +156,11 @@ class RadarConfig:
                                         low=0.1, high=1000.0)
     scatter_range_exponent: float = param(1.0, "[PROP] scatter-centres: the means scale as (ref_range / range)^p "
                                           "(p, at most 4)", low=0.0, high=4.0)
+    doppler: bool = param(False, "[PROP] give each detection a radial velocity, Scan.channels['doppler_mps'] "
+                          "(b.4.3); false leaves the simulation bit-identical")
+    doppler_std_mps: float = param(0.1, "[PROP] Doppler noise std of a vehicle detection (m/s; b.4.3)", low=0.0)
+    clutter_doppler_max_mps: float = param(5.0, "[PROP] a clutter detection's Doppler is uniform in +-this (m/s; "
+                                           "b.4.3)", low=0.0)
 
 
 @dataclass
@@ -180,6 +185,10 @@ class WorldConfig:
                                 "car of a row (m)", low=0.0)
     departing_vehicle: int = param(5, "index of the vehicle that leaves (-1: none); 5 is the car at (-13, 6)", low=-1)
     departure_step: int = param(60, "[PROP] first step k at which it is gone (Decision 2, h.10)", low=1)
+    moving_vehicles: int = param(0, "[PROP] cars driving to and fro on their own straight lanes through the car "
+                                 "park, detected like parked ones (b.4.3); 0 leaves the simulation bit-identical",
+                                 low=0, high=100)
+    moving_speed_mps: float = param(3.0, "[PROP] speed of the moving cars (m/s; b.4.3)", low=0.0)
 
 
 # --------------------------------------------------------------------------------------------
@@ -213,6 +222,17 @@ class FilterConfig:
     vehicle_H_m: float = param(0.76, "ackermann: lateral offset H of the encoder wheel (m)")
     sensor_a_m: float = param(0.95, "ackermann: sensor ahead of the FRONT axle, a (m)")
     sensor_b_m: float = param(0.5, "ackermann: sensor to the left of the centre line, b (m)")
+    doppler_gate: bool = param(False, "[PROP] keep detections whose Doppler fails the static-world test out of "
+                               "association and landmark creation (c.10.4); needs Scan.channels['doppler_mps']")
+    doppler_gate_probability: float = param(0.99, "[PROP] chi-square probability of the static-world test (c.10.4)",
+                                            low=0.0, low_open=True, high=0.999999)
+    doppler_threshold_mps: float = param(0.3, "[PROP] RANSAC consensus threshold |d + u.v| (m/s; c.10.2)", low=0.0,
+                                         low_open=True)
+    doppler_iterations: int = param(50, "[PROP] RANSAC minimal sets per scan (c.10.2)", low=1, high=100_000)
+    doppler_std_floor_mps: float = param(0.0, "[PROP] floor of the Doppler residual std (m/s; a quantised Doppler "
+                                         "of step q: q / sqrt(12); c.10.3)", low=0.0)
+    zero_velocity_probability: float = param(0.99, "[PROP] chi-square probability of the at-rest test (c.10.3)",
+                                             low=0.0, low_open=True, high=0.999999)
 
     @property
     def R(self) -> np.ndarray:
@@ -384,6 +404,13 @@ class SensorConfig:
     mount_y_m: float = param(0.0, "sensor position to the left of the platform origin (m)")
     mount_yaw_deg: float = param(0.0, "sensor boresight relative to the platform heading, counter-clockwise (deg)",
                                  low=-360.0, high=360.0)
+    mount_z_m: float = param(0.0, "3-D recordings: sensor height above the platform origin (m; docs/recordings.md "
+                             "\"Mounting\")")
+    mount_roll_deg: float = param(0.0, "3-D recordings: sensor roll about its x axis (deg, ZYX with pitch and yaw; "
+                                  "180 = upside down)", low=-360.0, high=360.0)
+    mount_pitch_deg: float = param(0.0, "3-D recordings: sensor pitch (deg, ZYX)", low=-360.0, high=360.0)
+    mount_quaternion: list[float] = param([], "3-D recordings: sensor-to-platform rotation [x, y, z, w]; when given "
+                                          "it replaces mount_roll/pitch/yaw_deg")
 
 
 @dataclass(frozen=True)
@@ -581,6 +608,9 @@ def validate(cfg: Config) -> Config:
         raise ConfigError(f"landmarks.removal_max_hits: expected < removal_window ({cfg.landmarks.removal_window}), got {cfg.landmarks.removal_max_hits}")
     if any(s <= 0 for s in cfg.filter.initial_pose_std):
         raise ConfigError(f"filter.initial_pose_std: expected positive values, got {cfg.filter.initial_pose_std}")
+    q = cfg.sensor.mount_quaternion
+    if len(q) not in (0, 4) or (q and not sum(x * x for x in q) > 0):
+        raise ConfigError(f"sensor.mount_quaternion: expected [] or a non-zero [x, y, z, w], got {q}")
     if any(s <= 0 for s in cfg.extent.mem_ekf_init_std):
         raise ConfigError(f"extent.mem_ekf_init_std: expected positive values, got {cfg.extent.mem_ekf_init_std}")
     if any(s < 0 for s in cfg.extent.mem_ekf_process_std):

@@ -21,6 +21,8 @@ def add_recording_args(p: argparse.ArgumentParser, run: bool) -> None:
     p.add_argument("--radar-topic", metavar="TOPIC", help="bag: sensor_msgs/PointCloud2 topic of the radar")
     p.add_argument("--odom-topic", metavar="TOPIC", help="bag: nav_msgs/Odometry topic (forward speed, yaw rate)")
     p.add_argument("--truth-topic", metavar="TOPIC", help="bag: optional truth (nav_msgs/Odometry or PoseStamped)")
+    p.add_argument("--imu-topic", metavar="TOPIC", help="bag: sensor_msgs/Imu topic; without --odom-topic the run "
+                   "is the ego-motion from Doppler alone (its gyro for the lever arm)")
     p.add_argument("--doppler-field", metavar="NAME", help="bag: the PointCloud2 field holding the radial velocity "
                    "(default: doppler, velocity, v_r, VrelRad, ... when present)")
     if run:
@@ -51,6 +53,8 @@ def run_recording_cmd(args: argparse.Namespace) -> int:
         raise InputError(f"--animate: expected a .gif or .mp4 file, got {args.animate}")
     refuse_finished(Path(args.out) / "run.json", "--out", args.overwrite)   # before any work
     config = config_from_args(args)
+    if not args.odom_topic and args.radar_topic:
+        return ego_motion_cmd(args, config)
     t0 = time.perf_counter()
     rec = _read(args)
     n = rec.scan_times().size
@@ -76,6 +80,45 @@ def run_recording_cmd(args: argparse.Namespace) -> int:
                  f"heading {m['heading_avg_rmse_deg']:.3f} deg")
     print(line)
     print(f"wrote {out}/ ({', '.join(names)})")
+    return 0
+
+
+def ego_motion_cmd(args: argparse.Namespace, config) -> int:
+    """``radarslam run --recording BAG --radar-topic T [--imu-topic T]`` without odometry: the
+    ego-motion from Doppler alone (docs/recordings.md "A radar alone")."""
+    from pathlib import Path
+
+    import numpy as np
+
+    from radarslam.config import to_toml
+    from radarslam.experiments.ego_motion import ego_motion, summary, write_ego_motion
+    from radarslam.io.recording.bag import read_bag, read_imu
+    from radarslam.io.results import atomic_write_text, prepare_out_dir, refuse_finished, write_json
+
+    t0 = time.perf_counter()
+    rec = read_bag(args.recording, args.radar_topic, None, doppler_field=args.doppler_field)
+    for note in rec.notes:
+        print(f"radarslam: warning: {note}", file=sys.stderr)
+    gyro = None
+    if args.imu_topic:
+        log_time = any("log time" in n for n in rec.notes)
+        t_ns, rates = read_imu(args.recording, args.imu_topic, log_time=log_time)
+        gyro = ((t_ns - rec.t0_ns) * 1e-9, rates)
+    run = ego_motion(rec, config, np.random.default_rng(0), gyro)
+    out = prepare_out_dir(args.out)
+    refuse_finished(out / "run.json", "--out", args.overwrite)
+    names = write_ego_motion(out, run)
+    m = summary(run)
+    write_json(out / "metrics.json", m)
+    atomic_write_text(out / "config.toml", to_toml(config))
+    write_json(out / "run.json", {"recording": str(args.recording), "mode": "ego-motion from Doppler",
+                                  "version": __version__, "argv": sys.argv, "notes": rec.notes,
+                                  "t0_ns": rec.t0_ns, "wall_seconds": time.perf_counter() - t0})
+    names += ["metrics.json", "config.toml", "run.json"]
+    print(f"radarslam run --recording (ego-motion from Doppler): {m['scans']} scans, velocity for "
+          f"{m['valid_scans']} ({100 * m['valid_fraction']:.1f}%), {m['at_rest_scans']} at rest, median speed "
+          f"while moving {m['moving_speed_median_mps'] or float('nan'):.2f} m/s")
+    print(f"wrote {Path(out)}/ ({', '.join(names)})")
     return 0
 
 

@@ -20,8 +20,8 @@ from pathlib import Path
 COMPILED_SOURCES = (
     "core/angles.py", "core/jit.py", "slam/ekf.py", "slam/layout.py", "slam/_numba.py", "slam/_fused.py",
     "extent/_compiled.py", "extent/_sym2.py", "extent/measurement.py", "extent/random_matrix.py",
-    "extent/ellipse_fit.py", "extent/partial_view.py", "extent/view_estimator.py", "landmarks/_compiled.py", "metrics/_compiled.py", "simulation/_compiled.py",
-    "models/radar.py",
+    "extent/ellipse_fit.py", "extent/partial_view.py", "extent/view_estimator.py", "landmarks/_compiled.py",
+    "metrics/_compiled.py", "simulation/_compiled.py", "models/radar.py", "models/doppler.py",
 )
 ROOT = Path(__file__).resolve().parents[1]
 STAMP = ROOT / "__pycache__" / "numba-sources.stamp"

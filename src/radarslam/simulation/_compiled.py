@@ -124,12 +124,12 @@ def simulate_scans(poses, rects, departures, ids, rng, points_per_m2, points_std
     return offsets, xy_all[:M], noise_all[:M], vehicle[:M], src_all[:M], gather[:M]
 
 
-def simulate(poses: np.ndarray, vehicles, radar, rng: np.random.Generator):
+def simulate(poses: np.ndarray, vehicles, radar, rng: np.random.Generator, true_azimuth: bool = False):
     """Every scan of :func:`radarslam.simulation.radar.simulate_scan` from the true ``poses``:
     ``(offsets, polar, sources)``, scan ``k`` in rows ``offsets[k - 1]:offsets[k]``. The draws come
     from :func:`simulate_scans`; the conversion to range and azimuth, the noise, the flip of
     negative ranges, the wrap and the shuffle are the reference's numpy operations, on all scans at
-    once."""
+    once. ``true_azimuth``: also the noise-free azimuths (the Doppler's, b.4.3), the draws unchanged."""
     rects = np.array([[v.x_left, v.y_bottom, v.size_x, v.size_y] for v in vehicles], dtype=float).reshape(-1, 4)
     never = np.iinfo(np.int64).max
     departures = np.array([never if v.departure is None else v.departure for v in vehicles], dtype=np.int64)
@@ -142,6 +142,7 @@ def simulate(poses: np.ndarray, vehicles, radar, rng: np.random.Generator):
     pose = np.repeat(np.asarray(poses, dtype=float), np.diff(offsets), axis=0)
     d = xy - pose[:, :2]
     polar = np.column_stack([np.hypot(d[:, 0], d[:, 1]), np.arctan2(d[:, 1], d[:, 0]) - pose[:, 2]])
+    az0 = polar[:, 1].copy() if true_azimuth else None
     v = np.flatnonzero(vehicle)
     polar[v, 0] += radar.range_std_m * noise[v, 0]
     polar[v, 1] += math.radians(radar.azimuth_std_deg) * noise[v, 1]
@@ -149,4 +150,6 @@ def simulate(poses: np.ndarray, vehicles, radar, rng: np.random.Generator):
     polar[flip, 0] *= -1.0
     polar[flip, 1] += math.pi
     polar[:, 1] = wrap_pi(polar[:, 1])
+    if true_azimuth:
+        return offsets, polar[gather], sources[gather], az0[gather]
     return offsets, polar[gather], sources[gather]

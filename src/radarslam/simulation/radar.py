@@ -114,7 +114,7 @@ def clutter_points(pose: np.ndarray, radar: RadarConfig, rng: np.random.Generato
 
 
 def simulate_scan(pose: np.ndarray, vehicles: list[Vehicle], k: int, radar: RadarConfig,
-                  rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+                  rng: np.random.Generator, *, true_azimuth: bool = False):
     """One scan from the true ``pose`` at step ``k``.
 
     Returns
@@ -123,6 +123,9 @@ def simulate_scan(pose: np.ndarray, vehicles: list[Vehicle], k: int, radar: Rada
         ``[range, azimuth]``; vehicle detections carry range and azimuth noise, clutter none.
     sources : ndarray of int, shape (m,)
         Index of the vehicle that produced each detection, :data:`CLUTTER` for clutter.
+    true_az : ndarray, shape (m,)
+        Only with ``true_azimuth``: the noise-free azimuths (rad, not wrapped), for the Doppler
+        (b.4.3); the draws are the same either way.
     """
     pts, owners, counts = [], [], []
     px, py = float(pose[0]), float(pose[1])
@@ -138,6 +141,7 @@ def simulate_scan(pose: np.ndarray, vehicles: list[Vehicle], k: int, radar: Rada
     xy = np.concatenate(pts) if pts else np.empty((0, 2))
     d = xy - pose[:2]
     polar = np.column_stack([np.hypot(d[:, 0], d[:, 1]), np.arctan2(d[:, 1], d[:, 0]) - pose[2]])
+    az0 = polar[:, 1].copy() if true_azimuth else None
     polar[:, 0] += radar.range_std_m * rng.standard_normal(polar.shape[0])
     polar[:, 1] += math.radians(radar.azimuth_std_deg) * rng.standard_normal(polar.shape[0])
     flip = polar[:, 0] < 0.0  # a noisy range below zero is the same point seen the other way
@@ -150,7 +154,10 @@ def simulate_scan(pose: np.ndarray, vehicles: list[Vehicle], k: int, radar: Rada
     polar[:, 1] = wrap_pi(polar[:, 1]) if polar.shape[0] else polar[:, 1]
     sources = np.concatenate([np.repeat(np.array(owners, dtype=int), counts),
                               np.full(clutter.shape[0], CLUTTER, dtype=int)])
+    if true_azimuth:
+        az0 = np.concatenate([az0, polar_c[:, 1]])
     if radar.shuffle_detections and polar.shape[0] > 1:
         order = rng.permutation(polar.shape[0])
         polar, sources = polar[order], sources[order]
-    return polar, sources
+        az0 = az0[order] if true_azimuth else None
+    return (polar, sources, az0) if true_azimuth else (polar, sources)

@@ -8,6 +8,8 @@ import numpy as np
 
 from radarslam.config import Config
 from radarslam.core.types import Odometry, Scan
+from radarslam.simulation.doppler import (MovingTraffic, moving_detections, moving_traffic, platform_velocities,
+                                          scan_doppler)
 from radarslam.simulation.radar import simulate_scan
 from radarslam.simulation.trajectory import (commanded_controls, driven_path, odometer_readings, process_noise,
                                               true_path)
@@ -27,7 +29,10 @@ class GroundTruth:
     vehicles : list of Vehicle
     present : ndarray of bool, shape (K, V)
     sources : list of ndarray of int
-        Per scan, the producing vehicle of each detection (-1 = clutter).
+        Per scan, the producing vehicle of each detection (-1 = clutter, <= -2 a moving car:
+        :func:`radarslam.simulation.doppler.moving_source`).
+    traffic : MovingTraffic or None
+        The moving cars (``world.moving_vehicles > 0``, b.4.3).
     """
 
     poses: np.ndarray
@@ -35,6 +40,7 @@ class GroundTruth:
     vehicles: list[Vehicle]
     present: np.ndarray
     sources: list[np.ndarray]
+    traffic: MovingTraffic | None = None
 
 
 @dataclass(frozen=True)
@@ -69,21 +75,52 @@ def generate_scenario(config: Config, rng: np.random.Generator, *, compiled: boo
     events: list[Odometry | Scan] = []
     sources = []
     batch = None
+    # Doppler and moving cars (b.4.3): their own child streams, spawned only when asked for, so
+    # that with both off the draws (and the scenario) are the ones without them, bit for bit
+    extra = config.radar.doppler or config.world.moving_vehicles > 0
+    traffic = None
+    if extra:
+        doppler_rng, moving_rng = rng.spawn(2)
+        if config.world.moving_vehicles:
+            traffic = moving_traffic(config, moving_rng)
+        velocity = platform_velocities(controls)
     # only the surface model is compiled; contour, visible-faces and scatter-centres (docs/method.md
     # b.4.1, b.4.2) always run through the Python reference, simulate_scan
     if compiled and config.radar.spread_model == "surface":
         from radarslam.simulation._compiled import simulate
 
-        batch = simulate(poses[:traj.n_steps], vehicles, config.radar, rng)
+        batch = simulate(poses[:traj.n_steps], vehicles, config.radar, rng, true_azimuth=extra)
     for k in range(1, traj.n_steps + 1):
         if k > 1:
             events.append(Odometry(t=(k - 1) * traj.dt_s, dt=traj.dt_s, control=odo[k - 1]))
         if batch is None:
-            polar, src = simulate_scan(poses[k - 1], vehicles, k, config.radar, rng)
+            out = simulate_scan(poses[k - 1], vehicles, k, config.radar, rng, true_azimuth=extra)
         else:
             a, b = batch[0][k - 1], batch[0][k]
-            polar, src = batch[1][a:b], batch[2][a:b]
-        events.append(Scan(t=(k - 1) * traj.dt_s, index=k, polar=polar))
+            out = tuple(arr[a:b] for arr in batch[1:])
+        polar, src = out[0], out[1]
+        channels = None
+        if extra:
+            polar, src, channels = _extras(out, k, poses[k - 1], velocity[k - 1], traffic, config, moving_rng,
+                                           doppler_rng)
+        events.append(Scan(t=(k - 1) * traj.dt_s, index=k, polar=polar, channels=channels))
         sources.append(src)
-    truth = GroundTruth(poses, controls, vehicles, presence(vehicles, traj.n_steps), sources)
+    truth = GroundTruth(poses, controls, vehicles, presence(vehicles, traj.n_steps), sources, traffic)
     return Scenario(events, truth, odo)
+
+
+def _extras(out, k: int, pose: np.ndarray, velocity: np.ndarray, traffic, config: Config,
+            moving_rng: np.random.Generator, doppler_rng: np.random.Generator):
+    """Scan ``k`` with the moving cars' detections appended (shuffled in with ``moving_rng`` when
+    the radar shuffles) and the Doppler channel (b.4.3): ``(polar, sources, channels or None)``."""
+    polar, src, az = out
+    if traffic is not None:
+        mp, maz, msrc = moving_detections(traffic, k, pose, config, moving_rng)
+        if msrc.size:
+            polar, src, az = np.concatenate([polar, mp]), np.concatenate([src, msrc]), np.concatenate([az, maz])
+            if config.radar.shuffle_detections:
+                order = moving_rng.permutation(src.size)
+                polar, src, az = polar[order], src[order], az[order]
+    if not config.radar.doppler:
+        return polar, src, None
+    return polar, src, {"doppler_mps": scan_doppler(az, src, pose, velocity, traffic, k, config, doppler_rng)}

@@ -730,6 +730,7 @@ def why_not(slam, events=None) -> str | None:
         (f.fused, "filter.fused is false"),
         (f.backend == "numba", f"filter.backend is {f.backend!r}"),
         (getattr(slam, "view", None) is None, "the partial-view model (docs/method.md a.12)"),
+        (not f.doppler_gate, "filter.doppler_gate (the Doppler gate, docs/method.md c.10.4)"),
         (type(slam.model) is UnicycleModel, f"motion model {type(slam.model).__name__}"),
         (type(slam.measurement) is RangeAzimuthModel, f"measurement model {type(slam.measurement).__name__}"),
         (type(slam.associator) in (CompiledNearestNeighbourAssociator, CompiledBatchAssociator,

@@ -54,6 +54,8 @@ class ScanReport:
     n_clusters: int
     n_tentative: int
     nis: np.ndarray = field(default_factory=lambda: np.empty(0))  # NIS of each update (2 dof)
+    moving: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=int))  # detections failing c.10.4
+    ego: object = None  # the scan's EgoVelocity (c.10) under filter.doppler_gate, else None
 
 
 @dataclass(frozen=True)
@@ -108,6 +110,8 @@ class EkfSlam:
         self._view_angle: dict[int, float] = {}        # a.12.5: bearing landmark -> sensor at the last scan
         self._scans = 0
         self._last_scan_t: float | None = None
+        #: Draws RANSAC's minimal sets under filter.doppler_gate (c.10.2): a fixed seed, so a run is reproducible.
+        self._doppler_rng = np.random.default_rng(0) if f.doppler_gate else None
 
     def _view_model(self, config: EstimatorConfig, extent_estimator, associator):
         """Under ``extent.view_model`` partial (a.12): the partial-view estimator in place of the
@@ -223,13 +227,18 @@ class EkfSlam:
                              f"{self._last_scan_t!r} (scan {scan.index})")
         self._last_scan_t = t
         k = scan.index
+        keep, moving, ego = None, np.empty(0, dtype=int), None
+        if self.config.filter.doppler_gate:                               # c.10.4
+            keep, moving, ego = self._doppler_gate(scan, polar)
+            polar = polar[keep]
         dt = self._take_scan_interval()
         if self.view is not None:
             self._view_walk()                                             # a.12.5
         prior = self._prior()                                             # Decision 3
         cand = self._sift(polar, prior)                                   # 3
         assoc, nis = self._associate_and_update(polar, cand)              # 4
-        associations = {r.id: np.array(a, dtype=int) for r, a in zip(self.state.landmarks, assoc) if a}
+        associations = {r.id: (np.array(a, dtype=int) if keep is None else keep[a])
+                        for r, a in zip(self.state.landmarks, assoc) if a}
         removed, assoc = self._remove_unseen(assoc, k)                    # 5
         xy = self.measurement.to_world(self.state.pose, polar)            # seed eq. (3), updated pose
         self._extent_step(polar, xy, assoc, prior, dt, k)                 # 6
@@ -239,8 +248,8 @@ class EkfSlam:
         merged = self._merge()                                            # 10
         _check_finite(self.state.x, self.state.P, f"scan {k} (t={scan.t!r}, {polar.shape[0]} detections)")
         n_assoc = sum(a.size for a in associations.values())
-        return ScanReport(k, polar.shape[0], int(cand.sum()), n_assoc, associations, removed,
-                          confirmed, merged, len(clusters), len(self.state.tentatives), nis)
+        return ScanReport(k, polar.shape[0] + moving.size, int(cand.sum()), n_assoc, associations, removed,
+                          confirmed, merged, len(clusters), len(self.state.tentatives), nis, moving, ego)
 
     # ------------------------------------------------------------------ the steps
     def _view_walk(self) -> None:
@@ -263,6 +272,29 @@ class EkfSlam:
             st.P[i, i] += q * step[j]
             st.P[i + 1, i + 1] += q * step[j]
         self._view_angle = {r.id: float(a) for r, a in zip(st.landmarks, phi)}
+
+    def _doppler_gate(self, scan: Scan, polar: np.ndarray):
+        """Fit the sensor velocity to the scan's Doppler (c.10.2) and test each detection against
+        the static world (c.10.4): ``(kept rows, moving rows, EgoVelocity)``. The directions are
+        the platform-frame azimuths: exact for a sensor at the platform origin, and for a lever
+        arm ``l`` off by at most ``|l| / range`` rad."""
+        from radarslam.models.doppler import directions, fit_ego_velocity, moving_mask
+
+        f = self.config.filter
+        ch = scan.channels or {}
+        if polar.shape[0] and "doppler_mps" not in ch:
+            raise InputError(f"scan {scan.index}: filter.doppler_gate expected channels['doppler_mps'], got "
+                             f"channels {sorted(ch)}")
+        d = np.asarray(ch.get("doppler_mps", np.empty(0)), dtype=float)
+        if d.shape != (polar.shape[0],):
+            raise InputError(f"scan {scan.index}: channels['doppler_mps']: expected shape ({polar.shape[0]},), "
+                             f"got {d.shape}")
+        U = directions(polar)
+        ego = fit_ego_velocity(U, d, self._doppler_rng, threshold_mps=f.doppler_threshold_mps,
+                               iterations=f.doppler_iterations, sigma_floor_mps=f.doppler_std_floor_mps,
+                               zero_probability=f.zero_velocity_probability)
+        bad = moving_mask(U, d, ego, f.doppler_gate_probability)
+        return np.flatnonzero(~bad), np.flatnonzero(bad), ego
 
     def _take_scan_interval(self) -> float:
         """Time since the previous scan (0 at the first), for the extent prediction (a.4)."""

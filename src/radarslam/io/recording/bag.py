@@ -264,6 +264,34 @@ def _assemble(path, radar_topic, odom_topic, truth_topic, radar_ns, clouds, mapp
     return rec
 
 
+IMU = "sensor_msgs/msg/Imu"
+
+
+def read_imu(path: str | Path, topic: str, *, log_time: bool) -> tuple[np.ndarray, np.ndarray]:
+    """``(t_ns (n,), gyro (n, 3) rad/s)`` of a ``sensor_msgs/Imu`` topic (its angular velocity).
+
+    ``log_time``: use the bag's log time (when the radar's header stamps are 0 and its times are
+    log times, an IMU's header clock may not be mixed with them, docs/recordings.md "Time")."""
+    path = Path(path)
+    reader = open_bag(path)
+    try:
+        bag = _Bag(reader, path)
+        bag.check(topic, (IMU,), "IMU")
+        t, rows = [], []
+        for log_ns, msg in bag.messages(topic):
+            t.append(log_ns if log_time else _stamp_ns(msg.header))
+            w = msg.angular_velocity
+            rows.append((w.x, w.y, w.z))
+    finally:
+        reader.close()
+    if not rows:
+        raise InputError(f"bag {path} topic {topic}: expected IMU messages, got none")
+    gyro = np.array(rows, dtype=float)
+    if not np.all(np.isfinite(gyro)):
+        raise InputError(f"bag {path} topic {topic}: expected finite angular velocities, got NaN or inf")
+    return np.array(t, dtype=np.int64), gyro
+
+
 def list_topics(path: str | Path) -> dict[str, str]:
     """``{topic: message type}`` of a bag."""
     reader = open_bag(Path(path))
