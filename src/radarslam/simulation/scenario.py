@@ -6,7 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from radarslam.config import Config
+from radarslam.config import Config, FilterConfig
+from radarslam.core.errors import InputError
 from radarslam.core.types import Odometry, Scan
 from radarslam.simulation.radar import simulate_scan
 from radarslam.simulation.trajectory import (commanded_controls, driven_path, odometer_readings, process_noise,
@@ -87,3 +88,50 @@ def generate_scenario(config: Config, rng: np.random.Generator, *, compiled: boo
         sources.append(src)
     truth = GroundTruth(poses, controls, vehicles, presence(vehicles, traj.n_steps), sources)
     return Scenario(events, truth, odo)
+
+
+#: The child of a trial's SeedSequence that draws the initial error (docs/method.md b.5): the first
+#: spawned child, ``spawn_key = trial key + (0,)``, so the trial's own stream (process noise,
+#: odometer, scans) is the same whether or not it is drawn.
+INITIAL_ERROR_CHILD = 0
+
+
+def initial_error_stream(ss: np.random.SeedSequence) -> np.random.Generator:
+    """The generator of trial stream ``ss``'s initial error: its child :data:`INITIAL_ERROR_CHILD`.
+
+    Built from the spawn key (not ``ss.spawn``), so it does not depend on what was spawned before.
+    """
+    if not isinstance(ss, np.random.SeedSequence):
+        raise InputError(f"ss: expected a numpy.random.SeedSequence, got {type(ss).__name__}")
+    child = np.random.SeedSequence(ss.entropy, spawn_key=tuple(ss.spawn_key) + (INITIAL_ERROR_CHILD,),
+                                   pool_size=ss.pool_size)
+    return np.random.default_rng(child)
+
+
+def initial_estimate(filt: FilterConfig, true_pose: np.ndarray, ss: np.random.SeedSequence) -> list[float]:
+    """The filter's initial pose estimate for one trial (docs/method.md b.5).
+
+    Parameters
+    ----------
+    filt : FilterConfig
+        ``initial_error`` "fixed": ``initial_pose`` as configured (the paper's). "draw":
+        ``true_pose + L z`` with ``z ~ N(0, I_3)`` from :func:`initial_error_stream` and
+        ``L = diag(initial_pose_std)`` (m, m, rad), so the error is a draw from the filter's own
+        initial covariance ``P_1``; every variant of a trial shares ``z``.
+    true_pose : ndarray, shape (3,)
+        True first pose [x_m, y_m, theta_rad].
+    ss : numpy.random.SeedSequence
+        The trial's stream (its child draws; the stream itself is not touched).
+
+    Returns
+    -------
+    list of float, length 3
+        [x_m, y_m, theta_rad]; the heading is not wrapped (the filter wraps after a prediction).
+    """
+    if filt.initial_error == "fixed":
+        return list(filt.initial_pose)
+    pose = np.asarray(true_pose, dtype=float)
+    if pose.shape != (3,) or not np.all(np.isfinite(pose)):
+        raise InputError(f"true_pose: expected 3 finite values [x_m, y_m, theta_rad], got {true_pose!r}")
+    z = initial_error_stream(ss).standard_normal(3)
+    return (pose + np.asarray(filt.initial_pose_std, dtype=float) * z).tolist()
