@@ -15,10 +15,11 @@ from radarslam.experiments.montecarlo import load_results, run_montecarlo
 
 def main(doc: str, variants: list, table: Callable[[dict], list[dict]], markdown: Callable[[list[dict], dict], str],
          stem: str, *, trials: int, seed: int, out: str, refuse_seed: int | None = None,
-         argv: list[str] | None = None) -> int:
+         argv: list[str] | None = None, after: Callable[[list[dict], dict, Path], None] | None = None) -> int:
     """Parse ``--trials --seed --jobs --backend --profile --out``, run (or resume) the Monte Carlo of
     ``variants``, print ``markdown(table(res), res)`` and write it with the rows as ``stem.md`` and
-    ``stem.json`` (with the seed, trial count and configuration) into the run directory."""
+    ``stem.json`` (with the seed, trial count and configuration) into the run directory; then
+    ``after(rows, res, run_dir)`` if given (e.g. a figure beside the table)."""
     p = argparse.ArgumentParser(description=doc.splitlines()[0])
     p.add_argument("--trials", type=int, default=trials)
     p.add_argument("--seed", type=int, default=seed)
@@ -40,4 +41,6 @@ def main(doc: str, variants: list, table: Callable[[dict], list[dict]], markdown
     Path(a.out, f"{stem}.md").write_text(text + "\n")
     Path(a.out, f"{stem}.json").write_text(json.dumps({"seed": a.seed, "trials": int(res["trials"].size),
                                                        "config": to_dict(cfg), "rows": rows}, indent=2) + "\n")
+    if after is not None:
+        after(rows, res, Path(a.out))
     return 0

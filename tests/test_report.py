@@ -433,6 +433,7 @@ def test_write_report_writes_every_file(mc_dir, report, res):
     assert [r[0] for r in nees_rows[1:]] == ["No extent", "With extent"]
     assert [float(r[4]) for r in nees_rows[1:]] == [pytest.approx(report["nees"]["configs"][c]["time_avg"], abs=5e-3)
                                                     for c in ("noext", "ext")]
+    assert [r[5] for r in nees_rows[1:]] == ["fixed", "fixed"]      # docs/method.md b.5: the paper's offset
 
 
 def test_a_third_variant_appears_in_every_output(mc3_dir):

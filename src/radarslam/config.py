@@ -208,6 +208,13 @@ class FilterConfig:
                         "engine\"); false = the orchestrator, scan by scan")
     initial_pose: list[float] = param([0.1, 0.1, math.pi / 180.0], "initial estimate [x_m, y_m, theta_rad]", length=3)
     initial_pose_std: list[float] = param([0.15, 0.15, math.pi / 180.0], "initial std [x_m, y_m, theta_rad]", length=3)
+    initial_error: str = param("fixed", "[PROP] simulation: the initial estimate's error (b.5): fixed (initial_pose, "
+                               "the paper's, the same offset in every trial) or draw (the true first pose plus a draw "
+                               "from N(0, diag(initial_pose_std^2)), per trial from its own child stream)",
+                               choices=("fixed", "draw"))
+    jacobians: str = param("standard", "[PROP] where the EKF's Jacobians are evaluated (c.2.1): standard (the "
+                           "current estimate) or fej (first estimates, Huang/Mourikis/Roumeliotis; orchestrator only)",
+                           choices=("standard", "fej"))
     range_std_m: float = param(0.5, "R: range std (m)", low=0.0, low_open=True)
     azimuth_std_deg: float = param(1.0, "R: azimuth std (deg)", low=0.0, low_open=True)
     speed_std_mps: float = param(0.02, "U: speed std (m/s)", low=0.0)

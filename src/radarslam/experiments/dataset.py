@@ -10,7 +10,7 @@ import numpy as np
 from radarslam.config import Config, validate
 from radarslam.core.registry import EXTENT_ESTIMATORS
 from radarslam.core.types import Odometry, Scan
-from radarslam.core.errors import InputError
+from radarslam.core.errors import ConfigError, InputError
 from radarslam.extent.ellipse import trunk_diameter  # noqa: F401  (re-exported: its former home)
 from radarslam.metrics.alignment import error_against_fixes
 from radarslam.models.radar import polar_to_xy
@@ -57,6 +57,9 @@ def run_dataset(name: str, path, config: Config, *, first_scan: int | None = Non
     from radarslam.io.datasets import get_dataset
 
     config = validate(config)
+    if config.filter.initial_error != "fixed":   # b.5: a draw needs the true first pose of a simulation
+        raise ConfigError(f"filter.initial_error: expected 'fixed' for real data (no true first pose to draw about), "
+                          f"got {config.filter.initial_error!r}")
     t0 = time.perf_counter()
     data = get_dataset(name)(path, first_scan=first_scan, n_scans=n_scans, **(loader_options or {}))
     load_s = time.perf_counter() - t0

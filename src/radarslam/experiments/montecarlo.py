@@ -24,7 +24,7 @@ import numpy as np
 
 from radarslam.config import Config, from_dict, to_dict, validate
 from radarslam.core.errors import InputError, RadarSlamError
-from radarslam.experiments.single import check_simulation_config, evaluate, run_filter
+from radarslam.experiments.single import check_simulation_config, evaluate, run_filter, with_initial_estimate
 from radarslam.experiments.store import CorruptTrial, TrialStore, check_identity, config_hash, decode_trial, encode_trial
 from radarslam.experiments.variants import DEFAULT_VARIANTS, Variant, apply_variant, check_variants
 from radarslam.experiments.warmup import warm_up
@@ -84,12 +84,13 @@ def compute_trial(config: Config | dict, seed: int, trial: int,
     cfg = from_dict(config) if isinstance(config, dict) else config
     variants = check_variants(variants)
     t0 = time.perf_counter()
-    scenario = generate_scenario(cfg, np.random.default_rng(trial_seed(seed, trial)))
+    ss = trial_seed(seed, trial)
+    scenario = generate_scenario(cfg, np.random.default_rng(ss))
     arrays: dict[str, np.ndarray] = {"true_poses": scenario.truth.poses}
     K = scenario.truth.poses.shape[0]
     seconds = {}
     for v in variants:
-        c = variant_config(cfg, v)
+        c = with_initial_estimate(variant_config(cfg, v), scenario, ss)   # b.5: fixed, or drawn per trial
         rec = run_filter(c, scenario.events)
         m = evaluate(c, scenario, rec)
         name = v.name

@@ -12,7 +12,7 @@ import numpy as np
 
 from radarslam.config import Config, to_toml, validate
 from radarslam.core.angles import wrap_pi
-from radarslam.core.errors import InputError
+from radarslam.core.errors import ConfigError, InputError
 from radarslam.core.types import Scan
 from radarslam.experiments.single import FilterRecord, run_filter
 from radarslam.io.recording.mounting import Mounting, to_sensor
@@ -95,6 +95,9 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None) -> RecordingR
     """Run :class:`~radarslam.slam.EkfSlam` over ``rec`` with ``config`` and evaluate against its truth."""
     config = validate(config)
     check_motion_model(rec, config.filter.motion_model)
+    if config.filter.initial_error != "fixed":   # b.5: a draw needs the true first pose of a simulation
+        raise ConfigError(f"filter.initial_error: expected 'fixed' for real data (no true first pose to draw about), "
+                          f"got {config.filter.initial_error!r}")
     m = effective_mounting(rec, config)
     config = dataclasses.replace(config, sensor=dataclasses.replace(
         config.sensor, mount_x_m=m.x, mount_y_m=m.y, mount_yaw_deg=math.degrees(m.yaw)))

@@ -13,7 +13,7 @@ from radarslam.core.types import Odometry, Scan
 from radarslam.metrics.extent import extent_metrics, rectangle_centers
 from radarslam.metrics.landmarks import landmark_metrics, matches
 from radarslam.metrics.pose import avg_rmse, pose_errors, pose_nees
-from radarslam.simulation.scenario import Scenario, generate_scenario
+from radarslam.simulation.scenario import Scenario, generate_scenario, initial_estimate
 from radarslam.slam import _fused
 from radarslam.slam.filter import EkfSlam, MapSnapshot
 
@@ -156,6 +156,16 @@ def check_simulation_config(config: Config) -> Config:
     return config
 
 
+def with_initial_estimate(config: Config, scenario: Scenario, ss: np.random.SeedSequence) -> Config:
+    """``config`` with ``filter.initial_pose`` set to the trial's initial estimate
+    (:func:`~radarslam.simulation.scenario.initial_estimate`, docs/method.md b.5): ``config`` itself
+    when ``filter.initial_error`` is "fixed", else a copy (the original is not changed)."""
+    if config.filter.initial_error == "fixed":
+        return config
+    pose = initial_estimate(config.filter, scenario.truth.poses[0], ss)
+    return replace(config, filter=replace(config.filter, initial_pose=pose))
+
+
 def run_trial(config: Config, seed: int | np.random.SeedSequence, *, use_extent: bool | None = None,
               on_scan=None) -> TrialResult:
     """Simulate one scenario from ``seed`` and run the filter on it.
@@ -168,6 +178,7 @@ def run_trial(config: Config, seed: int | np.random.SeedSequence, *, use_extent:
         config = replace(config, extent=replace(config.extent, use_in_slam=use_extent))
     ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
     scenario = generate_scenario(config, np.random.default_rng(ss))
+    config = with_initial_estimate(config, scenario, ss)
     rec = run_filter(config, scenario.events, on_scan=on_scan)
     seed_out = ss.entropy if not ss.spawn_key else {"entropy": ss.entropy, "spawn_key": list(ss.spawn_key)}
     return TrialResult(config, seed_out, scenario, rec, evaluate(config, scenario, rec))

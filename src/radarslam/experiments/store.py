@@ -56,6 +56,11 @@ TRIAL_NAME = re.compile(r"trial_(\d{6})\.npz")
 VARIANT_KEYS = ("poses", "n_landmarks", "scalars")
 
 
+#: Filter keys added after runs were stored, with their defaults: left out of the hash at the default
+#: so the identity of older directories holds (docs/method.md b.5, c.2.1).
+LATER_FILTER_KEYS = {"initial_error": "fixed", "jacobians": "standard"}
+
+
 def config_hash(config: Config, variants: tuple[Variant, ...] | None = None) -> str:
     """SHA-256 of the canonical JSON of the configuration and the variants (names, labels, overlays).
 
@@ -66,6 +71,9 @@ def config_hash(config: Config, variants: tuple[Variant, ...] | None = None) -> 
     cfg = to_dict(config)
     if cfg.get("sensor") == to_dict(SensorConfig()):
         del cfg["sensor"]   # the recordings' section (added later): at its default, the hash of older runs holds
+    for key, default in LATER_FILTER_KEYS.items():   # filter keys added later: at their default, the same
+        if cfg.get("filter", {}).get(key) == default:
+            del cfg["filter"][key]
     data = cfg if variants is None else {"config": cfg, "variants": variant_hash_data(variants)}
     text = json.dumps(data, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()

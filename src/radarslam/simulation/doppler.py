@@ -1,7 +1,7 @@
 """Doppler and moving cars in the simulated car park (docs/method.md b.4.3).
 
-Both options draw from their own child streams of the trial's generator (``rng.spawn``, which
-leaves the parent's state untouched), so the parked cars, the clutter and the odometer readings
+Both options draw from their own child streams of the trial's generator
+(``scenario.child_stream``, by spawn key, apart from the initial error's child), so the parked cars, the clutter and the odometer readings
 are the same draws with or without them; with both off nothing here runs and the simulation is
 bit-identical to the one without this module.
 

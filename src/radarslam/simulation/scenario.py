@@ -6,7 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from radarslam.config import Config
+from radarslam.config import Config, FilterConfig
+from radarslam.core.errors import InputError
 from radarslam.core.types import Odometry, Scan
 from radarslam.simulation.doppler import (MovingTraffic, moving_detections, moving_traffic, platform_velocities,
                                           scan_doppler)
@@ -80,7 +81,7 @@ def generate_scenario(config: Config, rng: np.random.Generator, *, compiled: boo
     extra = config.radar.doppler or config.world.moving_vehicles > 0
     traffic = None
     if extra:
-        doppler_rng, moving_rng = rng.spawn(2)
+        doppler_rng, moving_rng = (child_stream(rng, c) for c in (DOPPLER_CHILD, MOVING_CHILD))
         if config.world.moving_vehicles:
             traffic = moving_traffic(config, moving_rng)
         velocity = platform_velocities(controls)
@@ -124,3 +125,59 @@ def _extras(out, k: int, pose: np.ndarray, velocity: np.ndarray, traffic, config
     if not config.radar.doppler:
         return polar, src, None
     return polar, src, {"doppler_mps": scan_doppler(az, src, pose, velocity, traffic, k, config, doppler_rng)}
+
+
+#: The children of a trial's SeedSequence, each built from its spawn key (``trial key + (c,)``), so
+#: that the trial's own stream (process noise, odometer, scans) is the same whether or not they are
+#: drawn and no two options share a stream: the initial error (docs/method.md b.5), the Doppler
+#: noise and the moving cars (b.4.3).
+INITIAL_ERROR_CHILD, DOPPLER_CHILD, MOVING_CHILD = 0, 1, 2
+
+
+def child_stream(rng: np.random.Generator, child: int) -> np.random.Generator:
+    """The generator of child ``child`` of the SeedSequence behind ``rng`` (by its spawn key; the
+    parent's state and spawn counter are not touched)."""
+    ss = rng.bit_generator.seed_seq
+    return np.random.default_rng(np.random.SeedSequence(ss.entropy, spawn_key=tuple(ss.spawn_key) + (child,),
+                                                        pool_size=ss.pool_size))
+
+
+def initial_error_stream(ss: np.random.SeedSequence) -> np.random.Generator:
+    """The generator of trial stream ``ss``'s initial error: its child :data:`INITIAL_ERROR_CHILD`.
+
+    Built from the spawn key (not ``ss.spawn``), so it does not depend on what was spawned before.
+    """
+    if not isinstance(ss, np.random.SeedSequence):
+        raise InputError(f"ss: expected a numpy.random.SeedSequence, got {type(ss).__name__}")
+    child = np.random.SeedSequence(ss.entropy, spawn_key=tuple(ss.spawn_key) + (INITIAL_ERROR_CHILD,),
+                                   pool_size=ss.pool_size)
+    return np.random.default_rng(child)
+
+
+def initial_estimate(filt: FilterConfig, true_pose: np.ndarray, ss: np.random.SeedSequence) -> list[float]:
+    """The filter's initial pose estimate for one trial (docs/method.md b.5).
+
+    Parameters
+    ----------
+    filt : FilterConfig
+        ``initial_error`` "fixed": ``initial_pose`` as configured (the paper's). "draw":
+        ``true_pose + L z`` with ``z ~ N(0, I_3)`` from :func:`initial_error_stream` and
+        ``L = diag(initial_pose_std)`` (m, m, rad), so the error is a draw from the filter's own
+        initial covariance ``P_1``; every variant of a trial shares ``z``.
+    true_pose : ndarray, shape (3,)
+        True first pose [x_m, y_m, theta_rad].
+    ss : numpy.random.SeedSequence
+        The trial's stream (its child draws; the stream itself is not touched).
+
+    Returns
+    -------
+    list of float, length 3
+        [x_m, y_m, theta_rad]; the heading is not wrapped (the filter wraps after a prediction).
+    """
+    if filt.initial_error == "fixed":
+        return list(filt.initial_pose)
+    pose = np.asarray(true_pose, dtype=float)
+    if pose.shape != (3,) or not np.all(np.isfinite(pose)):
+        raise InputError(f"true_pose: expected 3 finite values [x_m, y_m, theta_rad], got {true_pose!r}")
+    z = initial_error_stream(ss).standard_normal(3)
+    return (pose + np.asarray(filt.initial_pose_std, dtype=float) * z).tolist()

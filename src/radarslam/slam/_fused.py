@@ -729,6 +729,7 @@ def why_not(slam, events=None) -> str | None:
     checks = (
         (f.fused, "filter.fused is false"),
         (f.backend == "numba", f"filter.backend is {f.backend!r}"),
+        (f.jacobians == "standard", "filter.jacobians 'fej' (first-estimates Jacobians, docs/method.md c.2.1)"),
         (getattr(slam, "view", None) is None, "the partial-view model (docs/method.md a.12)"),
         (not f.doppler_gate, "filter.doppler_gate (the Doppler gate, docs/method.md c.10.4)"),
         (type(slam.model) is UnicycleModel, f"motion model {type(slam.model).__name__}"),

@@ -85,6 +85,8 @@ class NearestNeighbourAssociator:
 
     name = "nearest-neighbour"
     backend = "python"
+    #: Evaluates its Jacobians at ``state.linearisation(j)`` (first-estimates Jacobians, c.2.1).
+    fej = True
 
     def __init__(self, beta: float, n_nearest: int, n_nearest_new: int):
         self.beta = float(beta)
@@ -107,7 +109,7 @@ class NearestNeighbourAssociator:
         j, D, e = ekf.score_landmarks(state.x, state.P, s, js, R, gX, xs)
         if j < 0:
             return (-1, math.inf, None, None, None, None)
-        Hs, idx = ekf.sparse_jacobian(state.x, j)
+        Hs, idx = ekf.sparse_jacobian(state.linearisation(j), j)   # first estimates under FEJ (c.2.1)
         Rj = ekf.r_eff(R, Hs, spreads.gX[j]) if spreads is not None and spreads.has[j] else R
         return (j, D, np.array(e), Hs, idx, Rj)
 
@@ -162,6 +164,8 @@ class BatchAssociator(NearestNeighbourAssociator):
             pts, R_xy = ekf.polar_to_sensor_xy(polar[dets], R)
             noise = ekf.batch_noise(state.x[2], spreads.gX[j], spreads.has[j], R_xy, dets.size)
             h, Hs, idx = ekf.sensor_xy_measurement(state.x, j)
+            if state.lin_pose is not None:        # first-estimates Jacobian (c.2.1), h at the estimate
+                Hs = ekf.sensor_xy_measurement(state.linearisation(j), j)[1]
             q = ekf.joseph_update_inplace(state.x, state.P, pts.mean(axis=0) - h, Hs, idx, noise)
             nis.append(q)
         return out, np.array(nis)
@@ -192,6 +196,8 @@ class JointBatchAssociator(BatchAssociator):
             dets = candidates[out == j]
             pts, R_xy = ekf.polar_to_sensor_xy(polar[dets], R)
             h, Hs, idx = ekf.sensor_xy_measurement(state.x, j)
+            if state.lin_pose is not None:        # first-estimates Jacobian (c.2.1)
+                Hs = ekf.sensor_xy_measurement(state.linearisation(j), j)[1]
             e[2 * a:2 * a + 2] = pts.mean(axis=0) - h
             H[2 * a:2 * a + 2, idx] = Hs
             Rb[2 * a:2 * a + 2, 2 * a:2 * a + 2] = ekf.batch_noise(state.x[2], spreads.gX[j], spreads.has[j], R_xy,

@@ -41,14 +41,34 @@ def predict(x: np.ndarray, P: np.ndarray, u: np.ndarray, dt: float, model: Motio
 
 
 def predict_terms(x: np.ndarray, P: np.ndarray, u: np.ndarray, dt: float, model: MotionModel,
-                  U: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                  U: np.ndarray, Q: np.ndarray, pose_first: np.ndarray | None = None,
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """What the prediction changes: the new pose ``(3,)``, pose block ``(3, 3)`` and pose-landmark
-    block ``(3, n - 3)`` (c.2), computed without touching ``x`` or ``P``."""
+    block ``(3, n - 3)`` (c.2), computed without touching ``x`` or ``P``. With ``pose_first``
+    (3,), the first estimate of the current pose (the previous prediction's), ``F_x`` is the
+    first-estimates Jacobian of :func:`fej_motion_jacobian` (docs/method.md c.2.1)."""
     Fx, Fu = model.jacobians(x[:3], u, dt)
     pose = model.step(x[:3], u, dt)
+    if pose_first is not None:
+        Fx = fej_motion_jacobian(Fx, pose, pose_first)
     Ppp = Fx @ P[:3, :3] @ Fx.T + Fu @ U @ Fu.T + Q
     Ppl = Fx @ P[:3, 3:]
     return pose, Ppp, Ppl
+
+
+def fej_motion_jacobian(Fx: np.ndarray, pose_new: np.ndarray, pose_first: np.ndarray) -> np.ndarray:
+    """The first-estimates pose Jacobian (docs/method.md c.2.1; Huang, Mourikis & Roumeliotis 2008).
+
+    For a model whose position moves by a heading-rotated increment (the unicycle: ``F_x`` has the
+    heading column ``(-dy, dx, 1)`` with ``(dx, dy) = t_{k+1} - t_k`` in m), the column is taken
+    between the new prediction ``pose_new`` (3,) and the *first* estimate of the current pose,
+    ``pose_first`` (3,), the previous prediction, instead of the updated estimate. Products of
+    these Jacobians then telescope, ``F_{k+l-1} ... F_k = [[I, J (t_{k+l} - t_k)], [0, 1]]``,
+    which keeps the unobservable global rotation unobservable. Returns a new ``(3, 3)`` array."""
+    F = np.array(Fx, dtype=float)
+    F[0, 2] = -(float(pose_new[1]) - float(pose_first[1]))
+    F[1, 2] = float(pose_new[0]) - float(pose_first[0])
+    return F
 
 
 def apply_prediction(x: np.ndarray, P: np.ndarray, pose: np.ndarray, Ppp: np.ndarray, Ppl: np.ndarray) -> None:

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from radarslam.config import Config, EstimatorConfig
-from radarslam.core.errors import InputError
+from radarslam.core.errors import ConfigError, InputError
 from radarslam.core.registry import ASSOCIATORS, EXTENT_ESTIMATORS, MEASUREMENT_MODELS
 from radarslam.core.types import Odometry, Scan
 from radarslam.core.validation import as_array
@@ -93,8 +93,11 @@ class EkfSlam:
         f = config.filter
         self.model = motion_model or motion_model_from_config(f)
         self.measurement = measurement_model or MEASUREMENT_MODELS.create(f.measurement_model, f)
+        #: First-estimates Jacobians (docs/method.md c.2.1): the Python associators evaluate them.
+        self.fej = f.jacobians == "fej"
         try:
-            self.associator = associator or ASSOCIATORS.create(config.landmarks.associator, config, backend=f.backend)
+            self.associator = associator or ASSOCIATORS.create(config.landmarks.associator, config,
+                                                               backend="python" if self.fej else f.backend)
         except ImportError:
             raise InputError("filter.backend: 'numba' needs numba (a dependency of radarslam: pip install numba), "
                              "or choose filter.backend = 'python'") from None
@@ -106,6 +109,10 @@ class EkfSlam:
         self.U = self.model.control_cov(f)
         self.Q = f.Q
         self.state = SlamState.initial(f.initial_pose, f.initial_pose_std)
+        #: FEJ: the first estimate of the current pose (the last prediction, or the initial pose).
+        self._pose_first = self.state.pose if self.fej else None
+        if self.fej:
+            self._check_fej(config)
         self._dt_since_scan = 0.0
         self._view_angle: dict[int, float] = {}        # a.12.5: bearing landmark -> sensor at the last scan
         self._scans = 0
@@ -128,6 +135,20 @@ class EkfSlam:
         if associator is None:
             self.associator = partial_view_associator(config)
         return ec.view_model_error_m ** 2 * np.eye(2)
+
+    def _check_fej(self, config: EstimatorConfig) -> None:
+        """Refuse first-estimates Jacobians (c.2.1) where they are not built: a motion model other
+        than the unicycle, an associator that does not evaluate them, or the partial view."""
+        got = None
+        if getattr(self.model, "name", None) != "unicycle":
+            got = f"motion model {config.filter.motion_model!r}"
+        elif not getattr(self.associator, "fej", False):
+            got = f"associator {config.landmarks.associator!r}"
+        elif self.view is not None:
+            got = "the partial-view model (extent.view_model)"
+        if got is not None:
+            raise ConfigError(f"filter.jacobians: expected 'standard' with {got} (first estimates are built for the "
+                              f"unicycle with nearest-neighbour, batch or batch-joint, full view), got 'fej'")
 
     # ------------------------------------------------------------------ views
     @property
@@ -202,12 +223,14 @@ class EkfSlam:
             raise InputError(f"odometry.dt: expected a finite value > 0, got {odo.dt!r}")
         st = self.state
         with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
-            pose, Ppp, Ppl = ekf.predict_terms(st.x, st.P, u, dt, self.model, self.U, self.Q)
+            pose, Ppp, Ppl = ekf.predict_terms(st.x, st.P, u, dt, self.model, self.U, self.Q, self._pose_first)
         # only the pose rows change (c.2): check them, then write them in place (O(N), no copy of P)
         if not (np.isfinite(pose).all() and np.isfinite(Ppp).all() and np.isfinite(Ppl).all()):
             _check_finite(pose, np.concatenate([Ppp.ravel(), Ppl.ravel()]),
                           f"odometry at t={odo.t!r} (control {u.tolist()}, dt {dt!r})")
         ekf.apply_prediction(st.x, st.P, pose, Ppp, Ppl)
+        if self.fej:
+            self._pose_first = pose.copy()      # the first estimate of the new pose (c.2.1)
         self._dt_since_scan += dt
 
     def update(self, scan: Scan) -> ScanReport:
@@ -235,6 +258,8 @@ class EkfSlam:
         if self.view is not None:
             self._view_walk()                                             # a.12.5
         prior = self._prior()                                             # Decision 3
+        if self.fej:                     # this scan's Jacobians at its predicted pose (c.2.1)
+            self.state.lin_pose = self._pose_first.copy()
         cand = self._sift(polar, prior)                                   # 3
         assoc, nis = self._associate_and_update(polar, cand)              # 4
         associations = {r.id: (np.array(a, dtype=int) if keep is None else keep[a])

@@ -335,6 +335,8 @@ class JcbbAssociator(NearestNeighbourAssociator):
         The latest scan's search.
     """
 
+    fej = False   # its updates are evaluated at the estimate (no first-estimates Jacobians, c.2.1)
+
     name = "jcbb"
 
     def __init__(self, beta: float, n_nearest: int, n_nearest_new: int, gate_probability: float = 0.99,

@@ -120,6 +120,8 @@ class _PartialView:
     """The scoring shared by the partial-view associators: every candidate against its ``N_s``
     landmarks nearest to it by their predicted detection means ``mu`` (not their centroids)."""
 
+    fej = False   # no first-estimates Jacobians for the partial view (docs/method.md c.2.1)
+
     def _terms(self, state: SlamState, R: np.ndarray, spreads: Spreads):
         if spreads.shapes is None:
             raise InputError("extent.view_model: 'partial' needs the extent estimator's shapes "

@@ -31,6 +31,9 @@ class LandmarkRecord:
     assoc: int = 1  # M/N windows, newest-first bits; [1, 0, ..., 0] at creation (docs/method.md c.5)
     in_range: int = 1
     extent: Any = None
+    #: The landmark's first estimate [px, py] (m), its centroid when it entered the state: where
+    #: its measurement Jacobian is evaluated under first-estimates Jacobians (docs/method.md c.2.1).
+    first: np.ndarray | None = None
 
 
 @dataclass
@@ -43,6 +46,9 @@ class SlamState:
     landmarks: list[LandmarkRecord] = field(default_factory=list)
     tentatives: list[Tentative] = field(default_factory=list)
     next_id: int = 0
+    #: Under first-estimates Jacobians (docs/method.md c.2.1): the pose [x_m, y_m, theta_rad] at
+    #: which this scan's measurement Jacobians are evaluated (its prediction); None = the estimate.
+    lin_pose: np.ndarray | None = None
 
     @classmethod
     def initial(cls, pose, pose_std) -> "SlamState":
@@ -101,6 +107,20 @@ class SlamState:
         """Landmark id -> its position ``j`` in the state."""
         return {r.id: j for j, r in enumerate(self.landmarks)}
 
+    def linearisation(self, j: int) -> np.ndarray:
+        """The state at which landmark ``j``'s measurement Jacobian is evaluated: ``x`` itself, or
+        under first-estimates Jacobians (:attr:`lin_pose` set; c.2.1) a copy of ``x`` (n,) with the
+        pose ``lin_pose`` and landmark ``j`` at its first estimate."""
+        if self.lin_pose is None:
+            return self.x
+        x = self.x.copy()
+        x[:POSE_DIM] = self.lin_pose
+        first = self.landmarks[j].first
+        if first is not None:
+            i = self.index(j)
+            x[i:i + 2] = first
+        return x
+
     # ---------------------------------------------------------------- changes
     def set(self, x: np.ndarray, P: np.ndarray) -> None:
         """Replace the mean and covariance (same dimension)."""
@@ -121,7 +141,7 @@ class SlamState:
             raise ValueError(f"x: expected {self.x.shape[0] + 2} entries, got {x.shape[0]}")
         self.x, self.P = x, P
         lid = self.next_id
-        self.landmarks.append(LandmarkRecord(lid, created, extent=extent))
+        self.landmarks.append(LandmarkRecord(lid, created, extent=extent, first=x[-2:].copy()))
         self.next_id += 1
         return lid
 

@@ -227,9 +227,11 @@ def nees_csv(ns: dict) -> str:
 
 
 def nees_markdown(ns: dict) -> str:
-    return _md_table(["variant", "scans inside band", "below", "above", "time-averaged NEES"],
+    """The NEES table, with each variant's initial error (docs/method.md b.5: fixed offset or drawn from P_1)."""
+    return _md_table(["variant", "scans inside band", "below", "above", "time-averaged NEES", "initial error"],
                      [[c["label"], f"{100 * c['frac_inside']:.1f}%", f"{100 * c['frac_below']:.1f}%",
-                       f"{100 * c['frac_above']:.1f}%", _fmt(c["time_avg"], 2)] for c in ns["configs"].values()])
+                       f"{100 * c['frac_above']:.1f}%", _fmt(c["time_avg"], 2), c.get("initial_error", "fixed")]
+                      for c in ns["configs"].values()])
 
 
 def nis_csv(ns: dict) -> str:
@@ -311,7 +313,9 @@ def report_markdown(rep: dict) -> str:
     lo, hi = ns["band"]
     L += ["", "## Pose NEES (3 dof)", "",
           f"Two-sided {int(round(100 * ns['prob']))}% band of the average over {ns['n_runs']} trials: "
-          f"[{lo:.3f}, {hi:.3f}] (consistent filter: average 3).", "", nees_markdown(ns)]
+          f"[{lo:.3f}, {hi:.3f}] (consistent filter: average 3). Initial error (docs/method.md b.5): "
+          "`fixed` = `filter.initial_pose` in every trial (the paper's offset), `draw` = a draw from the "
+          "filter's initial covariance per trial.", "", nees_markdown(ns)]
     nis = rep.get("nis")
     if nis and nis["configs"]:
         L += ["", "## NIS of the EKF updates (2 dof)", "",

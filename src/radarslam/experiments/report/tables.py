@@ -273,6 +273,16 @@ def landmark_table(res: dict) -> dict:
 # NEES
 
 
+def initial_error_of(res: dict, name: str) -> str:
+    """How variant ``name`` of ``res`` drew its initial error (docs/method.md b.5): its overlay's
+    ``filter.initial_error``, else the run configuration's; "fixed" when neither says."""
+    base = getattr(getattr(res.get("config"), "filter", None), "initial_error", "fixed")
+    for v in res.get("variants", ()):
+        if isinstance(v, Variant) and v.name == name:
+            return str(v.overlay.get("filter", {}).get("initial_error", base))
+    return str(base)
+
+
 def nees_summary(res: dict, prob: float = 0.95) -> dict:
     """Average 3-dof pose NEES per scan against the chi-square band of the average of N runs.
 
@@ -306,7 +316,7 @@ def nees_summary(res: dict, prob: float = 0.95) -> dict:
         lo, hi = chi2_band(dof, n, prob)
         fin = np.isfinite(avg)
         out["configs"][name] = {
-            "label": label, "avg_nees": avg,
+            "label": label, "avg_nees": avg, "initial_error": initial_error_of(res, name),
             "frac_inside": float(np.mean(fin & (avg >= lo) & (avg <= hi))),
             "frac_below": float(np.mean(fin & (avg < lo))),
             "frac_above": float(np.mean(fin & (avg > hi))),
