@@ -44,3 +44,25 @@ def main(doc: str, variants: list, table: Callable[[dict], list[dict]], markdown
     if after is not None:
         after(rows, res, Path(a.out))
     return 0
+
+
+def run_under_spread_model(variants: list, spread_model: str, seed: int, trials: int, out: str, jobs: int,
+                           stem: str) -> str:
+    """Run (or resume) the Monte Carlo of ``variants`` with the car park simulated under
+    ``spread_model`` (radar and extent alike), print the ablation-style table (position, heading,
+    NEES, NIS) and write it as ``out/stem.md``; returns the table."""
+    from dataclasses import replace
+
+    from ablation_consistent import markdown, table
+
+    from radarslam.experiments.report import nees_summary
+
+    cfg = profile_config()
+    cfg = replace(cfg, radar=replace(cfg.radar, spread_model=spread_model),
+                  extent=replace(cfg.extent, spread_model=spread_model))
+    run_montecarlo(cfg, seed, trials, out, jobs=jobs, variants=variants)
+    res = load_results(out)
+    text = markdown(table(res), res["trials"].size, res["seed"], nees_summary(res)["band"])
+    print(text)
+    Path(out, f"{stem}.md").write_text(text + "\n")
+    return text

@@ -16,14 +16,9 @@ from __future__ import annotations
 import argparse
 import copy
 import sys
-from dataclasses import replace
-from pathlib import Path
 
-from ablation_consistent import markdown, table
+from _montecarlo_table import run_under_spread_model
 
-from radarslam.config import profile_config
-from radarslam.experiments.montecarlo import load_results, run_montecarlo
-from radarslam.experiments.report import nees_summary
 from radarslam.experiments.variants import CONSISTENT, Variant
 
 PARTS = (
@@ -56,14 +51,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--spread-model", default="visible-faces")
     p.add_argument("--out", default="runs/pv-ablation")
     a = p.parse_args(argv)
-    cfg = profile_config()
-    cfg = replace(cfg, radar=replace(cfg.radar, spread_model=a.spread_model),
-                  extent=replace(cfg.extent, spread_model=a.spread_model))
-    run_montecarlo(cfg, a.seed, a.trials, a.out, jobs=a.jobs, variants=ablation_variants())
-    res = load_results(a.out)
-    text = markdown(table(res), res["trials"].size, res["seed"], nees_summary(res)["band"])
-    print(text)
-    Path(a.out, "ablation.md").write_text(text + "\n")
+    run_under_spread_model(ablation_variants(), a.spread_model, a.seed, a.trials, a.out, a.jobs, "ablation")
     return 0
 
 

@@ -15,15 +15,10 @@ from __future__ import annotations
 import argparse
 import copy
 import sys
-from dataclasses import replace
-from pathlib import Path
 
-from ablation_consistent import markdown, table
+from _montecarlo_table import run_under_spread_model
 
-from radarslam.experiments.montecarlo import load_results, run_montecarlo
-from radarslam.experiments.report import nees_summary
 from radarslam.experiments.variants import CONSISTENT, Variant
-from radarslam.config import profile_config
 
 GRID = {
     "view_model_error_m": (0.3, 0.7),
@@ -76,14 +71,8 @@ def main(argv: list[str] | None = None) -> int:
     if a.seed == 1:
         print("partial_view_sweep: --seed 1 is the reporting seed; choose parameters on other seeds", file=sys.stderr)
         return 2
-    cfg = profile_config()
-    cfg = replace(cfg, radar=replace(cfg.radar, spread_model=a.spread_model),
-                  extent=replace(cfg.extent, spread_model=a.spread_model))
-    run_montecarlo(cfg, a.seed, a.trials, a.out, jobs=a.jobs, variants=walk_variants() if a.walk else sweep_variants(not a.pairs_only, not a.defaults_only))
-    res = load_results(a.out)
-    text = markdown(table(res), res["trials"].size, res["seed"], nees_summary(res)["band"])
-    print(text)
-    Path(a.out, "sweep.md").write_text(text + "\n")
+    variants = walk_variants() if a.walk else sweep_variants(not a.pairs_only, not a.defaults_only)
+    run_under_spread_model(variants, a.spread_model, a.seed, a.trials, a.out, a.jobs, "sweep")
     return 0
 
 
