@@ -120,11 +120,7 @@ def load_victoria_park(
     else:
         polars = _laser_polars(ranges_cm, min_range, max_range)
     odo, events = _merge_events(dr_t, speed, steering, scan_t, scan_index, polars)
-    if windowed:
-        g = (gps_t >= scan_t[0]) & (gps_t <= scan_t[-1])
-        gps = GpsFixes(gps_t[g], gps_x[g], gps_y[g])
-    else:
-        gps = GpsFixes(gps_t, gps_x, gps_y)
+    gps = _gps_fixes(gps_t, gps_x, gps_y, scan_t if windowed else None)
     tree_det = None
     if tree_arrays is not None:
         tree_det = _tree_window(tree_arrays, laser_t, all_laser_t, laser_time_offset, s0, s1 if n_scans is not None else None)
@@ -137,6 +133,14 @@ def load_victoria_park(
     return VictoriaParkData(events=events, laser_times=scan_t, scan_index=scan_index, ranges_cm=ranges_cm,
                             odometry=odo, gps=gps, trees=tree_det, noise=NOISE, vehicle=dict(VEHICLE),
                             options=options)
+
+
+def _gps_fixes(gps_t, gps_x, gps_y, scan_t) -> GpsFixes:
+    """All fixes, or with the window's scan times ``scan_t`` those within their span."""
+    if scan_t is None:
+        return GpsFixes(gps_t, gps_x, gps_y)
+    g = (gps_t >= scan_t[0]) & (gps_t <= scan_t[-1])
+    return GpsFixes(gps_t[g], gps_x[g], gps_y[g])
 
 
 def _tree_scan_times(root, laser_file, tree_arrays, laser_t, all_laser_t) -> tuple[np.ndarray, np.ndarray]:
