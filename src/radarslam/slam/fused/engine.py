@@ -93,19 +93,18 @@ def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
         k = stream.scan_k[s]
         dt = dt_since if s > 0 else 0.0
         dt_since = 0.0
-        pos_prior, cov_prior = _blocks(x, P)                                       # Decision 3
-        cand = sift(x, P, polar, lm, N, pos_prior, cov_prior, noise.R_ext, cfg)    # 3
+        prior = _blocks(x, P)                                                      # Decision 3
+        cand = sift(x, P, polar, lm, N, prior, noise, cfg)                         # 3
         cidx = np.flatnonzero(cand)
         x, P, out, nis = associate_and_update(x, P, polar, cidx, lm, N, noise, cfg)  # 4
         n_assoc, aoff, arow, a_rows, n_arows = group_associations(out, cidx, N, lm.ids, s, a_rows, n_arows)
         x, P, N, old = remove_unseen(x, P, lm, N, aoff, k, cfg)                     # 5
         xy = _to_world(x, polar)                                    # seed eq. (3), updated pose
-        lm = extent_step(x, P, polar, xy, lm, N, old, aoff, arow, pos_prior, cov_prior, noise.R_ext, dt, cfg)  # 6
-        rest, labels, cl_centre, cl_size = cluster(xy, polar, cand, cfg)           # 7
-        fresh = alpha_test(x, P, polar, cl_centre, noise.R, cfg)                   # 7
-        confirmed, tent, T = confirm(tent, T, fresh, cl_centre, cl_size, xy, cfg)  # 8
-        x, P, lm, N, next_id = augment(x, P, lm, N, next_id, confirmed, rest, labels, cl_centre, cl_size,
-                                       polar, k, noise, cfg)                       # 9
+        lm = extent_step(x, P, polar, xy, lm, N, old, aoff, arow, prior, dt, noise, cfg)  # 6
+        clusters = cluster(xy, polar, cand, cfg)                                   # 7
+        fresh = alpha_test(x, P, polar, clusters, noise, cfg)                      # 7
+        confirmed, tent, T = confirm(tent, T, fresh, clusters, xy, cfg)            # 8
+        x, P, lm, N, next_id = augment(x, P, lm, N, next_id, confirmed, clusters, polar, k, noise, cfg)  # 9
         x, P, lm, N = merge(x, P, lm, N, cfg)                                      # 10
         if not _all_finite(x, P):
             status[0], status[1] = BAD_SCAN, ev

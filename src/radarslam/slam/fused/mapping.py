@@ -17,6 +17,7 @@ from radarslam.models.radar import inverse_jacobians, polar_to_xy
 from radarslam.slam import ekf
 from radarslam.slam._numba import _polar_to_sensor_xy, min_log_distance
 from radarslam.slam.fused.storage import (
+    Clusters,
     _drop_state_rows,
     compact_landmarks,
     grow_landmarks,
@@ -32,13 +33,11 @@ _augment_point = _K["augment_point"]
 
 @njit(cache=True)
 def cluster(xy, polar, cand, cfg):  # pragma: no cover - compiled
-    """Step 7: DBSCAN of the detections no landmark claimed (c.6). Returns ``(rest, labels,
-    centre, size)``: the unclaimed detections, their cluster labels, and per cluster the detection
-    at its centre and its number of points."""
+    """Step 7: DBSCAN of the detections no landmark claimed (c.6), as :class:`Clusters`."""
     rest = np.flatnonzero(~cand)
     n_rest = rest.shape[0]
     if n_rest < cfg.min_samples:
-        return rest, np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64)
+        return Clusters(rest, np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64))
     pts_rest = np.empty((n_rest, 2))
     rng_rest = np.empty(n_rest)
     for a in range(n_rest):
@@ -54,19 +53,20 @@ def cluster(xy, polar, cand, cfg):  # pragma: no cover - compiled
             cl_size[labels[a]] += 1
     for c in range(nc):
         cl_centre[c] = rest[centres[c]]
-    return rest, labels, cl_centre, cl_size
+    return Clusters(rest, labels, cl_centre, cl_size)
 
 
 @njit(cache=True)
-def alpha_test(x, P, polar, cl_centre, R, cfg):  # pragma: no cover - compiled
+def alpha_test(x, P, polar, clusters, noise, cfg):  # pragma: no cover - compiled
     """Step 7: the clusters whose centre is farther than ``cfg.alpha`` (minimum log-distance to
     the ``cfg.n_new`` nearest landmarks) from every landmark, in order."""
+    cl_centre = clusters.centre
     nc = cl_centre.shape[0]
     fresh = np.empty(nc, dtype=np.int64)
     nf = 0
     for c in range(nc):
         i = cl_centre[c]
-        if min_log_distance(x, P, polar[i, 0], polar[i, 1], cfg.n_new, R) > cfg.alpha:
+        if min_log_distance(x, P, polar[i, 0], polar[i, 1], cfg.n_new, noise.R) > cfg.alpha:
             fresh[nf] = c
             nf += 1
     return fresh[:nf]
@@ -129,10 +129,11 @@ def _age_tentatives(tent, T, consumed, cfg):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def confirm(tent, T, fresh, cl_centre, cl_size, xy, cfg):  # pragma: no cover - compiled
+def confirm(tent, T, fresh, clusters, xy, cfg):  # pragma: no cover - compiled
     """Step 8: Rule 2 (matched tentatives) then Rule 1 (c.7): a fresh cluster not matched is
     confirmed with ``cfg.confirm_points`` points, else becomes a tentative. Returns ``(confirmed
     clusters, tent, T)``."""
+    cl_centre, cl_size = clusters.centre, clusters.size
     nf = fresh.shape[0]
     confirmed = np.empty(nf, dtype=np.int64)
     matched_c, consumed, n_conf = _rule2(tent, T, fresh, cl_centre, cl_size, xy, confirmed, cfg)
@@ -172,9 +173,10 @@ def _augment_mean(x, P, polar, R, spread, has_spread):  # pragma: no cover - com
 
 
 @njit(cache=True)
-def augment(x, P, lm, N, next_id, confirmed, rest, labels, cl_centre, cl_size, polar, k, noise, cfg):  # pragma: no cover - compiled
-    """Step 9: a landmark per confirmed cluster (c.8), at the mean of its detections
-    (``cfg.init_cluster``) or at its centre detection. Returns ``(x, P, lm, N, next_id)``."""
+def augment(x, P, lm, N, next_id, confirmed, clusters, polar, k, noise, cfg):  # pragma: no cover - compiled
+    """Step 9: a landmark per confirmed cluster (c.8), created at scan ``k``, at the mean of its
+    detections (``cfg.init_cluster``) or at its centre detection. Returns ``(x, P, lm, N, next_id)``."""
+    rest, labels, cl_centre, cl_size = clusters
     for a in range(confirmed.shape[0]):
         c = confirmed[a]
         if cfg.init_cluster:

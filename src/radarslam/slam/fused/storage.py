@@ -39,6 +39,15 @@ class Tentatives(NamedTuple):
     npts: np.ndarray       #: (T,) int64, points of the last matched cluster
 
 
+class Clusters(NamedTuple):
+    """The clusters of a scan's unclaimed detections (a.8 step 7)."""
+
+    rest: np.ndarray       #: (n,) int64, the detections no landmark claimed
+    labels: np.ndarray     #: (n,) int64, their DBSCAN labels (-1 noise; empty when too few to cluster)
+    centre: np.ndarray     #: (c,) int64, per cluster the detection at its centre
+    size: np.ndarray       #: (c,) int64, per cluster its number of points
+
+
 class ScanRecord(NamedTuple):
     """What :func:`radarslam.experiments.single.run_filter` records after every scan (``S`` rows)."""
 

@@ -89,10 +89,12 @@ def predict(x, P, v, psi, dt, U, Q):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def sift(x, P, polar, lm, N, pos_prior, cov_prior, R_ext, cfg):  # pragma: no cover - compiled
+def sift(x, P, polar, lm, N, prior, noise, cfg):  # pragma: no cover - compiled
     """Step 3: the detections that are candidates for association (c.3; a.7.1), at the predicted
-    state: inside an initialised landmark's measurement contour (``cfg.contour``; the literal
-    ``kappa`` ellipse with ``cfg.literal``), else within ``cfg.sift_radius`` of a centroid."""
+    state whose centroids and covariance blocks ``prior`` holds: inside an initialised landmark's
+    measurement contour (``cfg.contour``; the literal ``kappa`` ellipse with ``cfg.literal``), else
+    within ``cfg.sift_radius`` of a centroid."""
+    pos_prior, cov_prior = prior
     m = polar.shape[0]
     xy = _to_world(x, polar)
     cand = np.zeros(m, dtype=np.bool_)
@@ -123,7 +125,7 @@ def sift(x, P, polar, lm, N, pos_prior, cov_prior, R_ext, cfg):  # pragma: no co
                 spreads[j] = cfg.gamma * lm.X[j]
             else:
                 spreads[j] = cfg.gamma * np.eye(2)
-        inside = measurement_contour(xy, polar, x[2], P[:3, :3].copy(), R_ext, pos_prior, spreads,
+        inside = measurement_contour(xy, polar, x[2], P[:3, :3].copy(), noise.R_ext, pos_prior, spreads,
                                      cov_prior, cfg.gate)
     r2 = cfg.sift_radius * cfg.sift_radius
     for i in range(m):
@@ -306,12 +308,13 @@ def _rma_efa_ready(x, P, polar, xy, lm, ready, old, aoff, arow, cents, ccovs, R_
 
 
 @njit(cache=True)
-def extent_step(x, P, polar, xy, lm, N, old, aoff, arow, pos_prior, cov_prior, R_ext, dt, cfg):  # pragma: no cover - compiled
+def extent_step(x, P, polar, xy, lm, N, old, aoff, arow, prior, dt, noise, cfg):  # pragma: no cover - compiled
     """Step 6: the extent step (a.3-a.5) with the detections ``xy`` in the world frame of the
-    updated pose, about the posterior centroids (``cfg.posterior``) or the prior ones. Returns
-    ``lm`` (its buffers may grow)."""
+    updated pose, about the posterior centroids (``cfg.posterior``) or the prior ones (``prior``,
+    by the rows before the removal, ``old``). Returns ``lm`` (its buffers may grow)."""
     if not cfg.track or N == 0:
         return lm
+    pos_prior, cov_prior = prior
     if cfg.posterior:
         cents, ccovs = _blocks(x, P)
     else:
@@ -333,5 +336,5 @@ def extent_step(x, P, polar, xy, lm, N, old, aoff, arow, pos_prior, cov_prior, R
             continue
         lm = _buffer_and_initialise(lm, j, old[j], xy, aoff, arow, cfg)
     if n_ready > 0:
-        _rma_efa_ready(x, P, polar, xy, lm, ready, old, aoff, arow, cents, ccovs, R_ext, dt, cfg)
+        _rma_efa_ready(x, P, polar, xy, lm, ready, old, aoff, arow, cents, ccovs, noise.R_ext, dt, cfg)
     return lm
