@@ -27,7 +27,7 @@ import numpy as np
 from radarslam.config import profile_config
 from radarslam.experiments import montecarlo
 from radarslam.experiments.variants import DEFAULT_VARIANTS, PAPER_VARIANTS
-from radarslam.slam import _fused
+from radarslam.slam.fused import plan as _fused
 from radarslam.slam.filter import EkfSlam
 
 #: The orchestrator's steps (docs/architecture.md "The orchestrator") timed in pass 2.
@@ -36,7 +36,7 @@ FILTER_STEPS = ("predict", "_prior", "_sift", "_associate_and_update", "_remove_
 #: Module-level stages of compute_trial timed in pass 2.
 TRIAL_STAGES = {"generate_scenario": "simulation", "variant_config": "configuration",
                 "evaluate": "evaluation", "encode_trial": "encoding", "run_filter": "filter"}
-#: The fused engine's parts (radarslam.slam._fused) timed in pass 2.
+#: The fused engine's parts (radarslam.slam.fused.plan, where run finds them) timed in pass 2.
 FUSED_PARTS = {"_stream_arrays": "fused: events as arrays", "run_stream": "fused: compiled run (run_stream)"}
 
 

@@ -7,7 +7,7 @@ data, the consistent pipeline under the partial view with each parameter of a sm
 on its own around the defaults (``extent.view_model_error_m``, ``view_spread_rel_error``,
 ``view_prior_std``, ``view_prior_radius_m``; the first rounds, before that key existed, varied ``prior_extent_radius_m``, which then set the same prior), and the full view as the reference. Prints the
 ablation table (position, heading, NEES, NIS). Refuses the reporting seed 1: the values shipped in
-``config.py`` were chosen from this script's output on seeds 777 and 778.
+``config/sections.py`` were chosen from this script's output on seeds 777 and 778.
 """
 
 from __future__ import annotations

@@ -140,7 +140,7 @@ def test_numba_cache_stamp_covers_every_compiled_source():
     from radarslam.core import jit, numba_cache
 
     root = numba_cache.ROOT
-    for mod in ("slam._numba", "slam._fused", "extent._compiled", "landmarks._compiled", "metrics._compiled",
+    for mod in ("slam._numba", "slam.fused", "extent._compiled", "landmarks._compiled", "metrics._compiled",
                 "simulation._compiled"):
         importlib.import_module(f"radarslam.{mod}")
     with_numba = {p.relative_to(root).as_posix() for p in root.rglob("*.py") if "from numba" in p.read_text()}

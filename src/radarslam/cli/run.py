@@ -234,15 +234,23 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
     write_json(out / "run.json", {"dataset": name, "input": args.input, "path": str(path), "first_scan": args.first_scan,
                                   "scans": args.scans, "version": __version__, "argv": sys.argv,
                                   "config": to_dict(res.config)})
+    if not args.no_plot:
+        _dataset_plots(out, res, ev, (dr_poses, dr_ev), diam, pub, nis, args)
+    _print_dataset_summary(name, metrics, res, ev, dr_ev, pub, nis, diam, dup, config)
+    print(f"wrote {out}/")
+    return 0
+
+
+def _dataset_plots(out, res, ev, dead_reckoning, diam, pub, nis, args) -> None:
+    """``map.png`` and ``errors.png`` of :func:`run_dataset_cmd`, when matplotlib is there."""
     from radarslam.viz import have_matplotlib
 
-    if have_matplotlib() and not args.no_plot:
-        from radarslam.viz.dataset import plot_dataset_map
+    if have_matplotlib():
+        from radarslam.viz.dataset import plot_dataset_errors, plot_dataset_map
 
-        from radarslam.viz.dataset import plot_dataset_errors
-
+        mp = res.final_map
         plot_dataset_map(out / "map.png", res.poses, mp.positions, mp.rma, ev, name=res.name,
-                         dead_reckoning=(dr_poses, dr_ev), diameters=diam,
+                         dead_reckoning=dead_reckoning, diameters=diam,
                          extent_label=f"extent ({res.config.extent.estimator})")
         if pub is not None:
             err_t, err = res.times[pub["index"]], pub["errors_m"]
@@ -250,6 +258,10 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
             err_t, err = ev["fix_t"], ev["errors_m"]
         plot_dataset_errors(out / "errors.png", err_t, err, nis, protocol=args.protocol,
                             name=f"{res.name} ({args.input})", scan_times=res.times)
+
+
+def _print_dataset_summary(name, metrics, res, ev, dr_ev, pub, nis, diam, dup, config) -> None:
+    """The summary lines of :func:`run_dataset_cmd`."""
     print(f"radarslam run --dataset {name}: {metrics['scans']} scans, {metrics['landmarks_final']} landmarks, "
           f"GPS-aligned RMSE {ev['rmse_m']:.2f} m (max {ev['max_m']:.2f} m over {ev['n_fixes']} fixes; "
           f"{ev.get('n_gps_jumps_removed', 0)} GPS jumps left out; odometry alone {dr_ev['rmse_m']:.2f} m), "
@@ -269,5 +281,3 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
           f"({dup['diameter_m']:.2f} m, the median of ACFR's detections; merging removes pairs below "
           f"{config.landmarks.merge_distance_m:g} m); pairs within "
           + ", ".join(f"{r:g} m: {n}" for r, n in dup["pairs_within"].items()))
-    print(f"wrote {out}/")
-    return 0

@@ -2,7 +2,7 @@
 
 numba compiles on first use and caches the machine code on disk (docs/architecture.md "Backends").
 On a machine whose cache is empty a Monte Carlo's first trial pays for all of it: the fused
-engine (``slam/_fused.py: run_stream`` and the kernels it calls) and, independently of it, the
+engine (``slam/fused/engine.py: run_stream`` and the kernels it calls) and, independently of it, the
 compiled scan simulation and the evaluation's matching. Those two parts share no compiled code, so
 :func:`warm_up` compiles them at the same time: the fused engine in this process, on a stream of
 two events made up for the purpose, and the simulation and the evaluation in a second process that

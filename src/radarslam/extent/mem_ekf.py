@@ -263,92 +263,100 @@ def _mem_ekf_update_scan(p: np.ndarray, Cp: np.ndarray, centroid: np.ndarray, ce
     (c11, c12, c13), (_, c22, c23), (_, _, c33) = Cp.tolist()
     mx, my = centroid.tolist()
     (m11, m12), (_, m22) = centroid_cov.tolist()
-    ch = c_h
     for (yx, yy), (v11, v12, v22) in zip(points.tolist(), cvs):
-        e0 = yx - mx
-        e1 = yy - my
-        cs = math.cos(th)
-        sn = math.sin(th)
-        cc = cs * cs
-        ss = sn * sn
-        sc = sn * cs
-        q1 = l1 * l1
-        q2 = l2 * l2
-        # step 1: S S^T + C^II / c_h in the axes' frame
-        n11 = q1 + c22 + q2 * c11
-        n22 = q2 + c33 + q1 * c11
-        n12 = l1 * c12 - l2 * c13
-        # step 2: C_y, rotated to the world
-        y11 = m11 + v11 + ch * (cc * n11 - 2.0 * sc * n12 + ss * n22)
-        y22 = m22 + v22 + ch * (ss * n11 + 2.0 * sc * n12 + cc * n22)
-        y12 = m12 + v12 + ch * (sc * (n11 - n22) + (cc - ss) * n12)
-        det = y11 * y22 - y12 * y12
-        if not det > 0.0:
-            continue
-        # step 3: (C^Y)^-1 from P = C_y^-1
-        i11 = y22 / det
-        i22 = y11 / det
-        i12 = -y12 / det
-        g11 = 0.5 * i11 * i11
-        g22 = 0.5 * i22 * i22
-        g12 = 0.5 * i12 * i12
-        g13 = i11 * i12
-        g23 = i12 * i22
-        g33 = i11 * i22 + i12 * i12
-        # step 4: H (rows Y11, Y22, Y12; columns theta, l1, l2) and C^pY = C_p H^T (t_ij)
-        d = ch * (q1 - q2)
-        s2 = 2.0 * sc
-        c2 = cc - ss
-        a1 = 2.0 * ch * l1
-        a2 = 2.0 * ch * l2
-        h11, h12, h13 = -d * s2, a1 * cc, a2 * ss
-        h21, h22, h23 = d * s2, a1 * ss, a2 * cc
-        h31, h32, h33 = d * c2, 0.5 * a1 * s2, -0.5 * a2 * s2
-        t11 = c11 * h11 + c12 * h12 + c13 * h13
-        t12 = c11 * h21 + c12 * h22 + c13 * h23
-        t13 = c11 * h31 + c12 * h32 + c13 * h33
-        t21 = c12 * h11 + c22 * h12 + c23 * h13
-        t22 = c12 * h21 + c22 * h22 + c23 * h23
-        t23 = c12 * h31 + c22 * h32 + c23 * h33
-        t31 = c13 * h11 + c23 * h12 + c33 * h13
-        t32 = c13 * h21 + c23 * h22 + c33 * h23
-        t33 = c13 * h31 + c23 * h32 + c33 * h33
-        # step 5: K = C^pY (C^Y)^-1, the mean and the covariance
-        k11 = t11 * g11 + t12 * g12 + t13 * g13
-        k12 = t11 * g12 + t12 * g22 + t13 * g23
-        k13 = t11 * g13 + t12 * g23 + t13 * g33
-        k21 = t21 * g11 + t22 * g12 + t23 * g13
-        k22 = t21 * g12 + t22 * g22 + t23 * g23
-        k23 = t21 * g13 + t22 * g23 + t23 * g33
-        k31 = t31 * g11 + t32 * g12 + t33 * g13
-        k32 = t31 * g12 + t32 * g22 + t33 * g23
-        k33 = t31 * g13 + t32 * g23 + t33 * g33
-        n_c11 = c11 - (k11 * t11 + k12 * t12 + k13 * t13)
-        n_c12 = c12 - (k11 * t21 + k12 * t22 + k13 * t23)
-        n_c13 = c13 - (k11 * t31 + k12 * t32 + k13 * t33)
-        n_c22 = c22 - (k21 * t21 + k22 * t22 + k23 * t23)
-        n_c23 = c23 - (k21 * t31 + k22 * t32 + k23 * t33)
-        n_c33 = c33 - (k31 * t31 + k32 * t32 + k33 * t33)
-        # step 6: keep C_p positive definite (leading minors), else skip this detection
-        minor2 = n_c11 * n_c22 - n_c12 * n_c12
-        det3 = (n_c11 * (n_c22 * n_c33 - n_c23 * n_c23) - n_c12 * (n_c12 * n_c33 - n_c23 * n_c13)
-                + n_c13 * (n_c12 * n_c23 - n_c22 * n_c13))
-        if not (n_c11 > 0.0 and minor2 > 0.0 and det3 > 0.0):
-            continue
-        r1 = e0 * e0 - y11
-        r2 = e1 * e1 - y22
-        r3 = e0 * e1 - y12
-        th += k11 * r1 + k12 * r2 + k13 * r3
-        l1 += k21 * r1 + k22 * r2 + k23 * r3
-        l2 += k31 * r1 + k32 * r2 + k33 * r3
-        th %= _PI                      # [0, pi); a tiny negative theta rounds up to pi
-        if th >= _PI:
-            th = 0.0
-        l1 = l1 if l1 > axis_floor else axis_floor
-        l2 = l2 if l2 > axis_floor else axis_floor
-        c11, c12, c13, c22, c23, c33 = n_c11, n_c12, n_c13, n_c22, n_c23, n_c33
+        new = _mem_ekf_detection(th, l1, l2, c11, c12, c13, c22, c23, c33, yx - mx, yy - my,
+                                 m11, m12, m22, v11, v12, v22, c_h, axis_floor)
+        if new is not None:
+            th, l1, l2, c11, c12, c13, c22, c23, c33 = new
     return (np.array((th, l1, l2)),
             np.array(((c11, c12, c13), (c12, c22, c23), (c13, c23, c33))))
+
+
+def _mem_ekf_detection(th, l1, l2, c11, c12, c13, c22, c23, c33, e0, e1, m11, m12, m22, v11, v12, v22,
+                       ch, axis_floor):
+    """One detection of :func:`_mem_ekf_update_scan` (its steps 1-6): the new ``(theta, l1, l2)``
+    and ``C_p`` entries ``(c11, c12, c13, c22, c23, c33)``, or None when the detection is skipped.
+    ``e0, e1`` is the innovation, ``m..`` the centroid covariance, ``v..`` the detection's."""
+    cs = math.cos(th)
+    sn = math.sin(th)
+    cc = cs * cs
+    ss = sn * sn
+    sc = sn * cs
+    q1 = l1 * l1
+    q2 = l2 * l2
+    # step 1: S S^T + C^II / c_h in the axes' frame
+    n11 = q1 + c22 + q2 * c11
+    n22 = q2 + c33 + q1 * c11
+    n12 = l1 * c12 - l2 * c13
+    # step 2: C_y, rotated to the world
+    y11 = m11 + v11 + ch * (cc * n11 - 2.0 * sc * n12 + ss * n22)
+    y22 = m22 + v22 + ch * (ss * n11 + 2.0 * sc * n12 + cc * n22)
+    y12 = m12 + v12 + ch * (sc * (n11 - n22) + (cc - ss) * n12)
+    det = y11 * y22 - y12 * y12
+    if not det > 0.0:
+        return None
+    # step 3: (C^Y)^-1 from P = C_y^-1
+    i11 = y22 / det
+    i22 = y11 / det
+    i12 = -y12 / det
+    g11 = 0.5 * i11 * i11
+    g22 = 0.5 * i22 * i22
+    g12 = 0.5 * i12 * i12
+    g13 = i11 * i12
+    g23 = i12 * i22
+    g33 = i11 * i22 + i12 * i12
+    # step 4: H (rows Y11, Y22, Y12; columns theta, l1, l2) and C^pY = C_p H^T (t_ij)
+    d = ch * (q1 - q2)
+    s2 = 2.0 * sc
+    c2 = cc - ss
+    a1 = 2.0 * ch * l1
+    a2 = 2.0 * ch * l2
+    h11, h12, h13 = -d * s2, a1 * cc, a2 * ss
+    h21, h22, h23 = d * s2, a1 * ss, a2 * cc
+    h31, h32, h33 = d * c2, 0.5 * a1 * s2, -0.5 * a2 * s2
+    t11 = c11 * h11 + c12 * h12 + c13 * h13
+    t12 = c11 * h21 + c12 * h22 + c13 * h23
+    t13 = c11 * h31 + c12 * h32 + c13 * h33
+    t21 = c12 * h11 + c22 * h12 + c23 * h13
+    t22 = c12 * h21 + c22 * h22 + c23 * h23
+    t23 = c12 * h31 + c22 * h32 + c23 * h33
+    t31 = c13 * h11 + c23 * h12 + c33 * h13
+    t32 = c13 * h21 + c23 * h22 + c33 * h23
+    t33 = c13 * h31 + c23 * h32 + c33 * h33
+    # step 5: K = C^pY (C^Y)^-1, the mean and the covariance
+    k11 = t11 * g11 + t12 * g12 + t13 * g13
+    k12 = t11 * g12 + t12 * g22 + t13 * g23
+    k13 = t11 * g13 + t12 * g23 + t13 * g33
+    k21 = t21 * g11 + t22 * g12 + t23 * g13
+    k22 = t21 * g12 + t22 * g22 + t23 * g23
+    k23 = t21 * g13 + t22 * g23 + t23 * g33
+    k31 = t31 * g11 + t32 * g12 + t33 * g13
+    k32 = t31 * g12 + t32 * g22 + t33 * g23
+    k33 = t31 * g13 + t32 * g23 + t33 * g33
+    n_c11 = c11 - (k11 * t11 + k12 * t12 + k13 * t13)
+    n_c12 = c12 - (k11 * t21 + k12 * t22 + k13 * t23)
+    n_c13 = c13 - (k11 * t31 + k12 * t32 + k13 * t33)
+    n_c22 = c22 - (k21 * t21 + k22 * t22 + k23 * t23)
+    n_c23 = c23 - (k21 * t31 + k22 * t32 + k23 * t33)
+    n_c33 = c33 - (k31 * t31 + k32 * t32 + k33 * t33)
+    # step 6: keep C_p positive definite (leading minors), else skip this detection
+    minor2 = n_c11 * n_c22 - n_c12 * n_c12
+    det3 = (n_c11 * (n_c22 * n_c33 - n_c23 * n_c23) - n_c12 * (n_c12 * n_c33 - n_c23 * n_c13)
+            + n_c13 * (n_c12 * n_c23 - n_c22 * n_c13))
+    if not (n_c11 > 0.0 and minor2 > 0.0 and det3 > 0.0):
+        return None
+    r1 = e0 * e0 - y11
+    r2 = e1 * e1 - y22
+    r3 = e0 * e1 - y12
+    th += k11 * r1 + k12 * r2 + k13 * r3
+    l1 += k21 * r1 + k22 * r2 + k23 * r3
+    l2 += k31 * r1 + k32 * r2 + k33 * r3
+    th %= _PI                      # [0, pi); a tiny negative theta rounds up to pi
+    if th >= _PI:
+        th = 0.0
+    l1 = l1 if l1 > axis_floor else axis_floor
+    l2 = l2 if l2 > axis_floor else axis_floor
+    return th, l1, l2, n_c11, n_c12, n_c13, n_c22, n_c23, n_c33
 
 
 def mem_ekf_predict(p: np.ndarray, Cp: np.ndarray, dt: float, q_theta: float,

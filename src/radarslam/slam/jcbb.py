@@ -103,6 +103,73 @@ def joint_covariance(H: np.ndarray, P: np.ndarray, N: np.ndarray) -> np.ndarray:
     return 0.5 * (C + C.T)
 
 
+def _checked(obs, lm, nu, C, n_obs, max_nodes):
+    """The inputs of :func:`jcbb` as arrays, checked: ``(obs, lm, nu, C)``."""
+    obs = np.asarray(obs, dtype=np.int64)
+    lm = np.asarray(lm, dtype=np.int64)
+    M = obs.shape[0]
+    if obs.ndim != 1 or lm.shape != (M,):
+        raise InputError(f"lm: expected shape ({M},) like obs, got {lm.shape}")
+    nu = np.asarray(nu, dtype=float)
+    C = np.asarray(C, dtype=float)
+    if nu.shape != (M, 2):
+        raise InputError(f"nu: expected shape ({M}, 2), got {nu.shape}")
+    if C.shape != (2 * M, 2 * M):
+        raise InputError(f"C: expected shape ({2 * M}, {2 * M}), got {C.shape}")
+    if isinstance(n_obs, bool) or not isinstance(n_obs, (int, np.integer)) or n_obs < 0:
+        raise InputError(f"n_obs: expected an integer >= 0, got {n_obs!r}")
+    if M and (obs.min() < 0 or obs.max() >= n_obs):
+        raise InputError(f"obs: expected values in [0, {n_obs}), got {obs.min()}..{obs.max()}")
+    if isinstance(max_nodes, bool) or not isinstance(max_nodes, (int, np.integer)) or max_nodes < 1:
+        raise InputError(f"max_nodes: expected an integer >= 1, got {max_nodes!r}")
+    return obs, lm, nu, C
+
+
+def _by_observation(obs: np.ndarray, n_obs: int) -> tuple[list[list[int]], np.ndarray]:
+    """The candidate pairings of each observation, and ``rest[i]``: observations ``i..`` with at
+    least one candidate, the most pairings still possible."""
+    by_obs: list[list[int]] = [[] for _ in range(n_obs)]
+    for m, o in enumerate(obs.tolist()):
+        by_obs[o].append(m)
+    rest = np.zeros(n_obs + 1, dtype=int)
+    for i in range(n_obs - 1, -1, -1):
+        rest[i] = rest[i + 1] + (1 if by_obs[i] else 0)
+    return by_obs, rest
+
+
+def _extend(C, nu, L, y, rows, k: int, m: int, d2: float) -> float:
+    """``D^2`` of the hypothesis (its Cholesky factor ``L``, ``y = L^-1 nu_h`` and ``rows`` of
+    ``C`` over its first ``k`` pairings) plus pairing ``m``; writes row block ``k`` of L, y, rows
+    (:func:`jcbb`, the incremental update)."""
+    from scipy.linalg import solve_triangular
+
+    r = 2 * k
+    c00, c01, c11 = C[2 * m, 2 * m], 0.5 * (C[2 * m, 2 * m + 1] + C[2 * m + 1, 2 * m]), C[2 * m + 1, 2 * m + 1]
+    e0, e1 = nu[m, 0], nu[m, 1]
+    if k:
+        b = C[rows[:r], 2 * m:2 * m + 2]                                # (2k, 2) cross-covariance
+        L21T = solve_triangular(L[:r, :r], b, lower=True, check_finite=False)
+        s = L21T.T @ L21T
+        c00, c01, c11 = c00 - s[0, 0], c01 - s[0, 1], c11 - s[1, 1]     # Schur complement
+        t = L21T.T @ y[:r]
+        e0, e1 = e0 - t[0], e1 - t[1]
+        L[r:r + 2, :r] = L21T.T
+    if not c00 > 0.0:
+        return math.inf
+    l00 = math.sqrt(c00)
+    l10 = c01 / l00
+    q = c11 - l10 * l10
+    if not q > 0.0:
+        return math.inf
+    l11 = math.sqrt(q)
+    y0 = e0 / l00
+    y1 = (e1 - l10 * y0) / l11
+    L[r, r], L[r, r + 1], L[r + 1, r], L[r + 1, r + 1] = l00, 0.0, l10, l11
+    y[r], y[r + 1] = y0, y1
+    rows[r], rows[r + 1] = 2 * m, 2 * m + 1
+    return d2 + y0 * y0 + y1 * y1
+
+
 def jcbb(obs: np.ndarray, lm: np.ndarray, nu: np.ndarray, C: np.ndarray, n_obs: int,
          threshold: Callable[[int], float], max_nodes: int) -> JcbbResult:
     """Joint Compatibility Branch and Bound over candidate pairings (Neira and Tardos 2001).
@@ -147,70 +214,17 @@ def jcbb(obs: np.ndarray, lm: np.ndarray, nu: np.ndarray, C: np.ndarray, n_obs: 
     -------
     JcbbResult
     """
-    obs = np.asarray(obs, dtype=np.int64)
-    lm = np.asarray(lm, dtype=np.int64)
-    M = obs.shape[0]
-    if obs.ndim != 1 or lm.shape != (M,):
-        raise InputError(f"lm: expected shape ({M},) like obs, got {lm.shape}")
-    nu = np.asarray(nu, dtype=float)
-    C = np.asarray(C, dtype=float)
-    if nu.shape != (M, 2):
-        raise InputError(f"nu: expected shape ({M}, 2), got {nu.shape}")
-    if C.shape != (2 * M, 2 * M):
-        raise InputError(f"C: expected shape ({2 * M}, {2 * M}), got {C.shape}")
-    if isinstance(n_obs, bool) or not isinstance(n_obs, (int, np.integer)) or n_obs < 0:
-        raise InputError(f"n_obs: expected an integer >= 0, got {n_obs!r}")
-    if M and (obs.min() < 0 or obs.max() >= n_obs):
-        raise InputError(f"obs: expected values in [0, {n_obs}), got {obs.min()}..{obs.max()}")
-    if isinstance(max_nodes, bool) or not isinstance(max_nodes, (int, np.integer)) or max_nodes < 1:
-        raise InputError(f"max_nodes: expected an integer >= 1, got {max_nodes!r}")
-    from scipy.linalg import solve_triangular
-
-    by_obs: list[list[int]] = [[] for _ in range(n_obs)]
-    for m, o in enumerate(obs.tolist()):
-        by_obs[o].append(m)
-    # rest[i]: observations i.. with at least one candidate, the most pairings still possible.
-    rest = np.zeros(n_obs + 1, dtype=int)
-    for i in range(n_obs - 1, -1, -1):
-        rest[i] = rest[i + 1] + (1 if by_obs[i] else 0)
+    obs, lm, nu, C = _checked(obs, lm, nu, C, n_obs, max_nodes)
+    by_obs, rest = _by_observation(obs, n_obs)
     lm_list = lm.tolist()
-    depth = min(n_obs, M)
+    depth = min(n_obs, obs.shape[0])
     L = np.zeros((2 * depth, 2 * depth))     # Cholesky factor of C over the hypothesis' rows
     y = np.zeros(2 * depth)                   # L^-1 nu_h
     rows = np.zeros(2 * depth, dtype=np.int64)  # rows of C of the hypothesis' pairings
     chosen: list[int] = []
     used: set[int] = set()
     best_pairs: list[int] = []
-    best_k, best_d2 = 0, 0.0
-    nodes, exhausted = 1, False
-
-    def extend(k: int, m: int, d2: float) -> float:
-        """``D^2`` of the hypothesis plus pairing ``m``; writes row block ``k`` of L, y, rows."""
-        r = 2 * k
-        c00, c01, c11 = C[2 * m, 2 * m], 0.5 * (C[2 * m, 2 * m + 1] + C[2 * m + 1, 2 * m]), C[2 * m + 1, 2 * m + 1]
-        e0, e1 = nu[m, 0], nu[m, 1]
-        if k:
-            b = C[rows[:r], 2 * m:2 * m + 2]                                # (2k, 2) cross-covariance
-            L21T = solve_triangular(L[:r, :r], b, lower=True, check_finite=False)
-            s = L21T.T @ L21T
-            c00, c01, c11 = c00 - s[0, 0], c01 - s[0, 1], c11 - s[1, 1]     # Schur complement
-            t = L21T.T @ y[:r]
-            e0, e1 = e0 - t[0], e1 - t[1]
-            L[r:r + 2, :r] = L21T.T
-        if not c00 > 0.0:
-            return math.inf
-        l00 = math.sqrt(c00)
-        l10 = c01 / l00
-        q = c11 - l10 * l10
-        if not q > 0.0:
-            return math.inf
-        l11 = math.sqrt(q)
-        y0 = e0 / l00
-        y1 = (e1 - l10 * y0) / l11
-        L[r, r], L[r, r + 1], L[r + 1, r], L[r + 1, r + 1] = l00, 0.0, l10, l11
-        y[r], y[r + 1] = y0, y1
-        rows[r], rows[r + 1] = 2 * m, 2 * m + 1
-        return d2 + y0 * y0 + y1 * y1
+    best_k, best_d2, nodes, exhausted = 0, 0.0, 1, False
 
     def can_beat(k_max: int, d2_low: float) -> bool:
         """Whether a subtree with at most ``k_max`` pairings and ``D^2 >= d2_low`` can beat the best."""
@@ -222,7 +236,7 @@ def jcbb(obs: np.ndarray, lm: np.ndarray, nu: np.ndarray, C: np.ndarray, n_obs: 
             i += 1                      # an observation without candidates is not a branch point
         if i == n_obs:
             return
-        if can_beat(k + rest[i], d2):
+        if can_beat(k + rest[i], d2):                           # the pairing children
             gate = threshold(k + 1)
             for m in by_obs[i]:
                 if lm_list[m] in used:
@@ -233,7 +247,7 @@ def jcbb(obs: np.ndarray, lm: np.ndarray, nu: np.ndarray, C: np.ndarray, n_obs: 
                     exhausted = True
                     return
                 nodes += 1
-                d2_new = extend(k, m, d2)
+                d2_new = _extend(C, nu, L, y, rows, k, m, d2)
                 if not d2_new < gate:
                     continue
                 chosen.append(m)
@@ -252,7 +266,6 @@ def jcbb(obs: np.ndarray, lm: np.ndarray, nu: np.ndarray, C: np.ndarray, n_obs: 
                 return
             nodes += 1
             visit(i + 1, k, d2)
-
     visit(0, 0, 0.0)
     best_pairs.sort(key=lambda m: obs[m])
     return JcbbResult(tuple((int(obs[m]), lm_list[m]) for m in best_pairs), tuple(best_pairs), float(best_d2),

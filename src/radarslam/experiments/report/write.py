@@ -104,29 +104,7 @@ def write_report(out_dir: str | Path, n_boot: int = 2000, *, rng_seed: int = 0, 
         from radarslam.viz import have_matplotlib
 
         if figures and have_matplotlib():
-            from radarslam.viz import report as vr
-
-            for conv in REPORT_CONVENTIONS:
-                vr.plot_gwd_curves(rdir / f"fig3_gwd_{conv}.png", rep["gwd"][conv], conv,
-                                   reference=PAPER_FIG3 if conv == "full" else None)
-                files.append(f"fig3_gwd_{conv}.png")
-            vr.plot_nees(rdir / "nees.png", rep["nees"])
-            files.append("nees.png")
-            if rep["nis"]["configs"]:
-                vr.plot_nis(rdir / "nis.png", rep["nis"])
-                files.append("nis.png")
-            if 1 in trials:
-                from radarslam.experiments.montecarlo import trial_seed
-                from radarslam.experiments.single import run_trial
-                from radarslam.experiments.variants import apply_variant
-
-                v = next((x for x in variants if x.name == FIG2_VARIANT), variants[-1])
-                tr = run_trial(apply_variant(res["config"], v), trial_seed(res["seed"], 1))
-                vr.plot_fig2(rdir / "fig2_trial1.png", tr, label=v.label)
-                stored = res[v.name]["poses"][trials.index(1)]
-                rep["fig2"] = {"trial": 1, "variant": v.name, "label": v.label,
-                               "matches_stored": bool(np.array_equal(tr.record.poses, stored))}
-                files.append("fig2_trial1.png")
+            files += _write_figures(rdir, rep, res, variants, trials)
         files += ["report.json", "report.md"]
         rep["files"] = files
         write_json(rdir / "report.json", rep)
@@ -134,3 +112,33 @@ def write_report(out_dir: str | Path, n_boot: int = 2000, *, rng_seed: int = 0, 
     except OSError as exc:
         raise InputError(f"DIR: cannot write {rdir} ({exc.strerror or exc})") from None
     return rep
+
+
+def _write_figures(rdir: Path, rep: dict, res: dict, variants: tuple[Variant, ...], trials: list[int]) -> list[str]:
+    """The figures of :func:`write_report` (Fig. 3 per convention, NEES, NIS, Fig. 2 of trial 1
+    with ``rep["fig2"]`` set); returns the names written."""
+    from radarslam.viz import report as vr
+
+    files: list[str] = []
+    for conv in REPORT_CONVENTIONS:
+        vr.plot_gwd_curves(rdir / f"fig3_gwd_{conv}.png", rep["gwd"][conv], conv,
+                           reference=PAPER_FIG3 if conv == "full" else None)
+        files.append(f"fig3_gwd_{conv}.png")
+    vr.plot_nees(rdir / "nees.png", rep["nees"])
+    files.append("nees.png")
+    if rep["nis"]["configs"]:
+        vr.plot_nis(rdir / "nis.png", rep["nis"])
+        files.append("nis.png")
+    if 1 in trials:
+        from radarslam.experiments.montecarlo import trial_seed
+        from radarslam.experiments.single import run_trial
+        from radarslam.experiments.variants import apply_variant
+
+        v = next((x for x in variants if x.name == FIG2_VARIANT), variants[-1])
+        tr = run_trial(apply_variant(res["config"], v), trial_seed(res["seed"], 1))
+        vr.plot_fig2(rdir / "fig2_trial1.png", tr, label=v.label)
+        stored = res[v.name]["poses"][trials.index(1)]
+        rep["fig2"] = {"trial": 1, "variant": v.name, "label": v.label,
+                       "matches_stored": bool(np.array_equal(tr.record.poses, stored))}
+        files.append("fig2_trial1.png")
+    return files

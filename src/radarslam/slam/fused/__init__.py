@@ -1,0 +1,32 @@
+"""The fused engine: a whole event stream through EKF-SLAM in one compiled call (``filter.fused``).
+
+:class:`~radarslam.slam.filter.EkfSlam` runs docs/method.md a.8 as a dozen Python calls per scan,
+each cheap, together ~0.4 ms a scan: the orchestration, not the arithmetic, is the cost of a
+car-park trial. For the built-in components (unicycle motion, range-azimuth radar, the
+nearest-neighbour, batch or batch-joint associator, the RMA/EFA estimator, DBSCAN) this package runs the same
+steps over the whole stream inside numba, with the landmark records held in arrays (ids, creation
+scans, M/N windows, extent states and their buffers) instead of Python objects, and records what
+:func:`radarslam.experiments.single.run_filter` records after every scan.
+
+It has no maths of its own. Every step calls the compiled kernels the numba backend uses
+(:mod:`radarslam.slam._numba` for association and the Joseph update, :mod:`radarslam.extent._compiled`
+for the contour test, the RM step and the EFA, :mod:`radarslam.landmarks._compiled` for DBSCAN);
+what is written here is the bookkeeping between them, in the orchestrator's order: predict (c.2);
+sift (c.3, a.7.1); associate and update (c.4, a.7.2-a.7.3); M/N windows and removal (c.5); extent
+step (a.3-a.5); cluster (c.6); alpha test; Rule 1 / Rule 2 and augmentation (c.7-c.8); merge
+(c.9). The orchestrator remains the reference and the place for other components:
+:func:`why_not` says which configurations this engine covers and why not, and
+``tests/test_fused.py`` checks that both give the same associations, landmark ids and states (to
+rounding) on whole runs.
+
+Modules: :mod:`.storage` (the records as arrays: growth, removal, the record after a scan),
+:mod:`.tracking` (steps 1-6), :mod:`.mapping` (steps 7-10), :mod:`.engine` (:func:`run_stream`,
+the loop of named steps), :mod:`.plan` (the Python side: :func:`why_not`, the parameters by name,
+the stream as arrays, :func:`run`).
+"""
+
+from radarslam.slam.fused.engine import BAD_PREDICTION, BAD_SCAN, OK, run_stream
+from radarslam.slam.fused.plan import FusedParams, Noise, Stream, _parameters, _stream_arrays, run, why_not
+
+__all__ = ["BAD_PREDICTION", "BAD_SCAN", "OK", "FusedParams", "Noise", "Stream", "run", "run_stream", "why_not",
+           "_parameters", "_stream_arrays"]

@@ -1,0 +1,119 @@
+"""The fused engine's loop: a whole event stream through EKF-SLAM in one compiled call.
+
+:func:`run_stream` reads like :meth:`radarslam.slam.filter.EkfSlam.update`: per odometry event the
+prediction, per scan the steps of docs/method.md a.8 in the orchestrator's order, each a compiled
+function of :mod:`~radarslam.slam.fused.tracking` (steps 1-6) or
+:mod:`~radarslam.slam.fused.mapping` (steps 7-10), then the record after the scan
+(:mod:`~radarslam.slam.fused.storage`).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from numba import njit, objmode
+
+from radarslam.slam.fused.mapping import alpha_test, augment, cluster, confirm, merge
+from radarslam.slam.fused.storage import (
+    _all_finite,
+    _blocks,
+    cut_records,
+    new_landmarks,
+    new_records,
+    new_tentatives,
+    record_scan,
+)
+from radarslam.slam.fused.tracking import (
+    _to_world,
+    associate_and_update,
+    extent_step,
+    group_associations,
+    predict,
+    remove_unseen,
+    sift,
+)
+
+#: Status codes of :func:`run_stream`: what made the state non-finite, at which event.
+OK, BAD_PREDICTION, BAD_SCAN = 0, 1, 2
+
+
+@njit(cache=True)
+def _clock():  # pragma: no cover - compiled
+    """``time.perf_counter()`` from compiled code."""
+    with objmode(t="float64"):
+        t = time.perf_counter()
+    return t
+
+
+@njit(cache=True)
+def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
+    """Run the event stream through the filter.
+
+    ``stream`` is a :class:`~radarslam.slam.fused.plan.Stream`: the events ``kinds`` (0 odometry,
+    1 scan, in order); odometry ``e`` is ``odo[e] = [v, psi]`` over ``odo_dt[e]``; scan ``s`` has
+    the detections ``polar[scan_off[s]:scan_off[s + 1]]`` and the index ``scan_k[s]``. ``noise`` is
+    a :class:`~radarslam.slam.fused.plan.Noise`, ``cfg`` the parameters
+    (:class:`~radarslam.slam.fused.plan.FusedParams`). Returns a tuple: status ``(code, event)``;
+    the number of scans run; the per-scan :class:`~radarslam.slam.fused.storage.ScanRecord` (pose,
+    covariance, detections, associated detections, landmarks, NIS sum and count, map offsets, and
+    with ``cfg.timing`` the wall time of each scan with the predictions before it, else zeros); the
+    maps after every scan (:class:`~radarslam.slam.fused.storage.MapRows`); and the per-scan
+    associations as ``(scan, detection, landmark id)`` rows. All are cut to the scans run.
+    """
+    S = stream.scan_off.shape[0] - 1
+    x = x0.copy()
+    P = P0.copy()
+    m_max = 1
+    for s in range(S):
+        m_max = max(m_max, stream.scan_off[s + 1] - stream.scan_off[s])
+    lm = new_landmarks(16, cfg.n_init + m_max + 1)        # landmark records in state order
+    N, next_id = 0, 0
+    tent = new_tentatives(16)                              # tentatives (Rule 2)
+    T = 0
+    rec, maps = new_records(S, 64)
+    a_rows = np.empty((64, 3), dtype=np.int64)
+    n_arows = 0
+    status = np.zeros(2, dtype=np.int64)
+    t_last = _clock() if cfg.timing else 0.0
+    dt_since = 0.0
+    e_odo = 0
+    s = 0
+    for ev in range(stream.kinds.shape[0]):
+        if stream.kinds[ev] == 0:                                                  # 1
+            if not predict(x, P, stream.odo[e_odo, 0], stream.odo[e_odo, 1], stream.odo_dt[e_odo],
+                           noise.U, noise.Q):
+                status[0], status[1] = BAD_PREDICTION, ev
+                break
+            dt_since += stream.odo_dt[e_odo]
+            e_odo += 1
+            continue
+        # ------------------------------------------------------------ one scan (a.8 steps 2-10)
+        polar = stream.polar[stream.scan_off[s]:stream.scan_off[s + 1]]
+        k = stream.scan_k[s]
+        dt = dt_since if s > 0 else 0.0
+        dt_since = 0.0
+        prior = _blocks(x, P)                                                      # Decision 3
+        cand = sift(x, P, polar, lm, N, prior, noise, cfg)                         # 3
+        cidx = np.flatnonzero(cand)
+        x, P, out, nis = associate_and_update(x, P, polar, cidx, lm, N, noise, cfg)  # 4
+        n_assoc, aoff, arow, a_rows, n_arows = group_associations(out, cidx, N, lm.ids, s, a_rows, n_arows)
+        x, P, N, old = remove_unseen(x, P, lm, N, aoff, k, cfg)                     # 5
+        xy = _to_world(x, polar)                                    # seed eq. (3), updated pose
+        lm = extent_step(x, P, polar, xy, lm, N, old, aoff, arow, prior, dt, noise, cfg)  # 6
+        clusters = cluster(xy, polar, cand, cfg)                                   # 7
+        fresh = alpha_test(x, P, polar, clusters, noise, cfg)                      # 7
+        confirmed, tent, T = confirm(tent, T, fresh, clusters, xy, cfg)            # 8
+        x, P, lm, N, next_id = augment(x, P, lm, N, next_id, confirmed, clusters, polar, k, noise, cfg)  # 9
+        x, P, lm, N = merge(x, P, lm, N, cfg)                                      # 10
+        if not _all_finite(x, P):
+            status[0], status[1] = BAD_SCAN, ev
+            break
+        maps = record_scan(rec, maps, s, x, P, lm, N, polar.shape[0], n_assoc, nis)
+        if cfg.timing:
+            t1 = _clock()
+            rec.seconds[s] = t1 - t_last
+            t_last = t1
+        s += 1
+    return status, s, cut_records(rec, maps, s), a_rows[:n_arows]
+

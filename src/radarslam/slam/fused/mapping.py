@@ -1,0 +1,250 @@
+"""The fused engine's steps that make and merge landmarks (docs/method.md a.8 steps 7-10): cluster
+the detections no landmark claimed (c.6), the alpha test, Rule 2 / Rule 1 (c.7), augmentation
+(c.8) and merging (c.9). One compiled function per step; ``cfg`` is the engine's
+:class:`~radarslam.slam.fused.plan.FusedParams`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from radarslam.core.jit import compile_kernels
+from radarslam.landmarks._compiled import dbscan_centres, dbscan_labels
+from radarslam.models.radar import inverse_jacobians, polar_to_xy
+from radarslam.slam import ekf
+from radarslam.slam._numba import _polar_to_sensor_xy, min_log_distance
+from radarslam.slam.fused.storage import (
+    Clusters,
+    _drop_state_rows,
+    compact_landmarks,
+    grow_landmarks,
+    grow_tentatives,
+    with_buffer,
+)
+
+# The reference's own kernels, compiled as they are: the augmentation (c.8).
+_K = compile_kernels(polar_to_xy, inverse_jacobians, ekf.augment, ekf.augment_point)
+_augment = _K["augment"]
+_augment_point = _K["augment_point"]
+
+
+@njit(cache=True)
+def cluster(xy, polar, cand, cfg):  # pragma: no cover - compiled
+    """Step 7: DBSCAN of the detections no landmark claimed (c.6), as :class:`Clusters`."""
+    rest = np.flatnonzero(~cand)
+    n_rest = rest.shape[0]
+    if n_rest < cfg.min_samples:
+        return Clusters(rest, np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64))
+    pts_rest = np.empty((n_rest, 2))
+    rng_rest = np.empty(n_rest)
+    for a in range(n_rest):
+        pts_rest[a] = xy[rest[a]]
+        rng_rest[a] = polar[rest[a], 0]
+    labels = dbscan_labels(pts_rest, cfg.eps, cfg.min_samples)
+    centres = dbscan_centres(rng_rest, labels)
+    nc = centres.shape[0]
+    cl_centre = np.empty(nc, dtype=np.int64)
+    cl_size = np.zeros(nc, dtype=np.int64)
+    for a in range(n_rest):
+        if labels[a] >= 0:
+            cl_size[labels[a]] += 1
+    for c in range(nc):
+        cl_centre[c] = rest[centres[c]]
+    return Clusters(rest, labels, cl_centre, cl_size)
+
+
+@njit(cache=True)
+def alpha_test(x, P, polar, clusters, noise, cfg):  # pragma: no cover - compiled
+    """Step 7: the clusters whose centre is farther than ``cfg.alpha`` (minimum log-distance to
+    the ``cfg.n_new`` nearest landmarks) from every landmark, in order."""
+    cl_centre = clusters.centre
+    nc = cl_centre.shape[0]
+    fresh = np.empty(nc, dtype=np.int64)
+    nf = 0
+    for c in range(nc):
+        i = cl_centre[c]
+        if min_log_distance(x, P, polar[i, 0], polar[i, 1], cfg.n_new, noise.R) > cfg.alpha:
+            fresh[nf] = c
+            nf += 1
+    return fresh[:nf]
+
+
+@njit(cache=True)
+def _rule2(tent, T, fresh, cl_centre, cl_size, xy, confirmed, cfg):  # pragma: no cover - compiled
+    """Rule 2 (c.7): match tentatives and fresh clusters, closest pairs first within
+    ``cfg.tentative_gate``; a tentative seen often enough or with enough points is confirmed.
+    Returns ``(matched clusters, consumed tentatives, number confirmed)``."""
+    nf = fresh.shape[0]
+    n_conf = 0
+    matched_c = np.zeros(nf, dtype=np.bool_)
+    consumed = np.zeros(T, dtype=np.bool_)
+    if T == 0 or nf == 0:
+        return matched_c, consumed, n_conf
+    d = np.empty(T * nf)
+    for t in range(T):
+        for f in range(nf):
+            i = cl_centre[fresh[f]]
+            d0 = tent.centre[t, 0] - xy[i, 0]
+            d1 = tent.centre[t, 1] - xy[i, 1]
+            d[t * nf + f] = math.sqrt(d0 * d0 + d1 * d1)
+    matched_t = np.zeros(T, dtype=np.bool_)
+    for flat in np.argsort(d, kind="mergesort"):
+        if d[flat] >= cfg.tentative_gate:
+            break
+        t, f = flat // nf, flat % nf
+        if matched_t[t] or matched_c[f]:
+            continue
+        matched_t[t] = True
+        matched_c[f] = True
+        i = cl_centre[fresh[f]]
+        tent.count[t] += 1
+        tent.centre[t, 0], tent.centre[t, 1] = xy[i, 0], xy[i, 1]
+        tent.npts[t] = cl_size[fresh[f]]
+        if tent.count[t] >= cfg.confirm_hits or tent.npts[t] >= cfg.confirm_points:
+            confirmed[n_conf] = fresh[f]
+            n_conf += 1
+            consumed[t] = True
+    return matched_c, consumed, n_conf
+
+
+@njit(cache=True)
+def _age_tentatives(tent, T, consumed, cfg):  # pragma: no cover - compiled
+    """Age the tentatives not confirmed, dropping those that can no longer reach
+    ``cfg.confirm_hits`` in ``cfg.confirm_window`` scans. Returns the number left."""
+    Mw, Nh = cfg.confirm_window, cfg.confirm_hits
+    T_new = 0
+    for t in range(T):
+        if consumed[t]:
+            continue
+        tent.window[t] += 1
+        if tent.window[t] >= Mw or tent.count[t] + Mw - tent.window[t] < Nh:
+            continue
+        tent.centre[T_new], tent.count[T_new] = tent.centre[t], tent.count[t]
+        tent.window[T_new], tent.npts[T_new] = tent.window[t], tent.npts[t]
+        T_new += 1
+    return T_new
+
+
+@njit(cache=True)
+def confirm(tent, T, fresh, clusters, xy, cfg):  # pragma: no cover - compiled
+    """Step 8: Rule 2 (matched tentatives) then Rule 1 (c.7): a fresh cluster not matched is
+    confirmed with ``cfg.confirm_points`` points, else becomes a tentative. Returns ``(confirmed
+    clusters, tent, T)``."""
+    cl_centre, cl_size = clusters.centre, clusters.size
+    nf = fresh.shape[0]
+    confirmed = np.empty(nf, dtype=np.int64)
+    matched_c, consumed, n_conf = _rule2(tent, T, fresh, cl_centre, cl_size, xy, confirmed, cfg)
+    T = _age_tentatives(tent, T, consumed, cfg)
+    for f in range(nf):
+        if matched_c[f]:
+            continue
+        c = fresh[f]
+        if cl_size[c] >= cfg.confirm_points:
+            confirmed[n_conf] = c
+            n_conf += 1
+        else:
+            tent = grow_tentatives(tent, T + 1)
+            i = cl_centre[c]
+            tent.centre[T, 0], tent.centre[T, 1] = xy[i, 0], xy[i, 1]
+            tent.count[T], tent.window[T], tent.npts[T] = 1, 1, cl_size[c]
+            T += 1
+    return confirmed[:n_conf], tent, T
+
+
+@njit(cache=True)
+def _augment_mean(x, P, polar, R, spread, has_spread):  # pragma: no cover - compiled
+    """ekf.augment_mean: a landmark at the mean of detections ``polar``, with the mean's noise and
+    the prior spread (c.8, [PROP])."""
+    pts, R_xy = _polar_to_sensor_xy(polar, R)
+    z0 = pts[:, 0].mean()
+    z1 = pts[:, 1].mean()
+    c, s = math.cos(x[2]), math.sin(x[2])
+    rot = np.array([[c, -s], [s, c]])
+    p0 = x[0] + (rot[0, 0] * z0 + rot[0, 1] * z1)
+    p1 = x[1] + (rot[1, 0] * z0 + rot[1, 1] * z1)
+    Gx = np.array([[1.0, 0.0, x[1] - p1], [0.0, 1.0, p0 - x[0]]])
+    C = rot @ (R_xy / polar.shape[0]) @ np.ascontiguousarray(rot.T)
+    if has_spread:
+        C = C + spread
+    return _augment_point(x, P, np.array([p0, p1]), Gx, C)
+
+
+@njit(cache=True)
+def augment(x, P, lm, N, next_id, confirmed, clusters, polar, k, noise, cfg):  # pragma: no cover - compiled
+    """Step 9: a landmark per confirmed cluster (c.8), created at scan ``k``, at the mean of its
+    detections (``cfg.init_cluster``) or at its centre detection. Returns ``(x, P, lm, N, next_id)``."""
+    rest, labels, cl_centre, cl_size = clusters
+    for a in range(confirmed.shape[0]):
+        c = confirmed[a]
+        if cfg.init_cluster:
+            members = np.empty((cl_size[c], 2))
+            q = 0
+            for b in range(rest.shape[0]):
+                if labels[b] == c:
+                    members[q] = polar[rest[b]]
+                    q += 1
+            x, P = _augment_mean(x, P, members, noise.R, noise.prior_spread, cfg.spread_at_birth)
+        else:
+            i = cl_centre[c]
+            x, P = _augment(x, P, polar[i].copy(), noise.R)
+        lm = grow_landmarks(lm, N + 1)
+        lm.ids[N], lm.created[N], lm.mbits[N], lm.rbits[N] = next_id, k, 1, 1
+        lm.einit[N], lm.alpha[N], lm.nbuf[N] = False, 0.0, 0
+        next_id += 1
+        N += 1
+    return x, P, lm, N, next_id
+
+
+@njit(cache=True)
+def _closest_pair(x, N, cfg):  # pragma: no cover - compiled
+    """The closest pair of landmarks eligible for merging (c.9), or ``(-1, -1)``."""
+    bi, bj, bd = -1, -1, math.inf
+    for i in range(N):
+        for j in range(i + 1, N):
+            dx = x[3 + 2 * i] - x[3 + 2 * j]
+            dy = x[4 + 2 * i] - x[4 + 2 * j]
+            if not (abs(dx) < cfg.merge_distance and abs(dy) < cfg.merge_distance):
+                continue            # hypot(dx, dy) >= max(|dx|, |dy|): out of reach, exactly
+            dd = math.hypot(dx, dy)
+            if not dd < cfg.merge_distance:
+                continue
+            if math.isfinite(cfg.merge_axis_tol) and not (abs(dx) <= cfg.merge_axis_tol
+                                                          or abs(dy) <= cfg.merge_axis_tol):
+                continue
+            if dd < bd:
+                bi, bj, bd = i, j, dd
+    return bi, bj
+
+
+@njit(cache=True)
+def merge(x, P, lm, N, cfg):  # pragma: no cover - compiled
+    """Step 10: merging (c.9): repeatedly drop the later-created landmark of the closest eligible
+    pair (at most ``cfg.merge_max`` a scan, 0 for no limit). Returns ``(x, P, lm, N)``."""
+    n_merged = 0
+    while N >= 2 and (cfg.merge_max == 0 or n_merged < cfg.merge_max):
+        if not cfg.merge_distance > 0:
+            break
+        bi, bj = _closest_pair(x, N, cfg)
+        if bi < 0:
+            break
+        if lm.created[bj] < lm.created[bi] or (lm.created[bj] == lm.created[bi] and lm.ids[bj] < lm.ids[bi]):
+            bi, bj = bj, bi
+        # the survivor keeps its extent, takes the other's if it has none, or pools the buffers
+        if not lm.einit[bi] and lm.einit[bj]:
+            lm.einit[bi], lm.X[bi], lm.alpha[bi], lm.Xefa[bi], lm.nbuf[bi] = (
+                True, lm.X[bj], lm.alpha[bj], lm.Xefa[bj], lm.nbuf[bj])
+            lm.buf[bi] = lm.buf[bj]
+        elif not lm.einit[bi] and not lm.einit[bj]:
+            lm = with_buffer(lm, lm.nbuf[bi] + lm.nbuf[bj])
+            lm.buf[bi, lm.nbuf[bi]:lm.nbuf[bi] + lm.nbuf[bj]] = lm.buf[bj, :lm.nbuf[bj]]
+            lm.nbuf[bi] += lm.nbuf[bj]
+        keepm = np.ones(N, dtype=np.bool_)
+        keepm[bj] = False
+        x, P = _drop_state_rows(x, P, keepm)
+        compact_landmarks(lm, keepm)
+        N -= 1
+        n_merged += 1
+    return x, P, lm, N

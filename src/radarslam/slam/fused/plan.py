@@ -1,0 +1,259 @@
+"""The fused engine's Python side: which configurations it covers (:func:`why_not`), its
+parameters by name (:class:`FusedParams`, from the configuration by :func:`_parameters`), the event
+stream as arrays (:class:`Stream`, :func:`_stream_arrays`), and :func:`run`, which calls the
+compiled :func:`~radarslam.slam.fused.engine.run_stream` and names what it returns.
+
+The records passed to the compiled code are named tuples (:class:`typing.NamedTuple`) of fixed
+types (int64, float64, bool, and float64 or int64 arrays), so that numba compiles one
+specialisation whatever the configuration.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from radarslam.slam.fused.engine import BAD_PREDICTION, OK, run_stream
+
+
+class FusedParams(NamedTuple):
+    """The configuration of :func:`~radarslam.slam.fused.engine.run_stream`, by name."""
+
+    assoc: int             #: associator: 0 nearest neighbour, 1 batch, 2 batch-joint
+    n_near: int            #: associator.n_nearest
+    n_new: int             #: associator.n_nearest_new (the alpha test)
+    min_samples: int       #: landmarks.cluster_min_samples
+    confirm_points: int    #: landmarks.confirm_points (Rule 1, Rule 2)
+    confirm_window: int    #: landmarks.confirm_window (Rule 2)
+    confirm_hits: int      #: landmarks.confirm_hits (Rule 2)
+    removal_window: int    #: landmarks.removal_window (c.5)
+    removal_max: int       #: landmarks.removal_max_hits (c.5)
+    merge_max: int         #: landmarks.merge_max_per_scan (0: no limit)
+    init_cluster: bool     #: landmarks.init == "cluster": a new landmark at its cluster's mean
+    track: bool            #: extent.track
+    contour: bool          #: extent.use_in_slam and extent.contour_sifting
+    inflate: bool          #: extent.use_in_slam and extent.inflate_noise
+    pre_prior: bool        #: extent.pre_init_spread == "prior"
+    n_init: int            #: extent.n_init
+    posterior: bool        #: extent.use_posterior_landmark
+    upper: bool            #: not extent.efa_noise_correct
+    spread_at_birth: bool  #: the estimator has an initial spread
+    literal: bool          #: extent.sifting_mode == "literal"
+    timing: bool           #: record each scan's wall time
+    beta: float            #: associator.beta
+    alpha: float           #: landmarks.alpha (the alpha test)
+    sift_radius: float     #: landmarks.sift_radius_m
+    eps: float             #: landmarks.cluster_eps_m
+    tentative_gate: float  #: landmarks.tentative_gate_m
+    merge_distance: float  #: landmarks.merge_distance_m
+    merge_axis_tol: float  #: landmarks.merge_axis_tol_m
+    max_range: float       #: filter.max_range_m
+    half_fov: float        #: half filter.field_of_view_deg, in radians
+    gate: float            #: the extent estimator's gate
+    gamma: float           #: extent.spread_factor
+    alpha0: float          #: extent.alpha0
+    tau: float             #: extent.tau_s
+    eig_floor: float       #: extent.eig_floor_m2
+    kappa: float           #: extent.kappa
+
+
+class Stream(NamedTuple):
+    """The event stream as arrays (:func:`_stream_arrays`)."""
+
+    kinds: np.ndarray      #: (E,) int64, 0 odometry, 1 scan
+    odo: np.ndarray        #: (O, 2) odometry controls [v, psi]
+    odo_dt: np.ndarray     #: (O,) odometry intervals
+    scan_off: np.ndarray   #: (S + 1,) int64, scan s is polar[scan_off[s]:scan_off[s + 1]]
+    polar: np.ndarray      #: (M, 2) every scan's detections [range, azimuth]
+    scan_k: np.ndarray     #: (S,) int64 scan indices
+
+
+class Noise(NamedTuple):
+    """The noise matrices and the prior spread of :func:`~radarslam.slam.fused.engine.run_stream`."""
+
+    R: np.ndarray             #: (2, 2) measurement noise
+    R_ext: np.ndarray         #: (2, 2) the extent estimator's measurement noise
+    U: np.ndarray             #: (2, 2) control noise
+    Q: np.ndarray             #: (3, 3) process noise
+    prior_spread: np.ndarray  #: (2, 2) the prior spread (zeros when not used)
+
+
+def why_not(slam, events=None) -> str | None:
+    """Why :func:`run` cannot stand in for ``slam`` (an :class:`~radarslam.slam.filter.EkfSlam`
+    that has processed nothing yet) on ``events``, or None when it can: the configuration's
+    components must be the built-in ones this engine reproduces, and no scan may hold more than
+    ``landmarks.clustering.DENSE_MAX`` detections (the compiled DBSCAN builds an m x m
+    neighbourhood; the orchestrator hands such scans to scikit-learn's)."""
+    from radarslam.extent.estimator import RmaEfaEstimator
+    from radarslam.models.motion import UnicycleModel
+    from radarslam.models.radar import RangeAzimuthModel
+    from radarslam.slam._numba import (CompiledBatchAssociator, CompiledJointBatchAssociator,
+                                       CompiledNearestNeighbourAssociator)
+
+    f, ec = slam.config.filter, slam.config.extent
+    checks = (
+        (f.fused, "filter.fused is false"),
+        (f.backend == "numba", f"filter.backend is {f.backend!r}"),
+        (f.jacobians == "standard", "filter.jacobians 'fej' (first-estimates Jacobians, docs/method.md c.2.1)"),
+        (getattr(slam, "view", None) is None, "the partial-view model (docs/method.md a.12)"),
+        (not f.doppler_gate, "filter.doppler_gate (the Doppler gate, docs/method.md c.10.4)"),
+        (type(slam.model) is UnicycleModel, f"motion model {type(slam.model).__name__}"),
+        (type(slam.measurement) is RangeAzimuthModel, f"measurement model {type(slam.measurement).__name__}"),
+        (type(slam.associator) in (CompiledNearestNeighbourAssociator, CompiledBatchAssociator,
+                                   CompiledJointBatchAssociator),
+         f"associator {type(slam.associator).__name__}"),
+        (type(slam.extent) is RmaEfaEstimator, f"extent estimator {type(slam.extent).__name__}"),
+        (ec.efa_mode == "per_scan", f"extent.efa_mode {ec.efa_mode!r}"),
+        (ec.w_mode == "max_trace", f"extent.w_mode {ec.w_mode!r}"),
+        (ec.pre_init_spread in ("none", "prior"), f"extent.pre_init_spread {ec.pre_init_spread!r}"),
+        (slam.state.n_landmarks == 0 and slam._scans == 0, "the filter has already processed a scan"),
+    )
+    for ok, reason in checks:
+        if not ok:
+            return reason
+    if events is not None:
+        from radarslam.core.types import Scan
+        from radarslam.landmarks.clustering import DENSE_MAX
+
+        big = max((np.shape(e.polar)[0] for e in events if isinstance(e, Scan) and np.ndim(e.polar) == 2), default=0)
+        if big > DENSE_MAX:
+            return f"a scan of {big} detections (the fused engine clusters up to {DENSE_MAX})"
+    return None
+
+
+def _parameters(slam, timing: bool = False) -> FusedParams:
+    """The :class:`FusedParams` of ``slam``'s configuration and components."""
+    lc, ec, f = slam.config.landmarks, slam.config.extent, slam.config.filter
+    from radarslam.slam._numba import CompiledBatchAssociator, CompiledJointBatchAssociator
+
+    in_slam = bool(ec.use_in_slam)
+    return FusedParams(
+        assoc={CompiledBatchAssociator: 1, CompiledJointBatchAssociator: 2}.get(type(slam.associator), 0),
+        n_near=int(slam.associator.n_nearest), n_new=int(slam.associator.n_nearest_new),
+        min_samples=int(lc.cluster_min_samples),
+        confirm_points=int(lc.confirm_points), confirm_window=int(lc.confirm_window),
+        confirm_hits=int(lc.confirm_hits),
+        removal_window=int(lc.removal_window), removal_max=int(lc.removal_max_hits),
+        merge_max=int(lc.merge_max_per_scan),
+        init_cluster=lc.init == "cluster",
+        track=bool(ec.track),
+        contour=in_slam and bool(ec.contour_sifting),
+        inflate=in_slam and bool(ec.inflate_noise),
+        pre_prior=ec.pre_init_spread == "prior",
+        n_init=int(ec.n_init),
+        posterior=bool(ec.use_posterior_landmark),
+        upper=not ec.efa_noise_correct,
+        spread_at_birth=slam.extent.initial_spread() is not None,
+        literal=ec.sifting_mode == "literal",
+        timing=bool(timing),
+        beta=float(slam.associator.beta), alpha=float(lc.alpha),
+        sift_radius=float(lc.sift_radius_m), eps=float(lc.cluster_eps_m), tentative_gate=float(lc.tentative_gate_m),
+        merge_distance=float(lc.merge_distance_m), merge_axis_tol=float(lc.merge_axis_tol_m),
+        max_range=float(f.max_range_m), half_fov=math.radians(f.field_of_view_deg) / 2.0,
+        gate=float(slam.extent.gate), gamma=float(ec.spread_factor),
+        alpha0=float(ec.alpha0), tau=float(ec.tau_s), eig_floor=float(ec.eig_floor_m2), kappa=float(ec.kappa),
+    )
+
+
+def _stream_arrays(events, fast: bool = True) -> Stream:
+    """The event stream as arrays (a :class:`Stream`), each event checked as :meth:`EkfSlam.predict` and
+    :meth:`EkfSlam.update` check it (the same one-line errors, the first bad event's).
+
+    ``fast``: a scan whose detections are already a float ``(m, 2)`` array is checked with all the
+    others at once at the end (finite, ranges >= 0); if anything is wrong, the stream is checked
+    again event by event, so that the error is the one the orchestrator raises first."""
+    from radarslam.core.errors import InputError
+
+    if not fast:
+        return _stream_arrays_checked(events, False)
+    try:
+        out = _stream_arrays_checked(events, True)
+    except InputError:
+        return _stream_arrays_checked(events, False)
+    polar = out.polar
+    if not (np.isfinite(polar).all() and (polar[:, 0] >= 0).all()):
+        return _stream_arrays_checked(events, False)
+    return out
+
+
+def _stream_arrays_checked(events, defer_polar: bool) -> Stream:
+    """:func:`_stream_arrays`, the detections of a float ``(m, 2)`` array left unchecked with ``defer_polar``."""
+    from radarslam.core.errors import InputError
+    from radarslam.core.types import Odometry, Scan
+    from radarslam.core.validation import as_array
+    from radarslam.slam.filter import _number, _scan_polar
+
+    kinds, odo, odo_dt, polars, scan_k, last_t = [], [], [], [], [], None
+    for ev in events:
+        if isinstance(ev, Odometry):
+            u = ev.control
+            if not (type(u) is np.ndarray and u.dtype == np.float64 and u.shape == (2,)
+                    and math.isfinite(u[0]) and math.isfinite(u[1])):
+                u = as_array("odometry.control", u, (2,))
+            dt = _number(ev.dt, "odometry.dt")
+            if not dt > 0:
+                raise InputError(f"odometry.dt: expected a finite value > 0, got {ev.dt!r}")
+            kinds.append(0)
+            odo.append(u)
+            odo_dt.append(dt)
+        elif isinstance(ev, Scan):
+            polar = ev.polar
+            if not (defer_polar and type(polar) is np.ndarray and polar.dtype == np.float64 and polar.ndim == 2
+                    and polar.shape[1] == 2):
+                polar = _scan_polar(ev)
+            t = _number(ev.t, "scan.t")
+            if last_t is not None and t < last_t:
+                raise InputError(f"scan.t: expected scan times that do not go backwards, got {t!r} after "
+                                 f"{last_t!r} (scan {ev.index})")
+            last_t = t
+            kinds.append(1)
+            polars.append(polar)
+            scan_k.append(int(ev.index))
+        else:
+            raise InputError(f"event: expected Odometry or Scan, got {type(ev).__name__}")
+    off = np.zeros(len(polars) + 1, dtype=np.int64)
+    off[1:] = np.cumsum([p.shape[0] for p in polars])
+    return Stream(np.array(kinds, dtype=np.int64), np.array(odo, dtype=float).reshape(-1, 2),
+                  np.array(odo_dt, dtype=float), off,
+                  (np.concatenate(polars) if polars else np.empty((0, 2))).reshape(-1, 2),
+                  np.array(scan_k, dtype=np.int64))
+
+
+def run(slam, events, timing: bool = False):
+    """Run ``events`` through the fused engine with ``slam``'s configuration and components
+    (:func:`why_not` of both must be None). Returns ``(record, associations)``: the arrays of
+    :func:`~radarslam.slam.fused.engine.run_stream` by name, and the ``(scan, detection, landmark
+    id)`` rows. ``timing`` adds ``"seconds"``: each scan's wall time with the predictions before it
+    (``benchmarks/bench_scaling.py``).
+
+    Raises
+    ------
+    InputError
+        As :class:`EkfSlam` would, for a bad event or an event that makes the state non-finite.
+    """
+    from radarslam.core.errors import InputError
+
+    stream = _stream_arrays(events)
+    cfg = _parameters(slam, timing)
+    st = slam.state
+    ext = slam.extent
+    prior_spread = ext.prior_spread if ext.initial_spread() is not None or cfg.pre_prior else np.zeros((2, 2))
+    noise = Noise(slam.R, ext.R_extent, slam.U, slam.Q, np.ascontiguousarray(prior_spread, dtype=float))
+    status, n_scans, (rec, maps), arows = run_stream(stream, st.x, st.P, noise, cfg)
+    if status[0] != OK:
+        ev = events[int(status[1])]
+        off = stream.scan_off
+        if status[0] == BAD_PREDICTION:
+            what = f"odometry at t={ev.t!r} (control {np.asarray(ev.control, dtype=float).tolist()}, dt {float(ev.dt)!r})"
+        else:
+            what = f"scan {ev.index} (t={ev.t!r}, {off[n_scans + 1] - off[n_scans]} detections)"
+        raise InputError(f"{what}: expected an input that keeps the state finite, got one that makes it non-finite")
+    out = {"poses": rec.poses, "pose_covs": rec.pose_covs, "n_detections": rec.n_det, "n_associated": rec.n_ass,
+           "n_landmarks": rec.n_lm, "nis_sum": rec.nis_sum, "nis_count": rec.nis_cnt, "map_offsets": rec.map_off,
+           "ids": maps.ids, "positions": maps.pos, "covs": maps.cov, "rma": maps.rma, "efa": maps.efa,
+           "created": maps.created}
+    if timing:
+        out["seconds"] = rec.seconds
+    return out, arows

@@ -1,0 +1,269 @@
+"""The fused engine's records (:mod:`radarslam.slam.fused`): the landmarks, the tentatives and the
+per-scan outputs as arrays, with their growth, removal and the record after a scan.
+
+Each record is a :class:`typing.NamedTuple` of arrays, which numba compiles as a tuple with named
+fields: the arrays are changed in place; growing one makes new arrays, so the helpers that may grow
+return the record anew.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+
+class Landmarks(NamedTuple):
+    """The landmark records in state order (rows ``0 .. N - 1`` in use; capacity along axis 0)."""
+
+    ids: np.ndarray        #: (L,) int64, landmark ids
+    created: np.ndarray    #: (L,) int64, creation scans
+    mbits: np.ndarray      #: (L,) int64, M/N window of associations (c.5), newest in bit 0
+    rbits: np.ndarray      #: (L,) int64, M/N window of scans in view or associated
+    einit: np.ndarray      #: (L,) bool, extent initialised
+    X: np.ndarray          #: (L, 2, 2) RMA extents
+    alpha: np.ndarray      #: (L,) RMA degrees of freedom
+    Xefa: np.ndarray       #: (L, 2, 2) EFA extents
+    nbuf: np.ndarray       #: (L,) int64, detections held before the extent is initialised (a.3)
+    buf: np.ndarray        #: (L, B, 2) those detections in the world frame
+
+
+class Tentatives(NamedTuple):
+    """The tentative landmarks of Rule 2 (c.7), rows ``0 .. T - 1`` in use."""
+
+    centre: np.ndarray     #: (T, 2) last matched cluster centre
+    count: np.ndarray      #: (T,) int64, matched scans
+    window: np.ndarray     #: (T,) int64, scans since creation
+    npts: np.ndarray       #: (T,) int64, points of the last matched cluster
+
+
+class Clusters(NamedTuple):
+    """The clusters of a scan's unclaimed detections (a.8 step 7)."""
+
+    rest: np.ndarray       #: (n,) int64, the detections no landmark claimed
+    labels: np.ndarray     #: (n,) int64, their DBSCAN labels (-1 noise; empty when too few to cluster)
+    centre: np.ndarray     #: (c,) int64, per cluster the detection at its centre
+    size: np.ndarray       #: (c,) int64, per cluster its number of points
+
+
+class ScanRecord(NamedTuple):
+    """What :func:`radarslam.experiments.single.run_filter` records after every scan (``S`` rows)."""
+
+    poses: np.ndarray      #: (S, 3)
+    pose_covs: np.ndarray  #: (S, 3, 3)
+    n_det: np.ndarray      #: (S,) int64 detections
+    n_ass: np.ndarray      #: (S,) int64 associated detections
+    n_lm: np.ndarray       #: (S,) int64 landmarks
+    nis_sum: np.ndarray    #: (S,)
+    nis_cnt: np.ndarray    #: (S,) int64
+    map_off: np.ndarray    #: (S + 1,) int64, the map after scan s is rows map_off[s]:map_off[s + 1]
+    seconds: np.ndarray    #: (S,) wall time per scan (with ``timing``, else zeros)
+
+
+class MapRows(NamedTuple):
+    """The maps after every scan, one row per landmark (capacity along axis 0)."""
+
+    ids: np.ndarray        #: (R,) int64
+    pos: np.ndarray        #: (R, 2) centroids
+    cov: np.ndarray        #: (R, 2, 2) centroid covariances
+    rma: np.ndarray        #: (R, 2, 2) RMA extents (NaN where not initialised)
+    efa: np.ndarray        #: (R, 2, 2) EFA extents (NaN where not initialised)
+    created: np.ndarray    #: (R,) int64 creation scans
+
+
+# ---------------------------------------------------------------------------------------- arrays
+@njit(cache=True)
+def _grow_rows(a, n):  # pragma: no cover - compiled
+    """``a`` with room for at least ``n`` rows along its first axis (doubling), contents kept."""
+    if a.shape[0] >= n:
+        return a
+    cap = max(n, 2 * a.shape[0])
+    shape = (cap,) + a.shape[1:]
+    b = np.empty(shape, dtype=a.dtype)
+    b[:a.shape[0]] = a
+    return b
+
+
+@njit(cache=True)
+def _grow_buffer(buf, n):  # pragma: no cover - compiled
+    """The detection buffers ``(L, B, 2)`` with room for ``n`` points per landmark."""
+    if buf.shape[1] >= n:
+        return buf
+    b = np.empty((buf.shape[0], max(n, 2 * buf.shape[1]), 2))
+    b[:, :buf.shape[1]] = buf
+    return b
+
+
+@njit(cache=True)
+def _drop_state_rows(x, P, keep):  # pragma: no cover - compiled
+    """``x`` and ``P`` without the landmarks whose ``keep`` is False (ekf.remove_landmarks)."""
+    N = keep.shape[0]
+    rows = np.empty(3 + 2 * N, dtype=np.int64)
+    n = 0
+    for i in range(3):
+        rows[n] = i
+        n += 1
+    for j in range(N):
+        if keep[j]:
+            rows[n] = 3 + 2 * j
+            rows[n + 1] = 4 + 2 * j
+            n += 2
+    x_new = np.empty(n)
+    P_new = np.empty((n, n))
+    for a in range(n):
+        x_new[a] = x[rows[a]]
+        for b in range(n):
+            P_new[a, b] = P[rows[a], rows[b]]
+    return x_new, P_new
+
+
+@njit(cache=True)
+def _blocks(x, P):  # pragma: no cover - compiled
+    """Landmark centroids ``(N, 2)`` and their 2 x 2 covariance blocks ``(N, 2, 2)``."""
+    N = (x.shape[0] - 3) // 2
+    pos = np.empty((N, 2))
+    cov = np.empty((N, 2, 2))
+    for j in range(N):
+        i = 3 + 2 * j
+        pos[j, 0] = x[i]
+        pos[j, 1] = x[i + 1]
+        cov[j, 0, 0] = P[i, i]
+        cov[j, 0, 1] = P[i, i + 1]
+        cov[j, 1, 0] = P[i, i + 1]
+        cov[j, 1, 1] = P[i + 1, i + 1]
+    return pos, cov
+
+
+@njit(cache=True)
+def _all_finite(x, P):  # pragma: no cover - compiled
+    for i in range(x.shape[0]):
+        if not math.isfinite(x[i]):
+            return False
+    for i in range(P.shape[0]):
+        for j in range(P.shape[1]):
+            if not math.isfinite(P[i, j]):
+                return False
+    return True
+
+
+# ---------------------------------------------------------------------------------------- landmarks
+@njit(cache=True)
+def new_landmarks(cap, buf_len):  # pragma: no cover - compiled
+    """Empty landmark records with room for ``cap`` landmarks of ``buf_len`` buffered points."""
+    return Landmarks(np.empty(cap, dtype=np.int64), np.empty(cap, dtype=np.int64), np.empty(cap, dtype=np.int64),
+                     np.empty(cap, dtype=np.int64), np.zeros(cap, dtype=np.bool_), np.zeros((cap, 2, 2)),
+                     np.zeros(cap), np.zeros((cap, 2, 2)), np.zeros(cap, dtype=np.int64),
+                     np.zeros((cap, buf_len, 2)))
+
+
+@njit(cache=True)
+def grow_landmarks(lm, n):  # pragma: no cover - compiled
+    """``lm`` with room for at least ``n`` landmarks."""
+    if n <= lm.ids.shape[0]:
+        return lm
+    return Landmarks(_grow_rows(lm.ids, n), _grow_rows(lm.created, n), _grow_rows(lm.mbits, n),
+                     _grow_rows(lm.rbits, n), _grow_rows(lm.einit, n), _grow_rows(lm.X, n), _grow_rows(lm.alpha, n),
+                     _grow_rows(lm.Xefa, n), _grow_rows(lm.nbuf, n), _grow_rows(lm.buf, n))
+
+
+@njit(cache=True)
+def with_buffer(lm, n):  # pragma: no cover - compiled
+    """``lm`` with room for ``n`` buffered points per landmark."""
+    if lm.buf.shape[1] >= n:
+        return lm
+    return Landmarks(lm.ids, lm.created, lm.mbits, lm.rbits, lm.einit, lm.X, lm.alpha, lm.Xefa, lm.nbuf,
+                     _grow_buffer(lm.buf, n))
+
+
+@njit(cache=True)
+def compact_landmarks(lm, keep):  # pragma: no cover - compiled
+    """Move the records whose ``keep`` is True to the front, in order, in place. Returns each
+    survivor's position before (``(n_keep,)``)."""
+    N = keep.shape[0]
+    old = np.empty(N, dtype=np.int64)
+    q = 0
+    for j in range(N):
+        if keep[j]:
+            old[q] = j
+            if q != j:
+                lm.ids[q], lm.created[q], lm.mbits[q], lm.rbits[q] = lm.ids[j], lm.created[j], lm.mbits[j], lm.rbits[j]
+                lm.einit[q], lm.X[q], lm.alpha[q], lm.Xefa[q] = lm.einit[j], lm.X[j], lm.alpha[j], lm.Xefa[j]
+                lm.nbuf[q] = lm.nbuf[j]
+                lm.buf[q] = lm.buf[j]
+            q += 1
+    return old[:q]
+
+
+# ---------------------------------------------------------------------------------------- tentatives
+@njit(cache=True)
+def new_tentatives(cap):  # pragma: no cover - compiled
+    """Empty tentatives with room for ``cap``."""
+    return Tentatives(np.empty((cap, 2)), np.empty(cap, dtype=np.int64), np.empty(cap, dtype=np.int64),
+                      np.empty(cap, dtype=np.int64))
+
+
+@njit(cache=True)
+def grow_tentatives(tent, n):  # pragma: no cover - compiled
+    """``tent`` with room for at least ``n`` tentatives."""
+    if n <= tent.count.shape[0]:
+        return tent
+    return Tentatives(_grow_rows(tent.centre, n), _grow_rows(tent.count, n), _grow_rows(tent.window, n),
+                      _grow_rows(tent.npts, n))
+
+
+# ---------------------------------------------------------------------------------------- outputs
+@njit(cache=True)
+def new_records(S, cap):  # pragma: no cover - compiled
+    """The per-scan record of ``S`` scans and map rows with room for ``cap`` landmarks."""
+    rec = ScanRecord(np.empty((S, 3)), np.empty((S, 3, 3)), np.zeros(S, dtype=np.int64), np.zeros(S, dtype=np.int64),
+                     np.zeros(S, dtype=np.int64), np.zeros(S), np.zeros(S, dtype=np.int64),
+                     np.zeros(S + 1, dtype=np.int64), np.zeros(S))
+    maps = MapRows(np.empty(cap, dtype=np.int64), np.empty((cap, 2)), np.empty((cap, 2, 2)), np.empty((cap, 2, 2)),
+                   np.empty((cap, 2, 2)), np.empty(cap, dtype=np.int64))
+    return rec, maps
+
+
+@njit(cache=True)
+def record_scan(rec, maps, s, x, P, lm, N, m, n_assoc, nis):  # pragma: no cover - compiled
+    """The record after scan ``s`` (run_filter): pose, counts, NIS and the map. Returns ``maps``,
+    grown if needed."""
+    rec.poses[s] = x[:3]
+    rec.pose_covs[s] = P[:3, :3]
+    rec.n_det[s] = m
+    rec.n_ass[s] = n_assoc
+    rec.n_lm[s] = N
+    rec.nis_sum[s] = nis.sum()
+    rec.nis_cnt[s] = nis.shape[0]
+    base = rec.map_off[s]
+    rec.map_off[s + 1] = base + N
+    n = base + N
+    if n > maps.ids.shape[0]:
+        maps = MapRows(_grow_rows(maps.ids, n), _grow_rows(maps.pos, n), _grow_rows(maps.cov, n),
+                       _grow_rows(maps.rma, n), _grow_rows(maps.efa, n), _grow_rows(maps.created, n))
+    for j in range(N):
+        i = 3 + 2 * j
+        r = base + j
+        maps.ids[r] = lm.ids[j]
+        maps.created[r] = lm.created[j]
+        maps.pos[r, 0], maps.pos[r, 1] = x[i], x[i + 1]
+        maps.cov[r, 0, 0], maps.cov[r, 0, 1] = P[i, i], P[i, i + 1]
+        maps.cov[r, 1, 0], maps.cov[r, 1, 1] = P[i, i + 1], P[i + 1, i + 1]
+        if lm.einit[j]:
+            maps.rma[r] = lm.X[j]
+            maps.efa[r] = lm.Xefa[j]
+        else:
+            maps.rma[r] = np.nan
+            maps.efa[r] = np.nan
+    return maps
+
+
+@njit(cache=True)
+def cut_records(rec, maps, s):  # pragma: no cover - compiled
+    """``(rec, maps)`` cut to the first ``s`` scans."""
+    n = rec.map_off[s]
+    rec = ScanRecord(rec.poses[:s], rec.pose_covs[:s], rec.n_det[:s], rec.n_ass[:s], rec.n_lm[:s], rec.nis_sum[:s],
+                     rec.nis_cnt[:s], rec.map_off[:s + 1], rec.seconds[:s])
+    maps = MapRows(maps.ids[:n], maps.pos[:n], maps.cov[:n], maps.rma[:n], maps.efa[:n], maps.created[:n])
+    return rec, maps

@@ -1,0 +1,340 @@
+"""The fused engine's steps that track the landmarks it has (docs/method.md a.8 steps 1-6): predict
+(c.2), sift (c.3, a.7.1), associate and update (c.4, a.7.2-a.7.3), the M/N windows and removal
+(c.5), and the extent step (a.3-a.5). One compiled function per step, each the bookkeeping
+between the compiled kernels the numba backend uses; ``cfg`` is the engine's
+:class:`~radarslam.slam.fused.plan.FusedParams`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from radarslam.core.jit import compile_kernels
+from radarslam.extent._compiled import _fit_entries, measurement_contour, rma_efa_step
+from radarslam.models.radar import polar_to_xy
+from radarslam.slam._numba import (
+    _wrap_2pi,
+    _wrap_pi,
+    associate_scan,
+    batch_associate_scan,
+    joint_batch_associate_scan,
+)
+from radarslam.slam.fused.storage import _blocks, _drop_state_rows, _grow_rows, compact_landmarks, with_buffer
+
+# The reference's own kernel, compiled as it is: seed eq. (3).
+_to_world = compile_kernels(polar_to_xy)["polar_to_xy"]
+
+
+@njit(cache=True)
+def _matmul(A, B):  # pragma: no cover - compiled
+    """``A @ B`` for small matrices, each entry summed over k in order."""
+    C = np.zeros((A.shape[0], B.shape[1]))
+    for i in range(A.shape[0]):
+        for j in range(B.shape[1]):
+            acc = 0.0
+            for k in range(A.shape[1]):
+                acc += A[i, k] * B[k, j]
+            C[i, j] = acc
+    return C
+
+
+@njit(cache=True)
+def predict(x, P, v, psi, dt, U, Q):  # pragma: no cover - compiled
+    """c.2 with the unicycle model (APSIPA eq. 5, App. A; models.motion.UnicycleModel), in place.
+    Returns False, leaving the state as it was, if the prediction is not finite."""
+    th = x[2]
+    a = th + 0.5 * dt * psi
+    A, B = math.sin(a), math.cos(a)
+    Fx = np.array([[1.0, 0.0, -dt * v * A], [0.0, 1.0, dt * v * B], [0.0, 0.0, 1.0]])
+    Fu = np.array([[dt * B, -0.5 * dt * dt * v * A], [dt * A, 0.5 * dt * dt * v * B], [0.0, dt]])
+    pose0 = x[0] + v * dt * math.cos(a)
+    pose1 = x[1] + v * dt * math.sin(a)
+    pose2 = _wrap_2pi(th + psi * dt)
+    T = _matmul(Fx, P[:3, :3])
+    FU = _matmul(Fu, U)
+    Ppp = np.empty((3, 3))
+    ok = math.isfinite(pose0) and math.isfinite(pose1) and math.isfinite(pose2)
+    for i in range(3):
+        for j in range(3):
+            s1 = 0.0
+            for k in range(3):
+                s1 += T[i, k] * Fx[j, k]
+            s2 = 0.0
+            for k in range(2):
+                s2 += FU[i, k] * Fu[j, k]
+            Ppp[i, j] = s1 + s2 + Q[i, j]
+            ok = ok and math.isfinite(Ppp[i, j])
+    n = x.shape[0]
+    Ppl = np.empty((3, n - 3))
+    for i in range(3):
+        for j in range(3, n):
+            s = 0.0
+            for k in range(3):
+                s += Fx[i, k] * P[k, j]
+            Ppl[i, j - 3] = s
+            ok = ok and math.isfinite(s)
+    if not ok:
+        return False
+    x[0], x[1], x[2] = pose0, pose1, pose2
+    for i in range(3):
+        for j in range(3):
+            P[i, j] = Ppp[i, j]
+        for j in range(3, n):
+            P[i, j] = Ppl[i, j - 3]
+            P[j, i] = Ppl[i, j - 3]
+    return True
+
+
+@njit(cache=True)
+def sift(x, P, polar, lm, N, prior, noise, cfg):  # pragma: no cover - compiled
+    """Step 3: the detections that are candidates for association (c.3; a.7.1), at the predicted
+    state whose centroids and covariance blocks ``prior`` holds: inside an initialised landmark's
+    measurement contour (``cfg.contour``; the literal ``kappa`` ellipse with ``cfg.literal``), else
+    within ``cfg.sift_radius`` of a centroid."""
+    pos_prior, cov_prior = prior
+    m = polar.shape[0]
+    xy = _to_world(x, polar)
+    cand = np.zeros(m, dtype=np.bool_)
+    if N == 0 or m == 0:
+        return cand
+    use_contour = False
+    if cfg.contour:
+        for j in range(N):
+            if lm.einit[j]:
+                use_contour = True
+    inside = np.zeros((m, N), dtype=np.bool_)
+    if use_contour and cfg.literal:
+        kk = cfg.kappa * cfg.kappa
+        for j in range(N):
+            if not lm.einit[j]:
+                continue
+            X = lm.X
+            det = X[j, 0, 0] * X[j, 1, 1] - X[j, 0, 1] * X[j, 1, 0]
+            i00, i01, i10, i11 = X[j, 1, 1] / det, -X[j, 0, 1] / det, -X[j, 1, 0] / det, X[j, 0, 0] / det
+            for i in range(m):
+                d0 = xy[i, 0] - pos_prior[j, 0]
+                d1 = xy[i, 1] - pos_prior[j, 1]
+                inside[i, j] = d0 * (i00 * d0 + i01 * d1) + d1 * (i10 * d0 + i11 * d1) <= kk
+    elif use_contour:
+        spreads = np.empty((N, 2, 2))
+        for j in range(N):
+            if lm.einit[j]:
+                spreads[j] = cfg.gamma * lm.X[j]
+            else:
+                spreads[j] = cfg.gamma * np.eye(2)
+        inside = measurement_contour(xy, polar, x[2], P[:3, :3].copy(), noise.R_ext, pos_prior, spreads,
+                                     cov_prior, cfg.gate)
+    r2 = cfg.sift_radius * cfg.sift_radius
+    for i in range(m):
+        for j in range(N):
+            if use_contour and lm.einit[j]:
+                hit = inside[i, j]
+            else:
+                d0 = xy[i, 0] - pos_prior[j, 0]
+                d1 = xy[i, 1] - pos_prior[j, 1]
+                hit = d0 * d0 + d1 * d1 < r2
+            if hit:
+                cand[i] = True
+                break
+    return cand
+
+
+@njit(cache=True)
+def associate_and_update(x, P, polar, cidx, lm, N, noise, cfg):  # pragma: no cover - compiled
+    """Step 4: associate the candidates ``cidx`` and update (c.4, a.7.2-a.7.3) with the
+    nearest-neighbour (``cfg.assoc`` 0), batch (1) or batch-joint (2) associator, the noise
+    inflated by the spread of initialised extents (``cfg.inflate``) and, before, by the prior
+    spread (``cfg.pre_prior``). Returns ``(x, P, landmark per candidate or -1, NIS values)``."""
+    out = np.full(cidx.shape[0], -1, dtype=np.int64)
+    nis = np.empty(0)
+    if N == 0:
+        return x, P, out, nis
+    gX = np.zeros((N, 2, 2))
+    has = np.zeros(N, dtype=np.bool_)
+    if cfg.inflate:
+        for j in range(N):
+            if lm.einit[j]:
+                gX[j] = cfg.gamma * lm.X[j]
+                has[j] = True
+            elif cfg.pre_prior:
+                gX[j] = noise.prior_spread
+                has[j] = True
+    R = noise.R
+    if cfg.assoc == 0:
+        x, P, out, nis = associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta)
+    elif cfg.assoc == 1:
+        x, P, out, nis = batch_associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta)
+    else:
+        x, P, out, nis = joint_batch_associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta)
+    return x, P, out, nis
+
+
+@njit(cache=True)
+def group_associations(out, cidx, N, ids, s, a_rows, n_arows):  # pragma: no cover - compiled
+    """The associations of step 4 by landmark: ``assoc[j] = arow[aoff[j]:aoff[j + 1]]`` (ascending
+    detections), and the ``(scan, detection, landmark id)`` rows appended to ``a_rows``. Returns
+    ``(n_assoc, aoff, arow, a_rows, n_arows)``."""
+    n_assoc = 0
+    cnt = np.zeros(N + 1, dtype=np.int64)
+    for c in range(out.shape[0]):
+        if out[c] >= 0:
+            n_assoc += 1
+            cnt[out[c] + 1] += 1
+            a_rows = _grow_rows(a_rows, n_arows + 1)
+            a_rows[n_arows, 0] = s
+            a_rows[n_arows, 1] = cidx[c]
+            a_rows[n_arows, 2] = ids[out[c]]
+            n_arows += 1
+    aoff = np.cumsum(cnt)
+    arow = np.empty(n_assoc, dtype=np.int64)
+    fill = aoff[:-1].copy()
+    for c in range(out.shape[0]):
+        j = out[c]
+        if j >= 0:
+            arow[fill[j]] = cidx[c]
+            fill[j] += 1
+    return n_assoc, aoff, arow, a_rows, n_arows
+
+
+@njit(cache=True)
+def _popcount(v):  # pragma: no cover - compiled
+    c = 0
+    while v:
+        c += v & 1
+        v >>= 1
+    return c
+
+
+@njit(cache=True)
+def remove_unseen(x, P, lm, N, aoff, k, cfg):  # pragma: no cover - compiled
+    """Step 5: age the M/N windows of scan ``k`` and remove the landmarks seen in too few of the
+    last ``cfg.removal_window`` scans they were in view (c.5). Returns ``(x, P, N, old)``: each
+    survivor's position before the removal."""
+    Wr = cfg.removal_window
+    mask = (1 << Wr) - 1
+    keep = np.ones(N, dtype=np.bool_)
+    n_keep = 0
+    for j in range(N):
+        i = 3 + 2 * j
+        dx = x[i] - x[0]
+        dy = x[i + 1] - x[1]
+        view = math.hypot(dx, dy) <= cfg.max_range
+        if cfg.half_fov < math.pi:
+            view = view and abs(_wrap_pi(math.atan2(dy, dx) - x[2])) <= cfg.half_fov
+        h = aoff[j + 1] > aoff[j]
+        lm.mbits[j] = ((lm.mbits[j] << 1) | (1 if h else 0)) & mask
+        lm.rbits[j] = ((lm.rbits[j] << 1) | (1 if (h or view) else 0)) & mask
+        if (k - Wr + 1 >= lm.created[j] and _popcount(lm.rbits[j]) == Wr
+                and _popcount(lm.mbits[j]) <= cfg.removal_max):
+            keep[j] = False
+        else:
+            n_keep += 1
+    if n_keep < N:
+        x, P = _drop_state_rows(x, P, keep)
+    old = compact_landmarks(lm, keep)
+    return x, P, n_keep, old
+
+
+@njit(cache=True)
+def _buffer_and_initialise(lm, j, o, xy, aoff, arow, cfg):  # pragma: no cover - compiled
+    """a.3 for landmark ``j`` (row ``o`` of the associations) whose extent is not initialised:
+    buffer its detections, then the EFA (upper bound) once more than ``cfg.n_init`` are held.
+    Returns ``lm`` (its buffers may grow)."""
+    na = aoff[o + 1] - aoff[o]
+    lm = with_buffer(lm, lm.nbuf[j] + na)
+    buf = lm.buf
+    for a in range(na):
+        buf[j, lm.nbuf[j] + a, 0] = xy[arow[aoff[o] + a], 0]
+        buf[j, lm.nbuf[j] + a, 1] = xy[arow[aoff[o] + a], 1]
+    lm.nbuf[j] += na
+    if lm.nbuf[j] <= cfg.n_init:
+        return lm
+    data = buf[j, :lm.nbuf[j]].copy()
+    ok, _, _, e11, e12, e22 = _fit_entries(data, True, 0.0, 0.0, 0.0, cfg.gamma)
+    if ok:
+        lm.einit[j] = True
+        lm.X[j, 0, 0], lm.X[j, 0, 1], lm.X[j, 1, 0], lm.X[j, 1, 1] = e11, e12, e12, e22
+        lm.alpha[j] = cfg.alpha0
+        lm.Xefa[j] = lm.X[j]
+        lm.nbuf[j] = 0
+    else:
+        keep_n = cfg.n_init
+        buf[j, :keep_n] = data[lm.nbuf[j] - keep_n:]
+        lm.nbuf[j] = keep_n
+    return lm
+
+
+@njit(cache=True)
+def _rma_efa_ready(x, P, polar, xy, lm, ready, old, aoff, arow, cents, ccovs, R_ext, dt, cfg):  # pragma: no cover - compiled
+    """a.4-a.5 for the landmarks ``ready`` (extent initialised): the RM step and the EFA on their
+    associated detections, in place."""
+    n_ready = ready.shape[0]
+    offsets = np.zeros(n_ready + 1, dtype=np.int64)
+    n_rows = 0
+    for l in range(n_ready):
+        o = old[ready[l]]
+        n_rows += aoff[o + 1] - aoff[o]
+    rpol = np.empty((n_rows, 2))
+    rpts = np.empty((n_rows, 2))
+    q = 0
+    for l in range(n_ready):
+        o = old[ready[l]]
+        for a in range(aoff[o], aoff[o + 1]):
+            rpol[q] = polar[arow[a]]
+            rpts[q] = xy[arow[a]]
+            q += 1
+        offsets[l + 1] = q
+    Xr = np.empty((n_ready, 2, 2))
+    ar = np.empty(n_ready)
+    cr = np.empty((n_ready, 2))
+    Cr = np.empty((n_ready, 2, 2))
+    for l in range(n_ready):
+        Xr[l] = lm.X[ready[l]]
+        ar[l] = lm.alpha[ready[l]]
+        cr[l] = cents[ready[l]]
+        Cr[l] = ccovs[ready[l]]
+    X_new, a_new, efa, efa_ok = rma_efa_step(Xr, ar, cr, Cr, offsets, rpol, rpts, x[:3].copy(),
+                                             P[:3, :3].copy(), R_ext, dt, cfg.tau, cfg.gamma,
+                                             cfg.eig_floor, cfg.upper)
+    for l in range(n_ready):
+        j = ready[l]
+        lm.X[j] = X_new[l]
+        lm.alpha[j] = a_new[l]
+        if efa_ok[l]:
+            lm.Xefa[j] = efa[l]
+
+
+@njit(cache=True)
+def extent_step(x, P, polar, xy, lm, N, old, aoff, arow, prior, dt, noise, cfg):  # pragma: no cover - compiled
+    """Step 6: the extent step (a.3-a.5) with the detections ``xy`` in the world frame of the
+    updated pose, about the posterior centroids (``cfg.posterior``) or the prior ones (``prior``,
+    by the rows before the removal, ``old``). Returns ``lm`` (its buffers may grow)."""
+    if not cfg.track or N == 0:
+        return lm
+    pos_prior, cov_prior = prior
+    if cfg.posterior:
+        cents, ccovs = _blocks(x, P)
+    else:
+        cents = np.empty((N, 2))
+        ccovs = np.empty((N, 2, 2))
+        for j in range(N):
+            cents[j] = pos_prior[old[j]]
+            ccovs[j] = cov_prior[old[j]]
+    n_ready = 0
+    for j in range(N):
+        if lm.einit[j]:
+            n_ready += 1
+    ready = np.empty(n_ready, dtype=np.int64)
+    r_i = 0
+    for j in range(N):
+        if lm.einit[j]:
+            ready[r_i] = j
+            r_i += 1
+            continue
+        lm = _buffer_and_initialise(lm, j, old[j], xy, aoff, arow, cfg)
+    if n_ready > 0:
+        _rma_efa_ready(x, P, polar, xy, lm, ready, old, aoff, arow, cents, ccovs, noise.R_ext, dt, cfg)
+    return lm
