@@ -33,7 +33,7 @@ from radarslam.models.motion import MotionModel, motion_model_from_config
 from radarslam.slam import ekf
 from radarslam.slam.association import Associator, Spreads
 from radarslam.slam.layout import POSE_DIM
-from radarslam.slam.partial_view import partial_view_associator, view_corrected_centroid
+from radarslam.slam.partial_view import view_components, view_corrected_centroid, view_walk
 from radarslam.slam.state import LandmarkRecord, SlamState
 
 __all__ = ["EkfSlam", "LandmarkRecord", "MapSnapshot", "ScanReport"]
@@ -102,8 +102,10 @@ class EkfSlam:
             raise InputError("filter.backend: 'numba' needs numba (a dependency of radarslam: pip install numba), "
                              "or choose filter.backend = 'python'") from None
         self.extent = extent_estimator or EXTENT_ESTIMATORS.create(config.extent.estimator, config)
-        #: The partial-view measurement model (docs/method.md a.12), or None for the full view.
-        self.view = self._view_model(config, extent_estimator, associator)
+        #: Q_v of the partial-view model (docs/method.md a.12; its estimator and associator then
+        #: replace the defaults), or None for the full view.
+        self.view, self.extent, self.associator = view_components(config, self.extent, self.associator,
+                                                                  extent_estimator is None, associator is None)
         self._clusters = _cluster_kernel(f.backend)
         self.R = self.measurement.noise(f)
         self.U = self.model.control_cov(f)
@@ -119,22 +121,6 @@ class EkfSlam:
         self._last_scan_t: float | None = None
         #: Draws RANSAC's minimal sets under filter.doppler_gate (c.10.2): a fixed seed, so a run is reproducible.
         self._doppler_rng = np.random.default_rng(0) if f.doppler_gate else None
-
-    def _view_model(self, config: EstimatorConfig, extent_estimator, associator):
-        """Under ``extent.view_model`` partial (a.12): the partial-view estimator in place of the
-        default ``rma-efa`` and the partial-view form of the associator; the model-error
-        covariance ``Q_v``. None under the full view."""
-        ec = config.extent
-        if not ec.partial_view:
-            return None
-        if extent_estimator is None and ec.estimator == "rma-efa":
-            self.extent = EXTENT_ESTIMATORS.create("partial-view", config)
-        if not hasattr(self.extent, "view_shapes"):
-            raise InputError(f"extent.estimator: expected one with shapes for the partial view (partial-view), "
-                             f"got {ec.estimator!r} with extent.view_model = {ec.view_model!r}")
-        if associator is None:
-            self.associator = partial_view_associator(config)
-        return ec.view_model_error_m ** 2 * np.eye(2)
 
     def _check_fej(self, config: EstimatorConfig) -> None:
         """Refuse first-estimates Jacobians (c.2.1) where they are not built: a motion model other
@@ -256,7 +242,8 @@ class EkfSlam:
             polar = polar[keep]
         dt = self._take_scan_interval()
         if self.view is not None:
-            self._view_walk()                                             # a.12.5
+            self._view_angle = view_walk(self.state, self._view_angle,
+                                         self.config.extent.view_walk_m2_per_rad)    # a.12.5
         prior = self._prior()                                             # Decision 3
         if self.fej:                     # this scan's Jacobians at its predicted pose (c.2.1)
             self.state.lin_pose = self._pose_first.copy()
@@ -277,27 +264,6 @@ class EkfSlam:
                           confirmed, merged, len(clusters), len(self.state.tentatives), nis, moving, ego)
 
     # ------------------------------------------------------------------ the steps
-    def _view_walk(self) -> None:
-        """Under the partial view (a.12.5): the model error of a landmark's mean detection persists
-        while the landmark is seen from one side and changes as the view turns, so the centroid the
-        filter tracks (the true centroid plus that error) takes a random walk in the viewing angle:
-        ``P_pp += q_w |delta phi| I`` for the change ``delta phi`` of the bearing from the landmark to
-        the sensor since the previous scan (``extent.view_walk_m2_per_rad`` = ``q_w``)."""
-        q = self.config.extent.view_walk_m2_per_rad
-        st = self.state
-        if q <= 0.0 or not st.landmarks:
-            return
-        d = st.x[:2] - st.positions
-        phi = np.arctan2(d[:, 1], d[:, 0])
-        last = np.array([self._view_angle.get(r.id, np.nan) for r in st.landmarks])
-        step = np.abs(np.remainder(phi - last + math.pi, 2.0 * math.pi) - math.pi)
-        step = np.where(np.isfinite(step), step, 0.0)
-        for j in np.flatnonzero(step > 0.0).tolist():
-            i = POSE_DIM + 2 * j
-            st.P[i, i] += q * step[j]
-            st.P[i + 1, i + 1] += q * step[j]
-        self._view_angle = {r.id: float(a) for r, a in zip(st.landmarks, phi)}
-
     def _doppler_gate(self, scan: Scan, polar: np.ndarray):
         """Fit the sensor velocity to the scan's Doppler (c.10.2) and test each detection against
         the static world (c.10.4): ``(kept rows, moving rows, EgoVelocity)``. The directions are

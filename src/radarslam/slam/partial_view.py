@@ -268,3 +268,41 @@ def view_corrected_centroid(mean: np.ndarray, t: np.ndarray, X: np.ndarray, iter
         g, _, _ = f(np.ascontiguousarray((t - p)[None]), np.ascontiguousarray(X[None]))
         p = mean - g[0]
     return p
+
+
+def view_components(config, extent, associator, default_extent: bool, default_associator: bool):
+    """The filter's partial-view parts (a.12.8): ``(Q_v, extent estimator, associator)``. Under
+    ``extent.view_model`` partial the default ``rma-efa`` estimator becomes ``partial-view`` and a
+    default associator its partial-view form; ``Q_v`` is None under the full view (the components
+    are returned as they came)."""
+    from radarslam.core.registry import EXTENT_ESTIMATORS
+
+    ec = config.extent
+    if not ec.partial_view:
+        return None, extent, associator
+    if default_extent and ec.estimator == "rma-efa":
+        extent = EXTENT_ESTIMATORS.create("partial-view", config)
+    if not hasattr(extent, "view_shapes"):
+        raise InputError(f"extent.estimator: expected one with shapes for the partial view (partial-view), "
+                         f"got {ec.estimator!r} with extent.view_model = {ec.view_model!r}")
+    if default_associator:
+        associator = partial_view_associator(config)
+    return ec.view_model_error_m ** 2 * np.eye(2), extent, associator
+
+
+def view_walk(state: SlamState, last_angle: dict[int, float], q: float) -> dict[int, float]:
+    """The centroid's random walk with the viewing angle (a.12.5, ``extent.view_walk_m2_per_rad`` =
+    ``q``): ``P_pp += q |delta phi| I`` for the change of the bearing from each landmark to the
+    sensor since the previous scan (``last_angle`` by landmark id); returns this scan's bearings."""
+    if q <= 0.0 or not state.landmarks:
+        return last_angle
+    d = state.x[:2] - state.positions
+    phi = np.arctan2(d[:, 1], d[:, 0])
+    last = np.array([last_angle.get(r.id, np.nan) for r in state.landmarks])
+    step = np.abs(np.remainder(phi - last + math.pi, 2.0 * math.pi) - math.pi)
+    step = np.where(np.isfinite(step), step, 0.0)
+    for j in np.flatnonzero(step > 0.0).tolist():
+        i = landmark_index(j)
+        state.P[i, i] += q * step[j]
+        state.P[i + 1, i + 1] += q * step[j]
+    return {r.id: float(a) for r, a in zip(state.landmarks, phi)}
