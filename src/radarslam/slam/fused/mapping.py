@@ -31,7 +31,7 @@ _augment = _K["augment"]
 _augment_point = _K["augment_point"]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def cluster(xy, polar, cand, cfg):  # pragma: no cover - compiled
     """Step 7: DBSCAN of the detections no landmark claimed (c.6), as :class:`Clusters`."""
     rest = np.flatnonzero(~cand)
@@ -56,7 +56,7 @@ def cluster(xy, polar, cand, cfg):  # pragma: no cover - compiled
     return Clusters(rest, labels, cl_centre, cl_size)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def alpha_test(x, P, polar, clusters, noise, cfg):  # pragma: no cover - compiled
     """Step 7: the clusters whose centre is farther than ``cfg.alpha`` (minimum log-distance to
     the ``cfg.n_new`` nearest landmarks) from every landmark, in order."""
@@ -72,7 +72,7 @@ def alpha_test(x, P, polar, clusters, noise, cfg):  # pragma: no cover - compile
     return fresh[:nf]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _rule2(tent, T, fresh, cl_centre, cl_size, xy, confirmed, cfg):  # pragma: no cover - compiled
     """Rule 2 (c.7): match tentatives and fresh clusters, closest pairs first within
     ``cfg.tentative_gate``; a tentative seen often enough or with enough points is confirmed.
@@ -110,7 +110,7 @@ def _rule2(tent, T, fresh, cl_centre, cl_size, xy, confirmed, cfg):  # pragma: n
     return matched_c, consumed, n_conf
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _age_tentatives(tent, T, consumed, cfg):  # pragma: no cover - compiled
     """Age the tentatives not confirmed, dropping those that can no longer reach
     ``cfg.confirm_hits`` in ``cfg.confirm_window`` scans. Returns the number left."""
@@ -128,7 +128,7 @@ def _age_tentatives(tent, T, consumed, cfg):  # pragma: no cover - compiled
     return T_new
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def confirm(tent, T, fresh, clusters, xy, cfg):  # pragma: no cover - compiled
     """Step 8: Rule 2 (matched tentatives) then Rule 1 (c.7): a fresh cluster not matched is
     confirmed with ``cfg.confirm_points`` points, else becomes a tentative. Returns ``(confirmed
@@ -154,7 +154,7 @@ def confirm(tent, T, fresh, clusters, xy, cfg):  # pragma: no cover - compiled
     return confirmed[:n_conf], tent, T
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _augment_mean(x, P, polar, R, spread, has_spread):  # pragma: no cover - compiled
     """ekf.augment_mean: a landmark at the mean of detections ``polar``, with the mean's noise and
     the prior spread (c.8, [PROP])."""
@@ -172,7 +172,7 @@ def _augment_mean(x, P, polar, R, spread, has_spread):  # pragma: no cover - com
     return _augment_point(x, P, np.array([p0, p1]), Gx, C)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def augment(x, P, lm, N, next_id, confirmed, clusters, polar, k, noise, cfg):  # pragma: no cover - compiled
     """Step 9: a landmark per confirmed cluster (c.8), created at scan ``k``, at the mean of its
     detections (``cfg.init_cluster``) or at its centre detection. Returns ``(x, P, lm, N, next_id)``."""
@@ -198,7 +198,7 @@ def augment(x, P, lm, N, next_id, confirmed, clusters, polar, k, noise, cfg):  #
     return x, P, lm, N, next_id
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _closest_pair(x, N, cfg):  # pragma: no cover - compiled
     """The closest pair of landmarks eligible for merging (c.9), or ``(-1, -1)``."""
     bi, bj, bd = -1, -1, math.inf
@@ -219,7 +219,7 @@ def _closest_pair(x, N, cfg):  # pragma: no cover - compiled
     return bi, bj
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def merge(x, P, lm, N, cfg):  # pragma: no cover - compiled
     """Step 10: merging (c.9): repeatedly drop the later-created landmark of the closest eligible
     pair (at most ``cfg.merge_max`` a scan, 0 for no limit). Returns ``(x, P, lm, N)``."""

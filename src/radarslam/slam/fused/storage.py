@@ -74,7 +74,7 @@ class MapRows(NamedTuple):
 
 
 # ---------------------------------------------------------------------------------------- arrays
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _grow_rows(a, n):  # pragma: no cover - compiled
     """``a`` with room for at least ``n`` rows along its first axis (doubling), contents kept."""
     if a.shape[0] >= n:
@@ -86,7 +86,7 @@ def _grow_rows(a, n):  # pragma: no cover - compiled
     return b
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _grow_buffer(buf, n):  # pragma: no cover - compiled
     """The detection buffers ``(L, B, 2)`` with room for ``n`` points per landmark."""
     if buf.shape[1] >= n:
@@ -96,7 +96,7 @@ def _grow_buffer(buf, n):  # pragma: no cover - compiled
     return b
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _drop_state_rows(x, P, keep):  # pragma: no cover - compiled
     """``x`` and ``P`` without the landmarks whose ``keep`` is False (ekf.remove_landmarks)."""
     N = keep.shape[0]
@@ -119,7 +119,7 @@ def _drop_state_rows(x, P, keep):  # pragma: no cover - compiled
     return x_new, P_new
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _blocks(x, P):  # pragma: no cover - compiled
     """Landmark centroids ``(N, 2)`` and their 2 x 2 covariance blocks ``(N, 2, 2)``."""
     N = (x.shape[0] - 3) // 2
@@ -136,7 +136,7 @@ def _blocks(x, P):  # pragma: no cover - compiled
     return pos, cov
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _all_finite(x, P):  # pragma: no cover - compiled
     for i in range(x.shape[0]):
         if not math.isfinite(x[i]):
@@ -149,7 +149,7 @@ def _all_finite(x, P):  # pragma: no cover - compiled
 
 
 # ---------------------------------------------------------------------------------------- landmarks
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def new_landmarks(cap, buf_len):  # pragma: no cover - compiled
     """Empty landmark records with room for ``cap`` landmarks of ``buf_len`` buffered points."""
     return Landmarks(np.empty(cap, dtype=np.int64), np.empty(cap, dtype=np.int64), np.empty(cap, dtype=np.int64),
@@ -158,7 +158,7 @@ def new_landmarks(cap, buf_len):  # pragma: no cover - compiled
                      np.zeros((cap, buf_len, 2)))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def grow_landmarks(lm, n):  # pragma: no cover - compiled
     """``lm`` with room for at least ``n`` landmarks."""
     if n <= lm.ids.shape[0]:
@@ -168,7 +168,7 @@ def grow_landmarks(lm, n):  # pragma: no cover - compiled
                      _grow_rows(lm.Xefa, n), _grow_rows(lm.nbuf, n), _grow_rows(lm.buf, n))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def with_buffer(lm, n):  # pragma: no cover - compiled
     """``lm`` with room for ``n`` buffered points per landmark."""
     if lm.buf.shape[1] >= n:
@@ -177,7 +177,7 @@ def with_buffer(lm, n):  # pragma: no cover - compiled
                      _grow_buffer(lm.buf, n))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def compact_landmarks(lm, keep):  # pragma: no cover - compiled
     """Move the records whose ``keep`` is True to the front, in order, in place. Returns each
     survivor's position before (``(n_keep,)``)."""
@@ -197,14 +197,14 @@ def compact_landmarks(lm, keep):  # pragma: no cover - compiled
 
 
 # ---------------------------------------------------------------------------------------- tentatives
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def new_tentatives(cap):  # pragma: no cover - compiled
     """Empty tentatives with room for ``cap``."""
     return Tentatives(np.empty((cap, 2)), np.empty(cap, dtype=np.int64), np.empty(cap, dtype=np.int64),
                       np.empty(cap, dtype=np.int64))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def grow_tentatives(tent, n):  # pragma: no cover - compiled
     """``tent`` with room for at least ``n`` tentatives."""
     if n <= tent.count.shape[0]:
@@ -214,7 +214,7 @@ def grow_tentatives(tent, n):  # pragma: no cover - compiled
 
 
 # ---------------------------------------------------------------------------------------- outputs
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def new_records(S, cap):  # pragma: no cover - compiled
     """The per-scan record of ``S`` scans and map rows with room for ``cap`` landmarks."""
     rec = ScanRecord(np.empty((S, 3)), np.empty((S, 3, 3)), np.zeros(S, dtype=np.int64), np.zeros(S, dtype=np.int64),
@@ -225,7 +225,7 @@ def new_records(S, cap):  # pragma: no cover - compiled
     return rec, maps
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def record_scan(rec, maps, s, x, P, lm, N, m, n_assoc, nis):  # pragma: no cover - compiled
     """The record after scan ``s`` (run_filter): pose, counts, NIS and the map. Returns ``maps``,
     grown if needed."""
@@ -259,7 +259,7 @@ def record_scan(rec, maps, s, x, P, lm, N, m, n_assoc, nis):  # pragma: no cover
     return maps
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def cut_records(rec, maps, s):  # pragma: no cover - compiled
     """``(rec, maps)`` cut to the first ``s`` scans."""
     n = rec.map_off[s]

@@ -28,7 +28,7 @@ from radarslam.slam.fused.storage import _blocks, _drop_state_rows, _grow_rows, 
 _to_world = compile_kernels(polar_to_xy)["polar_to_xy"]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _matmul(A, B):  # pragma: no cover - compiled
     """``A @ B`` for small matrices, each entry summed over k in order."""
     C = np.zeros((A.shape[0], B.shape[1]))
@@ -41,7 +41,7 @@ def _matmul(A, B):  # pragma: no cover - compiled
     return C
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def predict(x, P, v, psi, dt, U, Q):  # pragma: no cover - compiled
     """c.2 with the unicycle model (APSIPA eq. 5, App. A; models.motion.UnicycleModel), in place.
     Returns False, leaving the state as it was, if the prediction is not finite."""
@@ -88,7 +88,7 @@ def predict(x, P, v, psi, dt, U, Q):  # pragma: no cover - compiled
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def sift(x, P, polar, lm, N, prior, noise, cfg):  # pragma: no cover - compiled
     """Step 3: the detections that are candidates for association (c.3; a.7.1), at the predicted
     state whose centroids and covariance blocks ``prior`` holds: inside an initialised landmark's
@@ -142,7 +142,7 @@ def sift(x, P, polar, lm, N, prior, noise, cfg):  # pragma: no cover - compiled
     return cand
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def associate_and_update(x, P, polar, cidx, lm, N, noise, cfg):  # pragma: no cover - compiled
     """Step 4: associate the candidates ``cidx`` and update (c.4, a.7.2-a.7.3) with the
     nearest-neighbour (``cfg.assoc`` 0), batch (1) or batch-joint (2) associator, the noise
@@ -172,7 +172,7 @@ def associate_and_update(x, P, polar, cidx, lm, N, noise, cfg):  # pragma: no co
     return x, P, out, nis
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def group_associations(out, cidx, N, ids, s, a_rows, n_arows):  # pragma: no cover - compiled
     """The associations of step 4 by landmark: ``assoc[j] = arow[aoff[j]:aoff[j + 1]]`` (ascending
     detections), and the ``(scan, detection, landmark id)`` rows appended to ``a_rows``. Returns
@@ -199,7 +199,7 @@ def group_associations(out, cidx, N, ids, s, a_rows, n_arows):  # pragma: no cov
     return n_assoc, aoff, arow, a_rows, n_arows
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _popcount(v):  # pragma: no cover - compiled
     c = 0
     while v:
@@ -208,7 +208,7 @@ def _popcount(v):  # pragma: no cover - compiled
     return c
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def remove_unseen(x, P, lm, N, aoff, k, cfg):  # pragma: no cover - compiled
     """Step 5: age the M/N windows of scan ``k`` and remove the landmarks seen in too few of the
     last ``cfg.removal_window`` scans they were in view (c.5). Returns ``(x, P, N, old)``: each
@@ -238,7 +238,7 @@ def remove_unseen(x, P, lm, N, aoff, k, cfg):  # pragma: no cover - compiled
     return x, P, n_keep, old
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _buffer_and_initialise(lm, j, o, xy, aoff, arow, cfg):  # pragma: no cover - compiled
     """a.3 for landmark ``j`` (row ``o`` of the associations) whose extent is not initialised:
     buffer its detections, then the EFA (upper bound) once more than ``cfg.n_init`` are held.
@@ -267,7 +267,7 @@ def _buffer_and_initialise(lm, j, o, xy, aoff, arow, cfg):  # pragma: no cover -
     return lm
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _rma_efa_ready(x, P, polar, xy, lm, ready, old, aoff, arow, cents, ccovs, R_ext, dt, cfg):  # pragma: no cover - compiled
     """a.4-a.5 for the landmarks ``ready`` (extent initialised): the RM step and the EFA on their
     associated detections, in place."""
@@ -307,7 +307,7 @@ def _rma_efa_ready(x, P, polar, xy, lm, ready, old, aoff, arow, cents, ccovs, R_
             lm.Xefa[j] = efa[l]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def extent_step(x, P, polar, xy, lm, N, old, aoff, arow, prior, dt, noise, cfg):  # pragma: no cover - compiled
     """Step 6: the extent step (a.3-a.5) with the detections ``xy`` in the world frame of the
     updated pose, about the posterior centroids (``cfg.posterior``) or the prior ones (``prior``,
