@@ -213,6 +213,7 @@ def test_reproduce_partial_view_study_writes_the_models_side_by_side(tmp_path):
     assert main(["reproduce", "--study", "partial-view", "--trials", "2", "--jobs", "1", "--quiet",
                  "--out", str(out)]) == 0
     text = (out / "partial_view_study.md").read_text()
+    assert (out / "partial_view_study.png").stat().st_size > 10_000
     for model in ("surface", "visible-faces", "scatter-centres"):
         assert f"## {model} (2 trials)" in text
         assert (out / model / "report" / "report.md").is_file()

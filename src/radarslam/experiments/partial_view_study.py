@@ -12,7 +12,7 @@ radar model) the car park is simulated ``trials`` times with ``radar.spread_mode
   negative control of the partial-view model.
 
 Each model's run is an ordinary Monte Carlo directory (``OUT/<model>/``, resumable, with its own
-report); ``OUT/partial_view_study.md`` and ``.json`` put the models side by side: position and
+report); ``OUT/partial_view_study.md``, ``.json`` and ``.png`` put the models side by side: position and
 heading average RMSE with 95% bootstrap intervals, the paired change against "No extent", the
 time-averaged pose NEES and the fraction of scans inside its band, and the shape GWD of the
 estimator that feeds SLAM against the RMA's on the same landmarks. Seed 1 is the reporting seed;
@@ -84,7 +84,8 @@ def summarise(out: Path) -> dict:
                       "change_heading_pct": t1["heading_avg_rmse_deg"]["change_pct"].get(name),
                       "nees_time_avg": ns["configs"][name]["time_avg"],
                       "nees_inside": ns["configs"][name]["frac_inside"],
-                      "shape_gwd": _shape(res, name)}
+                      "shape_gwd": _shape(res, name),
+                      "filter_ms": 1e3 * float(np.median(res["filter_seconds"][name]))}
     return {"n_trials": int(res["trials"].size), "rows": rows, "nees_band": list(ns["band"])}
 
 
@@ -103,20 +104,66 @@ def markdown(summary: dict, seed: int) -> str:
              "scans inside its 95% band. Shape GWD: the moment ellipse on the estimate's centroid (the shape "
              f"alone), RMSE over trials per scan, mean over scans k >= {SETTLED_FROM}; 'its estimator' is the one "
              "feeding SLAM (the partial-view estimator under the partial view), 'baseline' the RMA under the "
-             "partial view and the EFA otherwise.", ""]
+             "partial view and the EFA otherwise. Filter ms: median per trial, one core.", ""]
     for model, s in summary.items():
         lines += [f"## {model} ({s['n_trials']} trials)", "",
                   "| variant | position (m) | heading (deg) | change position (%) | change heading (%) "
-                  "| NEES time-avg | NEES inside band | shape GWD its estimator / baseline (m) |",
-                  "|---|---|---|---|---|---|---|---|"]
+                  "| NEES time-avg | NEES inside band | shape GWD its estimator / baseline (m) | filter ms |",
+                  "|---|---|---|---|---|---|---|---|---|"]
         for r in s["rows"].values():
             g = r["shape_gwd"]
             lines.append(f"| {r['label']} | {_ci(r['position_m'], 3)} | {_ci(r['heading_deg'], 2)} | "
                          f"{_ci(r['change_position_pct'], 1, True)} | {_ci(r['change_heading_pct'], 1, True)} | "
                          f"{r['nees_time_avg']:.2f} | {100 * r['nees_inside']:.0f}% | "
-                         f"{g['rma']:.3f} / {g['efa']:.3f} |")
+                         f"{g['rma']:.3f} / {g['efa']:.3f} | {r['filter_ms']:.0f} |")
         lines.append("")
     return "\n".join(lines)
+
+
+def figure(summary: dict, path: Path) -> None:
+    """Position avg. RMSE (with its 95% interval) and time-averaged NEES of every variant, a
+    column of bars per spread model."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    models = list(summary)
+    names = list(dict.fromkeys(n for s in summary.values() for n in s["rows"]))
+    width = 0.8 / len(names)
+    for i, name in enumerate(names):
+        xs, pos, lo, hi, nees = [], [], [], [], []
+        for m, model in enumerate(models):
+            r = summary[model]["rows"].get(name)
+            if r is None:
+                continue
+            xs.append(m + (i - (len(names) - 1) / 2) * width)
+            pos.append(r["position_m"]["estimate"])
+            lo.append(pos[-1] - r["position_m"]["ci"][0])
+            hi.append(r["position_m"]["ci"][1] - pos[-1])
+            nees.append(r["nees_time_avg"])
+        label = next(s["rows"][name]["label"] for s in summary.values() if name in s["rows"])
+        axes[0].bar(xs, pos, width, yerr=[lo, hi], label=label)
+        axes[1].bar(xs, nees, width, label=label)
+    for ax, title in zip(axes, ("position avg. RMSE (m), 95% CI", "time-averaged pose NEES (3 = consistent)")):
+        ax.set_xticks(range(len(models)), models)
+        ax.set_title(title)
+        ax.grid(alpha=0.3, axis="y")
+    axes[1].set_yscale("log")
+    axes[1].axhline(3.0, color="k", lw=0.8, ls="--")
+    axes[0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def write_summary(out: Path, summary: dict, seed: int, configs: dict) -> None:
+    """``partial_view_study.md``, ``.json`` and ``.png`` (with each model's configuration)."""
+    (out / "partial_view_study.md").write_text(markdown(summary, seed) + "\n", encoding="utf-8")
+    (out / "partial_view_study.json").write_text(json.dumps({"seed": seed, "configs": configs, "summary": summary},
+                                                            indent=1, default=float) + "\n", encoding="utf-8")
+    figure(summary, out / "partial_view_study.png")
 
 
 def run_study(base: Config, seed: int, trials: int, out: str | Path, *, jobs: int = 1, progress: bool = True,
@@ -134,8 +181,5 @@ def run_study(base: Config, seed: int, trials: int, out: str | Path, *, jobs: in
         write_report(out / model)
         summary[model] = summarise(out / model)
         configs[model] = to_dict(cfg)
-    text = markdown(summary, seed)
-    (out / "partial_view_study.md").write_text(text + "\n", encoding="utf-8")
-    (out / "partial_view_study.json").write_text(json.dumps({"seed": seed, "configs": configs, "summary": summary},
-                                                            indent=1, default=float) + "\n", encoding="utf-8")
+    write_summary(out, summary, seed, configs)
     return summary
