@@ -57,6 +57,15 @@ def walk_variants() -> list[Variant]:
                    for q in WALK]
 
 
+def uncertainty_variants() -> list[Variant]:
+    base = sweep_variants(True, False)
+    ext = base[1].overlay["extent"]
+    return base + [Variant(f"shape-unc-{str(q).replace('.', 'p')}",
+                           f"partial, view_shape_uncertainty, view_model_error_m = {q}",
+                           {**base[1].overlay, "extent": {**ext, "view_shape_uncertainty": True, "view_model_error_m": q}})
+                   for q in (0.2, 0.3)]
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--trials", type=int, default=60)
@@ -67,11 +76,16 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--pairs-only", action="store_true", help="the second round only (PAIRS)")
     p.add_argument("--defaults-only", action="store_true", help="the full view and the shipped defaults only")
     p.add_argument("--walk", action="store_true", help="the view random walk q_w (WALK) around the defaults")
+    p.add_argument("--shape-uncertainty", action="store_true",
+                   help="extent.view_shape_uncertainty on, with the model error at 0.2 and 0.3 m")
     a = p.parse_args(argv)
     if a.seed == 1:
         print("partial_view_sweep: --seed 1 is the reporting seed; choose parameters on other seeds", file=sys.stderr)
         return 2
-    variants = walk_variants() if a.walk else sweep_variants(not a.pairs_only, not a.defaults_only)
+    if a.shape_uncertainty:
+        variants = uncertainty_variants()
+    else:
+        variants = walk_variants() if a.walk else sweep_variants(not a.pairs_only, not a.defaults_only)
     run_under_spread_model(variants, a.spread_model, a.seed, a.trials, a.out, a.jobs, "sweep")
     return 0
 

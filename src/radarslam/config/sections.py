@@ -331,6 +331,9 @@ class ExtentConfig:
                                       "777-778, scripts/partial_view_sweep.py)", low=0.0)
     view_walk_m2_per_rad: float = param(0.0, "[PROP] partial view: random walk of a landmark's centroid with the "
                                         "viewing angle, q_w in P_pp += q_w |delta phi| I (m^2/rad; a.12.5)", low=0.0)
+    view_shape_uncertainty: bool = param(True, "[PROP] partial view: add the shape's uncertainty, J P_xi J^T, to "
+                                         "the model error of a landmark's predicted mean (a.12.5; chosen on "
+                                         "training seeds 777-778)")
     view_init_correct: bool = param(True, "[PROP] partial view: a new landmark's cluster mean moved to the "
                                     "centroid of the prior shape seen from the sensor (a.12.6)")
     view_prior_radius_m: float = param(1.0, "[PROP] partial view: radius of the circular prior shape X0 = r^2 I of "

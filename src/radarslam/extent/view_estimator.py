@@ -268,6 +268,14 @@ class PartialViewEstimator(RmaEfaEstimator):
         """``(N, 2, 2)``: :meth:`view_shape` of every landmark."""
         return np.array([self.view_shape(s) for s in states]).reshape(-1, 2, 2)
 
+    def view_shape_covs(self, states: list[PartialViewState]):
+        """``(xi (N, 3), P_xi (N, 3, 3))`` of the shapes the arc model uses; zero covariances for
+        the RMA's and the prior's (ablations), which are taken as given."""
+        n = len(states)
+        if self.shape_mode != "estimated":
+            return np.array([X_to_log_matrix(self.view_shape(s)) for s in states]).reshape(n, 3), np.zeros((n, 3, 3))
+        return (np.array([s.xi for s in states]).reshape(n, 3), np.array([s.P_xi for s in states]).reshape(n, 3, 3))
+
     def prior_shape(self) -> np.ndarray:
         """The shape of a newborn landmark, ``X0 = r0^2 I``."""
         return log_matrix_to_X(self.xi0)

@@ -38,6 +38,10 @@ class Spreads:
     #: visible-arc model, and the model-error covariance Q_v (2, 2) of a landmark's mean detection.
     shapes: np.ndarray | None = None
     model_error: np.ndarray | None = None
+    #: With extent.view_shape_uncertainty: every landmark's log-matrix shape (N, 3) and its
+    #: covariance (N, 3, 3), whose effect on the predicted mean joins the model error (a.12.5).
+    log_shapes: np.ndarray | None = None
+    shape_covs: np.ndarray | None = None
 
     @classmethod
     def none(cls, n: int) -> "Spreads":

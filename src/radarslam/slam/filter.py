@@ -325,7 +325,9 @@ class EkfSlam:
         states = [r.extent for r in st.landmarks]
         spreads = Spreads(*self.extent.spreads(states))
         if self.view is not None:
-            spreads = Spreads(spreads.gX, spreads.has, self.extent.view_shapes(states), self.view)
+            covs = self.extent.view_shape_covs(states) if self.config.extent.view_shape_uncertainty else None
+            spreads = Spreads(spreads.gX, spreads.has, self.extent.view_shapes(states), self.view,
+                              None if covs is None else covs[0], None if covs is None else covs[1])
         out, nis = self.associator.associate(st, polar, candidates, self.R, spreads)
         for i, j in zip(candidates.tolist(), np.asarray(out).tolist()):
             if j >= 0:

@@ -55,6 +55,40 @@ def view_terms(x: np.ndarray, shapes: np.ndarray, js: np.ndarray | None = None):
     return p + g, B, S
 
 
+def _exp_sym2_many(xi: np.ndarray) -> np.ndarray:
+    """``expm`` of the symmetric log-matrices ``xi (N, 3)`` (entries 11, 12, 22): ``(N, 2, 2)``."""
+    a, b, c = xi[:, 0], xi[:, 1], xi[:, 2]
+    m, d = 0.5 * (a + c), np.hypot(0.5 * (a - c), b)
+    sh = np.where(d > 1e-12, np.sinh(d) / np.where(d > 1e-12, d, 1.0), 1.0)
+    e, ch = np.exp(m), np.cosh(d)
+    X = np.empty((xi.shape[0], 2, 2))
+    X[:, 0, 0] = e * (ch + sh * (a - m))
+    X[:, 0, 1] = X[:, 1, 0] = e * sh * b
+    X[:, 1, 1] = e * (ch + sh * (c - m))
+    return X
+
+
+def model_errors(x: np.ndarray, spreads: Spreads, js: np.ndarray, step: float = 1e-4) -> np.ndarray:
+    """``(N, 2, 2)``: the model error of each landmark's predicted mean (a.12.5), ``Q_v``, plus,
+    when the shapes come with their covariances, ``J P_xi J^T`` with ``J = dg/dxi`` of the mean
+    offset over the log-matrix shape (central differences): what the shape's uncertainty adds."""
+    js = np.asarray(js, dtype=np.int64)
+    out = np.repeat(spreads.model_error[None], js.size, axis=0)
+    if spreads.shape_covs is None or js.size == 0:
+        return out
+    d = np.ascontiguousarray(x[:2] - x[3:].reshape(-1, 2)[js])
+    xi = spreads.log_shapes[js]
+    f = _arc_moments_many()
+    J = np.empty((js.size, 2, 3))
+    for i in range(3):
+        dxi = np.zeros(3)
+        dxi[i] = step
+        gp = f(d, _exp_sym2_many(xi + dxi))[0]
+        gm = f(d, _exp_sym2_many(xi - dxi))[0]
+        J[:, :, i] = (gp - gm) / (2.0 * step)
+    return out + J @ spreads.shape_covs[js] @ np.swapaxes(J, 1, 2)
+
+
 def _pose_landmark_blocks(P: np.ndarray, js: np.ndarray) -> np.ndarray:
     """``P`` restricted to ``(x, y, theta, p_j)`` for every ``j`` of ``js``: ``(N, 5, 5)``."""
     idx = np.empty((js.size, 5), dtype=np.int64)
@@ -127,7 +161,7 @@ class _PartialView:
             raise InputError("extent.view_model: 'partial' needs the extent estimator's shapes "
                              "(extent.estimator = 'partial-view'), got none")
         mu, B, S = view_terms(state.x, spreads.shapes)
-        h, Hs, Rj, ok = polar_terms(state.x, mu, B, S, R, spreads.model_error)
+        h, Hs, Rj, ok = polar_terms(state.x, mu, B, S, R, model_errors(state.x, spreads, np.arange(mu.shape[0])))
         return mu, B, S, h, Hs, Rj, ok
 
     def _score(self, state, polar, rows, R, spreads, count, terms=None):
@@ -175,7 +209,7 @@ class PartialViewNearestNeighbour(_PartialView, NearestNeighbourAssociator):
             d2 = ((mu_all - zw) ** 2).sum(axis=1)
             js = np.argsort(d2, kind="stable")[:self.n_nearest]
             mu, B, S = view_terms(x, spreads.shapes, js)
-            h, Hs, Rj, ok = polar_terms(x, mu, B, S, R, spreads.model_error)
+            h, Hs, Rj, ok = polar_terms(x, mu, B, S, R, model_errors(x, spreads, js))
             Pb, idx = _pose_landmark_blocks(state.P, js)
             D = np.where(ok, log_distances(polar[i:i + 1], h, Hs, Pb, Rj)[0], np.inf)
             k = int(np.argmin(D))
@@ -193,12 +227,12 @@ def _batch_measurements(state, polar, candidates, out, R, spreads, seen):
     js = np.array(seen, dtype=np.int64)
     mu, B, S = view_terms(state.x, spreads.shapes, js)
     h, Hs = sensor_xy_terms(state.x, mu, B)
-    Qs = ekf.rotate_to_sensor(state.x[2], spreads.model_error)
+    Q = model_errors(state.x, spreads, js)
     rows = []
     for a, j in enumerate(seen):
         dets = candidates[out == j]
         pts, R_xy = ekf.polar_to_sensor_xy(polar[dets], R)
-        noise = ekf.batch_noise(state.x[2], S[a], True, R_xy, dets.size) + Qs
+        noise = ekf.batch_noise(state.x[2], S[a], True, R_xy, dets.size) + ekf.rotate_to_sensor(state.x[2], Q[a])
         i0 = landmark_index(j)
         rows.append((j, pts.mean(axis=0) - h[a], Hs[a], np.array([0, 1, 2, i0, i0 + 1]), noise))
     return rows
