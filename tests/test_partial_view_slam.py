@@ -246,3 +246,35 @@ def test_compiled_shape_update_equals_the_python_kernel():
             b = compiled(xi, P, d[0], d[1], y, m, Ws, Pc, 0.09, 0.3, False)
             assert a[2] == b[2]
             assert np.allclose(a[0], b[0], rtol=1e-10, atol=1e-10) and np.allclose(a[1], b[1], rtol=1e-10, atol=1e-12)
+
+
+def test_model_errors_add_the_shape_uncertainty():
+    """model_errors: Q_v alone without shape covariances; with them, Q_v + J P_xi J^T, where J
+    (central differences) matches a finite-difference check of the mean offset along one
+    direction of xi, and the added term is PSD and grows with P_xi."""
+    from radarslam.slam.association import Spreads
+    from radarslam.slam.partial_view import _exp_sym2_many, model_errors
+
+    x = np.array([0.0, 0.0, 0.3, 8.0, 2.0, -6.0, 5.0])
+    xi = np.array([[1.2, 0.3, -0.2], [0.5, -0.1, 0.4]])
+    shapes = _exp_sym2_many(xi)
+    Qv = 0.09 * np.eye(2)
+    base = Spreads(np.zeros((2, 2, 2)), np.zeros(2, bool), shapes, Qv)
+    assert np.allclose(model_errors(x, base, np.arange(2)), Qv)
+    P = np.stack([0.2 * np.eye(3), 0.05 * np.eye(3)])
+    full = Spreads(np.zeros((2, 2, 2)), np.zeros(2, bool), shapes, Qv, xi, P)
+    Q = model_errors(x, full, np.arange(2))
+    extra = Q - Qv
+    assert np.all(np.linalg.eigvalsh(extra) >= -1e-12) and np.trace(extra[0]) > 1e-3
+    # J along u: (g(xi + h u) - g(xi - h u)) / 2h, independently of model_errors' loop
+    from radarslam.extent.partial_view import visible_arc_moments
+    u = np.array([0.3, -0.5, 0.8])
+    h = 1e-5
+    gp = visible_arc_moments(x[3:5], _exp_sym2_many(xi[:1] + h * u)[0], x[:2])[0]
+    gm = visible_arc_moments(x[3:5], _exp_sym2_many(xi[:1] - h * u)[0], x[:2])[0]
+    Ju = (gp - gm) / (2 * h)
+    one = Spreads(np.zeros((2, 2, 2)), np.zeros(2, bool), shapes, np.zeros((2, 2)), xi,
+                  np.stack([np.outer(u, u), np.zeros((3, 3))]))
+    assert np.allclose(model_errors(x, one, np.array([0]))[0], np.outer(Ju, Ju), rtol=1e-5, atol=1e-9)
+    bigger = Spreads(np.zeros((2, 2, 2)), np.zeros(2, bool), shapes, Qv, xi, 4 * P)
+    assert np.all(np.linalg.eigvalsh(model_errors(x, bigger, np.arange(2)) - Q) >= -1e-12)
