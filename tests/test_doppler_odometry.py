@@ -123,7 +123,7 @@ def test_doppler_odometry_end_to_end_and_its_negative_control():
     """Measured (trials 777/1-3, No extent): odometer 1.29 m, doppler 1.29 m (ratio 1.00), both
     1.29 m; with the Doppler noise 100x (10 m/s, most fits invalid and held) doppler 3.11 m (2.4x).
     Bounds: doppler below 1.5x the odometer run (the ratio measured 1.00: the landmark updates
-    dominate the pose error, and neither the Doppler fit's ~0.02 m/s per scan nor the gyro's
+    dominate the pose error, and neither the Doppler fit's ~0.04 m/s per scan nor the gyro's
     0.1 deg/s -- 12x the odometer's simulated 0.008 deg/s -- is the limiting error over 0.1 s); the
     inflated run above 1.8x the nominal doppler run (measured 2.4x)."""
     nominal = _position_rmse(1.0, ("odometer", "doppler", "both"))
