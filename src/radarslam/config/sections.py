@@ -90,6 +90,8 @@ class OdometerConfig:
     turn_rate_std_deg_s: float = param(0.008, "turn-rate-noise std (deg/s)", low=0.0)
     speed_bias_mps: float = param(0.0, "[PROP] constant speed bias (m/s); 0 in both papers (h.15)")
     turn_rate_bias_deg_s: float = param(0.0, "[PROP] constant turn-rate bias (deg/s)")
+    gyro_std_deg_s: float = param(0.1, "[PROP] simulated gyro's yaw-rate noise std (deg/s), drawn with radar.doppler "
+                                  "on from the trial's child stream 3 (docs/method.md b.4.3, c.10.5)", low=0.0)
 
 
 @dataclass
@@ -220,6 +222,15 @@ class FilterConfig:
                                          "of step q: q / sqrt(12); c.10.3)", low=0.0)
     zero_velocity_probability: float = param(0.99, "[PROP] chi-square probability of the at-rest test (c.10.3)",
                                              low=0.0, low_open=True, high=0.999999)
+    odometry: str = param("odometer", "[PROP] what drives the prediction (c.10.5): odometer (the readings, the "
+                          "paper), doppler (each scan's Doppler ego-velocity fit and the gyro; the odometer is "
+                          "ignored) or both (the odometer's speed fused with the Doppler fit; orchestrator only)",
+                          choices=("odometer", "doppler", "both"))
+    gyro_std_deg_s: float = param(0.1, "[PROP] U: gyro yaw-rate std (deg/s) under filter.odometry doppler/both",
+                                  low=0.0)
+    doppler_hold_std_mps: float = param(1.0, "[PROP] under filter.odometry doppler/both, a scan without a valid "
+                                        "ego-velocity fit holds the last one with this std added (m/s; c.10.5)",
+                                        low=0.0)
 
     @property
     def R(self) -> np.ndarray:

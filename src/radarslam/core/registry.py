@@ -140,6 +140,7 @@ EXTENT_ESTIMATORS = Registry("extent estimator", "extent.estimator")
 # The built-ins register themselves when their module is imported.
 MOTION_MODELS.register_lazy("unicycle", "radarslam.models.motion")
 MOTION_MODELS.register_lazy("ackermann", "radarslam.models.ackermann")
+MOTION_MODELS.register_lazy("body-velocity", "radarslam.models.body_velocity")
 MEASUREMENT_MODELS.register_lazy("range-azimuth", "radarslam.models.radar")
 ASSOCIATORS.register_lazy("nearest-neighbour", "radarslam.slam.association")
 ASSOCIATORS.register_lazy("nearest-neighbour", "radarslam.slam._numba", backend="numba")

@@ -31,11 +31,15 @@ class Odometry:
         Length of the interval (s), > 0.
     control : ndarray, shape (2,)
         Model-specific control; for the car park's unicycle model ``[v (m/s), psi (rad/s)]``.
+    gyro_rad_s : float or None
+        A gyro's mean yaw rate over the interval (rad/s), or None without a gyro (the simulator
+        draws one with ``radar.doppler`` on; docs/method.md c.10.5).
     """
 
     t: float
     dt: float
     control: np.ndarray
+    gyro_rad_s: float | None = None
 
     @classmethod
     def checked(cls, t: float, dt: float, control: object) -> "Odometry":

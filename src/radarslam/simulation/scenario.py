@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -85,6 +86,10 @@ def generate_scenario(config: Config, rng: np.random.Generator, *, compiled: boo
         if config.world.moving_vehicles:
             traffic = moving_traffic(config, moving_rng)
         velocity = platform_velocities(controls)
+    gyro = None
+    if config.radar.doppler:   # c.10.5: the true yaw rate of each interval plus noise, child stream 3
+        gyro = controls[:, 1] + math.radians(config.odometer.gyro_std_deg_s) * child_stream(
+            rng, GYRO_CHILD).standard_normal(controls.shape[0])
     # only the surface model is compiled; contour, visible-faces and scatter-centres (docs/method.md
     # b.4.1, b.4.2) always run through the Python reference, simulate_scan
     if compiled and config.radar.spread_model == "surface":
@@ -93,7 +98,8 @@ def generate_scenario(config: Config, rng: np.random.Generator, *, compiled: boo
         batch = simulate(poses[:traj.n_steps], vehicles, config.radar, rng, true_azimuth=extra)
     for k in range(1, traj.n_steps + 1):
         if k > 1:
-            events.append(Odometry(t=(k - 1) * traj.dt_s, dt=traj.dt_s, control=odo[k - 1]))
+            events.append(Odometry(t=(k - 1) * traj.dt_s, dt=traj.dt_s, control=odo[k - 1],
+                                   gyro_rad_s=None if gyro is None else float(gyro[k - 1])))
         if batch is None:
             out = simulate_scan(poses[k - 1], vehicles, k, config.radar, rng, true_azimuth=extra)
         else:
@@ -130,8 +136,8 @@ def _extras(out, k: int, pose: np.ndarray, velocity: np.ndarray, traffic, config
 #: The children of a trial's SeedSequence, each built from its spawn key (``trial key + (c,)``), so
 #: that the trial's own stream (process noise, odometer, scans) is the same whether or not they are
 #: drawn and no two options share a stream: the initial error (docs/method.md b.5), the Doppler
-#: noise and the moving cars (b.4.3).
-INITIAL_ERROR_CHILD, DOPPLER_CHILD, MOVING_CHILD = 0, 1, 2
+#: noise and the moving cars (b.4.3), the gyro (c.10.5).
+INITIAL_ERROR_CHILD, DOPPLER_CHILD, MOVING_CHILD, GYRO_CHILD = 0, 1, 2, 3
 
 
 def child_stream(rng: np.random.Generator, child: int) -> np.random.Generator:

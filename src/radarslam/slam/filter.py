@@ -33,6 +33,7 @@ from radarslam.models.motion import MotionModel, motion_model_from_config
 from radarslam.slam import ekf
 from radarslam.slam.association import Associator, Spreads
 from radarslam.slam.layout import POSE_DIM
+from radarslam.slam.odometry_source import odometry_source
 from radarslam.slam.partial_view import view_components, view_corrected_centroid, view_walk
 from radarslam.slam.state import LandmarkRecord, SlamState
 
@@ -121,6 +122,8 @@ class EkfSlam:
         self._last_scan_t: float | None = None
         #: Draws RANSAC's minimal sets under filter.doppler_gate (c.10.2): a fixed seed, so a run is reproducible.
         self._doppler_rng = np.random.default_rng(0) if f.doppler_gate else None
+        #: filter.odometry "doppler"/"both": the Doppler-and-gyro prediction driver (c.10.5), else None.
+        self._odometry = odometry_source(self)
 
     def _check_fej(self, config: EstimatorConfig) -> None:
         """Refuse first-estimates Jacobians (c.2.1) where they are not built: a motion model other
@@ -184,6 +187,8 @@ class EkfSlam:
     # ------------------------------------------------------------------ events
     def process(self, event: Odometry | Scan) -> ScanReport | None:
         """Dispatch one event of the stream."""
+        if self._odometry is not None:                 # c.10.5: Doppler and gyro drive the prediction
+            return self._odometry.process(self, event)
         if isinstance(event, Odometry):
             self.predict(event)
             return None
@@ -200,6 +205,9 @@ class EkfSlam:
             For a non-finite or non-numeric control, a non-positive ``dt``, or a reading that would
             make the state non-finite (the state is then left as it was).
         """
+        if self._odometry is not None:
+            raise ConfigError(f"filter.odometry: expected 'odometer' for EkfSlam.predict, got "
+                              f"{self.config.filter.odometry!r} (feed the events to EkfSlam.process; c.10.5)")
         u = odo.control
         if not (type(u) is np.ndarray and u.dtype == np.float64 and u.shape == (2,)   # the loaders' form
                 and math.isfinite(u[0]) and math.isfinite(u[1])):
