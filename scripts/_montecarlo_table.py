@@ -46,23 +46,35 @@ def main(doc: str, variants: list, table: Callable[[dict], list[dict]], markdown
     return 0
 
 
-def run_under_spread_model(variants: list, spread_model: str, seed: int, trials: int, out: str, jobs: int,
-                           stem: str) -> str:
-    """Run (or resume) the Monte Carlo of ``variants`` with the car park simulated under
-    ``spread_model`` (radar and extent alike), print the ablation-style table (position, heading,
-    NEES, NIS) and write it as ``out/stem.md``; returns the table."""
-    from dataclasses import replace
-
+def run_ablation_table(cfg, variants: list, seed: int, trials: int, out: str, jobs: int, stem: str,
+                       title: str | None = None) -> str:
+    """Run (or resume) the Monte Carlo of ``variants`` on ``cfg``'s simulated data, print the
+    ablation-style table (position, heading, NEES, NIS; ``title`` in place of its first words) and
+    write it as ``out/stem.md`` and, with the rows, seed and configuration, ``out/stem.json``."""
     from ablation_consistent import markdown, table
 
     from radarslam.experiments.report import nees_summary
 
+    run_montecarlo(cfg, seed, trials, out, jobs=jobs, variants=variants)
+    res = load_results(out)
+    rows = table(res)
+    text = markdown(rows, res["trials"].size, res["seed"], nees_summary(res)["band"])
+    if title:
+        text = text.replace("Ablation of the consistent variant", title, 1)
+    print(text)
+    Path(out, f"{stem}.md").write_text(text + "\n")
+    Path(out, f"{stem}.json").write_text(json.dumps({"seed": seed, "trials": int(res["trials"].size),
+                                                     "config": to_dict(cfg), "rows": rows}, indent=2) + "\n")
+    return text
+
+
+def run_under_spread_model(variants: list, spread_model: str, seed: int, trials: int, out: str, jobs: int,
+                           stem: str) -> str:
+    """:func:`run_ablation_table` with the car park simulated under ``spread_model`` (radar and
+    extent alike)."""
+    from dataclasses import replace
+
     cfg = profile_config()
     cfg = replace(cfg, radar=replace(cfg.radar, spread_model=spread_model),
                   extent=replace(cfg.extent, spread_model=spread_model))
-    run_montecarlo(cfg, seed, trials, out, jobs=jobs, variants=variants)
-    res = load_results(out)
-    text = markdown(table(res), res["trials"].size, res["seed"], nees_summary(res)["band"])
-    print(text)
-    Path(out, f"{stem}.md").write_text(text + "\n")
-    return text
+    return run_ablation_table(cfg, variants, seed, trials, out, jobs, stem)

@@ -13,16 +13,13 @@ from __future__ import annotations
 
 import argparse
 import copy
-import json
 import sys
 from dataclasses import replace
-from pathlib import Path
 
-from ablation_consistent import markdown, table
 
-from radarslam.config import profile_config, to_dict
-from radarslam.experiments.montecarlo import load_results, run_montecarlo
-from radarslam.experiments.report import nees_summary
+from _montecarlo_table import run_ablation_table
+
+from radarslam.config import profile_config
 from radarslam.experiments.variants import CONSISTENT, PAPER_VARIANTS, Variant
 
 MODES = ("odometer", "doppler", "both")
@@ -52,15 +49,8 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     cfg = profile_config(a.profile)
     cfg = replace(cfg, radar=replace(cfg.radar, doppler=True))
-    run_montecarlo(cfg, a.seed, a.trials, a.out, jobs=a.jobs, variants=study_variants())
-    res = load_results(a.out)
-    rows = table(res)
-    text = markdown(rows, res["trials"].size, res["seed"], nees_summary(res)["band"])
-    text = text.replace("Ablation of the consistent variant", "Doppler and gyro odometry (c.10.5)", 1)
-    print(text)
-    Path(a.out, "doppler_odometry.md").write_text(text + "\n")
-    Path(a.out, "doppler_odometry.json").write_text(json.dumps({"seed": a.seed, "trials": int(res["trials"].size),
-                                                                "config": to_dict(cfg), "rows": rows}, indent=2) + "\n")
+    run_ablation_table(cfg, study_variants(), a.seed, a.trials, a.out, a.jobs, "doppler_odometry",
+                       "Doppler and gyro odometry (c.10.5)")
     return 0
 
 

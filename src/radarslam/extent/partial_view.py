@@ -234,22 +234,19 @@ def arc_moments(dx: float, dy: float, X11: float, X12: float, X22: float):
     # back to the world frame: g = R g', G = R G' R^T, S = R S' R^T
     g0 = co * h0 - so * h1
     g1 = so * h0 + co * h1
-    a00 = co * H00 - so * H10
-    a01 = co * H01 - so * H11
-    a10 = so * H00 + co * H10
-    a11 = so * H01 + co * H11
-    G00 = a00 * co - a01 * so
-    G01 = a00 * so + a01 * co
-    G10 = a10 * co - a11 * so
-    G11 = a10 * so + a11 * co
-    b00 = co * T00 - so * T01
-    b01 = co * T01 - so * T11
-    b10 = so * T00 + co * T01
-    b11 = so * T01 + co * T11
-    S00 = b00 * co - b01 * so
-    S01 = b00 * so + b01 * co
-    S11 = b10 * so + b11 * co
+    G00, G01, G10, G11 = _rotate2(co, so, H00, H01, H10, H11)
+    S00, S01, _, S11 = _rotate2(co, so, T00, T01, T01, T11)
     return g0, g1, G00, G01, G10, G11, S00, S01, S11, clamped
+
+
+def _rotate2(co: float, so: float, m00: float, m01: float, m10: float, m11: float):
+    """The entries ``(00, 01, 10, 11)`` of ``R M R^T`` for ``R = R(o)`` with ``cos o = co``,
+    ``sin o = so``. A kernel."""
+    a00 = co * m00 - so * m10
+    a01 = co * m01 - so * m11
+    a10 = so * m00 + co * m10
+    a11 = so * m01 + co * m11
+    return a00 * co - a01 * so, a00 * so + a01 * co, a10 * co - a11 * so, a10 * so + a11 * co
 
 
 def tangent_points(dx: float, dy: float, X11: float, X12: float, X22: float):
@@ -391,5 +388,5 @@ def visible_arc_shape_jacobian(p, semi_axes, orientation: float, s) -> tuple[np.
     return np.array(cols).reshape(3, 2).T, bool(clamped)
 
 
-KERNELS = (principal_frame, arc_geometry, arc_sums, arc_frame_moments, _scaled_frame, arc_moments,
+KERNELS = (_rotate2, principal_frame, arc_geometry, arc_sums, arc_frame_moments, _scaled_frame, arc_moments,
            tangent_points, arc_mean_shape_jacobian, _shape_columns, spectral)
