@@ -118,6 +118,15 @@ def _limit_threads() -> None:
         pass
 
 
+def _init_pool_worker() -> None:
+    """A pool worker: one BLAS thread, and SIGTERM back to its default (end the process). A forked
+    worker inherits the parent's SIGTERM-as-Ctrl-C handler (:func:`_sigterm_as_interrupt`); with it,
+    the parent's ``terminate`` raised KeyboardInterrupt inside the worker, which then blocked for
+    ever sending that exception back on a queue nobody read, holding the parent's output pipes."""
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    _limit_threads()
+
+
 class Progress:
     """A one-line progress bar on stderr: trials done, rate and ETA."""
 
@@ -271,7 +280,7 @@ def _run_pool(cfg_dict: dict, seed: int, variants: tuple[Variant, ...], todo: li
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
     from concurrent.futures.process import BrokenProcessPool
 
-    ex = ProcessPoolExecutor(max_workers=jobs, initializer=_limit_threads)
+    ex = ProcessPoolExecutor(max_workers=jobs, initializer=_init_pool_worker)
     try:
         pending = {ex.submit(compute_trial, cfg_dict, seed, t, variants, chash): t for t in todo}
         while pending:
@@ -287,8 +296,13 @@ def _run_pool(cfg_dict: dict, seed: int, variants: tuple[Variant, ...], todo: li
     except BaseException:
         # Interrupted (Ctrl-C, SIGTERM) or failed: cancel what has not started and end the workers
         # now, so that none is left running a trial after this process is gone.
-        for proc in list(getattr(ex, "_processes", {}).values()):
+        procs = list(getattr(ex, "_processes", {}).values())
+        for proc in procs:
             proc.terminate()
+        for proc in procs:           # one forked before its initializer ran still has the handler
+            proc.join(2.0)
+            if proc.is_alive():
+                proc.kill()
         ex.shutdown(wait=False, cancel_futures=True)
         raise
     ex.shutdown(wait=True)
