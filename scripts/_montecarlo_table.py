@@ -27,9 +27,12 @@ def main(doc: str, variants: list, table: Callable[[dict], list[dict]], markdown
     p.add_argument("--backend", choices=BACKENDS, default="numba")
     p.add_argument("--profile", default="apsipa")
     p.add_argument("--out", default=out)
+    p.add_argument("--report", action="store_true",
+                   help="the final run on the reporting seed, once every parameter is fixed on training seeds")
     a = p.parse_args(argv)
-    if refuse_seed is not None and a.seed == refuse_seed:
-        print(f"{stem}: --seed {a.seed} is the reporting seed; choose parameters on other seeds", file=sys.stderr)
+    if refuse_seed is not None and a.seed == refuse_seed and not a.report:
+        print(f"{stem}: --seed {a.seed} is the reporting seed; choose parameters on other seeds "
+              f"(--report for the final run, parameters fixed)", file=sys.stderr)
         return 2
     cfg = profile_config(a.profile)
     cfg = type(cfg)(**{**cfg.__dict__, "filter": type(cfg.filter)(**{**cfg.filter.__dict__, "backend": a.backend})})

@@ -23,7 +23,7 @@ def test_default_variants_are_the_papers_two_and_the_consistent_one():
     assert DEFAULT_VARIANTS[:2] == PAPER_VARIANTS and [v.name for v in DEFAULT_VARIANTS] == ["noext", "ext", "consistent"]
     c = apply_variant(cfg, DEFAULT_VARIANTS[2])
     assert c.extent.use_in_slam and c.extent.pre_init_spread == "prior"
-    assert c.landmarks.init == "cluster" and c.landmarks.associator == "batch"
+    assert c.landmarks.init == "cluster" and c.landmarks.associator == "batch-joint"
     assert c.trajectory == cfg.trajectory and c.radar == cfg.radar   # same simulated data
 
 
