@@ -268,28 +268,52 @@ IMU = "sensor_msgs/msg/Imu"
 
 
 def read_imu(path: str | Path, topic: str, *, log_time: bool) -> tuple[np.ndarray, np.ndarray]:
-    """``(t_ns (n,), gyro (n, 3) rad/s)`` of a ``sensor_msgs/Imu`` topic (its angular velocity).
+    """``(t_ns (n,), gyro (n, 3) rad/s)`` of a ``sensor_msgs/Imu`` topic (:func:`read_imu_samples`)."""
+    t, gyro, _, _ = read_imu_samples(path, topic, log_time=log_time)
+    return t, gyro
 
-    ``log_time``: use the bag's log time (when the radar's header stamps are 0 and its times are
-    log times, an IMU's header clock may not be mixed with them, docs/recordings.md "Time")."""
+
+def read_imu_samples(path: str | Path, topic: str, *, log_time: bool):
+    """``(t_ns (n,), gyro (n, 3) rad/s, accel (n, 3) m/s^2, note)`` of a ``sensor_msgs/Imu`` topic.
+
+    ``log_time``: the radar's times are the bag's log times (its header stamps are 0). The IMU's
+    own header clock is then moved onto the log clock by the median of ``log - stamp`` (one
+    constant, said in ``note``): its stamps keep their regular spacing, which the log times of a
+    fast topic lose (logged in bursts), and no two clocks are mixed. An IMU whose stamps are 0 uses
+    its log times; otherwise (``log_time`` false) its header stamps.
+    """
     path = Path(path)
     reader = open_bag(path)
     try:
         bag = _Bag(reader, path)
         bag.check(topic, (IMU,), "IMU")
-        t, rows = [], []
+        stamps, logs, rows = [], [], []
         for log_ns, msg in bag.messages(topic):
-            t.append(log_ns if log_time else _stamp_ns(msg.header))
-            w = msg.angular_velocity
-            rows.append((w.x, w.y, w.z))
+            stamps.append(_stamp_ns(msg.header)), logs.append(log_ns)
+            w, a = msg.angular_velocity, msg.linear_acceleration
+            rows.append((w.x, w.y, w.z, a.x, a.y, a.z))
     finally:
         reader.close()
     if not rows:
         raise InputError(f"bag {path} topic {topic}: expected IMU messages, got none")
-    gyro = np.array(rows, dtype=float)
-    if not np.all(np.isfinite(gyro)):
-        raise InputError(f"bag {path} topic {topic}: expected finite angular velocities, got NaN or inf")
-    return np.array(t, dtype=np.int64), gyro
+    arr = np.array(rows, dtype=float)
+    if not np.all(np.isfinite(arr)):
+        i = int(np.argmax(~np.all(np.isfinite(arr), axis=1)))
+        raise InputError(f"bag {path} topic {topic} message {i + 1}: expected finite angular velocity and "
+                         "acceleration, got NaN or inf")
+    notes: list[str] = []
+    t, is_log = _times(stamps, logs, f"bag {path} topic {topic}", notes)
+    note = notes[0] if notes else ""
+    if log_time and not is_log:
+        off = int(np.median(t - np.array(logs, dtype=np.int64)))
+        t = t - off
+        note = (f"bag {path} topic {topic}: header stamps moved onto the log clock by the median log - stamp "
+                f"offset, {-off * 1e-9:.6f} s")
+    bad = np.flatnonzero(np.diff(t) <= 0)
+    if bad.size:
+        raise InputError(f"bag {path} topic {topic} message {int(bad[0]) + 2}: expected increasing times, got one "
+                         "that repeats or goes backwards")
+    return t, arr[:, :3], arr[:, 3:], note
 
 
 def list_topics(path: str | Path) -> dict[str, str]:
