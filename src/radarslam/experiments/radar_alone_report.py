@@ -164,7 +164,8 @@ def plot_speed_yaw(path, lev: LevelledRecording) -> None:
                        label="at rest (zero-velocity test)" if a is ax else None)
     ax.fill_between(lev.t, sp - 2 * sd, sp + 2 * sd, color="tab:blue", alpha=0.25, label="+-2 std")
     ax.plot(lev.t, sp, "-", color="tab:blue", lw=1.2, label="horizontal speed (Doppler, levelled)")
-    ax.plot(lev.t, lev.v[:, 1], "-", color="tab:orange", lw=0.8, label="lateral velocity")
+    lat = math.sin(lev.boresight_yaw) * lev.v[:, 0] + math.cos(lev.boresight_yaw) * lev.v[:, 1]
+    ax.plot(lev.t, lat, "-", color="tab:orange", lw=0.8, label="lateral velocity (body y, levelled)")
     ax.set_ylabel("m/s")
     ax.legend(loc="upper right", fontsize=8)
     bx.plot(lev.t, np.degrees(lev.yaw_rate), "-", color="tab:green", lw=1.0, label="yaw rate (gyro, levelled)")
