@@ -230,8 +230,9 @@ def test_ros2_radar_scan_is_read_directly(tmp_path, fmt):
         az, el = rng.uniform(-1.2, 1.2, r.size), rng.uniform(-0.4, 0.4, r.size)
         dv, amp = rng.normal(size=r.size), rng.uniform(0, 40, r.size)
         rows.append(np.column_stack([r, az, el, dv, amp]).astype(np.float32).astype(float))
-        ret = [T["radar_msgs/msg/RadarReturn"](range=float(a), azimuth=float(b), elevation=float(c),
-                                               doppler_velocity=float(d), amplitude=float(e)) for a, b, c, d, e in rows[-1]]
+        RR = T["radar_msgs/msg/RadarReturn"]
+        ret = [RR(range=float(a), azimuth=float(b), elevation=float(c), doppler_velocity=float(d), amplitude=float(e))
+               for a, b, c, d, e in rows[-1]]
         ns = 1_700_000_000 * 10**9 + k * 10**8
         hdr = T["std_msgs/msg/Header"](stamp=T["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9),
                                        frame_id="radar")

@@ -55,10 +55,11 @@ def radar_alone_cmd(args: argparse.Namespace, config) -> int:
         "argv": sys.argv, "wall_seconds": time.perf_counter() - t0}) + names[2:]
     c, tr, dr = summ["checks"], summ["trajectory"], summ["gyro_dead_reckoning"]
     fmt = lambda v, f: "n/a" if v is None else format(v, f)  # noqa: E731
+    walk, corr = fmt(c["walking_speed_median_mps"]["value"], ".2f"), fmt(c["accel_correlation"]["value"], ".3f")
     print(f"radarslam run --recording (SLAM, radar alone): {summ['scans']} scans, velocity for "
-          f"{summ['scans_valid']}, {summ['scans_at_rest']} at rest, walking {fmt(c['walking_speed_median_mps']['value'], '.2f')} "
-          f"m/s, accel. correlation {fmt(c['accel_correlation']['value'], '.3f')}; turn {tr['turn_deg']:+.1f} deg, end-start "
-          f"{tr['end_start_m']:.2f} m (dead reckoning {dr['turn_deg']:+.1f} deg, {dr['end_start_m']:.2f} m); "
-          f"{summ['landmarks_final']} landmarks; checks {'pass' if summ['all_pass'] else 'FAIL'}")
+          f"{summ['scans_valid']}, {summ['scans_at_rest']} at rest, walking {walk} m/s, accel. correlation {corr}; "
+          f"turn {tr['turn_deg']:+.1f} deg, end-start {tr['end_start_m']:.2f} m (dead reckoning "
+          f"{dr['turn_deg']:+.1f} deg, {dr['end_start_m']:.2f} m); {summ['landmarks_final']} landmarks; "
+          f"checks {'pass' if summ['all_pass'] else 'FAIL'}")
     print(f"wrote {Path(out)}/ ({', '.join(names)})")
     return 0
