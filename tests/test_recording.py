@@ -213,7 +213,8 @@ def _truncated_cloud(m):
 MALFORMED_BAGS = {
     "missing_topic": (lambda m: _stream(m, [100 * S], [100 * S]), {"radar": "/nope"}, r"radar topic /nope not found"),
     "wrong_type": (lambda m: _stream(m, [100 * S], [100 * S]), {"radar": "/odom"},
-                   r"topic /odom: expected sensor_msgs/msg/PointCloud2 for the radar, got nav_msgs/msg/Odometry"),
+                   r"topic /odom: expected sensor_msgs/msg/PointCloud2 or radar_msgs/msg/RadarScan for the radar, "
+                   r"got nav_msgs/msg/Odometry"),
     "empty_clouds": (lambda m: _stream(m, [100 * S], [100 * S], cols={"x": np.empty(0), "y": np.empty(0)}), {},
                      r"every cloud is empty"),
     "truncated_cloud": (_truncated_cloud, {}, r"message 1: expected 800 bytes.*truncated"),

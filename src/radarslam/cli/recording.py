@@ -22,7 +22,8 @@ def add_recording_args(p: argparse.ArgumentParser, run: bool) -> None:
     p.add_argument("--odom-topic", metavar="TOPIC", help="bag: nav_msgs/Odometry topic (forward speed, yaw rate)")
     p.add_argument("--truth-topic", metavar="TOPIC", help="bag: optional truth (nav_msgs/Odometry or PoseStamped)")
     p.add_argument("--imu-topic", metavar="TOPIC", help="bag: sensor_msgs/Imu topic; without --odom-topic the run "
-                   "is the ego-motion from Doppler alone (its gyro for the lever arm)")
+                   "is the ego-motion from Doppler alone (its gyro for the lever arm), or with filter.odometry = "
+                   "'doppler' SLAM driven by the Doppler and the gyro (docs/recordings.md \"A radar alone\")")
     p.add_argument("--doppler-field", metavar="NAME", help="bag: the PointCloud2 field holding the radial velocity "
                    "(default: doppler, velocity, v_r, VrelRad, ... when present)")
     if run:
@@ -54,6 +55,10 @@ def run_recording_cmd(args: argparse.Namespace) -> int:
     refuse_finished(Path(args.out) / "run.json", "--out", args.overwrite)   # before any work
     config = config_from_args(args)
     if not args.odom_topic and args.radar_topic:
+        if config.filter.odometry == "doppler":
+            from radarslam.cli.radar_alone import radar_alone_cmd
+
+            return radar_alone_cmd(args, config)
         return ego_motion_cmd(args, config)
     t0 = time.perf_counter()
     rec = _read(args)

@@ -134,6 +134,9 @@ def validate(cfg: Config) -> Config:
         raise ConfigError(f"landmarks.removal_max_hits: expected < removal_window ({cfg.landmarks.removal_window}), got {cfg.landmarks.removal_max_hits}")
     if any(s <= 0 for s in cfg.filter.initial_pose_std):
         raise ConfigError(f"filter.initial_pose_std: expected positive values, got {cfg.filter.initial_pose_std}")
+    if not cfg.sensor.height_min_m < cfg.sensor.height_max_m:
+        raise ConfigError(f"sensor.height_min_m: expected below sensor.height_max_m ({cfg.sensor.height_max_m}), got "
+                          f"{cfg.sensor.height_min_m}")
     q = cfg.sensor.mount_quaternion
     if len(q) not in (0, 4) or (q and not sum(x * x for x in q) > 0):
         raise ConfigError(f"sensor.mount_quaternion: expected [] or a non-zero [x, y, z, w], got {q}")

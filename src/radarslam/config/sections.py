@@ -412,6 +412,18 @@ class SensorConfig:
     mount_pitch_deg: float = param(0.0, "3-D recordings: sensor pitch (deg, ZYX)", low=-360.0, high=360.0)
     mount_quaternion: list[float] = param([], "3-D recordings: sensor-to-platform rotation [x, y, z, w]; when given "
                                           "it replaces mount_roll/pitch/yaw_deg")
+    elevation_gate_deg: float = param(90.0, "[PROP] 3-D recordings run as SLAM: keep detections within this elevation "
+                                      "of the levelled horizontal plane (deg; docs/method.md c.10.6)", low=0.0,
+                                      high=90.0)
+    height_min_m: float = param(-math.inf, "[PROP] 3-D recordings run as SLAM: keep detections at least this high "
+                                "above the IMU in the levelled frame (m; -inf = no bound; c.10.6)", allow_inf=True)
+    height_max_m: float = param(math.inf, "[PROP] 3-D recordings run as SLAM: keep detections at most this high above "
+                                "the IMU in the levelled frame (m; inf = no bound; c.10.6)", allow_inf=True)
+    attitude_time_constant_s: float = param(2.0, "[PROP] 3-D recordings run as SLAM: time constant of the "
+                                            "accelerometer's pull on the gyro-integrated attitude (s; c.10.6)",
+                                            low=0.0, low_open=True)
+    gyro_bias_from_rest: bool = param(True, "[PROP] 3-D recordings run as SLAM: subtract the gyro's mean over the "
+                                      "scans at rest before the first motion (its bias; c.10.6)")
 
 
 @dataclass(frozen=True)

@@ -67,12 +67,18 @@ class Scan:
         (radial velocity in the sensor frame, positive receding), ``rcs`` (rcs or intensity, as
         recorded), ``sensor_id`` and ``z_m`` (height in the sensor frame, 3-D radars). ``None``
         for the simulator.
+    ego : EgoVelocity or None
+        The platform's velocity measured outside the filter (:class:`radarslam.models.doppler.EgoVelocity`
+        with ``v`` (2,) forward and lateral m/s in the levelled platform frame and its ``cov``): a 3-D
+        recording's Doppler fit (docs/method.md c.10.6). ``filter.odometry`` "doppler" / "both" then
+        use it instead of fitting the scan's own azimuths (c.10.5). ``None``: the filter fits.
     """
 
     t: float
     index: int
     polar: np.ndarray
     channels: dict | None = None
+    ego: object | None = None
 
     @classmethod
     def checked(cls, t: float, index: int, polar: object) -> "Scan":

@@ -150,8 +150,10 @@ class DopplerOdometry:
         self._reset()
 
     def _fit(self, slam, scan: Scan, report) -> None:
-        """This scan's ego velocity (c.10.2; the Doppler gate's when it ran), held for the next interval."""
-        ego = report.ego
+        """This scan's ego velocity, held for the next interval: the one the scan carries (a 3-D
+        recording's levelled fit, c.10.6), else the Doppler gate's fit when it ran, else a fit of the
+        scan's platform-frame azimuths (c.10.2)."""
+        ego = scan.ego if scan.ego is not None else report.ego     # c.10.6: a recording's 3-D fit first
         if ego is None:
             from radarslam.models.doppler import directions, fit_ego_velocity
 

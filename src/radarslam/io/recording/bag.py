@@ -1,7 +1,8 @@
 """Reading a recording from a ROS 1 bag or a ROS 2 bag (sqlite3 or MCAP storage) with ``rosbags``.
 
 Topics (docs/recordings.md "Bags"): the radar as ``sensor_msgs/PointCloud2`` (float fields ``x``,
-``y`` in the radar frame, optional ``z``, Doppler, rcs / intensity, sensor id), the odometry as
+``y`` in the radar frame, optional ``z``, Doppler, rcs / intensity, sensor id) or as ROS 2
+``radar_msgs/msg/RadarScan`` (:mod:`.radar_scan`), the odometry as
 ``nav_msgs/Odometry`` (forward speed ``twist.twist.linear.x``, yaw rate ``twist.twist.angular.z``),
 an optional truth as ``nav_msgs/Odometry`` or ``geometry_msgs/PoseStamped``, and the mounting from
 ``/tf_static`` when it holds the radar's frame.
@@ -21,6 +22,8 @@ import numpy as np
 from radarslam.core.errors import InputError
 from radarslam.io.recording.mounting import Mounting, mounting_from_transform, quaternion_to_rpy
 from radarslam.io.recording.pointcloud2 import cloud_fields, decode
+from radarslam.io.recording.radar_scan import MAPPING as RADAR_SCAN_MAPPING
+from radarslam.io.recording.radar_scan import RADAR_SCAN, scan_columns
 from radarslam.io.recording.stream import Recording
 
 #: Field names recognised as Doppler (radial velocity, m/s), in order of preference.
@@ -116,14 +119,24 @@ def _times(stamps: list[int], logs: list[int], where: str, notes: list[str]) -> 
 def _read_radar(bag: _Bag, topic: str, doppler_field: str | None):
     stamps, logs, frames, clouds = [], [], [], []
     mapping = None
+    scan = {c.msgtype for c in bag.topics[topic]} == {RADAR_SCAN}
+    if scan and doppler_field is not None and doppler_field != "doppler_velocity":
+        raise InputError(f"bag {bag.path} topic {topic}: --doppler-field {doppler_field!r}: a radar_msgs/RadarScan "
+                         "carries its Doppler in doppler_velocity; expected that name or none")
     for i, (log_ns, msg) in enumerate(bag.messages(topic)):
         where = f"bag {bag.path} topic {topic} message {i + 1}"
-        fields = cloud_fields(msg)
-        if mapping is None:
-            mapping = choose_fields([f.name for f in fields], doppler_field, where)
-        names = ["x", "y"] + list(mapping.values())
-        cols = decode(fields, msg.data, width=int(msg.width), height=int(msg.height), point_step=int(msg.point_step),
-                      row_step=int(msg.row_step), is_bigendian=bool(msg.is_bigendian), names=names, where=where)
+        if scan:
+            mapping = RADAR_SCAN_MAPPING
+            names = ["x", "y"] + list(mapping.values())
+            cols = scan_columns(msg)
+        else:
+            fields = cloud_fields(msg)
+            if mapping is None:
+                mapping = choose_fields([f.name for f in fields], doppler_field, where)
+            names = ["x", "y"] + list(mapping.values())
+            cols = decode(fields, msg.data, width=int(msg.width), height=int(msg.height),
+                          point_step=int(msg.point_step), row_step=int(msg.row_step),
+                          is_bigendian=bool(msg.is_bigendian), names=names, where=where)
         for n in names:
             bad = ~np.isfinite(cols[n])
             if bad.any():
@@ -180,7 +193,11 @@ def open_bag(path: Path):
     except ImportError:
         raise InputError(f"{path}: reading bags needs the 'ros' extra (pip install \"radarslam[ros]\")") from None
     try:
-        reader = AnyReader([path], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
+        from radarslam.io.recording.radar_scan import register_radar_msgs
+
+        store = get_typestore(Stores.ROS2_HUMBLE)
+        register_radar_msgs(store)                  # bags without stored definitions (radar_scan.py)
+        reader = AnyReader([path], default_typestore=store)
         reader.open()
     except Exception as exc:  # rosbags' reader errors on a missing, truncated or foreign file
         raise InputError(f"bag {path}: cannot open ({type(exc).__name__}: {exc})") from None
@@ -198,7 +215,7 @@ def read_bag(path: str | Path, radar_topic: str, odom_topic: str | None, truth_t
     reader = open_bag(path)
     try:
         bag = _Bag(reader, path)
-        bag.check(radar_topic, (POINTCLOUD2,), "radar")
+        bag.check(radar_topic, (POINTCLOUD2, RADAR_SCAN), "radar")
         if odom_topic:
             bag.check(odom_topic, (ODOMETRY,), "odometry")
         if truth_topic:
@@ -268,28 +285,52 @@ IMU = "sensor_msgs/msg/Imu"
 
 
 def read_imu(path: str | Path, topic: str, *, log_time: bool) -> tuple[np.ndarray, np.ndarray]:
-    """``(t_ns (n,), gyro (n, 3) rad/s)`` of a ``sensor_msgs/Imu`` topic (its angular velocity).
+    """``(t_ns (n,), gyro (n, 3) rad/s)`` of a ``sensor_msgs/Imu`` topic (:func:`read_imu_samples`)."""
+    t, gyro, _, _ = read_imu_samples(path, topic, log_time=log_time)
+    return t, gyro
 
-    ``log_time``: use the bag's log time (when the radar's header stamps are 0 and its times are
-    log times, an IMU's header clock may not be mixed with them, docs/recordings.md "Time")."""
+
+def read_imu_samples(path: str | Path, topic: str, *, log_time: bool):
+    """``(t_ns (n,), gyro (n, 3) rad/s, accel (n, 3) m/s^2, note)`` of a ``sensor_msgs/Imu`` topic.
+
+    ``log_time``: the radar's times are the bag's log times (its header stamps are 0). The IMU's
+    own header clock is then moved onto the log clock by the median of ``log - stamp`` (one
+    constant, said in ``note``): its stamps keep their regular spacing, which the log times of a
+    fast topic lose (logged in bursts), and no two clocks are mixed. An IMU whose stamps are 0 uses
+    its log times; otherwise (``log_time`` false) its header stamps.
+    """
     path = Path(path)
     reader = open_bag(path)
     try:
         bag = _Bag(reader, path)
         bag.check(topic, (IMU,), "IMU")
-        t, rows = [], []
+        stamps, logs, rows = [], [], []
         for log_ns, msg in bag.messages(topic):
-            t.append(log_ns if log_time else _stamp_ns(msg.header))
-            w = msg.angular_velocity
-            rows.append((w.x, w.y, w.z))
+            stamps.append(_stamp_ns(msg.header)), logs.append(log_ns)
+            w, a = msg.angular_velocity, msg.linear_acceleration
+            rows.append((w.x, w.y, w.z, a.x, a.y, a.z))
     finally:
         reader.close()
     if not rows:
         raise InputError(f"bag {path} topic {topic}: expected IMU messages, got none")
-    gyro = np.array(rows, dtype=float)
-    if not np.all(np.isfinite(gyro)):
-        raise InputError(f"bag {path} topic {topic}: expected finite angular velocities, got NaN or inf")
-    return np.array(t, dtype=np.int64), gyro
+    arr = np.array(rows, dtype=float)
+    if not np.all(np.isfinite(arr)):
+        i = int(np.argmax(~np.all(np.isfinite(arr), axis=1)))
+        raise InputError(f"bag {path} topic {topic} message {i + 1}: expected finite angular velocity and "
+                         "acceleration, got NaN or inf")
+    notes: list[str] = []
+    t, is_log = _times(stamps, logs, f"bag {path} topic {topic}", notes)
+    note = notes[0] if notes else ""
+    if log_time and not is_log:
+        off = int(np.median(t - np.array(logs, dtype=np.int64)))
+        t = t - off
+        note = (f"bag {path} topic {topic}: header stamps moved onto the log clock by the median log - stamp "
+                f"offset, {-off * 1e-9:.6f} s")
+    bad = np.flatnonzero(np.diff(t) <= 0)
+    if bad.size:
+        raise InputError(f"bag {path} topic {topic} message {int(bad[0]) + 2}: expected increasing times, got one "
+                         "that repeats or goes backwards")
+    return t, arr[:, :3], arr[:, 3:], note
 
 
 def list_topics(path: str | Path) -> dict[str, str]:
