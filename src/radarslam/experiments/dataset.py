@@ -128,7 +128,7 @@ def _attribute_reference(slam: EkfSlam, det: np.ndarray, max_range: float) -> np
     if not det.size:
         return np.empty((0, 3))
     pts = polar_to_xy(slam.x[:3], det[:, :2])
-    lm = slam.x[3:].reshape(-1, 2)
+    lm = slam.state.positions
     d2 = ((pts[:, None, :] - lm[None, :, :]) ** 2).sum(axis=-1)
     j = np.argmin(d2, axis=1)
     dist = np.sqrt(d2[np.arange(j.size), j])
