@@ -238,14 +238,14 @@ class FilterConfig:
                                "slowly varying states after the pose; orchestrator only)", choices=("none", "states"))
     bias_scale_std: float = param(0.05, "[PROP] prior std of the speed-scale error eps (v = (1 + eps) v_meas; c.11)",
                                   low=0.0)
-    bias_scale_drift_per_rt_s: float = param(1e-4, "[PROP] random-walk intensity of eps (1/sqrt(s); c.11)", low=0.0)
+    bias_scale_drift_per_rt_s: float = param(1e-5, "[PROP] random-walk intensity of eps (1/sqrt(s); c.11)", low=0.0)
     bias_steering_std_deg: float = param(2.0, "[PROP] ackermann: prior std of the steering offset (deg; c.11)",
                                          low=0.0)
-    bias_steering_drift_deg_per_rt_s: float = param(0.01, "[PROP] ackermann: random-walk intensity of the steering "
+    bias_steering_drift_deg_per_rt_s: float = param(0.001, "[PROP] ackermann: random-walk intensity of the steering "
                                                     "offset (deg/sqrt(s); c.11)", low=0.0)
     bias_turn_rate_std_deg_s: float = param(0.5, "[PROP] unicycle, body-velocity: prior std of the turn-rate offset "
                                             "(deg/s; c.11)", low=0.0)
-    bias_turn_rate_drift_deg_s_per_rt_s: float = param(0.005, "[PROP] unicycle, body-velocity: random-walk intensity "
+    bias_turn_rate_drift_deg_s_per_rt_s: float = param(0.001, "[PROP] unicycle, body-velocity: random-walk intensity "
                                                        "of the turn-rate offset (deg/s/sqrt(s); c.11)", low=0.0)
     bias_tau_s: float = param(0.0, "[PROP] 0: the bias states are random walks; > 0: first-order Gauss-Markov "
                               "processes about 0 with this time constant (s), the drift driving them (c.11)", low=0.0)
