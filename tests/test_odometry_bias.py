@@ -5,7 +5,10 @@ the states as the negative control)."""
 
 from __future__ import annotations
 
+import json
 import math
+import subprocess
+import sys
 from dataclasses import replace
 
 import numpy as np
@@ -223,7 +226,8 @@ def _point_config(name: str, bias: str):
     f = replace(cfg.filter, motion_model=name, odometry_bias=bias, range_std_m=0.1, azimuth_std_deg=1.0,
                 speed_std_mps=INPUT_STD[0], steering_std_deg=math.degrees(INPUT_STD[1]),
                 turn_rate_std_deg_s=math.degrees(INPUT_STD[1]), process_var_xy_m2=1e-9,
-                process_var_heading_rad2=1e-10, initial_pose=[0.0, 0.0, 0.0], initial_pose_std=[1e-3, 1e-3, 1e-4])
+                process_var_heading_rad2=1e-10, initial_pose=[0.0, 0.0, 0.0], initial_pose_std=[1e-3, 1e-3, 1e-4],
+                bias_turn_rate_std_deg_s=1.0)      # a prior that holds the truth's 0.75 deg/s (the steering's 2 deg does)
     return validate(replace(cfg, filter=f))
 
 
@@ -248,14 +252,21 @@ def _track(cfg, run):
 def test_bias_states_converge_on_biased_odometry(name):
     """Six seeded runs with a 4 % speed scale and a turning offset. With the bias states:
 
-    - the final estimates lie within 2 sigma of the truth for at least 11 of the 12 (2 states x 6
-      runs; a consistent filter misses 2 sigma with probability 0.046 each), and their squared
-      z-scores sum below the 99 % point of chi-square with 12 dof;
+    - the final estimates lie within 2 sigma of the truth for at least 10 of the 12 (2 states x 6
+      runs; a consistent filter misses 2 sigma with probability 0.046 each, so 3 or more misses
+      has probability 0.002), and their squared z-scores sum below the 99 % point of chi-square
+      with 12 dof;
     - they converged: the std is below a tenth of the prior's;
-    - the pose error is at most a quarter of the filter's without them, whose pose NEES (3 dof,
-      averaged over each run) exceeds 50 -- the negative control --, while with them it stays within
-      1.5 times the NEES of the plain filter on the same runs' odometry without bias (EKF-SLAM's own
-      overconfidence, about 5 here, is not the bias states' to fix).
+    - the position RMSE is at most a quarter of the filter's without them, whose pose NEES (3 dof,
+      averaged over each run) exceeds 50 in every run -- the negative control --, while with them
+      the median over the runs stays within 1.5 times that of the plain filter on the same runs'
+      odometry without bias (EKF-SLAM's own overconfidence, a NEES of about 4 here, is not the
+      bias states' to fix).
+
+    Measured over 20 seeds (docs/method.md c.11.4): unicycle 85 % / 100 % of the speed-scale /
+    offset estimates within 2 sigma, sum of z^2 41.8 for 40 dof, RMSE ratio at most 0.15, NEES
+    median 4.3 against 3.6 without bias; Ackermann 95 % / 85 %, 62.2 for 40 dof, at most 0.20,
+    4.0 against 3.9; without the states the NEES is above 600 in every run.
     """
     model = AckermannModel() if name == "ackermann" else UnicycleModel()
     b_true = TRUE_BIAS[name]
@@ -275,8 +286,29 @@ def test_bias_states_converge_on_biased_odometry(name):
         nees_on.append(n1.mean())
         nees_off.append(n0.mean())
     z = np.array(z)
-    assert np.sum(np.abs(z) < 2.0) >= 11, z
+    assert np.sum(np.abs(z) < 2.0) >= 10, z
     assert np.sum(z * z) < chi2.ppf(0.99, z.size), z
     assert max(ratio) < 0.25, ratio
     assert min(nees_off) > 50.0, nees_off
-    assert np.mean(nees_on) < 1.5 * np.mean(nees_ref), (nees_on, nees_ref)
+    assert np.median(nees_on) < 1.5 * np.median(nees_ref), (nees_on, nees_ref)
+
+
+def test_cli_run_dataset_writes_the_bias_states(victoria_park_dir, tmp_path):
+    """``radarslam run --dataset victoria-park`` with the bias states writes their values and std
+    after every scan (bias.csv), draws them (bias.png) and puts the final ones in metrics.json."""
+    cfg = tmp_path / "bias.toml"
+    cfg.write_text('[filter]\nodometry_bias = "states"\n')
+    out = tmp_path / "vpb"
+    r = subprocess.run([sys.executable, "-m", "radarslam", "run", "--dataset", "victoria-park", str(victoria_park_dir),
+                        "--input", "trees", "--profile", "victoria-park-trees", "--config", str(cfg), "--scans", "300",
+                        "--out", str(out)], capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    rows = np.genfromtxt(out / "bias.csv", delimiter=",", names=True)
+    assert rows.dtype.names == ("k", "t", "speed_scale", "speed_scale_std", "steering_offset", "steering_offset_std")
+    assert rows.size == 300 and np.all(np.diff(rows["t"]) > 0)
+    assert rows["speed_scale_std"][0] == pytest.approx(0.05, rel=1e-3)            # the prior
+    assert rows["steering_offset_std"][-1] < math.radians(2.0) / 5                # learnt within 300 scans
+    m = json.loads((out / "metrics.json").read_text())
+    assert m["odometry_bias"]["steering_offset"]["final"] == pytest.approx(rows["steering_offset"][-1])
+    assert m["odometry_bias"]["speed_scale"]["unit"] == "1"
+    assert (out / "bias.png").stat().st_size > 0

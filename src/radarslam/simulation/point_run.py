@@ -10,7 +10,7 @@ correction maps back to the truth, plus white noise: with the true bias states
 i.e. a speed reading ``(1 + eps)`` times too small and a turning input ``delta`` too small. This is
 exactly the filter's model of c.11, so a filter with the bias states is consistent on it and one
 without them is not. Every ``scan_every`` odometry steps the sensor at the pose measures the range and
-bearing of each landmark within ``max_range`` and the field of view, with noise ``N(0, diag(range_std^2,
+bearing of each landmark within ``[min_range, max_range]`` and the field of view, with noise ``N(0, diag(range_std^2,
 bearing_std^2))``: one detection per landmark and scan, as ACFR's tree detections of Victoria Park.
 """
 
@@ -49,7 +49,7 @@ def uncorrect(spec, u: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def simulate_point_run(model, controls: np.ndarray, dt: float, landmarks: np.ndarray, bias, rng: np.random.Generator,
                        *, initial_pose=(0.0, 0.0, 0.0), input_std=(0.05, 0.01), range_std: float = 0.1,
-                       bearing_std: float = math.radians(1.0), max_range: float = 30.0,
+                       bearing_std: float = math.radians(1.0), min_range: float = 1.0, max_range: float = 30.0,
                        field_of_view: float = math.pi, scan_every: int = 4) -> PointRun:
     """Drive ``model`` with ``controls (K, m)`` (true inputs, one per step of ``dt`` s) among
     ``landmarks (L, 2)`` and return the odometry and scans of the module docstring.
@@ -69,7 +69,8 @@ def simulate_point_run(model, controls: np.ndarray, dt: float, landmarks: np.nda
     events, scan_poses = [], []
     for k, u in enumerate(controls):
         if k % scan_every == 0:
-            events.append(_scan(pose, landmarks, rng, k // scan_every, k * dt, range_std, bearing_std, max_range, field_of_view))
+            events.append(_scan(pose, landmarks, rng, k // scan_every, k * dt, range_std, bearing_std, (min_range, max_range),
+                                field_of_view))
             scan_poses.append(pose.copy())
         reading = uncorrect(spec, u, b) + rng.standard_normal(std.shape[0]) * std
         events.append(Odometry(t=(k + 1) * dt, dt=dt, control=reading))
@@ -77,11 +78,11 @@ def simulate_point_run(model, controls: np.ndarray, dt: float, landmarks: np.nda
     return PointRun(events, np.array(scan_poses), np.asarray(landmarks, dtype=float), b)
 
 
-def _scan(pose, landmarks, rng, k, t, range_std, bearing_std, max_range, field_of_view) -> Scan:
+def _scan(pose, landmarks, rng, k, t, range_std, bearing_std, ranges, field_of_view) -> Scan:
     d = landmarks - pose[:2]
     r = np.hypot(d[:, 0], d[:, 1])
     phi = wrap_pi(np.arctan2(d[:, 1], d[:, 0]) - pose[2])
-    seen = (r <= max_range) & (np.abs(phi) <= 0.5 * field_of_view)
+    seen = (r >= ranges[0]) & (r <= ranges[1]) & (np.abs(phi) <= 0.5 * field_of_view)
     noise = rng.standard_normal((int(seen.sum()), 2)) * [range_std, bearing_std]
     polar = np.column_stack([r[seen], phi[seen]]) + noise
     return Scan(t=t, index=k, polar=polar)
