@@ -227,7 +227,7 @@ def _point_config(name: str, bias: str):
                 speed_std_mps=INPUT_STD[0], steering_std_deg=math.degrees(INPUT_STD[1]),
                 turn_rate_std_deg_s=math.degrees(INPUT_STD[1]), process_var_xy_m2=1e-9,
                 process_var_heading_rad2=1e-10, initial_pose=[0.0, 0.0, 0.0], initial_pose_std=[1e-3, 1e-3, 1e-4],
-                bias_turn_rate_std_deg_s=1.0)      # a prior that holds the truth's 0.75 deg/s (the steering's 2 deg does)
+                bias_turn_rate_std_deg_s=1.0)      # a prior that holds the truth's 0.75 deg/s (2 deg steering does)
     return validate(replace(cfg, filter=f))
 
 

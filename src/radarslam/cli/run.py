@@ -230,7 +230,8 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
                                      "pairs_within_m": {str(k): v for k, v in dup["pairs_within"].items()}},
                "nis": {k: nis[k] for k in ("n", "mean", "median", "inside", "below", "above", "band", "probability")},
                "odometry_bias": None if res.bias is None else {
-                   n: {"final": float(res.bias[-1, i]), "final_std": float(res.bias_std[-1, i]), "unit": res.bias_units[i]}
+                   n: {"final": float(res.bias[-1, i]), "final_std": float(res.bias_std[-1, i]),
+                       "unit": res.bias_units[i]}
                    for i, n in enumerate(res.bias_names)},
                "filter_seconds": res.seconds, "filter_ms_per_scan": 1e3 * res.seconds / max(res.times.size, 1),
                "load_seconds": res.load_seconds, "wall_seconds": wall}

@@ -140,7 +140,7 @@ def _attribute_reference(slam: EkfSlam, det: np.ndarray, max_range: float) -> np
     if not det.size:
         return np.empty((0, 3))
     pts = polar_to_xy(slam.x[:3], det[:, :2])
-    lm = slam.state.positions
+    lm = slam.x[slam.x.shape[0] - 2 * len(slam.landmarks):].reshape(-1, 2)   # the last 2N entries (c.11)
     d2 = ((pts[:, None, :] - lm[None, :, :]) ** 2).sum(axis=-1)
     j = np.argmin(d2, axis=1)
     dist = np.sqrt(d2[np.arange(j.size), j])

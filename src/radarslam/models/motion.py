@@ -3,7 +3,8 @@
 A motion model maps ``(pose, control, dt)`` to the next pose and provides the Jacobians with
 respect to the pose and the control, and the covariance U of its control from the ``filter``
 section. A model that declares an ``input_bias`` (:class:`~radarslam.models.input_bias.InputBias`)
-supports the odometry-bias states of ``filter.odometry_bias = "states"`` (docs/method.md c.11). The filter picks one by ``filter.motion_model`` through the registry
+supports the odometry-bias states of ``filter.odometry_bias = "states"`` (docs/method.md c.11).
+The filter picks one by ``filter.motion_model`` through the registry
 :data:`radarslam.core.registry.MOTION_MODELS`; a model registered there from any code is selectable.
 """
 

@@ -69,8 +69,8 @@ def simulate_point_run(model, controls: np.ndarray, dt: float, landmarks: np.nda
     events, scan_poses = [], []
     for k, u in enumerate(controls):
         if k % scan_every == 0:
-            events.append(_scan(pose, landmarks, rng, k // scan_every, k * dt, range_std, bearing_std, (min_range, max_range),
-                                field_of_view))
+            events.append(_scan(pose, landmarks, rng, k // scan_every, k * dt, range_std, bearing_std,
+                                (min_range, max_range), field_of_view))
             scan_poses.append(pose.copy())
         reading = uncorrect(spec, u, b) + rng.standard_normal(std.shape[0]) * std
         events.append(Odometry(t=(k + 1) * dt, dt=dt, control=reading))
