@@ -90,6 +90,7 @@ def test_cli_run_dataset_writes_every_output(victoria_park_dir, tmp_path):
     assert (out / "errors.png").stat().st_size > 0 and m["input"] == "laser"
     assert 0.0 < m["nis"]["inside"] <= 1.0 and m["nis"]["band"] == pytest.approx([0.0506, 7.3778], abs=1e-3)
     assert m["duplicated_trunks"]["n_pairs"] >= 0 and m["trunk_diameters"]["estimator"] == "visible-arc"
+    assert m["odometry_bias"] is None and not (out / "bias.csv").exists()       # filter.odometry_bias "none"
 
 
 def test_cli_run_dataset_tree_input_published(victoria_park_dir, tmp_path):

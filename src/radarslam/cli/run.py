@@ -13,8 +13,8 @@ from radarslam import __version__
 from radarslam.cli.common import add_backend_arg, add_config_args, config_from_args
 from radarslam.config import to_dict, to_toml
 from radarslam.core.errors import InputError
-from radarslam.io.results import (atomic_write_text, prepare_out_dir, refuse_finished, write_json, write_trajectory_csv,
-                                  write_tum)
+from radarslam.io.results import (atomic_write_text, prepare_out_dir, refuse_finished, write_bias_csv, write_json,
+                                  write_trajectory_csv, write_tum)
 
 
 def add_parser(sub) -> None:
@@ -200,6 +200,8 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
     wall = time.perf_counter() - t0
     mp = res.final_map
     write_trajectory_csv(out / "trajectory.csv", res.times, res.poses)
+    if res.bias is not None:                      # filter.odometry_bias "states" (docs/method.md c.11)
+        write_bias_csv(out / "bias.csv", res.times, res.bias, res.bias_std, res.bias_names)
     if published:  # the GPS frame, seconds on the MAT time base, for evo or a few lines of numpy
         from radarslam.io.datasets.victoria_park import MAT_EPOCH_MS
 
@@ -227,6 +229,10 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
                                      "diameter_m": dup["diameter_m"],
                                      "pairs_within_m": {str(k): v for k, v in dup["pairs_within"].items()}},
                "nis": {k: nis[k] for k in ("n", "mean", "median", "inside", "below", "above", "band", "probability")},
+               "odometry_bias": None if res.bias is None else {
+                   n: {"final": float(res.bias[-1, i]), "final_std": float(res.bias_std[-1, i]),
+                       "unit": res.bias_units[i]}
+                   for i, n in enumerate(res.bias_names)},
                "filter_seconds": res.seconds, "filter_ms_per_scan": 1e3 * res.seconds / max(res.times.size, 1),
                "load_seconds": res.load_seconds, "wall_seconds": wall}
     write_json(out / "metrics.json", metrics)
@@ -258,6 +264,11 @@ def _dataset_plots(out, res, ev, dead_reckoning, diam, pub, nis, args) -> None:
             err_t, err = ev["fix_t"], ev["errors_m"]
         plot_dataset_errors(out / "errors.png", err_t, err, nis, protocol=args.protocol,
                             name=f"{res.name} ({args.input})", scan_times=res.times)
+        if res.bias is not None:
+            from radarslam.viz.dataset import plot_bias
+
+            plot_bias(out / "bias.png", res.times, res.bias, res.bias_std, res.bias_names, res.bias_units,
+                      name=f"{res.name} ({args.input})")
 
 
 def _print_dataset_summary(name, metrics, res, ev, dr_ev, pub, nis, diam, dup, config) -> None:

@@ -89,6 +89,8 @@ class OdometerConfig:
     speed_std_mps: float = param(0.02, "speed-noise std (m/s)", low=0.0)
     turn_rate_std_deg_s: float = param(0.008, "turn-rate-noise std (deg/s)", low=0.0)
     speed_bias_mps: float = param(0.0, "[PROP] constant speed bias (m/s); 0 in both papers (h.15)")
+    speed_scale: float = param(1.0, "[PROP] the speed reading is speed_scale times the true speed (a wheel-radius "
+                               "error; 1 = none; c.11)", low=0.0, low_open=True)
     turn_rate_bias_deg_s: float = param(0.0, "[PROP] constant turn-rate bias (deg/s)")
     gyro_std_deg_s: float = param(0.1, "[PROP] simulated gyro's yaw-rate noise std (deg/s), drawn with radar.doppler "
                                   "on from the trial's child stream 3 (docs/method.md b.4.3, c.10.5)", low=0.0)
@@ -231,6 +233,22 @@ class FilterConfig:
     doppler_hold_std_mps: float = param(1.0, "[PROP] under filter.odometry doppler/both, a scan without a valid "
                                         "ego-velocity fit holds the last one with this std added (m/s; c.10.5)",
                                         low=0.0)
+    odometry_bias: str = param("none", "[PROP] systematic odometry errors (c.11): none (white noise U only, the "
+                               "paper) or states (a speed scale and a steering or turn-rate offset estimated as "
+                               "slowly varying states after the pose; orchestrator only)", choices=("none", "states"))
+    bias_scale_std: float = param(0.05, "[PROP] prior std of the speed-scale error eps (v = (1 + eps) v_meas; c.11)",
+                                  low=0.0)
+    bias_scale_drift_per_rt_s: float = param(1e-5, "[PROP] random-walk intensity of eps (1/sqrt(s); c.11)", low=0.0)
+    bias_steering_std_deg: float = param(2.0, "[PROP] ackermann: prior std of the steering offset (deg; c.11)",
+                                         low=0.0)
+    bias_steering_drift_deg_per_rt_s: float = param(0.001, "[PROP] ackermann: random-walk intensity of the steering "
+                                                    "offset (deg/sqrt(s); c.11)", low=0.0)
+    bias_turn_rate_std_deg_s: float = param(0.5, "[PROP] unicycle, body-velocity: prior std of the turn-rate offset "
+                                            "(deg/s; c.11)", low=0.0)
+    bias_turn_rate_drift_deg_s_per_rt_s: float = param(0.001, "[PROP] unicycle, body-velocity: random-walk intensity "
+                                                       "of the turn-rate offset (deg/s/sqrt(s); c.11)", low=0.0)
+    bias_tau_s: float = param(0.0, "[PROP] 0: the bias states are random walks; > 0: first-order Gauss-Markov "
+                              "processes about 0 with this time constant (s), the drift driving them (c.11)", low=0.0)
 
     @property
     def R(self) -> np.ndarray:

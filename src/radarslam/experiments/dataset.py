@@ -42,6 +42,12 @@ class DatasetRun:
     load_seconds: float
     reference_hits: np.ndarray | None = None  # (n, 3): landmark id, reference diameter (m), distance (m)
     nis: np.ndarray | None = None  # (u, 2): scan position, NIS of each association update (2 dof)
+    #: Under filter.odometry_bias "states" (docs/method.md c.11): the bias states after every scan
+    #: (K, m), their std (K, m), names and units (m,); None without them.
+    bias: np.ndarray | None = None
+    bias_std: np.ndarray | None = None
+    bias_names: tuple[str, ...] = ()
+    bias_units: tuple[str, ...] = ()
 
 
 def victoria_park_options(config: Config, input: str = "laser", **extra) -> dict:
@@ -66,7 +72,8 @@ def run_dataset(name: str, path, config: Config, *, first_scan: int | None = Non
     n = sum(isinstance(e, Scan) for e in data.events)
     slam = EkfSlam(config)
     bar = Progress(n, 0, enabled=progress, unit="scans")
-    times, poses, covs, nlm, nas = [], [], [], [], []
+    times, poses, covs, nlm, nas, bias = [], [], [], [], [], []
+    m = 0 if slam.bias_model is None else slam.bias_model.dim
     trees = getattr(data, "trees", None)
     if getattr(data, "options", {}).get("input") == "trees":
         trees = None      # the trees are the input: there is no independent reference to attribute
@@ -84,6 +91,8 @@ def run_dataset(name: str, path, config: Config, *, first_scan: int | None = Non
         covs.append(slam.P[:3, :3].copy())
         nlm.append(len(slam.landmarks))
         nas.append(rep.n_associated)
+        if m:
+            bias.append(np.concatenate([slam.state.bias, np.sqrt(np.diag(slam.state.bias_cov))]))
         if rep.nis.size:
             nis.append(np.column_stack([np.full(rep.nis.size, len(times) - 1.0), rep.nis]))
         row = tree_rows.get(int(ev.index))
@@ -93,9 +102,12 @@ def run_dataset(name: str, path, config: Config, *, first_scan: int | None = Non
                 hits.append(h)
         bar.update()
     ref = (np.concatenate(hits) if hits else np.empty((0, 3))) if trees is not None else None
+    b = np.array(bias).reshape(-1, 2 * m) if m else None
     return DatasetRun(name, config, data, np.array(times), np.array(poses).reshape(-1, 3),
                       np.array(covs).reshape(-1, 3, 3), np.array(nlm), np.array(nas), slam.snapshot(),
-                      time.perf_counter() - t0, load_s, ref, np.concatenate(nis) if nis else np.empty((0, 2)))
+                      time.perf_counter() - t0, load_s, ref, np.concatenate(nis) if nis else np.empty((0, 2)),
+                      None if b is None else b[:, :m], None if b is None else b[:, m:],
+                      slam.bias_model.names if m else (), slam.bias_model.units if m else ())
 
 
 def dead_reckoning(data, config: Config) -> tuple[np.ndarray, np.ndarray]:
@@ -128,7 +140,7 @@ def _attribute_reference(slam: EkfSlam, det: np.ndarray, max_range: float) -> np
     if not det.size:
         return np.empty((0, 3))
     pts = polar_to_xy(slam.x[:3], det[:, :2])
-    lm = slam.x[3:].reshape(-1, 2)
+    lm = slam.x[slam.x.shape[0] - 2 * len(slam.landmarks):].reshape(-1, 2)   # the last 2N entries (c.11)
     d2 = ((pts[:, None, :] - lm[None, :, :]) ** 2).sum(axis=-1)
     j = np.argmin(d2, axis=1)
     dist = np.sqrt(d2[np.arange(j.size), j])

@@ -114,6 +114,19 @@ def write_trajectory_csv(path: str | Path, t: np.ndarray, estimated: np.ndarray,
     atomic_write_text(path, "\n".join(rows) + "\n")
 
 
+def write_bias_csv(path: str | Path, t: np.ndarray, values: np.ndarray, stds: np.ndarray, names) -> None:
+    """CSV of the odometry-bias states over a run (docs/method.md c.11): columns ``k,t`` then
+    ``NAME,NAME_std`` for each state of ``names``; ``values`` and ``stds`` are ``(K, m)``."""
+    cols = ["k", "t"] + [c for n in names for c in (n, f"{n}_std")]
+    rows = [",".join(cols)]
+    for i in range(values.shape[0]):
+        vals = [str(i + 1), repr(float(t[i]))]
+        for v, s in zip(values[i], stds[i]):
+            vals += [repr(float(v)), repr(float(s))]
+        rows.append(",".join(vals))
+    atomic_write_text(path, "\n".join(rows) + "\n")
+
+
 def write_tum(path: str | Path, t: np.ndarray, poses: np.ndarray) -> None:
     """TUM trajectory format (``t x y z qx qy qz qw``) for ``evo``: planar pose, yaw quaternion."""
     lines = []

@@ -59,6 +59,7 @@ import numpy as np
 from radarslam.core.angles import wrap_2pi_scalar
 from radarslam.core.validation import as_scalar
 from radarslam.core.registry import MOTION_MODELS
+from radarslam.models.input_bias import STEERING_KEYS, InputBias
 
 
 def centre_speed(v_e: float, alpha: float, L: float, H: float) -> float:
@@ -84,6 +85,8 @@ class AckermannModel:
     """
 
     name = "ackermann"
+    #: c.11: a wheel-speed scale on v_e and a steering offset (rad) on alpha.
+    input_bias = InputBias((0,), 1, ("speed_scale", "steering_offset"), ("1", "rad"), STEERING_KEYS)
 
     def __init__(self, L: float = 2.83, H: float = 0.76, a: float = 0.95, b: float = 0.5):
         self.L = as_scalar("ackermann.L", L, low=0.0, low_open=True)

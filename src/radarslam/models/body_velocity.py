@@ -21,6 +21,7 @@ import numpy as np
 
 from radarslam.core.angles import wrap_2pi_scalar
 from radarslam.core.registry import MOTION_MODELS
+from radarslam.models.input_bias import TURN_RATE_KEYS, InputBias
 
 __all__ = ["BodyVelocityModel"]
 
@@ -29,6 +30,8 @@ class BodyVelocityModel:
     """Pose ``[x m, y m, theta rad]`` driven by ``u = [v_x m/s, v_y m/s, omega rad/s]`` (c.10.5)."""
 
     name = "body-velocity"
+    #: c.11: a speed scale on (v_x, v_y) and a yaw-rate (gyro) offset (rad/s) on omega.
+    input_bias = InputBias((0, 1), 2, ("speed_scale", "yaw_rate_offset"), ("1", "rad/s"), TURN_RATE_KEYS)
 
     @staticmethod
     def _increment(pose: np.ndarray, u: np.ndarray, dt: float) -> tuple[float, float]:

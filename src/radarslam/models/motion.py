@@ -2,7 +2,9 @@
 
 A motion model maps ``(pose, control, dt)`` to the next pose and provides the Jacobians with
 respect to the pose and the control, and the covariance U of its control from the ``filter``
-section. The filter picks one by ``filter.motion_model`` through the registry
+section. A model that declares an ``input_bias`` (:class:`~radarslam.models.input_bias.InputBias`)
+supports the odometry-bias states of ``filter.odometry_bias = "states"`` (docs/method.md c.11).
+The filter picks one by ``filter.motion_model`` through the registry
 :data:`radarslam.core.registry.MOTION_MODELS`; a model registered there from any code is selectable.
 """
 
@@ -15,6 +17,7 @@ import numpy as np
 
 from radarslam.core.angles import wrap_2pi_scalar
 from radarslam.core.registry import MOTION_MODELS
+from radarslam.models.input_bias import TURN_RATE_KEYS, InputBias
 
 
 class MotionModel(Protocol):
@@ -40,6 +43,8 @@ class UnicycleModel:
     """
 
     name = "unicycle"
+    #: c.11: a speed scale on v and a turn-rate offset (rad/s) on psi.
+    input_bias = InputBias((0,), 1, ("speed_scale", "turn_rate_offset"), ("1", "rad/s"), TURN_RATE_KEYS)
 
     def step(self, pose: np.ndarray, u: np.ndarray, dt: float) -> np.ndarray:
         v, psi = float(u[0]), float(u[1])

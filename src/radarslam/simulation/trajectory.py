@@ -134,7 +134,10 @@ def process_noise(traj: TrajectoryConfig, rng: np.random.Generator) -> np.ndarra
 
 
 def odometer_readings(controls: np.ndarray, odo: OdometerConfig, rng: np.random.Generator) -> np.ndarray:
-    """``u_bar_k = u_k + eta_k + bias`` with ``eta ~ N(0, U)`` (APSIPA eq. 6), ``(K, 2)``."""
+    """``u_bar_k = S u_k + eta_k + bias`` with ``eta ~ N(0, U)`` (APSIPA eq. 6), ``(K, 2)``;
+    ``S = diag(odometer.speed_scale, 1)`` (docs/method.md b.3; the identity by default, which leaves
+    every reading bit for bit as without it)."""
     std = np.array([odo.speed_std_mps, math.radians(odo.turn_rate_std_deg_s)])
     bias = np.array([odo.speed_bias_mps, math.radians(odo.turn_rate_bias_deg_s)])
-    return controls + rng.standard_normal(controls.shape) * std + bias
+    scale = np.array([odo.speed_scale, 1.0])
+    return controls * scale + rng.standard_normal(controls.shape) * std + bias

@@ -158,17 +158,18 @@ def _smallest(d, N, count):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _best_landmark(x, P, z0, z1, n_nearest, R, gX, has_gX, d2):  # pragma: no cover - compiled
+def _best_landmark(x, P, z0, z1, n_nearest, R, gX, has_gX, d2, platform):  # pragma: no cover - compiled
     """Smallest log distance of detection (z0, z1) over its n_nearest landmarks
-    (:func:`radarslam.slam.ekf.score_landmarks`). Returns ``(j, D, e0, e1)``; ``j = -1`` if none."""
-    N = (x.shape[0] - 3) // 2
+    (:func:`radarslam.slam.ekf.score_landmarks`). Returns ``(j, D, e0, e1)``; ``j = -1`` if none.
+    ``platform``: the size of the state's platform block (:mod:`radarslam.slam.layout`)."""
+    N = (x.shape[0] - platform) // 2
     r00, r01, r11 = R[0, 0], R[0, 1], R[1, 1]
     x0, y0, th = x[0], x[1], x[2]
     a = th + z1
     zx = x0 + z0 * math.cos(a)
     zy = y0 + z0 * math.sin(a)
     for j in range(N):
-        i = _landmark_index(j)
+        i = _landmark_index(j, platform)
         d2[j] = (x[i] - zx) ** 2 + (x[i + 1] - zy) ** 2
     count = min(n_nearest, N)
     order = _smallest(d2, N, count)
@@ -180,7 +181,7 @@ def _best_landmark(x, P, z0, z1, n_nearest, R, gX, has_gX, d2):  # pragma: no co
     be1 = 0.0
     for k in range(count):
         j = order[k]
-        i = _landmark_index(j)
+        i = _landmark_index(j, platform)
         cxx = P[i, i] - 2.0 * P[i, 0] + pxx
         cxy = P[i, i + 1] - P[i, 1] - P[i + 1, 0] + pxy
         cyy = P[i + 1, i + 1] - 2.0 * P[i + 1, 1] + pyy
@@ -201,23 +202,24 @@ def _best_landmark(x, P, z0, z1, n_nearest, R, gX, has_gX, d2):  # pragma: no co
 
 
 @njit(cache=True)
-def min_log_distance(x, P, z0, z1, n_nearest, R):  # pragma: no cover - compiled
+def min_log_distance(x, P, z0, z1, n_nearest, R, platform):  # pragma: no cover - compiled
     """The alpha test's smallest log distance (plain R, c.6); inf without landmarks."""
-    N = (x.shape[0] - 3) // 2
+    N = (x.shape[0] - platform) // 2
     if N == 0:
         return math.inf
     return _best_landmark(x, P, z0, z1, n_nearest, R, np.zeros((N, 2, 2)), np.zeros(N, dtype=np.bool_),
-                          np.empty(N))[1]
+                          np.empty(N), platform)[1]
 
 
 @njit(cache=True)
-def associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta):  # pragma: no cover - compiled
-    """Sequential association + EKF updates of the detections ``polar[cand]``, in place on ``x``, ``P``.
+def associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta, platform):  # pragma: no cover - compiled
+    """Sequential association + EKF updates of the detections ``polar[cand]``, in place on ``x``, ``P``
+    (a state whose platform block has ``platform`` entries, :mod:`radarslam.slam.layout`).
 
     Returns ``(x, P, out, nis)``: the updated state (the same arrays), the landmark associated to
     each candidate (-1 where none) and the NIS of each update.
     """
-    N = (x.shape[0] - 3) // 2
+    N = (x.shape[0] - platform) // 2
     out = np.full(cand.shape[0], -1)
     nis = np.empty(cand.shape[0])
     n_up = 0
@@ -227,11 +229,11 @@ def associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta):  # pragma
     for c in range(cand.shape[0]):
         z0 = polar[cand[c], 0]
         z1 = polar[cand[c], 1]
-        best_j, best_D, be0, be1 = _best_landmark(x, P, z0, z1, n_nearest, R, gX, has_gX, d2)
+        best_j, best_D, be0, be1 = _best_landmark(x, P, z0, z1, n_nearest, R, gX, has_gX, d2, platform)
         if best_j < 0 or not best_D < beta:
             continue
         out[c] = best_j
-        Hs, idx = _sparse_jacobian(x, best_j)
+        Hs, idx = _sparse_jacobian(x, best_j, platform)
         Rj = _r_eff(R, Hs, gX[best_j]) if has_gX[best_j] else R
         q = _joseph_update_inplace(x, P, np.array([be0, be1]), Hs, idx, Rj)
         nis[n_up] = q
@@ -240,30 +242,30 @@ def associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta):  # pragma
 
 
 @njit(cache=True)
-def _batch_scores(x, P, polar, cand, R, gX, has_gX, n_nearest, beta):  # pragma: no cover - compiled
+def _batch_scores(x, P, polar, cand, R, gX, has_gX, n_nearest, beta, platform):  # pragma: no cover - compiled
     """The landmark of each candidate (-1 for none), all scored at the state ``x``, ``P``
     (:meth:`radarslam.slam.association.BatchAssociator.scores`); at least one landmark."""
-    N = (x.shape[0] - 3) // 2
+    N = (x.shape[0] - platform) // 2
     out = np.full(cand.shape[0], -1)
     d2 = np.empty(N)
     for c in range(cand.shape[0]):
         best_j, best_D, be0, be1 = _best_landmark(x, P, polar[cand[c], 0], polar[cand[c], 1], n_nearest, R, gX,
-                                                  has_gX, d2)
+                                                  has_gX, d2, platform)
         if best_j >= 0 and best_D < beta:
             out[c] = best_j
     return out
 
 
 @njit(cache=True)
-def batch_associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta):  # pragma: no cover - compiled
+def batch_associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta, platform):  # pragma: no cover
     """The per-landmark batch update (:class:`radarslam.slam.association.BatchAssociator`): score
     every candidate at the prior state, then one update per landmark with the mean of its
     detections. Returns ``(x, P, out, nis)``."""
-    N = (x.shape[0] - 3) // 2
+    N = (x.shape[0] - platform) // 2
     nis = np.empty(N)
     if N == 0:
         return x, P, np.full(cand.shape[0], -1), nis[:0]
-    out = _batch_scores(x, P, polar, cand, R, gX, has_gX, n_nearest, beta)
+    out = _batch_scores(x, P, polar, cand, R, gX, has_gX, n_nearest, beta, platform)
     n_up = 0
     for j in range(N):
         rows = cand[out == j]
@@ -275,7 +277,7 @@ def batch_associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta):  # 
         zbar[0] = pts[:, 0].mean()
         zbar[1] = pts[:, 1].mean()
         noise = _batch_noise(x[2], np.ascontiguousarray(gX[j]), has_gX[j], R_xy, m)
-        h, Hs, idx = _sensor_xy_measurement(x, j)
+        h, Hs, idx = _sensor_xy_measurement(x, j, platform)
         q = _joseph_update_inplace(x, P, zbar - h, Hs, idx, noise)
         nis[n_up] = q
         n_up += 1
@@ -390,13 +392,13 @@ def joint_update_loops(x, P, e, Hs, idx, Rb):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def joint_batch_associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta):  # pragma: no cover - compiled
+def joint_batch_associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta, platform):  # pragma: no cover
     """:class:`radarslam.slam.association.JointBatchAssociator`: the batch scoring, then every
     landmark seen in one stacked update at the prior state. Returns ``(x, P, out, nis)``."""
-    N = (x.shape[0] - 3) // 2
+    N = (x.shape[0] - platform) // 2
     if N == 0:
         return x, P, np.full(cand.shape[0], -1), np.empty(0)
-    out = _batch_scores(x, P, polar, cand, R, gX, has_gX, n_nearest, beta)
+    out = _batch_scores(x, P, polar, cand, R, gX, has_gX, n_nearest, beta, platform)
     seen = np.zeros(N, dtype=np.bool_)
     for c in range(cand.shape[0]):
         if out[c] >= 0:
@@ -413,7 +415,7 @@ def joint_batch_associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta
         j = js[a]
         rows = cand[out == j]
         pts, R_xy = _polar_to_sensor_xy(polar[rows], R)
-        h, Hs, idx = _sensor_xy_measurement(x, j)
+        h, Hs, idx = _sensor_xy_measurement(x, j, platform)
         e[2 * a] = pts[:, 0].mean() - h[0]
         e[2 * a + 1] = pts[:, 1].mean() - h[1]
         Hs_all[a] = Hs
@@ -425,7 +427,7 @@ def joint_batch_associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta
 
 class _CompiledAssociator:
     """A compiled associator: ``scan`` is the njit function ``(x, P, polar, cand, R, gX, has_gX,
-    n_nearest, beta) -> (x, P, out, nis)`` that does the work."""
+    n_nearest, beta, platform) -> (x, P, out, nis)`` that does the work."""
 
     name = ""
     backend = "numba"
@@ -436,7 +438,7 @@ class _CompiledAssociator:
         self.n_nearest_new = int(n_nearest_new)
 
     @staticmethod
-    def scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta):  # pragma: no cover - abstract
+    def scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta, platform):  # pragma: no cover - abstract
         raise NotImplementedError
 
     def associate(self, state: SlamState, polar: np.ndarray, candidates: np.ndarray, R: np.ndarray,
@@ -444,12 +446,13 @@ class _CompiledAssociator:
         if not state.landmarks:
             return np.full(candidates.shape[0], -1, dtype=int), np.empty(0)
         x, P, out, nis = self.scan(state.x, state.P, polar, candidates.astype(np.int64), R, spreads.gX,
-                                   spreads.has, self.n_nearest, self.beta)
+                                   spreads.has, self.n_nearest, self.beta, state.platform_dim)
         state.set(x, P)
         return out, nis
 
     def min_log_distance(self, state: SlamState, s: np.ndarray, R: np.ndarray) -> float:
-        return float(min_log_distance(state.x, state.P, float(s[0]), float(s[1]), self.n_nearest_new, R))
+        return float(min_log_distance(state.x, state.P, float(s[0]), float(s[1]), self.n_nearest_new, R,
+                                      state.platform_dim))
 
 
 class CompiledNearestNeighbourAssociator(_CompiledAssociator):

@@ -22,6 +22,7 @@ import numpy as np
 
 from radarslam.core.registry import ASSOCIATORS
 from radarslam.slam import ekf
+from radarslam.slam.layout import POSE_DIM
 from radarslam.slam.state import SlamState
 
 
@@ -65,12 +66,13 @@ class Associator(Protocol):
         c.6, with the plain ``R``); ``inf`` without landmarks."""
 
 
-def nearest_landmarks(xs: list[float], s, count: int) -> list[int]:
+def nearest_landmarks(xs: list[float], s, count: int, platform: int = POSE_DIM) -> list[int]:
     """Positions of the ``count`` landmarks Euclidean-nearest to detection ``s`` seen from the pose
-    of ``xs`` (the state as a list), nearest first, ties by position."""
+    of ``xs`` (the state as a list, its platform block of ``platform`` entries), nearest first,
+    ties by position."""
     a = xs[2] + s[1]
     zx, zy = xs[0] + s[0] * math.cos(a), xs[1] + s[0] * math.sin(a)
-    d2 = [(lx - zx) ** 2 + (ly - zy) ** 2 for lx, ly in zip(xs[3::2], xs[4::2])]
+    d2 = [(lx - zx) ** 2 + (ly - zy) ** 2 for lx, ly in zip(xs[platform::2], xs[platform + 1::2])]
     return sorted(range(len(d2)), key=d2.__getitem__)[:count]
 
 
@@ -105,15 +107,15 @@ class NearestNeighbourAssociator:
         """
         if not state.landmarks:
             return (-1, math.inf, None, None, None, None)
-        xs = state.x.tolist()
-        js = nearest_landmarks(xs, s, count)
+        xs, p = state.x.tolist(), state.platform_dim
+        js = nearest_landmarks(xs, s, count, p)
         gX = None
         if spreads is not None and spreads.has.any():
             gX = [spreads.gX[j].tolist() if spreads.has[j] else None for j in js]
-        j, D, e = ekf.score_landmarks(state.x, state.P, s, js, R, gX, xs)
+        j, D, e = ekf.score_landmarks(state.x, state.P, s, js, R, gX, xs, p)
         if j < 0:
             return (-1, math.inf, None, None, None, None)
-        Hs, idx = ekf.sparse_jacobian(state.linearisation(j), j)   # first estimates under FEJ (c.2.1)
+        Hs, idx = ekf.sparse_jacobian(state.linearisation(j), j, p)   # first estimates under FEJ (c.2.1)
         Rj = ekf.r_eff(R, Hs, spreads.gX[j]) if spreads is not None and spreads.has[j] else R
         return (j, D, np.array(e), Hs, idx, Rj)
 
@@ -167,9 +169,9 @@ class BatchAssociator(NearestNeighbourAssociator):
             dets = candidates[out == j]
             pts, R_xy = ekf.polar_to_sensor_xy(polar[dets], R)
             noise = ekf.batch_noise(state.x[2], spreads.gX[j], spreads.has[j], R_xy, dets.size)
-            h, Hs, idx = ekf.sensor_xy_measurement(state.x, j)
+            h, Hs, idx = ekf.sensor_xy_measurement(state.x, j, state.platform_dim)
             if state.lin_pose is not None:        # first-estimates Jacobian (c.2.1), h at the estimate
-                Hs = ekf.sensor_xy_measurement(state.linearisation(j), j)[1]
+                Hs = ekf.sensor_xy_measurement(state.linearisation(j), j, state.platform_dim)[1]
             q = ekf.joseph_update_inplace(state.x, state.P, pts.mean(axis=0) - h, Hs, idx, noise)
             nis.append(q)
         return out, np.array(nis)
@@ -199,9 +201,9 @@ class JointBatchAssociator(BatchAssociator):
         for a, j in enumerate(seen):
             dets = candidates[out == j]
             pts, R_xy = ekf.polar_to_sensor_xy(polar[dets], R)
-            h, Hs, idx = ekf.sensor_xy_measurement(state.x, j)
+            h, Hs, idx = ekf.sensor_xy_measurement(state.x, j, state.platform_dim)
             if state.lin_pose is not None:        # first-estimates Jacobian (c.2.1)
-                Hs = ekf.sensor_xy_measurement(state.linearisation(j), j)[1]
+                Hs = ekf.sensor_xy_measurement(state.linearisation(j), j, state.platform_dim)[1]
             e[2 * a:2 * a + 2] = pts.mean(axis=0) - h
             H[2 * a:2 * a + 2, idx] = Hs
             Rb[2 * a:2 * a + 2, 2 * a:2 * a + 2] = ekf.batch_noise(state.x[2], spreads.gX[j], spreads.has[j], R_xy,

@@ -1,8 +1,10 @@
 """EKF-SLAM maths on the augmented state ``x = [x, y, theta, p1x, p1y, ..., pNx, pNy]``.
 
 Pure functions: every function returns new arrays and leaves its inputs untouched. Landmark ``j``
-(0-based) occupies ``x[i : i + 2]`` with ``i = landmark_index(j)`` (:mod:`.layout`). The heading is
-kept in ``[0, 2 pi)`` (docs/method.md a.1).
+(0-based) occupies ``x[i : i + 2]`` with ``i = landmark_index(j, platform)`` (:mod:`.layout`), where
+``platform`` is the size of the platform block at the head of the state: 3 (the pose, the default)
+or 3 plus the odometry-bias states (docs/method.md c.11), which no measurement depends on. The
+heading is kept in ``[0, 2 pi)`` (docs/method.md a.1).
 
 One source for each kernel: :func:`sparse_jacobian` (the range-azimuth measurement Jacobian),
 :func:`r_eff` (the extent-inflated noise), :func:`joseph_update` (the Joseph update),
@@ -21,7 +23,7 @@ import numpy as np
 from radarslam.core.angles import wrap_2pi_scalar, wrap_pi_scalar
 from radarslam.models.motion import MotionModel
 from radarslam.models.radar import inverse_jacobians
-from radarslam.slam.layout import landmark_index
+from radarslam.slam.layout import POSE_DIM, landmark_index
 
 LOG_2PI_SQ = 2.0 * math.log(2.0 * math.pi)  # log((2 pi)^2)
 
@@ -72,15 +74,18 @@ def fej_motion_jacobian(Fx: np.ndarray, pose_new: np.ndarray, pose_first: np.nda
 
 
 def apply_prediction(x: np.ndarray, P: np.ndarray, pose: np.ndarray, Ppp: np.ndarray, Ppl: np.ndarray) -> None:
-    """Write the terms of :func:`predict_terms` into ``x`` and ``P`` (in place)."""
-    x[:3] = pose
-    P[:3, :3] = Ppp
-    if P.shape[0] > 3:
-        P[:3, 3:] = Ppl
-        P[3:, :3] = Ppl.T
+    """Write the terms of :func:`predict_terms` into ``x`` and ``P`` (in place): the platform block
+    ``pose`` (p,) (the pose, or the pose and the bias states of c.11), its covariance ``Ppp``
+    (p, p) and its cross-covariance with the landmarks ``Ppl`` (p, n - p)."""
+    p = pose.shape[0]
+    x[:p] = pose
+    P[:p, :p] = Ppp
+    if P.shape[0] > p:
+        P[:p, p:] = Ppl
+        P[p:, :p] = Ppl.T
 
 
-def landmark_measurement(x: np.ndarray, j: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def landmark_measurement(x: np.ndarray, j: int, platform: int = POSE_DIM) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Predicted measurement of landmark ``j`` and its sparse Jacobian (APSIPA eq. 8, App. B).
 
     Returns
@@ -92,10 +97,10 @@ def landmark_measurement(x: np.ndarray, j: int) -> tuple[np.ndarray, np.ndarray,
     idx : ndarray, shape (5,)
         The state indices of those columns.
     """
-    i = landmark_index(j)
+    i = landmark_index(j, platform)
     dx, dy = x[i] - x[0], x[i + 1] - x[1]
     h = np.array([math.sqrt(dx * dx + dy * dy), wrap_pi_scalar(math.atan2(dy, dx) - x[2])])
-    Hs, idx = sparse_jacobian(x, j)
+    Hs, idx = sparse_jacobian(x, j, platform)
     return h, Hs, idx
 
 
@@ -191,7 +196,8 @@ def joseph_apply(P: np.ndarray, K: np.ndarray, PHt: np.ndarray, KL: np.ndarray) 
 
 
 def score_landmarks(x: np.ndarray, P: np.ndarray, z: np.ndarray, js: list[int], R: np.ndarray,
-                    gX: list | None = None, xs: list[float] | None = None) -> tuple[int, float, tuple[float, float]]:
+                    gX: list | None = None, xs: list[float] | None = None,
+                    platform: int = POSE_DIM) -> tuple[int, float, tuple[float, float]]:
     """Smallest log distance (APSIPA eq. 9) of detection ``z`` over the landmarks ``js``.
 
     The hot path of association, on plain floats (numpy's per-call overhead dominates 2 x 2 work).
@@ -203,7 +209,8 @@ def score_landmarks(x: np.ndarray, P: np.ndarray, z: np.ndarray, js: list[int], 
         S = [[g1 C g1', g1 C g2' - g1.c], [., g2 C g2' - 2 g2.c + P_tt]] + R_j,
 
     with ``R_j = R + g (gamma_z X_j) g'`` (docs/method.md a.7.2) where ``gX[k]`` is ``gamma_z X_j``.
-    ``xs`` may pass ``x.tolist()`` when the caller already has it.
+    ``xs`` may pass ``x.tolist()`` when the caller already has it; ``platform`` is the size of the
+    state's platform block (:mod:`.layout`).
 
     Returns
     -------
@@ -221,7 +228,7 @@ def score_landmarks(x: np.ndarray, P: np.ndarray, z: np.ndarray, js: list[int], 
     n = P.shape[0]
     flat = [0, 1, 2, n + 1, n + 2, 2 * n + 2]
     for j in js:
-        i = landmark_index(j)
+        i = landmark_index(j, platform)
         flat += [i * n, i * n + 1, i * n + 2, i * n + i, i * n + i + 1,
                  (i + 1) * n, (i + 1) * n + 1, (i + 1) * n + 2, (i + 1) * n + i + 1]
     v = P.take(flat).tolist()
@@ -231,7 +238,7 @@ def score_landmarks(x: np.ndarray, P: np.ndarray, z: np.ndarray, js: list[int], 
     r00, r01, r11 = R[0, 0], R[0, 1], R[1, 1]
     z0, z1 = float(z[0]), float(z[1])
     for k, j in enumerate(js):
-        i = landmark_index(j)
+        i = landmark_index(j, platform)
         lx0, lx1, lx2, lxx, lxy, ly0, ly1, ly2, lyy = v[6 + 9 * k: 15 + 9 * k]
         # cov(delta) and cov(delta, theta)
         cxx = lxx - 2.0 * lx0 + pxx
@@ -292,11 +299,11 @@ def gaussian_log_distance(s00, s01, s11, e0, e1):
     return 0.5 * (s11 * e0 * e0 - 2.0 * s01 * e0 * e1 + s00 * e1 * e1) / det + 0.5 * (LOG_2PI_SQ + math.log(det))
 
 
-def sparse_jacobian(x: np.ndarray, j: int) -> tuple[np.ndarray, np.ndarray]:
+def sparse_jacobian(x: np.ndarray, j: int, platform: int = POSE_DIM) -> tuple[np.ndarray, np.ndarray]:
     """``(Hs (2, 5), idx (5,))`` of landmark ``j`` (APSIPA App. B): the non-zero columns of the
-    range-azimuth Jacobian, pose ``(x, y, theta)`` then landmark ``(px, py)``, and their state indices.
-    A kernel (numba compiles it as it is)."""
-    i = landmark_index(j)
+    range-azimuth Jacobian, pose ``(x, y, theta)`` then landmark ``(px, py)``, and their state indices
+    (after a platform block of ``platform`` entries). A kernel (numba compiles it as it is)."""
+    i = landmark_index(j, platform)
     dx, dy = x[i] - x[0], x[i + 1] - x[1]
     q = dx * dx + dy * dy
     r = math.sqrt(q)
@@ -304,11 +311,11 @@ def sparse_jacobian(x: np.ndarray, j: int) -> tuple[np.ndarray, np.ndarray]:
             np.array([0, 1, 2, i, i + 1]))
 
 
-def sensor_xy_measurement(x: np.ndarray, j: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def sensor_xy_measurement(x: np.ndarray, j: int, platform: int = POSE_DIM) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Landmark ``j`` in the sensor's Cartesian frame, ``h = Rot(-theta) (p - t)``, with its sparse
     Jacobian ``(Hs (2, 5), idx (5,))`` over ``(x, y, theta, px, py)`` (docs/method.md a.7.3): the
-    measurement of the per-landmark batch update."""
-    i = landmark_index(j)
+    measurement of the per-landmark batch update (``platform``: as :func:`sparse_jacobian`)."""
+    i = landmark_index(j, platform)
     dx, dy = x[i] - x[0], x[i + 1] - x[1]
     c, s = math.cos(x[2]), math.sin(x[2])
     h0 = c * dx + s * dy
@@ -408,10 +415,11 @@ def augment_point(x: np.ndarray, P: np.ndarray, p: np.ndarray, Gx: np.ndarray,
     return x_new, P_new
 
 
-def remove_landmarks(x: np.ndarray, P: np.ndarray, js: list[int] | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def remove_landmarks(x: np.ndarray, P: np.ndarray, js: list[int] | np.ndarray,
+                     platform: int = POSE_DIM) -> tuple[np.ndarray, np.ndarray]:
     """Delete landmarks ``js`` (their 2 rows and 2 columns each) from the state."""
     if len(js) == 0:
         return x.copy(), P.copy()
-    drop = np.concatenate([[landmark_index(j), landmark_index(j) + 1] for j in js])
+    drop = np.concatenate([[landmark_index(j, platform), landmark_index(j, platform) + 1] for j in js])
     keep = np.setdiff1d(np.arange(x.shape[0]), drop)
     return x[keep], P[np.ix_(keep, keep)]

@@ -29,13 +29,14 @@ from radarslam.landmarks.clustering import DENSE_MAX, Cluster, clusters_of, dbsc
 from radarslam.landmarks.confirmation import in_sensor_view, removal_step, rule2_step
 from radarslam.landmarks.merging import next_merge
 from radarslam.landmarks.sifting import sift
+from radarslam.models.body_velocity import BodyVelocityModel
 from radarslam.models.motion import MotionModel, motion_model_from_config
 from radarslam.slam import ekf
 from radarslam.slam.association import Associator, Spreads
-from radarslam.slam.layout import POSE_DIM
+from radarslam.slam.bias import bias_states, initial_state, predict_terms
 from radarslam.slam.odometry_source import odometry_source
 from radarslam.slam.partial_view import view_components, view_corrected_centroid, view_walk
-from radarslam.slam.state import LandmarkRecord, SlamState
+from radarslam.slam.state import LandmarkRecord
 
 __all__ = ["EkfSlam", "LandmarkRecord", "MapSnapshot", "ScanReport"]
 
@@ -111,7 +112,10 @@ class EkfSlam:
         self.R = self.measurement.noise(f)
         self.U = self.model.control_cov(f)
         self.Q = f.Q
-        self.state = SlamState.initial(f.initial_pose, f.initial_pose_std)
+        #: The odometry-bias states (docs/method.md c.11) under filter.odometry_bias "states", else None.
+        #: They belong to the model that drives the prediction: the body-velocity model under Doppler odometry.
+        self.bias_model = bias_states(self.model if f.odometry == "odometer" else BodyVelocityModel(), f)
+        self.state = initial_state(f, self.bias_model)
         #: FEJ: the first estimate of the current pose (the last prediction, or the initial pose).
         self._pose_first = self.state.pose if self.fej else None
         if self.fej:
@@ -129,7 +133,9 @@ class EkfSlam:
         """Refuse first-estimates Jacobians (c.2.1) where they are not built: a motion model other
         than the unicycle, an associator that does not evaluate them, or the partial view."""
         got = None
-        if getattr(self.model, "name", None) != "unicycle":
+        if self.bias_model is not None:
+            got = "filter.odometry_bias 'states' (the bias states of c.11)"
+        elif getattr(self.model, "name", None) != "unicycle":
             got = f"motion model {config.filter.motion_model!r}"
         elif not getattr(self.associator, "fej", False):
             got = f"associator {config.landmarks.associator!r}"
@@ -169,6 +175,11 @@ class EkfSlam:
     @property
     def landmark_positions(self) -> np.ndarray:
         return self.state.positions
+
+    @property
+    def bias(self) -> np.ndarray:
+        """The odometry-bias states ``(m,)`` (c.11; names in ``self.bias_model.names``); empty without them."""
+        return self.state.bias
 
     def snapshot(self) -> MapSnapshot:
         """The current map (copies)."""
@@ -217,7 +228,8 @@ class EkfSlam:
             raise InputError(f"odometry.dt: expected a finite value > 0, got {odo.dt!r}")
         st = self.state
         with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
-            pose, Ppp, Ppl = ekf.predict_terms(st.x, st.P, u, dt, self.model, self.U, self.Q, self._pose_first)
+            pose, Ppp, Ppl = predict_terms(self.bias_model, st.x, st.P, u, dt, self.model, self.U, self.Q,
+                                           self._pose_first)
         # only the pose rows change (c.2): check them, then write them in place (O(N), no copy of P)
         if not (np.isfinite(pose).all() and np.isfinite(Ppp).all() and np.isfinite(Ppl).all()):
             _check_finite(pose, np.concatenate([Ppp.ravel(), Ppl.ravel()]),
@@ -314,7 +326,7 @@ class EkfSlam:
         st = self.state
         x_prior, blocks_prior, _ = prior
         xy = self.measurement.to_world(st.pose, polar)
-        positions = x_prior[POSE_DIM:].reshape(-1, 2)
+        positions = x_prior[st.platform_dim:].reshape(-1, 2)
         test = None
         if st.landmarks:
             test = self.extent.sift([r.extent for r in st.landmarks], xy, polar, positions, blocks_prior,
@@ -363,7 +375,7 @@ class EkfSlam:
         else:
             x_prior, blocks_prior, rows_prior = prior
             rows = [rows_prior[r.id] for r in st.landmarks]
-            centroids, covs = x_prior[POSE_DIM:].reshape(-1, 2)[rows], blocks_prior[rows]
+            centroids, covs = x_prior[st.platform_dim:].reshape(-1, 2)[rows], blocks_prior[rows]
         states = [r.extent for r in st.landmarks]
         pose, pose_cov = st.pose, st.pose_cov
         step_all = getattr(ext, "step_all", None)
@@ -404,7 +416,7 @@ class EkfSlam:
             if self.view is not None and self.config.extent.view_init_correct:
                 X0 = self.extent.prior_shape()
                 for j in range(st.n_landmarks - len(ids), st.n_landmarks):     # a.12.6
-                    i = POSE_DIM + 2 * j
+                    i = st.index(j)
                     st.x[i:i + 2] = view_corrected_centroid(st.x[i:i + 2].copy(), st.x[:2], X0)
             return ids
         return [st.add_landmark(c.centre_polar, self.R, k, self.extent.new()) for c in confirmed]

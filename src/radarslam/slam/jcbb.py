@@ -391,7 +391,7 @@ class JcbbAssociator(NearestNeighbourAssociator):
             near = np.argsort(d, kind="stable")[:min(self.n_prefilter, n_lm)]
             cands = []
             for j in near.tolist():
-                h, Hs, idx = ekf.sensor_xy_measurement(x, j)
+                h, Hs, idx = ekf.sensor_xy_measurement(x, j, state.platform_dim)
                 N = ob.noise(x[2], spreads, j)
                 S = ekf.innovation_cov(P, Hs, idx, N)
                 e = ob.zbar - h
@@ -439,7 +439,7 @@ class JcbbAssociator(NearestNeighbourAssociator):
         nis = []
         for rank, j in sorted(res.pairs, key=lambda p: p[1]):
             ob = observations[order[rank]]
-            h, Hs, idx = ekf.sensor_xy_measurement(state.x, j)
+            h, Hs, idx = ekf.sensor_xy_measurement(state.x, j, state.platform_dim)
             nis.append(ekf.joseph_update_inplace(state.x, state.P, ob.zbar - h, Hs, idx,
                                                  ob.noise(state.x[2], spreads, j)))
             out[ob.members] = j

@@ -35,6 +35,7 @@ from radarslam.core.errors import ConfigError, InputError
 from radarslam.core.types import Odometry, Scan
 from radarslam.models.body_velocity import BodyVelocityModel
 from radarslam.slam import ekf
+from radarslam.slam.bias import predict_terms
 
 __all__ = ["DopplerOdometry", "fuse_forward_speed", "odometry_source"]
 
@@ -141,7 +142,7 @@ class DopplerOdometry:
         U[:2, :2], U[2, 2] = C, self.gyro_var
         st, dt = slam.state, self.dt
         with np.errstate(over="ignore", invalid="ignore"):
-            pose, Ppp, Ppl = ekf.predict_terms(st.x, st.P, u, dt, self.model, U, self.n * slam.Q)
+            pose, Ppp, Ppl = predict_terms(slam.bias_model, st.x, st.P, u, dt, self.model, U, self.n * slam.Q)
         if not (np.isfinite(pose).all() and np.isfinite(Ppp).all() and np.isfinite(Ppl).all()):
             raise InputError(f"odometry before the scan at t={t!r}: expected an input that keeps the state finite "
                              f"(u {u.tolist()}, dt {dt!r}), got one that makes it non-finite")

@@ -33,7 +33,7 @@ from radarslam.core.errors import InputError
 from radarslam.slam import ekf
 from radarslam.slam.association import (BatchAssociator, JointBatchAssociator, NearestNeighbourAssociator,
                                         Spreads)
-from radarslam.slam.layout import landmark_index
+from radarslam.slam.layout import POSE_DIM, landmark_index, n_landmarks
 from radarslam.slam.state import SlamState
 
 _LOG_2PI2 = math.log((2.0 * math.pi) ** 2)
@@ -44,12 +44,13 @@ def _arc_moments_many():
     return arc_moments_many
 
 
-def view_terms(x: np.ndarray, shapes: np.ndarray, js: np.ndarray | None = None):
+def view_terms(x: np.ndarray, shapes: np.ndarray, js: np.ndarray | None = None, platform: int = POSE_DIM):
     """``mu (N, 2)``, ``B (N, 2, 2)`` and ``S (N, 2, 2)`` of the landmarks ``js`` (all by default)
-    of state ``x`` seen from its pose, with the shapes ``shapes (N_all, 2, 2)`` (a.12.4)."""
-    n = (x.shape[0] - 3) // 2
+    of state ``x`` (its platform block of ``platform`` entries, :mod:`.layout`) seen from its pose,
+    with the shapes ``shapes (N_all, 2, 2)`` (a.12.4)."""
+    n = n_landmarks(x.shape[0], platform)
     js = np.arange(n) if js is None else np.asarray(js, dtype=np.int64)
-    p = x[3:].reshape(-1, 2)[js]
+    p = x[platform:].reshape(-1, 2)[js]
     g, G, S = _arc_moments_many()(np.ascontiguousarray(x[:2] - p), np.ascontiguousarray(shapes[js]))
     B = np.eye(2) - G
     return p + g, B, S
@@ -68,7 +69,8 @@ def _exp_sym2_many(xi: np.ndarray) -> np.ndarray:
     return X
 
 
-def model_errors(x: np.ndarray, spreads: Spreads, js: np.ndarray, step: float = 1e-4) -> np.ndarray:
+def model_errors(x: np.ndarray, spreads: Spreads, js: np.ndarray, step: float = 1e-4,
+                 platform: int = POSE_DIM) -> np.ndarray:
     """``(N, 2, 2)``: the model error of each landmark's predicted mean (a.12.5), ``Q_v``, plus,
     when the shapes come with their covariances, ``J P_xi J^T`` with ``J = dg/dxi`` of the mean
     offset over the log-matrix shape (central differences): what the shape's uncertainty adds."""
@@ -76,7 +78,7 @@ def model_errors(x: np.ndarray, spreads: Spreads, js: np.ndarray, step: float = 
     out = np.repeat(spreads.model_error[None], js.size, axis=0)
     if spreads.shape_covs is None or js.size == 0:
         return out
-    d = np.ascontiguousarray(x[:2] - x[3:].reshape(-1, 2)[js])
+    d = np.ascontiguousarray(x[:2] - x[platform:].reshape(-1, 2)[js])
     xi = spreads.log_shapes[js]
     f = _arc_moments_many()
     J = np.empty((js.size, 2, 3))
@@ -89,12 +91,12 @@ def model_errors(x: np.ndarray, spreads: Spreads, js: np.ndarray, step: float = 
     return out + J @ spreads.shape_covs[js] @ np.swapaxes(J, 1, 2)
 
 
-def _pose_landmark_blocks(P: np.ndarray, js: np.ndarray) -> np.ndarray:
+def _pose_landmark_blocks(P: np.ndarray, js: np.ndarray, platform: int = POSE_DIM) -> np.ndarray:
     """``P`` restricted to ``(x, y, theta, p_j)`` for every ``j`` of ``js``: ``(N, 5, 5)``."""
     idx = np.empty((js.size, 5), dtype=np.int64)
     idx[:, :3] = (0, 1, 2)
-    idx[:, 3] = 3 + 2 * js
-    idx[:, 4] = 4 + 2 * js
+    idx[:, 3] = landmark_index(js, platform)
+    idx[:, 4] = idx[:, 3] + 1
     return P[idx[:, :, None], idx[:, None, :]], idx
 
 
@@ -160,8 +162,10 @@ class _PartialView:
         if spreads.shapes is None:
             raise InputError("extent.view_model: 'partial' needs the extent estimator's shapes "
                              "(extent.estimator = 'partial-view'), got none")
-        mu, B, S = view_terms(state.x, spreads.shapes)
-        h, Hs, Rj, ok = polar_terms(state.x, mu, B, S, R, model_errors(state.x, spreads, np.arange(mu.shape[0])))
+        p = state.platform_dim
+        mu, B, S = view_terms(state.x, spreads.shapes, platform=p)
+        h, Hs, Rj, ok = polar_terms(state.x, mu, B, S, R,
+                                    model_errors(state.x, spreads, np.arange(mu.shape[0]), platform=p))
         return mu, B, S, h, Hs, Rj, ok
 
     def _score(self, state, polar, rows, R, spreads, count, terms=None):
@@ -173,7 +177,7 @@ class _PartialView:
         d2 = ((zw[:, None, :] - mu[None, :, :]) ** 2).sum(axis=2)     # (C, N)
         d2[:, ~ok] = np.inf
         near = np.argsort(d2, axis=1, kind="stable")[:, :count]
-        Pb, _ = _pose_landmark_blocks(state.P, np.arange(mu.shape[0]))
+        Pb, _ = _pose_landmark_blocks(state.P, np.arange(mu.shape[0]), state.platform_dim)
         D_all = log_distances(z, h, Hs, Pb, Rj)
         D = np.take_along_axis(D_all, near, axis=1)
         D = np.where(np.take_along_axis(d2, near, axis=1) < np.inf, D, np.inf)
@@ -201,39 +205,40 @@ class PartialViewNearestNeighbour(_PartialView, NearestNeighbourAssociator):
         if spreads.shapes is None:
             self._terms(state, R, spreads)                 # the one-line error
         nis = []
-        mu_all = view_terms(state.x, spreads.shapes)[0]
+        p = state.platform_dim
+        mu_all = view_terms(state.x, spreads.shapes, platform=p)[0]
         for c, i in enumerate(candidates.tolist()):
             x = state.x
             a = x[2] + polar[i, 1]
             zw = x[:2] + polar[i, 0] * np.array([math.cos(a), math.sin(a)])
             d2 = ((mu_all - zw) ** 2).sum(axis=1)
             js = np.argsort(d2, kind="stable")[:self.n_nearest]
-            mu, B, S = view_terms(x, spreads.shapes, js)
-            h, Hs, Rj, ok = polar_terms(x, mu, B, S, R, model_errors(x, spreads, js))
-            Pb, idx = _pose_landmark_blocks(state.P, js)
+            mu, B, S = view_terms(x, spreads.shapes, js, p)
+            h, Hs, Rj, ok = polar_terms(x, mu, B, S, R, model_errors(x, spreads, js, platform=p))
+            Pb, idx = _pose_landmark_blocks(state.P, js, p)
             D = np.where(ok, log_distances(polar[i:i + 1], h, Hs, Pb, Rj)[0], np.inf)
             k = int(np.argmin(D))
             if D[k] < self.beta:
                 e = np.array([polar[i, 0] - h[k, 0], math.remainder(polar[i, 1] - h[k, 1], 2.0 * math.pi)])
                 nis.append(ekf.joseph_update_inplace(state.x, state.P, e, Hs[k], idx[k], Rj[k]))
                 out[c] = int(js[k])
-                mu_all = view_terms(state.x, spreads.shapes)[0]
+                mu_all = view_terms(state.x, spreads.shapes, platform=p)[0]
         return out, np.array(nis)
 
 
 def _batch_measurements(state, polar, candidates, out, R, spreads, seen):
     """The mean detection, its measurement and noise of every landmark of ``seen`` (a.12.5), at
     the current state: ``[(j, e (2,), Hs (2, 5), idx (5,), noise (2, 2))]``."""
-    js = np.array(seen, dtype=np.int64)
-    mu, B, S = view_terms(state.x, spreads.shapes, js)
+    js, p = np.array(seen, dtype=np.int64), state.platform_dim
+    mu, B, S = view_terms(state.x, spreads.shapes, js, p)
     h, Hs = sensor_xy_terms(state.x, mu, B)
-    Q = model_errors(state.x, spreads, js)
+    Q = model_errors(state.x, spreads, js, platform=p)
     rows = []
     for a, j in enumerate(seen):
         dets = candidates[out == j]
         pts, R_xy = ekf.polar_to_sensor_xy(polar[dets], R)
         noise = ekf.batch_noise(state.x[2], S[a], True, R_xy, dets.size) + ekf.rotate_to_sensor(state.x[2], Q[a])
-        i0 = landmark_index(j)
+        i0 = landmark_index(j, p)
         rows.append((j, pts.mean(axis=0) - h[a], Hs[a], np.array([0, 1, 2, i0, i0 + 1]), noise))
     return rows
 
@@ -336,7 +341,7 @@ def view_walk(state: SlamState, last_angle: dict[int, float], q: float) -> dict[
     step = np.abs(np.remainder(phi - last + math.pi, 2.0 * math.pi) - math.pi)
     step = np.where(np.isfinite(step), step, 0.0)
     for j in np.flatnonzero(step > 0.0).tolist():
-        i = landmark_index(j)
+        i = state.index(j)
         state.P[i, i] += q * step[j]
         state.P[i + 1, i + 1] += q * step[j]
     return {r.id: float(a) for r, a in zip(state.landmarks, phi)}

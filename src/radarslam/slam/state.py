@@ -39,7 +39,10 @@ class LandmarkRecord:
 @dataclass
 class SlamState:
     """``x = [x, y, theta, p_1, ..., p_N]`` and ``P``, with one :class:`LandmarkRecord` per landmark
-    in state order, the unconfirmed landmarks of Rule 2, and the next landmark id."""
+    in state order, the unconfirmed landmarks of Rule 2, and the next landmark id.
+
+    With odometry-bias states (docs/method.md c.11) the platform block is
+    ``[x, y, theta, b_1, ..., b_m]`` and ``platform_dim = 3 + m``; the landmarks follow it."""
 
     x: np.ndarray
     P: np.ndarray
@@ -49,17 +52,23 @@ class SlamState:
     #: Under first-estimates Jacobians (docs/method.md c.2.1): the pose [x_m, y_m, theta_rad] at
     #: which this scan's measurement Jacobians are evaluated (its prediction); None = the estimate.
     lin_pose: np.ndarray | None = None
+    #: Size of the platform block at the head of ``x``: the pose (3) and the bias states (c.11).
+    platform_dim: int = POSE_DIM
 
     @classmethod
-    def initial(cls, pose, pose_std) -> "SlamState":
-        """No landmarks; the pose ``N(pose, diag(pose_std^2))`` (docs/method.md b.5)."""
-        return cls(np.array(pose, dtype=float), np.diag(np.square(np.asarray(pose_std, dtype=float))))
+    def initial(cls, pose, pose_std, bias=None, bias_std=None) -> "SlamState":
+        """No landmarks; the pose ``N(pose, diag(pose_std^2))`` (docs/method.md b.5) and, when
+        given, the odometry-bias states ``N(bias, diag(bias_std^2))`` (m,) after it (c.11)."""
+        if bias is None:
+            return cls(np.array(pose, dtype=float), np.diag(np.square(np.asarray(pose_std, dtype=float))))
+        x = np.concatenate([np.asarray(pose, dtype=float), np.asarray(bias, dtype=float)])
+        var = np.square(np.concatenate([np.asarray(pose_std, dtype=float), np.asarray(bias_std, dtype=float)]))
+        return cls(x, np.diag(var), platform_dim=x.shape[0])
 
     # ---------------------------------------------------------------- index arithmetic
-    @staticmethod
-    def index(j: int) -> int:
+    def index(self, j: int) -> int:
         """First row of landmark ``j`` in ``x`` and ``P``."""
-        return landmark_index(j)
+        return landmark_index(j, self.platform_dim)
 
     @property
     def n_landmarks(self) -> int:
@@ -75,9 +84,19 @@ class SlamState:
         return self.P[:POSE_DIM, :POSE_DIM].copy()
 
     @property
+    def bias(self) -> np.ndarray:
+        """The odometry-bias states ``(m,)`` (c.11); empty without them."""
+        return self.x[POSE_DIM:self.platform_dim].copy()
+
+    @property
+    def bias_cov(self) -> np.ndarray:
+        """Their covariance ``(m, m)``."""
+        return self.P[POSE_DIM:self.platform_dim, POSE_DIM:self.platform_dim].copy()
+
+    @property
     def positions(self) -> np.ndarray:
         """Landmark centroids ``(N, 2)``."""
-        return self.x[POSE_DIM:].reshape(-1, 2).copy()
+        return self.x[self.platform_dim:].reshape(-1, 2).copy()
 
     def position(self, j: int) -> np.ndarray:
         i = self.index(j)
@@ -150,7 +169,7 @@ class SlamState:
         if not js:
             return []
         gone = set(js)
-        self.x, self.P = ekf.remove_landmarks(self.x, self.P, list(js))
+        self.x, self.P = ekf.remove_landmarks(self.x, self.P, list(js), self.platform_dim)
         removed = [r for j, r in enumerate(self.landmarks) if j in gone]
         self.landmarks = [r for j, r in enumerate(self.landmarks) if j not in gone]
         return removed

@@ -176,3 +176,38 @@ def plot_dataset_errors(path: str | Path, error_t: np.ndarray, error_m: np.ndarr
     fig.tight_layout()
     fig.savefig(path, dpi=120, bbox_inches="tight")  # keep the outside legend
     plt.close(fig)
+
+
+def plot_bias(path: str | Path, t: np.ndarray, values: np.ndarray, stds: np.ndarray, names, units, *,
+              name: str = "dataset") -> None:
+    """Save one panel per odometry-bias state (docs/method.md c.11): its estimate over time ``t``
+    (K,) with the +-2 sigma band; ``values``, ``stds`` ``(K, m)``. Angles (unit rad or rad/s) are
+    drawn in degrees, a scale error in percent."""
+    t = np.asarray(t, dtype=float).ravel()
+    values, stds = np.asarray(values, dtype=float), np.asarray(stds, dtype=float)
+    if values.shape != stds.shape or values.ndim != 2 or values.shape[0] != t.size or values.shape[1] != len(names):
+        raise InputError(f"values, stds: expected two arrays of shape ({t.size}, {len(names)}), got "
+                         f"{values.shape} and {stds.shape}")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    m = values.shape[1]
+    fig, axes = plt.subplots(m, 1, figsize=(10, 2.6 * m + 0.6), sharex=True, squeeze=False)
+    for i, ax in enumerate(axes[:, 0]):
+        unit = units[i]
+        k, label = ((100.0, "%") if unit == "1" else (np.degrees(1.0), unit.replace("rad", "deg")))
+        v, s = k * values[:, i], k * stds[:, i]
+        ax.fill_between(t, v - 2 * s, v + 2 * s, color="tab:blue", alpha=0.25, lw=0, label="+-2 sigma")
+        ax.plot(t, v, "-", color="tab:blue", lw=0.9, label="estimate")
+        ax.axhline(0.0, color="k", lw=0.6)
+        ax.set_ylabel(f"{names[i]} ({label})")
+        ax.set_title(f"{names[i]}: final {v[-1]:.3g} +- {2 * s[-1]:.2g} {label} (2 sigma)", fontsize=10)
+        ax.grid(alpha=0.3)
+    axes[0, 0].legend(loc="upper right", fontsize=8)
+    axes[-1, 0].set_xlabel("time (s)")
+    fig.suptitle(f"{name}: odometry-bias states")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)

@@ -16,6 +16,7 @@ from radarslam.landmarks._compiled import dbscan_centres, dbscan_labels
 from radarslam.models.radar import inverse_jacobians, polar_to_xy
 from radarslam.slam import ekf
 from radarslam.slam._numba import _polar_to_sensor_xy, min_log_distance
+from radarslam.slam.layout import POSE_DIM
 from radarslam.slam.fused.storage import (
     Clusters,
     _drop_state_rows,
@@ -66,7 +67,7 @@ def alpha_test(x, P, polar, clusters, noise, cfg):  # pragma: no cover - compile
     nf = 0
     for c in range(nc):
         i = cl_centre[c]
-        if min_log_distance(x, P, polar[i, 0], polar[i, 1], cfg.n_new, noise.R) > cfg.alpha:
+        if min_log_distance(x, P, polar[i, 0], polar[i, 1], cfg.n_new, noise.R, POSE_DIM) > cfg.alpha:
             fresh[nf] = c
             nf += 1
     return fresh[:nf]

@@ -100,6 +100,7 @@ def why_not(slam, events=None) -> str | None:
         (getattr(slam, "view", None) is None, "the partial-view model (docs/method.md a.12)"),
         (not f.doppler_gate, "filter.doppler_gate (the Doppler gate, docs/method.md c.10.4)"),
         (f.odometry == "odometer", f"filter.odometry {f.odometry!r} (Doppler and gyro odometry, docs/method.md c.10.5)"),
+        (f.odometry_bias == "none", "filter.odometry_bias 'states' (odometry-bias states, docs/method.md c.11)"),
         (type(slam.model) is UnicycleModel, f"motion model {type(slam.model).__name__}"),
         (type(slam.measurement) is RangeAzimuthModel, f"measurement model {type(slam.measurement).__name__}"),
         (type(slam.associator) in (CompiledNearestNeighbourAssociator, CompiledBatchAssociator,

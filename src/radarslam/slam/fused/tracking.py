@@ -22,6 +22,7 @@ from radarslam.slam._numba import (
     batch_associate_scan,
     joint_batch_associate_scan,
 )
+from radarslam.slam.layout import POSE_DIM
 from radarslam.slam.fused.storage import _blocks, _drop_state_rows, _grow_rows, compact_landmarks, with_buffer
 
 # The reference's own kernel, compiled as it is: seed eq. (3).
@@ -164,11 +165,12 @@ def associate_and_update(x, P, polar, cidx, lm, N, noise, cfg):  # pragma: no co
                 has[j] = True
     R = noise.R
     if cfg.assoc == 0:
-        x, P, out, nis = associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta)
+        x, P, out, nis = associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta, POSE_DIM)
     elif cfg.assoc == 1:
-        x, P, out, nis = batch_associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta)
+        x, P, out, nis = batch_associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta, POSE_DIM)
     else:
-        x, P, out, nis = joint_batch_associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta)
+        x, P, out, nis = joint_batch_associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta,
+                                                    POSE_DIM)
     return x, P, out, nis
 
 

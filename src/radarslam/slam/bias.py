@@ -1,0 +1,123 @@
+"""Odometry-bias states in the EKF's platform block (docs/method.md c.11).
+
+Under ``filter.odometry_bias = "states"`` the state opens with ``s = [x, y, theta, eps, delta]``:
+the pose and the motion model's two bias states (its
+:class:`~radarslam.models.input_bias.InputBias`), each a random walk, or with
+``filter.bias_tau_s > 0`` a first-order Gauss-Markov process, about its nominal 0. The prediction
+with the odometer reading ``u`` over ``dt`` (c.11.2):
+
+    pose' = f(pose, c(u, b), dt),   b' = Phi b,   Phi = diag(phi),  phi = exp(-dt / tau) (1 for a random walk),
+
+    F_s = [[F_x, F_u C_b], [0, Phi]],   G = F_u C_u,
+    P_ss <- F_s P_ss F_s^T + blockdiag(G U G^T + Q, Q_b),   P_sl <- F_s P_sl,
+
+with ``F_x, F_u`` the model's Jacobians at the corrected input ``c(u, b)``, ``C_u, C_b`` those of
+the correction, and ``Q_b = diag(q^2 tau / 2 (1 - phi^2))`` (``q^2 dt`` for the random walk), ``q``
+the drift. The measurements do not depend on ``b``; SLAM learns it through ``P_sl``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from radarslam.core.errors import ConfigError
+from radarslam.slam import ekf
+from radarslam.slam.layout import POSE_DIM
+from radarslam.slam.state import SlamState
+
+__all__ = ["BiasStates", "bias_states", "initial_state", "predict_terms"]
+
+
+class BiasStates:
+    """The bias states of a filter: the model's :class:`~radarslam.models.input_bias.InputBias`
+    ``spec``, their prior std ``(m,)``, drift ``(m,)`` (per sqrt(s)) and time constant ``tau`` (s;
+    0 = random walk)."""
+
+    def __init__(self, spec, prior_std: np.ndarray, drift: np.ndarray, tau: float):
+        self.spec = spec
+        self.prior_std = np.asarray(prior_std, dtype=float)
+        self.drift = np.asarray(drift, dtype=float)
+        self.tau = float(tau)
+        self.dim = int(spec.dim)
+        self.names = tuple(spec.names)
+        self.units = tuple(spec.units)
+
+    @property
+    def platform_dim(self) -> int:
+        """The size of the platform block: the pose and the bias states."""
+        return POSE_DIM + self.dim
+
+    def transition(self, dt: float) -> tuple[float, np.ndarray]:
+        """``(phi, Q_b (m,))``: the decay of the bias over ``dt`` and the variance its drift adds
+        (c.11.2): a random walk ``(1, q^2 dt)``, a Gauss-Markov process
+        ``(exp(-dt / tau), q^2 tau / 2 (1 - phi^2))``."""
+        q2 = self.drift * self.drift
+        if self.tau <= 0.0:
+            return 1.0, q2 * dt
+        phi = math.exp(-dt / self.tau)
+        return phi, q2 * (0.5 * self.tau) * (1.0 - phi * phi)
+
+    def jacobians(self, pose: np.ndarray, b: np.ndarray, u: np.ndarray, dt: float, model):
+        """``(F_s (p, p), G (3, len(u)), u_c)``: the platform block's transition Jacobian
+        ``[[F_x, F_u C_b], [0, Phi]]``, the Jacobian of the new pose in the measured input
+        ``F_u C_u``, and the corrected input (c.11.2)."""
+        uc = self.spec.correct(u, b)
+        Cu, Cb = self.spec.jacobians(u, b)
+        Fx, Fu = model.jacobians(pose, uc, dt)
+        phi, _ = self.transition(dt)
+        p = self.platform_dim
+        F = np.zeros((p, p))
+        F[:POSE_DIM, :POSE_DIM] = Fx
+        F[:POSE_DIM, POSE_DIM:] = Fu @ Cb
+        F[POSE_DIM:, POSE_DIM:] = phi * np.eye(self.dim)
+        return F, Fu @ Cu, uc
+
+    def predict_terms(self, x: np.ndarray, P: np.ndarray, u: np.ndarray, dt: float, model, U: np.ndarray,
+                      Q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:func:`radarslam.slam.ekf.predict_terms` for the platform block with bias states: the new
+        block ``(p,)``, its covariance ``(p, p)`` and its cross-covariance with the landmarks
+        ``(p, n - p)``, without touching ``x`` or ``P`` (c.11.2); :func:`~radarslam.slam.ekf.apply_prediction`
+        writes them."""
+        p = self.platform_dim
+        pose, b = x[:POSE_DIM], x[POSE_DIM:p]
+        F, G, uc = self.jacobians(pose, b, u, dt, model)
+        phi, qb = self.transition(dt)
+        Pss = F @ P[:p, :p] @ F.T
+        Pss[:POSE_DIM, :POSE_DIM] += G @ U @ G.T + Q
+        Pss[POSE_DIM:, POSE_DIM:] += np.diag(qb)
+        Pss = 0.5 * (Pss + Pss.T)
+        s = np.concatenate([model.step(pose, uc, dt), phi * b])
+        return s, Pss, F @ P[:p, p:]
+
+
+def bias_states(model, f) -> BiasStates | None:
+    """The filter's bias states under ``filter.odometry_bias`` (``f``, the ``filter`` section) for
+    ``model``: None for ``"none"``; for ``"states"`` the model's declared ones, or a one-line
+    :class:`ConfigError` when the model declares none."""
+    if f.odometry_bias == "none":
+        return None
+    spec = getattr(model, "input_bias", None)
+    if spec is None:
+        raise ConfigError(f"filter.odometry_bias: expected 'none' with motion model {getattr(model, 'name', model)!r} "
+                          f"(it declares no input_bias, docs/method.md c.11), got {f.odometry_bias!r}")
+    return BiasStates(spec, spec.prior_std(f), spec.drift(f), f.bias_tau_s)
+
+
+def initial_state(f, bias: BiasStates | None) -> SlamState:
+    """The filter's first state from the ``filter`` section ``f`` (b.5): the initial pose and, with
+    ``bias``, the bias states at their nominal 0 with their prior std (c.11.1)."""
+    if bias is None:
+        return SlamState.initial(f.initial_pose, f.initial_pose_std)
+    return SlamState.initial(f.initial_pose, f.initial_pose_std, np.zeros(bias.dim), bias.prior_std)
+
+
+def predict_terms(bias: BiasStates | None, x: np.ndarray, P: np.ndarray, u: np.ndarray, dt: float, model,
+                  U: np.ndarray, Q: np.ndarray, pose_first: np.ndarray | None = None):
+    """The prediction's terms for :func:`radarslam.slam.ekf.apply_prediction`: without bias states
+    :func:`radarslam.slam.ekf.predict_terms` (c.2, with ``pose_first`` under FEJ), else
+    :meth:`BiasStates.predict_terms` (c.11.2)."""
+    if bias is None:
+        return ekf.predict_terms(x, P, u, dt, model, U, Q, pose_first)
+    return bias.predict_terms(x, P, u, dt, model, U, Q)
