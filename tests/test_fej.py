@@ -10,6 +10,8 @@ import pytest
 
 from radarslam.config import from_dict, profile_config
 from radarslam.core.errors import ConfigError
+from radarslam.models.ackermann import AckermannModel
+from radarslam.models.body_velocity import BodyVelocityModel
 from radarslam.models.motion import UnicycleModel
 from radarslam.slam import EkfSlam, _fused, ekf
 from radarslam.slam.state import LandmarkRecord, SlamState
@@ -18,12 +20,17 @@ N_STATE = 7          # pose and two landmarks
 SVD_TOL = 1e-8       # relative to the largest singular value
 
 
-def _trajectory(rng: np.random.Generator, steps: int = 5):
+#: Every motion model with first-estimates Jacobians and a control that turns (c.2.1).
+MODELS = {"unicycle": (UnicycleModel(), np.array([3.0, 0.3])),
+          "ackermann": (AckermannModel(), np.array([3.0, 0.1])),
+          "body-velocity": (BodyVelocityModel(), np.array([3.0, 0.4, 0.3]))}
+
+
+def _trajectory(rng: np.random.Generator, steps: int = 5, model_name: str = "unicycle"):
     """Estimates of a short run: predicted poses x_{k|k-1}, updated poses x_{k|k} (the prediction
     plus an update's correction of a few cm / mrad), the landmarks' estimate at each step and their
-    first estimates; controls [v, psi] and dt."""
-    model, dt = UnicycleModel(), 0.5
-    u = np.array([3.0, 0.3])
+    first estimates; the model's controls and dt."""
+    (model, u), dt = MODELS[model_name], 0.5
     first = np.array([[8.0, 3.0], [4.0, -6.0]])
     pred, upd, lms = [np.array([0.2, -0.1, 0.4])], [], []
     for k in range(steps):
@@ -39,9 +46,9 @@ def _state(pose, lms, first) -> SlamState:
     return st
 
 
-def _observability(fej: bool, measurement, steps: int = 5, seed: int = 3) -> np.ndarray:
+def _observability(fej: bool, measurement, steps: int = 5, seed: int = 3, model_name: str = "unicycle") -> np.ndarray:
     """Singular values of M = [H_1; H_2 F_1; H_3 F_2 F_1; ...] (both landmarks each step)."""
-    model, u, dt, pred, upd, lms, first = _trajectory(np.random.default_rng(seed), steps)
+    model, u, dt, pred, upd, lms, first = _trajectory(np.random.default_rng(seed), steps, model_name)
     rows, Phi = [], np.eye(N_STATE)
     for k in range(steps):
         st = _state(pred[k], lms[k], first)      # the update of step k is linearised at the prediction
@@ -81,6 +88,37 @@ def test_fej_keeps_the_three_unobservable_directions(measurement):
     above 1e-3 of the largest."""
     s_fej = _observability(True, measurement)
     s_std = _observability(False, measurement)
+    assert _null_dim(s_fej) == 3, s_fej
+    assert _null_dim(s_std) == 2, s_std
+    assert s_std[-3] > 1e-3 * s_std[0]
+
+
+@pytest.mark.parametrize("model_name", sorted(MODELS))
+def test_every_motion_model_moves_by_a_position_free_increment(model_name):
+    """What FEJ assumes of a model (c.2.1): F_x's heading column is (-dy, dx) of the step's own
+    position increment, at any pose; and F_x matches central differences."""
+    model, u = MODELS[model_name]
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        pose = np.array([*rng.uniform(-50, 50, 2), rng.uniform(0, 2 * np.pi)])
+        dt = rng.uniform(0.02, 0.5)
+        Fx = model.jacobians(pose, u, dt)[0]
+        d = model.step(pose, u, dt)[:2] - pose[:2]
+        assert np.allclose(Fx[:2, 2], [-d[1], d[0]], atol=1e-12)
+        assert np.allclose(Fx[:2, :2], np.eye(2)) and np.allclose(Fx[2], [0, 0, 1])
+        for i in range(3):
+            e = np.zeros(3)
+            e[i] = 1e-6
+            fd = (model.step(pose + e, u, dt) - model.step(pose - e, u, dt)) / 2e-6
+            assert np.allclose(fd[:2], Fx[:2, i], atol=1e-7)
+
+
+@pytest.mark.parametrize("model_name", ["ackermann", "body-velocity"])
+def test_fej_keeps_the_three_unobservable_directions_for_every_model(model_name):
+    """The nullspace test of the unicycle for the Ackermann and body-velocity models: FEJ 3, the
+    standard Jacobians (negative control) 2."""
+    s_fej = _observability(True, _range_azimuth, model_name=model_name)
+    s_std = _observability(False, _range_azimuth, model_name=model_name)
     assert _null_dim(s_fej) == 3, s_fej
     assert _null_dim(s_std) == 2, s_std
     assert s_std[-3] > 1e-3 * s_std[0]
@@ -146,6 +184,8 @@ def test_fej_filter_runs_and_the_fused_engine_declines_it():
 
 
 def test_fej_is_refused_where_it_is_not_built():
+    slam = EkfSlam(from_dict({"filter": {"jacobians": "fej", "motion_model": "ackermann"}}))   # built: no error
+    assert slam.fej and slam.model.name == "ackermann"
     with pytest.raises(ConfigError, match=r"filter.jacobians: expected 'standard' with associator 'jcbb'"):
         EkfSlam(from_dict({"filter": {"jacobians": "fej"}, "landmarks": {"associator": "jcbb"}}))
     with pytest.raises(ConfigError, match=r"filter.jacobians: expected one of \['standard', 'fej'\], got 'first'"):

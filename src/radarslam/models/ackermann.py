@@ -87,6 +87,9 @@ class AckermannModel:
     name = "ackermann"
     #: c.11: a wheel-speed scale on v_e and a steering offset (rad) on alpha.
     input_bias = InputBias((0,), 1, ("speed_scale", "steering_offset"), ("1", "rad"), STEERING_KEYS)
+    #: c.2.1: the step adds a position increment that does not depend on the position, so F_x's
+    #: heading column is (-dy, dx): first-estimates Jacobians apply (tests/test_fej.py checks it).
+    se2_increment = True
 
     def __init__(self, L: float = 2.83, H: float = 0.76, a: float = 0.95, b: float = 0.5):
         self.L = as_scalar("ackermann.L", L, low=0.0, low_open=True)

@@ -32,6 +32,8 @@ class BodyVelocityModel:
     name = "body-velocity"
     #: c.11: a speed scale on (v_x, v_y) and a yaw-rate (gyro) offset (rad/s) on omega.
     input_bias = InputBias((0, 1), 2, ("speed_scale", "yaw_rate_offset"), ("1", "rad/s"), TURN_RATE_KEYS)
+    #: c.2.1: F_x's heading column is (-dy, dx) of the increment: first-estimates Jacobians apply.
+    se2_increment = True
 
     @staticmethod
     def _increment(pose: np.ndarray, u: np.ndarray, dt: float) -> tuple[float, float]:

@@ -45,6 +45,8 @@ class UnicycleModel:
     name = "unicycle"
     #: c.11: a speed scale on v and a turn-rate offset (rad/s) on psi.
     input_bias = InputBias((0,), 1, ("speed_scale", "turn_rate_offset"), ("1", "rad/s"), TURN_RATE_KEYS)
+    #: c.2.1: F_x's heading column is (-dy, dx) of the increment: first-estimates Jacobians apply.
+    se2_increment = True
 
     def step(self, pose: np.ndarray, u: np.ndarray, dt: float) -> np.ndarray:
         v, psi = float(u[0]), float(u[1])

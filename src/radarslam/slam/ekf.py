@@ -61,8 +61,9 @@ def predict_terms(x: np.ndarray, P: np.ndarray, u: np.ndarray, dt: float, model:
 def fej_motion_jacobian(Fx: np.ndarray, pose_new: np.ndarray, pose_first: np.ndarray) -> np.ndarray:
     """The first-estimates pose Jacobian (docs/method.md c.2.1; Huang, Mourikis & Roumeliotis 2008).
 
-    For a model whose position moves by a heading-rotated increment (the unicycle: ``F_x`` has the
-    heading column ``(-dy, dx, 1)`` with ``(dx, dy) = t_{k+1} - t_k`` in m), the column is taken
+    For a model whose position moves by an increment that does not depend on the position (the
+    unicycle, Ackermann and body-velocity models, ``se2_increment``: ``F_x`` has the heading column
+    ``(-dy, dx, 1)`` with ``(dx, dy) = t_{k+1} - t_k`` in m), the column is taken
     between the new prediction ``pose_new`` (3,) and the *first* estimate of the current pose,
     ``pose_first`` (3,), the previous prediction, instead of the updated estimate. Products of
     these Jacobians then telescope, ``F_{k+l-1} ... F_k = [[I, J (t_{k+l} - t_k)], [0, 1]]``,

@@ -130,12 +130,14 @@ class EkfSlam:
         self._odometry = odometry_source(self)
 
     def _check_fej(self, config: EstimatorConfig) -> None:
-        """Refuse first-estimates Jacobians (c.2.1) where they are not built: a motion model other
-        than the unicycle, an associator that does not evaluate them, or the partial view."""
+        """Refuse first-estimates Jacobians (c.2.1) where they are not built: a motion model whose
+        step is not a position increment independent of the position (``se2_increment``: the
+        unicycle, Ackermann and body-velocity models are), an associator that does not evaluate
+        them, or the partial view."""
         got = None
         if self.bias_model is not None:
             got = "filter.odometry_bias 'states' (the bias states of c.11)"
-        elif getattr(self.model, "name", None) != "unicycle":
+        elif not getattr(self.model, "se2_increment", False):
             got = f"motion model {config.filter.motion_model!r}"
         elif not getattr(self.associator, "fej", False):
             got = f"associator {config.landmarks.associator!r}"
@@ -143,7 +145,8 @@ class EkfSlam:
             got = "the partial-view model (extent.view_model)"
         if got is not None:
             raise ConfigError(f"filter.jacobians: expected 'standard' with {got} (first estimates are built for the "
-                              f"unicycle with nearest-neighbour, batch or batch-joint, full view), got 'fej'")
+                              f"unicycle, Ackermann or body-velocity model with nearest-neighbour, batch or "
+                              f"batch-joint, full view), got 'fej'")
 
     # ------------------------------------------------------------------ views
     @property
