@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 import time
 from dataclasses import dataclass
 
@@ -77,6 +78,11 @@ def run_dataset(name: str, path, config: Config, *, first_scan: int | None = Non
     reference = _Reference(trees, config.filter.max_range_m)
     t0 = time.perf_counter()
     if _fused.why_not(slam, data.events) is None:
+        if progress:
+            from radarslam.experiments.warmup import COMPILING, cache_is_cold
+
+            if cache_is_cold():
+                print(f"run: {COMPILING}", file=sys.stderr, flush=True)
         out = _run_fused(slam, data.events, reference)
         bar.update(n)
     else:
