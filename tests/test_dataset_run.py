@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -98,14 +97,13 @@ def test_compare_tree_diameters_of_the_visible_arc_estimator_reads_its_circles()
 
 
 def test_attribute_reference_gate_and_nearest():
-    lm = [SimpleNamespace(id=7), SimpleNamespace(id=8)]
-    # sensor at the origin facing +y; landmarks at (0, 10) and (2, 10)
-    slam = SimpleNamespace(x=np.array([0.0, 0.0, math.pi / 2, 0.0, 10.0, 2.0, 10.0]), landmarks=lm)
+    # sensor at the origin facing +y; landmarks 7 and 8 at (0, 10) and (2, 10)
+    pose, positions, ids = np.array([0.0, 0.0, math.pi / 2]), np.array([[0.0, 10.0], [2.0, 10.0]]), np.array([7, 8])
     det = np.array([[10.3, 0.0, 0.5],                    # 0.3 m beyond landmark 7
                     [math.hypot(1.8, 10), -math.atan2(1.8, 10), 0.6],   # 0.2 m from landmark 8
                     [10.0, -math.atan2(1.0, 10), 0.7],   # between: 1 m from both -> outside the gate
                     [40.0, 0.0, 0.8]])                   # beyond max range
-    h = _attribute_reference(slam, det, max_range=30.0)
+    h = _attribute_reference(pose, positions, ids, det, max_range=30.0)
     np.testing.assert_allclose(h[:, :2], [[7, 0.5], [8, 0.6]])
     np.testing.assert_allclose(h[:, 2], [0.3, 0.2], atol=1e-9)
     assert REFERENCE_GATE_M < 1.0

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 import time
 from dataclasses import dataclass
 
@@ -14,6 +15,7 @@ from radarslam.core.errors import ConfigError, InputError
 from radarslam.extent.ellipse import trunk_diameter  # noqa: F401  (re-exported: its former home)
 from radarslam.metrics.alignment import error_against_fixes
 from radarslam.models.radar import polar_to_xy
+from radarslam.slam import _fused
 from radarslam.slam.filter import EkfSlam, MapSnapshot
 
 #: Radius (m) within which a reference trunk detection is attributed to the nearest landmark.
@@ -58,7 +60,11 @@ def victoria_park_options(config: Config, input: str = "laser", **extra) -> dict
 
 def run_dataset(name: str, path, config: Config, *, first_scan: int | None = None, n_scans: int | None = None,
                 progress: bool = True, loader_options: dict | None = None) -> DatasetRun:
-    """Load dataset ``name`` from ``path`` and run :class:`EkfSlam` over its event stream."""
+    """Load dataset ``name`` from ``path`` and run :class:`EkfSlam` over its event stream.
+
+    A configuration the fused engine covers (:func:`radarslam.slam._fused.why_not`; the Victoria
+    Park profiles of both input modes do) runs the whole stream in one compiled call and gives the
+    same run (docs/architecture.md "The fused engine"); any other runs event by event."""
     from radarslam.experiments.montecarlo import Progress
     from radarslam.io.datasets import get_dataset
 
@@ -72,16 +78,53 @@ def run_dataset(name: str, path, config: Config, *, first_scan: int | None = Non
     n = sum(isinstance(e, Scan) for e in data.events)
     slam = EkfSlam(config)
     bar = Progress(n, 0, enabled=progress, unit="scans")
-    times, poses, covs, nlm, nas, bias = [], [], [], [], [], []
-    m = 0 if slam.bias_model is None else slam.bias_model.dim
     trees = getattr(data, "trees", None)
     if getattr(data, "options", {}).get("input") == "trees":
         trees = None      # the trees are the input: there is no independent reference to attribute
-    tree_rows = {int(i): r for r, i in enumerate(trees.index)} if trees is not None else {}
+    reference = _Reference(trees, config.filter.max_range_m)
+    t0 = time.perf_counter()
+    if _fused.why_not(slam, data.events) is None:
+        if progress:
+            from radarslam.experiments.warmup import COMPILING, cache_is_cold
+
+            if cache_is_cold():
+                print(f"run: {COMPILING}", file=sys.stderr, flush=True)
+        out = _run_fused(slam, data.events, reference)
+        bar.update(n)
+    else:
+        out = _run_orchestrated(slam, data.events, reference, bar)
+    times, poses, covs, nlm, nas, final_map, hits, nis, b = out
+    ref = (np.concatenate(hits) if hits else np.empty((0, 3))) if trees is not None else None
+    m = 0 if slam.bias_model is None else slam.bias_model.dim     # c.11: only the orchestrator runs them
+    return DatasetRun(name, config, data, times, poses, covs, nlm, nas, final_map, time.perf_counter() - t0, load_s,
+                      ref, nis, None if b is None else b[:, :m], None if b is None else b[:, m:],
+                      slam.bias_model.names if m else (), slam.bias_model.units if m else ())
+
+
+class _Reference:
+    """A reference tree detector's detections by scan index (ACFR's, in laser mode), or none."""
+
+    def __init__(self, trees, max_range: float):
+        self.trees, self.max_range = trees, max_range
+        self.rows = {int(i): r for r, i in enumerate(trees.index)} if trees is not None else {}
+
+    def hits(self, scan_index: int, pose: np.ndarray, positions: np.ndarray, ids: np.ndarray) -> np.ndarray | None:
+        """The scan's detections attributed to the landmarks (:func:`_attribute_reference`), or None."""
+        row = self.rows.get(scan_index)
+        if row is None or not ids.size:
+            return None
+        h = _attribute_reference(pose, positions, ids, self.trees.row(row), self.max_range)
+        return h if h.size else None
+
+
+def _run_orchestrated(slam: EkfSlam, events, reference: _Reference, bar):
+    """:func:`run_dataset` event by event: ``(times, poses, covs, n_landmarks, n_associated, final map,
+    reference hits, NIS rows, bias rows [values, stds] (K, 2m) or None)``."""
+    times, poses, covs, nlm, nas, bias = [], [], [], [], [], []
+    m = 0 if slam.bias_model is None else slam.bias_model.dim
     hits: list[np.ndarray] = []
     nis: list[np.ndarray] = []
-    t0 = time.perf_counter()
-    for ev in data.events:
+    for ev in events:
         if isinstance(ev, Odometry):
             slam.predict(ev)
             continue
@@ -95,19 +138,39 @@ def run_dataset(name: str, path, config: Config, *, first_scan: int | None = Non
             bias.append(np.concatenate([slam.state.bias, np.sqrt(np.diag(slam.state.bias_cov))]))
         if rep.nis.size:
             nis.append(np.column_stack([np.full(rep.nis.size, len(times) - 1.0), rep.nis]))
-        row = tree_rows.get(int(ev.index))
-        if row is not None and slam.landmarks:
-            h = _attribute_reference(slam, trees.row(row), config.filter.max_range_m)
-            if h.size:
-                hits.append(h)
+        lm = slam.x[slam.x.shape[0] - 2 * len(slam.landmarks):].reshape(-1, 2)   # the last 2N entries (c.11)
+        h = reference.hits(int(ev.index), slam.x[:3], lm, slam.state.ids())
+        if h is not None:
+            hits.append(h)
         bar.update()
-    ref = (np.concatenate(hits) if hits else np.empty((0, 3))) if trees is not None else None
-    b = np.array(bias).reshape(-1, 2 * m) if m else None
-    return DatasetRun(name, config, data, np.array(times), np.array(poses).reshape(-1, 3),
-                      np.array(covs).reshape(-1, 3, 3), np.array(nlm), np.array(nas), slam.snapshot(),
-                      time.perf_counter() - t0, load_s, ref, np.concatenate(nis) if nis else np.empty((0, 2)),
-                      None if b is None else b[:, :m], None if b is None else b[:, m:],
-                      slam.bias_model.names if m else (), slam.bias_model.units if m else ())
+    return (np.array(times), np.array(poses).reshape(-1, 3), np.array(covs).reshape(-1, 3, 3), np.array(nlm),
+            np.array(nas), slam.snapshot(), hits, np.concatenate(nis) if nis else np.empty((0, 2)),
+            np.array(bias).reshape(-1, 2 * m) if m else None)
+
+
+def _run_fused(slam: EkfSlam, events, reference: _Reference):
+    """:func:`run_dataset` by the fused engine (:func:`radarslam.slam._fused.run`), recording the map
+    after the last scan only and the landmarks after the scans with reference detections: the
+    same outputs as :func:`_run_orchestrated`."""
+    scans = [ev for ev in events if isinstance(ev, Scan)]
+    trace = np.array([int(ev.index) in reference.rows for ev in scans], dtype=bool)
+    r, _ = _fused.run(slam, events, all_maps=False, trace=trace)
+    poses, off = r["poses"], r["trace_offsets"]
+    hits = []
+    for s in np.flatnonzero(trace).tolist():
+        a, b = int(off[s]), int(off[s + 1])
+        h = reference.hits(int(scans[s].index), poses[s], r["trace_positions"][a:b], r["trace_ids"][a:b])
+        if h is not None:
+            hits.append(h)
+    if scans:
+        a, b = int(r["map_offsets"][-2]), int(r["map_offsets"][-1])
+        final = MapSnapshot(r["ids"][a:b], r["positions"][a:b], r["covs"][a:b], r["rma"][a:b], r["efa"][a:b],
+                            r["created"][a:b])
+    else:
+        final = slam.snapshot()
+    nis = np.column_stack([np.repeat(np.arange(len(scans), dtype=float), r["nis_count"]), r["nis"]])
+    return (np.array([ev.t for ev in scans], dtype=float), poses, r["pose_covs"], r["n_landmarks"],
+            r["n_associated"], final, hits, nis, None)
 
 
 def dead_reckoning(data, config: Config) -> tuple[np.ndarray, np.ndarray]:
@@ -130,23 +193,23 @@ def dead_reckoning(data, config: Config) -> tuple[np.ndarray, np.ndarray]:
     return np.array(times), np.array(poses).reshape(-1, 3)
 
 
-def _attribute_reference(slam: EkfSlam, det: np.ndarray, max_range: float) -> np.ndarray:
-    """Attribute one scan's reference trunk detections ``[range, bearing, diameter]`` to the nearest
-    current landmark, in the world frame of the current estimate (where pose and map agree).
+def _attribute_reference(pose: np.ndarray, positions: np.ndarray, ids: np.ndarray, det: np.ndarray,
+                         max_range: float) -> np.ndarray:
+    """Attribute one scan's reference trunk detections ``det`` ``[range, bearing, diameter]`` to the
+    nearest current landmark (centroids ``positions (N, 2)``, ``ids (N,)``, N >= 1), in the world
+    frame of the current estimate ``pose`` (where pose and map agree).
 
     Returns rows ``[landmark id, diameter, distance]`` for detections within :data:`REFERENCE_GATE_M`.
     """
     det = det[det[:, 0] < max_range]
     if not det.size:
         return np.empty((0, 3))
-    pts = polar_to_xy(slam.x[:3], det[:, :2])
-    lm = slam.x[slam.x.shape[0] - 2 * len(slam.landmarks):].reshape(-1, 2)   # the last 2N entries (c.11)
-    d2 = ((pts[:, None, :] - lm[None, :, :]) ** 2).sum(axis=-1)
+    pts = polar_to_xy(pose, det[:, :2])
+    d2 = ((pts[:, None, :] - positions[None, :, :]) ** 2).sum(axis=-1)
     j = np.argmin(d2, axis=1)
     dist = np.sqrt(d2[np.arange(j.size), j])
     ok = dist <= REFERENCE_GATE_M
-    ids = np.array([slam.landmarks[k].id for k in j[ok]], dtype=float)
-    return np.column_stack([ids, det[ok, 2], dist[ok]])
+    return np.column_stack([np.asarray(ids)[j[ok]].astype(float), det[ok, 2], dist[ok]])
 
 
 def compare_tree_diameters(run: DatasetRun, *, min_detections: int = 3) -> dict:

@@ -52,6 +52,12 @@ def arc_diameter(polar: np.ndarray, beam_step: float) -> float:
         raise InputError(f"polar: expected shape (m, 2), got {polar.shape}")
     if not 0.0 < beam_step <= math.pi / 4:
         raise InputError(f"beam_step: expected radians in (0, pi/4], got {beam_step!r}")
+    return arc_width_diameter(polar, beam_step)
+
+
+def arc_width_diameter(polar: np.ndarray, beam_step: float) -> float:
+    """:func:`arc_diameter` without the checks of its arguments. A kernel: numba compiles it as it
+    is (the fused engine's extent step)."""
     if polar.shape[0] == 0:
         return math.nan
     phi = np.sort(polar[:, 1])
@@ -59,6 +65,17 @@ def arc_diameter(polar: np.ndarray, beam_step: float) -> float:
         return math.nan
     s = math.sin(0.5 * (phi[-1] - phi[0] + beam_step))
     return 2.0 * float(polar[:, 0].min()) * s / (1.0 - s)
+
+
+def gated_diameter(d: np.ndarray, b: np.ndarray) -> float:
+    """The trunk diameter from its per-scan diameters ``d (n,)`` and beam widths ``b (n,)`` (m), n >= 1:
+    the mean of those within ``ARC_GATE_BEAMS b + ARC_GATE_M`` of their median, else the median.
+    A kernel: numba compiles it as it is."""
+    med = np.median(d)
+    keep = np.abs(d - med) <= ARC_GATE_BEAMS * b + ARC_GATE_M
+    if keep.any():
+        return float(d[keep].mean())
+    return float(med)
 
 
 @dataclass
@@ -107,9 +124,7 @@ class VisibleArcEstimator(RmaEfaEstimator):
         if n < self.min_scans:
             return math.nan
         if st.cached[0] != n:        # only new widths change it: once per scan seen, not per call
-            d, b = np.asarray(st.arc), np.asarray(st.beam)
-            keep = np.abs(d - np.median(d)) <= ARC_GATE_BEAMS * b + ARC_GATE_M
-            st.cached = (n, float(d[keep].mean()) if keep.any() else float(np.median(d)))
+            st.cached = (n, gated_diameter(np.asarray(st.arc), np.asarray(st.beam)))
         return st.cached[1]
 
     def matrix(self, st: VisibleArcState) -> np.ndarray | None:

@@ -67,6 +67,44 @@ def centre_speed(v_e: float, alpha: float, L: float, H: float) -> float:
     return v_e / (1.0 - math.tan(alpha) * H / L)
 
 
+def ackermann_step(x: float, y: float, phi: float, v_e: float, alpha: float, dt: float, L: float, H: float,
+                   l: float, b: float) -> np.ndarray:
+    """:meth:`AckermannModel.step` of the pose ``(x, y, phi)`` with control ``(v_e, alpha)``, lever
+    arm ``l = L + a``. A kernel: numba compiles it as it is (the fused engine's prediction)."""
+    t = math.tan(alpha)
+    v_c = centre_speed(v_e, alpha, L, H)
+    w = v_c * t / L
+    c, s = math.cos(phi), math.sin(phi)
+    return np.array([x + dt * (v_c * c - w * (l * s + b * c)),
+                     y + dt * (v_c * s + w * (l * c - b * s)),
+                     wrap_2pi_scalar(phi + dt * w)])
+
+
+def ackermann_jacobians(phi: float, v_e: float, alpha: float, dt: float, L: float, H: float, l: float,
+                        b: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(F_x (3, 3), F_u (3, 2))`` of :func:`ackermann_step` at heading ``phi`` and control
+    ``(v_e, alpha)``. A kernel: numba compiles it as it is."""
+    t = math.tan(alpha)
+    sec2 = 1.0 + t * t
+    g = 1.0 / (1.0 - t * H / L)          # v_c = g v_e
+    v_c = g * v_e
+    w = v_c * t / L
+    c, s = math.cos(phi), math.sin(phi)
+    A = l * s + b * c                     # x' = v_c c - w A
+    B = l * c - b * s                     # y' = v_c s + w B;  dA/dphi = B, dB/dphi = -A
+    Fx = np.array([[1.0, 0.0, -dt * (v_c * s + w * B)],
+                   [0.0, 1.0, dt * (v_c * c - w * A)],
+                   [0.0, 0.0, 1.0]])
+    # d/dv_e: dv_c = g, dw = g t / L.  d/dalpha: dv_c = v_e g^2 (H / L) sec^2, dw = (dv_c t + v_c sec^2) / L.
+    dvc_de, dw_de = g, g * t / L
+    dvc_da = v_e * g * g * (H / L) * sec2
+    dw_da = (dvc_da * t + v_c * sec2) / L
+    Fu = np.array([[dt * (dvc_de * c - dw_de * A), dt * (dvc_da * c - dw_da * A)],
+                   [dt * (dvc_de * s + dw_de * B), dt * (dvc_da * s + dw_da * B)],
+                   [dt * dw_de, dt * dw_da]])
+    return Fx, Fu
+
+
 class AckermannModel:
     """Victoria Park car: control ``u = [v_e, alpha]`` (rear-left wheel speed m/s, steering rad).
 
@@ -103,41 +141,12 @@ class AckermannModel:
 
     def step(self, pose: np.ndarray, u: np.ndarray, dt: float) -> np.ndarray:
         """Next laser pose ``(3,)`` after an Euler step of ``dt``; heading wrapped to [0, 2 pi)."""
-        v_e, alpha = float(u[0]), float(u[1])
-        phi = float(pose[2])
-        t = math.tan(alpha)
-        v_c = centre_speed(v_e, alpha, self.L, self.H)
-        w = v_c * t / self.L
-        c, s = math.cos(phi), math.sin(phi)
-        l, b = self.lever, self.b
-        return np.array([pose[0] + dt * (v_c * c - w * (l * s + b * c)),
-                         pose[1] + dt * (v_c * s + w * (l * c - b * s)),
-                         wrap_2pi_scalar(phi + dt * w)])
+        return ackermann_step(float(pose[0]), float(pose[1]), float(pose[2]), float(u[0]), float(u[1]), dt,
+                              self.L, self.H, self.lever, self.b)
 
     def jacobians(self, pose: np.ndarray, u: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """``(F_x (3, 3), F_u (3, 2))`` of :meth:`step` at ``(pose, u)``."""
-        v_e, alpha = float(u[0]), float(u[1])
-        phi = float(pose[2])
-        L, H, l, b = self.L, self.H, self.lever, self.b
-        t = math.tan(alpha)
-        sec2 = 1.0 + t * t
-        g = 1.0 / (1.0 - t * H / L)          # v_c = g v_e
-        v_c = g * v_e
-        w = v_c * t / L
-        c, s = math.cos(phi), math.sin(phi)
-        A = l * s + b * c                     # x' = v_c c - w A
-        B = l * c - b * s                     # y' = v_c s + w B;  dA/dphi = B, dB/dphi = -A
-        Fx = np.array([[1.0, 0.0, -dt * (v_c * s + w * B)],
-                       [0.0, 1.0, dt * (v_c * c - w * A)],
-                       [0.0, 0.0, 1.0]])
-        # d/dv_e: dv_c = g, dw = g t / L.  d/dalpha: dv_c = v_e g^2 (H / L) sec^2, dw = (dv_c t + v_c sec^2) / L.
-        dvc_de, dw_de = g, g * t / L
-        dvc_da = v_e * g * g * (H / L) * sec2
-        dw_da = (dvc_da * t + v_c * sec2) / L
-        Fu = np.array([[dt * (dvc_de * c - dw_de * A), dt * (dvc_da * c - dw_da * A)],
-                       [dt * (dvc_de * s + dw_de * B), dt * (dvc_da * s + dw_da * B)],
-                       [dt * dw_de, dt * dw_da]])
-        return Fx, Fu
+        return ackermann_jacobians(float(pose[2]), float(u[0]), float(u[1]), dt, self.L, self.H, self.lever, self.b)
 
     def control_cov(self, filter_config) -> np.ndarray:
         """diag(sigma_v^2, sigma_alpha^2): wheel-speed and steering-angle noise."""

@@ -19,9 +19,11 @@ from radarslam.slam.fused.storage import (
     _all_finite,
     _blocks,
     cut_records,
+    new_arcs,
     new_landmarks,
     new_records,
     new_tentatives,
+    record_map,
     record_scan,
 )
 from radarslam.slam.fused.tracking import (
@@ -56,10 +58,11 @@ def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
     a :class:`~radarslam.slam.fused.plan.Noise`, ``cfg`` the parameters
     (:class:`~radarslam.slam.fused.plan.FusedParams`). Returns a tuple: status ``(code, event)``;
     the number of scans run; the per-scan :class:`~radarslam.slam.fused.storage.ScanRecord` (pose,
-    covariance, detections, associated detections, landmarks, NIS sum and count, map offsets, and
-    with ``cfg.timing`` the wall time of each scan with the predictions before it, else zeros); the
-    maps after every scan (:class:`~radarslam.slam.fused.storage.MapRows`); and the per-scan
-    associations as ``(scan, detection, landmark id)`` rows. All are cut to the scans run.
+    covariance, detections, associated detections, landmarks, NIS sum and count and every NIS, map
+    offsets, the landmarks after the scans ``stream.trace`` marks, and with ``cfg.timing`` the wall
+    time of each scan with the predictions before it, else zeros); the maps after every scan
+    (``cfg.all_maps``) or after the last (:class:`~radarslam.slam.fused.storage.MapRows`); and the
+    per-scan associations as ``(scan, detection, landmark id)`` rows. All are cut to the scans run.
     """
     S = stream.scan_off.shape[0] - 1
     x = x0.copy()
@@ -72,6 +75,7 @@ def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
     tent = new_tentatives(16)                              # tentatives (Rule 2)
     T = 0
     rec, maps = new_records(S, 64)
+    arcs, n_arcs = new_arcs(64), 0                         # visible-arc widths (a.9)
     a_rows = np.empty((64, 3), dtype=np.int64)
     n_arows = 0
     status = np.zeros(2, dtype=np.int64)
@@ -82,7 +86,7 @@ def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
     for ev in range(stream.kinds.shape[0]):
         if stream.kinds[ev] == 0:                                                  # 1
             if not predict(x, P, stream.odo[e_odo, 0], stream.odo[e_odo, 1], stream.odo_dt[e_odo],
-                           noise.U, noise.Q):
+                           noise.U, noise.Q, cfg):
                 status[0], status[1] = BAD_PREDICTION, ev
                 break
             dt_since += stream.odo_dt[e_odo]
@@ -100,16 +104,19 @@ def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
         n_assoc, aoff, arow, a_rows, n_arows = group_associations(out, cidx, N, lm.ids, s, a_rows, n_arows)
         x, P, N, old = remove_unseen(x, P, lm, N, aoff, k, cfg)                     # 5
         xy = _to_world(x, polar)                                    # seed eq. (3), updated pose
-        lm = extent_step(x, P, polar, xy, lm, N, old, aoff, arow, prior, dt, noise, cfg)  # 6
+        lm, arcs, n_arcs = extent_step(x, P, polar, xy, lm, N, old, aoff, arow, prior, dt, arcs, n_arcs,
+                                       noise, cfg)                                 # 6
         clusters = cluster(xy, polar, cand, cfg)                                   # 7
         fresh = alpha_test(x, P, polar, clusters, noise, cfg)                      # 7
         confirmed, tent, T = confirm(tent, T, fresh, clusters, xy, cfg)            # 8
         x, P, lm, N, next_id = augment(x, P, lm, N, next_id, confirmed, clusters, polar, k, noise, cfg)  # 9
-        x, P, lm, N = merge(x, P, lm, N, cfg)                                      # 10
+        x, P, lm, N = merge(x, P, lm, N, arcs, cfg)                                # 10
         if not _all_finite(x, P):
             status[0], status[1] = BAD_SCAN, ev
             break
-        maps = record_scan(rec, maps, s, x, P, lm, N, polar.shape[0], n_assoc, nis)
+        rec = record_scan(rec, s, x, P, lm, N, polar.shape[0], n_assoc, nis, stream.trace[s])
+        if cfg.all_maps or s == S - 1:
+            maps = record_map(rec, maps, s, x, P, lm, N, arcs, cfg)
         if cfg.timing:
             t1 = _clock()
             rec.seconds[s] = t1 - t_last

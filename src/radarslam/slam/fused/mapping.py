@@ -23,6 +23,7 @@ from radarslam.slam.fused.storage import (
     compact_landmarks,
     grow_landmarks,
     grow_tentatives,
+    pool_arcs,
     with_buffer,
 )
 
@@ -194,6 +195,7 @@ def augment(x, P, lm, N, next_id, confirmed, clusters, polar, k, noise, cfg):  #
         lm = grow_landmarks(lm, N + 1)
         lm.ids[N], lm.created[N], lm.mbits[N], lm.rbits[N] = next_id, k, 1, 1
         lm.einit[N], lm.alpha[N], lm.nbuf[N] = False, 0.0, 0
+        lm.narc[N], lm.arc_head[N], lm.arc_tail[N] = 0, -1, -1
         next_id += 1
         N += 1
     return x, P, lm, N, next_id
@@ -221,9 +223,10 @@ def _closest_pair(x, N, cfg):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def merge(x, P, lm, N, cfg):  # pragma: no cover - compiled
+def merge(x, P, lm, N, arcs, cfg):  # pragma: no cover - compiled
     """Step 10: merging (c.9): repeatedly drop the later-created landmark of the closest eligible
-    pair (at most ``cfg.merge_max`` a scan, 0 for no limit). Returns ``(x, P, lm, N)``."""
+    pair (at most ``cfg.merge_max`` a scan, 0 for no limit); the survivor pools the other's
+    visible-arc widths after its own. Returns ``(x, P, lm, N)``."""
     n_merged = 0
     while N >= 2 and (cfg.merge_max == 0 or n_merged < cfg.merge_max):
         if not cfg.merge_distance > 0:
@@ -242,6 +245,7 @@ def merge(x, P, lm, N, cfg):  # pragma: no cover - compiled
             lm = with_buffer(lm, lm.nbuf[bi] + lm.nbuf[bj])
             lm.buf[bi, lm.nbuf[bi]:lm.nbuf[bi] + lm.nbuf[bj]] = lm.buf[bj, :lm.nbuf[bj]]
             lm.nbuf[bi] += lm.nbuf[bj]
+        pool_arcs(arcs, lm, bi, bj)
         keepm = np.ones(N, dtype=np.bool_)
         keepm[bj] = False
         x, P = _drop_state_rows(x, P, keepm)

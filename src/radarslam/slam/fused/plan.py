@@ -42,6 +42,10 @@ class FusedParams(NamedTuple):
     spread_at_birth: bool  #: the estimator has an initial spread
     literal: bool          #: extent.sifting_mode == "literal"
     timing: bool           #: record each scan's wall time
+    all_maps: bool         #: record the map after every scan (else after the last one only)
+    motion: int            #: motion model: 0 unicycle, 1 Ackermann (fused.tracking.UNICYCLE, ACKERMANN)
+    arc: bool              #: the extent estimator is "visible-arc" (docs/method.md a.9)
+    arc_min_scans: int     #: extent.arc_min_scans
     beta: float            #: associator.beta
     alpha: float           #: landmarks.alpha (the alpha test)
     sift_radius: float     #: landmarks.sift_radius_m
@@ -57,6 +61,11 @@ class FusedParams(NamedTuple):
     tau: float             #: extent.tau_s
     eig_floor: float       #: extent.eig_floor_m2
     kappa: float           #: extent.kappa
+    beam_step: float       #: extent.beam_step_deg, in radians (visible-arc)
+    wheelbase: float       #: Ackermann L (filter.vehicle_L_m)
+    encoder_offset: float  #: Ackermann H (filter.vehicle_H_m)
+    lever: float           #: Ackermann laser lever arm from the rear axle, L + a (filter.sensor_a_m)
+    sensor_b: float        #: Ackermann b (filter.sensor_b_m)
 
 
 class Stream(NamedTuple):
@@ -68,6 +77,7 @@ class Stream(NamedTuple):
     scan_off: np.ndarray   #: (S + 1,) int64, scan s is polar[scan_off[s]:scan_off[s + 1]]
     polar: np.ndarray      #: (M, 2) every scan's detections [range, azimuth]
     scan_k: np.ndarray     #: (S,) int64 scan indices
+    trace: np.ndarray      #: (S,) bool: record the landmarks' ids and centroids after these scans
 
 
 class Noise(NamedTuple):
@@ -87,6 +97,8 @@ def why_not(slam, events=None) -> str | None:
     ``landmarks.clustering.DENSE_MAX`` detections (the compiled DBSCAN builds an m x m
     neighbourhood; the orchestrator hands such scans to scikit-learn's)."""
     from radarslam.extent.estimator import RmaEfaEstimator
+    from radarslam.extent.visible_arc import VisibleArcEstimator
+    from radarslam.models.ackermann import AckermannModel
     from radarslam.models.motion import UnicycleModel
     from radarslam.models.radar import RangeAzimuthModel
     from radarslam.slam._numba import (CompiledBatchAssociator, CompiledJointBatchAssociator,
@@ -101,12 +113,12 @@ def why_not(slam, events=None) -> str | None:
         (not f.doppler_gate, "filter.doppler_gate (the Doppler gate, docs/method.md c.10.4)"),
         (f.odometry == "odometer", f"filter.odometry {f.odometry!r} (Doppler and gyro odometry, docs/method.md c.10.5)"),
         (f.odometry_bias == "none", "filter.odometry_bias 'states' (odometry-bias states, docs/method.md c.11)"),
-        (type(slam.model) is UnicycleModel, f"motion model {type(slam.model).__name__}"),
+        (type(slam.model) in (UnicycleModel, AckermannModel), f"motion model {type(slam.model).__name__}"),
         (type(slam.measurement) is RangeAzimuthModel, f"measurement model {type(slam.measurement).__name__}"),
         (type(slam.associator) in (CompiledNearestNeighbourAssociator, CompiledBatchAssociator,
                                    CompiledJointBatchAssociator),
          f"associator {type(slam.associator).__name__}"),
-        (type(slam.extent) is RmaEfaEstimator, f"extent estimator {type(slam.extent).__name__}"),
+        (type(slam.extent) in (RmaEfaEstimator, VisibleArcEstimator), f"extent estimator {type(slam.extent).__name__}"),
         (ec.efa_mode == "per_scan", f"extent.efa_mode {ec.efa_mode!r}"),
         (ec.w_mode == "max_trace", f"extent.w_mode {ec.w_mode!r}"),
         (ec.pre_init_spread in ("none", "prior"), f"extent.pre_init_spread {ec.pre_init_spread!r}"),
@@ -125,10 +137,17 @@ def why_not(slam, events=None) -> str | None:
     return None
 
 
-def _parameters(slam, timing: bool = False) -> FusedParams:
+def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParams:
     """The :class:`FusedParams` of ``slam``'s configuration and components."""
     lc, ec, f = slam.config.landmarks, slam.config.extent, slam.config.filter
+    from radarslam.extent.visible_arc import VisibleArcEstimator
+    from radarslam.models.ackermann import AckermannModel
     from radarslam.slam._numba import CompiledBatchAssociator, CompiledJointBatchAssociator
+    from radarslam.slam.fused.tracking import ACKERMANN, UNICYCLE
+
+    model = slam.model
+    ackermann = type(model) is AckermannModel
+    arc = type(slam.extent) is VisibleArcEstimator
 
     in_slam = bool(ec.use_in_slam)
     return FusedParams(
@@ -149,13 +168,18 @@ def _parameters(slam, timing: bool = False) -> FusedParams:
         upper=not ec.efa_noise_correct,
         spread_at_birth=slam.extent.initial_spread() is not None,
         literal=ec.sifting_mode == "literal",
-        timing=bool(timing),
+        timing=bool(timing), all_maps=bool(all_maps),
+        motion=ACKERMANN if ackermann else UNICYCLE,
+        arc=arc, arc_min_scans=int(slam.extent.min_scans) if arc else 1,
         beta=float(slam.associator.beta), alpha=float(lc.alpha),
         sift_radius=float(lc.sift_radius_m), eps=float(lc.cluster_eps_m), tentative_gate=float(lc.tentative_gate_m),
         merge_distance=float(lc.merge_distance_m), merge_axis_tol=float(lc.merge_axis_tol_m),
         max_range=float(f.max_range_m), half_fov=math.radians(f.field_of_view_deg) / 2.0,
         gate=float(slam.extent.gate), gamma=float(ec.spread_factor),
         alpha0=float(ec.alpha0), tau=float(ec.tau_s), eig_floor=float(ec.eig_floor_m2), kappa=float(ec.kappa),
+        beam_step=float(slam.extent.beam_step) if arc else 0.0,
+        wheelbase=float(model.L) if ackermann else 0.0, encoder_offset=float(model.H) if ackermann else 0.0,
+        lever=float(model.lever) if ackermann else 0.0, sensor_b=float(model.b) if ackermann else 0.0,
     )
 
 
@@ -220,15 +244,21 @@ def _stream_arrays_checked(events, defer_polar: bool) -> Stream:
     return Stream(np.array(kinds, dtype=np.int64), np.array(odo, dtype=float).reshape(-1, 2),
                   np.array(odo_dt, dtype=float), off,
                   (np.concatenate(polars) if polars else np.empty((0, 2))).reshape(-1, 2),
-                  np.array(scan_k, dtype=np.int64))
+                  np.array(scan_k, dtype=np.int64), np.zeros(len(polars), dtype=np.bool_))
 
 
-def run(slam, events, timing: bool = False):
+def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None):
     """Run ``events`` through the fused engine with ``slam``'s configuration and components
     (:func:`why_not` of both must be None). Returns ``(record, associations)``: the arrays of
     :func:`~radarslam.slam.fused.engine.run_stream` by name, and the ``(scan, detection, landmark
     id)`` rows. ``timing`` adds ``"seconds"``: each scan's wall time with the predictions before it
     (``benchmarks/bench_scaling.py``).
+
+    ``all_maps`` False records the map after the last scan only (its rows are
+    ``map_offsets[-2]:map_offsets[-1]``; a long recording's maps need not be kept); ``trace``, a
+    boolean per scan, records the landmarks' ids and centroids after the scans it marks
+    (``trace_offsets``, ``trace_ids``, ``trace_positions``). ``nis`` holds the NIS of every update,
+    those of scan ``s`` at ``nis_offsets[s]:nis_offsets[s + 1]``.
 
     Raises
     ------
@@ -238,7 +268,12 @@ def run(slam, events, timing: bool = False):
     from radarslam.core.errors import InputError
 
     stream = _stream_arrays(events)
-    cfg = _parameters(slam, timing)
+    if trace is not None:
+        trace = np.asarray(trace, dtype=np.bool_)
+        if trace.shape != stream.trace.shape:
+            raise InputError(f"trace: expected one flag per scan, shape {stream.trace.shape}, got {trace.shape}")
+        stream = stream._replace(trace=trace)
+    cfg = _parameters(slam, timing, all_maps)
     st = slam.state
     ext = slam.extent
     prior_spread = ext.prior_spread if ext.initial_spread() is not None or cfg.pre_prior else np.zeros((2, 2))
@@ -255,7 +290,8 @@ def run(slam, events, timing: bool = False):
     out = {"poses": rec.poses, "pose_covs": rec.pose_covs, "n_detections": rec.n_det, "n_associated": rec.n_ass,
            "n_landmarks": rec.n_lm, "nis_sum": rec.nis_sum, "nis_count": rec.nis_cnt, "map_offsets": rec.map_off,
            "ids": maps.ids, "positions": maps.pos, "covs": maps.cov, "rma": maps.rma, "efa": maps.efa,
-           "created": maps.created}
+           "created": maps.created, "nis": rec.nis, "nis_offsets": rec.nis_off, "trace_offsets": rec.trace_off,
+           "trace_ids": rec.trace_ids, "trace_positions": rec.trace_pos}
     if timing:
         out["seconds"] = rec.seconds
     return out, arows

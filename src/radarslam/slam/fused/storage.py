@@ -14,6 +14,14 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from radarslam.core.jit import compile_kernels
+from radarslam.extent.visible_arc import arc_width_diameter, gated_diameter
+
+# The visible-arc estimator's own kernels, compiled as they are (docs/method.md a.9).
+_ARC = compile_kernels(arc_width_diameter, gated_diameter)
+_arc_width_diameter = _ARC["arc_width_diameter"]
+_gated_diameter = _ARC["gated_diameter"]
+
 
 class Landmarks(NamedTuple):
     """The landmark records in state order (rows ``0 .. N - 1`` in use; capacity along axis 0)."""
@@ -28,6 +36,19 @@ class Landmarks(NamedTuple):
     Xefa: np.ndarray       #: (L, 2, 2) EFA extents
     nbuf: np.ndarray       #: (L,) int64, detections held before the extent is initialised (a.3)
     buf: np.ndarray        #: (L, B, 2) those detections in the world frame
+    narc: np.ndarray       #: (L,) int64, visible-arc widths held (a.9; :class:`Arcs`)
+    arc_head: np.ndarray   #: (L,) int64, the first of them in :class:`Arcs` (-1: none)
+    arc_tail: np.ndarray   #: (L,) int64, the last of them (-1: none)
+
+
+class Arcs(NamedTuple):
+    """The visible-arc estimator's per-scan widths (docs/method.md a.9) of every landmark, as linked
+    lists in order of arrival (a merge appends the dropped landmark's list to the survivor's, as
+    :meth:`~radarslam.extent.visible_arc.VisibleArcEstimator.merge` does)."""
+
+    d: np.ndarray          #: (n,) per-scan diameters (m)
+    beam: np.ndarray       #: (n,) the beam widths at the trunk's range (m)
+    nxt: np.ndarray        #: (n,) int64, the landmark's next entry, -1 at its last
 
 
 class Tentatives(NamedTuple):
@@ -60,6 +81,11 @@ class ScanRecord(NamedTuple):
     nis_cnt: np.ndarray    #: (S,) int64
     map_off: np.ndarray    #: (S + 1,) int64, the map after scan s is rows map_off[s]:map_off[s + 1]
     seconds: np.ndarray    #: (S,) wall time per scan (with ``timing``, else zeros)
+    nis: np.ndarray        #: (u,) the NIS of every update: scan s's are nis[nis_off[s]:nis_off[s + 1]]
+    nis_off: np.ndarray    #: (S + 1,) int64
+    trace_off: np.ndarray  #: (S + 1,) int64, the landmarks after scan s are trace rows trace_off[s]:trace_off[s + 1]
+    trace_ids: np.ndarray  #: (t,) int64 their ids (only after the scans ``Stream.trace`` marks)
+    trace_pos: np.ndarray  #: (t, 2) their centroids
 
 
 class MapRows(NamedTuple):
@@ -155,7 +181,8 @@ def new_landmarks(cap, buf_len):  # pragma: no cover - compiled
     return Landmarks(np.empty(cap, dtype=np.int64), np.empty(cap, dtype=np.int64), np.empty(cap, dtype=np.int64),
                      np.empty(cap, dtype=np.int64), np.zeros(cap, dtype=np.bool_), np.zeros((cap, 2, 2)),
                      np.zeros(cap), np.zeros((cap, 2, 2)), np.zeros(cap, dtype=np.int64),
-                     np.zeros((cap, buf_len, 2)))
+                     np.zeros((cap, buf_len, 2)), np.zeros(cap, dtype=np.int64), np.full(cap, -1, dtype=np.int64),
+                     np.full(cap, -1, dtype=np.int64))
 
 
 @njit(cache=True, inline="always")
@@ -165,7 +192,8 @@ def grow_landmarks(lm, n):  # pragma: no cover - compiled
         return lm
     return Landmarks(_grow_rows(lm.ids, n), _grow_rows(lm.created, n), _grow_rows(lm.mbits, n),
                      _grow_rows(lm.rbits, n), _grow_rows(lm.einit, n), _grow_rows(lm.X, n), _grow_rows(lm.alpha, n),
-                     _grow_rows(lm.Xefa, n), _grow_rows(lm.nbuf, n), _grow_rows(lm.buf, n))
+                     _grow_rows(lm.Xefa, n), _grow_rows(lm.nbuf, n), _grow_rows(lm.buf, n), _grow_rows(lm.narc, n),
+                     _grow_rows(lm.arc_head, n), _grow_rows(lm.arc_tail, n))
 
 
 @njit(cache=True, inline="always")
@@ -174,7 +202,7 @@ def with_buffer(lm, n):  # pragma: no cover - compiled
     if lm.buf.shape[1] >= n:
         return lm
     return Landmarks(lm.ids, lm.created, lm.mbits, lm.rbits, lm.einit, lm.X, lm.alpha, lm.Xefa, lm.nbuf,
-                     _grow_buffer(lm.buf, n))
+                     _grow_buffer(lm.buf, n), lm.narc, lm.arc_head, lm.arc_tail)
 
 
 @njit(cache=True, inline="always")
@@ -192,6 +220,7 @@ def compact_landmarks(lm, keep):  # pragma: no cover - compiled
                 lm.einit[q], lm.X[q], lm.alpha[q], lm.Xefa[q] = lm.einit[j], lm.X[j], lm.alpha[j], lm.Xefa[j]
                 lm.nbuf[q] = lm.nbuf[j]
                 lm.buf[q] = lm.buf[j]
+                lm.narc[q], lm.arc_head[q], lm.arc_tail[q] = lm.narc[j], lm.arc_head[j], lm.arc_tail[j]
             q += 1
     return old[:q]
 
@@ -213,22 +242,72 @@ def grow_tentatives(tent, n):  # pragma: no cover - compiled
                       _grow_rows(tent.npts, n))
 
 
+# ---------------------------------------------------------------------------------------- visible arcs
+@njit(cache=True, inline="always")
+def new_arcs(cap):  # pragma: no cover - compiled
+    """Empty :class:`Arcs` with room for ``cap`` widths."""
+    return Arcs(np.empty(cap), np.empty(cap), np.empty(cap, dtype=np.int64))
+
+
+@njit(cache=True, inline="always")
+def add_arc(arcs, n, lm, j, d, b):  # pragma: no cover - compiled
+    """Append the width ``(d, b)`` to landmark ``j``'s list (``n`` entries in use). Returns ``arcs``
+    (grown if needed)."""
+    if n >= arcs.d.shape[0]:
+        arcs = Arcs(_grow_rows(arcs.d, n + 1), _grow_rows(arcs.beam, n + 1), _grow_rows(arcs.nxt, n + 1))
+    arcs.d[n], arcs.beam[n], arcs.nxt[n] = d, b, -1
+    if lm.narc[j] == 0:
+        lm.arc_head[j] = n
+    else:
+        arcs.nxt[lm.arc_tail[j]] = n
+    lm.arc_tail[j] = n
+    lm.narc[j] += 1
+    return arcs
+
+
+@njit(cache=True, inline="always")
+def pool_arcs(arcs, lm, i, j):  # pragma: no cover - compiled
+    """Landmark ``i`` takes landmark ``j``'s widths after its own (a merge, c.9)."""
+    if lm.narc[j] == 0:
+        return
+    if lm.narc[i] == 0:
+        lm.arc_head[i] = lm.arc_head[j]
+    else:
+        arcs.nxt[lm.arc_tail[i]] = lm.arc_head[j]
+    lm.arc_tail[i] = lm.arc_tail[j]
+    lm.narc[i] += lm.narc[j]
+
+
+@njit(cache=True, inline="always")
+def arc_values(arcs, lm, j):  # pragma: no cover - compiled
+    """Landmark ``j``'s widths in order: ``(d (n,), b (n,))``."""
+    n = lm.narc[j]
+    d = np.empty(n)
+    b = np.empty(n)
+    e = lm.arc_head[j]
+    for q in range(n):
+        d[q], b[q] = arcs.d[e], arcs.beam[e]
+        e = arcs.nxt[e]
+    return d, b
+
+
 # ---------------------------------------------------------------------------------------- outputs
 @njit(cache=True, inline="always")
 def new_records(S, cap):  # pragma: no cover - compiled
     """The per-scan record of ``S`` scans and map rows with room for ``cap`` landmarks."""
     rec = ScanRecord(np.empty((S, 3)), np.empty((S, 3, 3)), np.zeros(S, dtype=np.int64), np.zeros(S, dtype=np.int64),
                      np.zeros(S, dtype=np.int64), np.zeros(S), np.zeros(S, dtype=np.int64),
-                     np.zeros(S + 1, dtype=np.int64), np.zeros(S))
+                     np.zeros(S + 1, dtype=np.int64), np.zeros(S), np.empty(cap), np.zeros(S + 1, dtype=np.int64),
+                     np.zeros(S + 1, dtype=np.int64), np.empty(cap, dtype=np.int64), np.empty((cap, 2)))
     maps = MapRows(np.empty(cap, dtype=np.int64), np.empty((cap, 2)), np.empty((cap, 2, 2)), np.empty((cap, 2, 2)),
                    np.empty((cap, 2, 2)), np.empty(cap, dtype=np.int64))
     return rec, maps
 
 
 @njit(cache=True, inline="always")
-def record_scan(rec, maps, s, x, P, lm, N, m, n_assoc, nis):  # pragma: no cover - compiled
-    """The record after scan ``s`` (run_filter): pose, counts, NIS and the map. Returns ``maps``,
-    grown if needed."""
+def record_scan(rec, s, x, P, lm, N, m, n_assoc, nis, trace):  # pragma: no cover - compiled
+    """The record after scan ``s`` (run_filter): pose, counts, the NIS of every update and, with
+    ``trace``, the landmarks' ids and centroids. Returns ``rec`` (its logs may grow)."""
     rec.poses[s] = x[:3]
     rec.pose_covs[s] = P[:3, :3]
     rec.n_det[s] = m
@@ -236,6 +315,30 @@ def record_scan(rec, maps, s, x, P, lm, N, m, n_assoc, nis):  # pragma: no cover
     rec.n_lm[s] = N
     rec.nis_sum[s] = nis.sum()
     rec.nis_cnt[s] = nis.shape[0]
+    rec.map_off[s + 1] = rec.map_off[s]
+    u = rec.nis_off[s]
+    rec.nis_off[s + 1] = u + nis.shape[0]
+    n_log = rec.nis
+    if u + nis.shape[0] > n_log.shape[0]:
+        n_log = _grow_rows(n_log, u + nis.shape[0])
+    n_log[u:u + nis.shape[0]] = nis
+    t0 = rec.trace_off[s]
+    ids, pos = rec.trace_ids, rec.trace_pos
+    if trace:
+        ids, pos = _grow_rows(ids, t0 + N), _grow_rows(pos, t0 + N)
+        for j in range(N):
+            ids[t0 + j] = lm.ids[j]
+            pos[t0 + j, 0], pos[t0 + j, 1] = x[3 + 2 * j], x[4 + 2 * j]
+    rec.trace_off[s + 1] = t0 + (N if trace else 0)
+    return ScanRecord(rec.poses, rec.pose_covs, rec.n_det, rec.n_ass, rec.n_lm, rec.nis_sum, rec.nis_cnt,
+                      rec.map_off, rec.seconds, n_log, rec.nis_off, rec.trace_off, ids, pos)
+
+
+@njit(cache=True, inline="always")
+def record_map(rec, maps, s, x, P, lm, N, arcs, cfg):  # pragma: no cover - compiled
+    """The map after scan ``s``, appended to ``maps`` (grown if needed, returned). Extents as the
+    estimator's ``matrix`` and ``baseline`` read them: RMA and EFA; with ``cfg.arc`` (visible-arc,
+    a.9) the circle of the gated mean width (once ``cfg.arc_min_scans`` are held) and RMA."""
     base = rec.map_off[s]
     rec.map_off[s + 1] = base + N
     n = base + N
@@ -250,12 +353,19 @@ def record_scan(rec, maps, s, x, P, lm, N, m, n_assoc, nis):  # pragma: no cover
         maps.pos[r, 0], maps.pos[r, 1] = x[i], x[i + 1]
         maps.cov[r, 0, 0], maps.cov[r, 0, 1] = P[i, i], P[i, i + 1]
         maps.cov[r, 1, 0], maps.cov[r, 1, 1] = P[i, i + 1], P[i + 1, i + 1]
-        if lm.einit[j]:
+        maps.rma[r] = np.nan
+        maps.efa[r] = np.nan
+        if cfg.arc:
+            if lm.einit[j]:
+                maps.efa[r] = lm.X[j]
+            if lm.narc[j] >= cfg.arc_min_scans:
+                d, b = arc_values(arcs, lm, j)
+                dm = _gated_diameter(d, b)
+                if math.isfinite(dm):
+                    maps.rma[r] = (0.5 * dm) ** 2 * np.eye(2)
+        elif lm.einit[j]:
             maps.rma[r] = lm.X[j]
             maps.efa[r] = lm.Xefa[j]
-        else:
-            maps.rma[r] = np.nan
-            maps.efa[r] = np.nan
     return maps
 
 
@@ -263,7 +373,11 @@ def record_scan(rec, maps, s, x, P, lm, N, m, n_assoc, nis):  # pragma: no cover
 def cut_records(rec, maps, s):  # pragma: no cover - compiled
     """``(rec, maps)`` cut to the first ``s`` scans."""
     n = rec.map_off[s]
+    u = rec.nis_off[s]
+    t = rec.trace_off[s]
     rec = ScanRecord(rec.poses[:s], rec.pose_covs[:s], rec.n_det[:s], rec.n_ass[:s], rec.n_lm[:s], rec.nis_sum[:s],
-                     rec.nis_cnt[:s], rec.map_off[:s + 1], rec.seconds[:s])
+                     rec.nis_cnt[:s], rec.map_off[:s + 1], rec.seconds[:s], rec.nis[:u], rec.nis_off[:s + 1],
+                     rec.trace_off[:s + 1],
+                     rec.trace_ids[:t], rec.trace_pos[:t])
     maps = MapRows(maps.ids[:n], maps.pos[:n], maps.cov[:n], maps.rma[:n], maps.efa[:n], maps.created[:n])
     return rec, maps

@@ -12,8 +12,10 @@ import math
 import numpy as np
 from numba import njit
 
+from radarslam.core.angles import wrap_2pi_scalar
 from radarslam.core.jit import compile_kernels
 from radarslam.extent._compiled import _fit_entries, measurement_contour, rma_efa_step
+from radarslam.models.ackermann import ackermann_jacobians, ackermann_step, centre_speed
 from radarslam.models.radar import polar_to_xy
 from radarslam.slam._numba import (
     _wrap_2pi,
@@ -23,10 +25,25 @@ from radarslam.slam._numba import (
     joint_batch_associate_scan,
 )
 from radarslam.slam.layout import POSE_DIM
-from radarslam.slam.fused.storage import _blocks, _drop_state_rows, _grow_rows, compact_landmarks, with_buffer
+from radarslam.slam.fused.storage import (
+    _arc_width_diameter,
+    _blocks,
+    _drop_state_rows,
+    _grow_rows,
+    add_arc,
+    compact_landmarks,
+    with_buffer,
+)
 
-# The reference's own kernel, compiled as it is: seed eq. (3).
+# The reference's own kernels, compiled as they are: seed eq. (3), and the Ackermann model's step
+# and Jacobians (models.ackermann).
 _to_world = compile_kernels(polar_to_xy)["polar_to_xy"]
+_ACK = compile_kernels(centre_speed, wrap_2pi_scalar, ackermann_step, ackermann_jacobians)
+_ackermann_step = _ACK["ackermann_step"]
+_ackermann_jacobians = _ACK["ackermann_jacobians"]
+
+#: Motion-model codes of ``FusedParams.motion``.
+UNICYCLE, ACKERMANN = 0, 1
 
 
 @njit(cache=True, inline="always")
@@ -43,17 +60,31 @@ def _matmul(A, B):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def predict(x, P, v, psi, dt, U, Q):  # pragma: no cover - compiled
-    """c.2 with the unicycle model (APSIPA eq. 5, App. A; models.motion.UnicycleModel), in place.
-    Returns False, leaving the state as it was, if the prediction is not finite."""
-    th = x[2]
-    a = th + 0.5 * dt * psi
+def _motion(x, u0, u1, dt, cfg):  # pragma: no cover - compiled
+    """The motion model's step and Jacobians at ``x[:3]`` with control ``(u0, u1)``: ``(pose (3,),
+    F_x, F_u)``. ``cfg.motion`` UNICYCLE: APSIPA eq. 5, App. A (models.motion.UnicycleModel);
+    ACKERMANN: the kernels of models.ackermann with ``cfg.wheelbase``, ``cfg.encoder_offset``,
+    ``cfg.lever`` and ``cfg.sensor_b``."""
+    if cfg.motion == ACKERMANN:
+        pose = _ackermann_step(x[0], x[1], x[2], u0, u1, dt, cfg.wheelbase, cfg.encoder_offset, cfg.lever,
+                               cfg.sensor_b)
+        Fx, Fu = _ackermann_jacobians(x[2], u0, u1, dt, cfg.wheelbase, cfg.encoder_offset, cfg.lever, cfg.sensor_b)
+        return pose, Fx, Fu
+    v, psi = u0, u1
+    a = x[2] + 0.5 * dt * psi
     A, B = math.sin(a), math.cos(a)
     Fx = np.array([[1.0, 0.0, -dt * v * A], [0.0, 1.0, dt * v * B], [0.0, 0.0, 1.0]])
     Fu = np.array([[dt * B, -0.5 * dt * dt * v * A], [dt * A, 0.5 * dt * dt * v * B], [0.0, dt]])
-    pose0 = x[0] + v * dt * math.cos(a)
-    pose1 = x[1] + v * dt * math.sin(a)
-    pose2 = _wrap_2pi(th + psi * dt)
+    pose = np.array([x[0] + v * dt * math.cos(a), x[1] + v * dt * math.sin(a), _wrap_2pi(x[2] + psi * dt)])
+    return pose, Fx, Fu
+
+
+@njit(cache=True, inline="always")
+def predict(x, P, u0, u1, dt, U, Q, cfg):  # pragma: no cover - compiled
+    """c.2 with the motion model of ``cfg.motion`` (:func:`_motion`), in place. Returns False,
+    leaving the state as it was, if the prediction is not finite."""
+    pose, Fx, Fu = _motion(x, u0, u1, dt, cfg)
+    pose0, pose1, pose2 = pose[0], pose[1], pose[2]
     T = _matmul(Fx, P[:3, :3])
     FU = _matmul(Fu, U)
     Ppp = np.empty((3, 3))
@@ -310,12 +341,34 @@ def _rma_efa_ready(x, P, polar, xy, lm, ready, old, aoff, arow, cents, ccovs, R_
 
 
 @njit(cache=True, inline="always")
-def extent_step(x, P, polar, xy, lm, N, old, aoff, arow, prior, dt, noise, cfg):  # pragma: no cover - compiled
+def _arc_widths(polar, lm, N, old, aoff, arow, arcs, n_arcs, cfg):  # pragma: no cover - compiled
+    """The visible-arc estimator's part of step 6 (a.9): each landmark's width of this scan from
+    its associated detections, kept when they are consecutive beams. Returns ``(arcs, n_arcs)``."""
+    for j in range(N):
+        o = old[j]
+        na = aoff[o + 1] - aoff[o]
+        if na == 0:
+            continue
+        mine = np.empty((na, 2))
+        r_min = math.inf
+        for a in range(na):
+            mine[a] = polar[arow[aoff[o] + a]]
+            r_min = min(r_min, mine[a, 0])
+        d = _arc_width_diameter(mine, cfg.beam_step)
+        if math.isfinite(d):
+            arcs = add_arc(arcs, n_arcs, lm, j, d, r_min * cfg.beam_step)
+            n_arcs += 1
+    return arcs, n_arcs
+
+
+@njit(cache=True, inline="always")
+def extent_step(x, P, polar, xy, lm, N, old, aoff, arow, prior, dt, arcs, n_arcs, noise, cfg):  # pragma: no cover - compiled
     """Step 6: the extent step (a.3-a.5) with the detections ``xy`` in the world frame of the
     updated pose, about the posterior centroids (``cfg.posterior``) or the prior ones (``prior``,
-    by the rows before the removal, ``old``). Returns ``lm`` (its buffers may grow)."""
+    by the rows before the removal, ``old``); with ``cfg.arc`` the visible-arc widths (a.9).
+    Returns ``(lm, arcs, n_arcs)`` (buffers may grow)."""
     if not cfg.track or N == 0:
-        return lm
+        return lm, arcs, n_arcs
     pos_prior, cov_prior = prior
     if cfg.posterior:
         cents, ccovs = _blocks(x, P)
@@ -339,4 +392,6 @@ def extent_step(x, P, polar, xy, lm, N, old, aoff, arow, prior, dt, noise, cfg):
         lm = _buffer_and_initialise(lm, j, old[j], xy, aoff, arow, cfg)
     if n_ready > 0:
         _rma_efa_ready(x, P, polar, xy, lm, ready, old, aoff, arow, cents, ccovs, noise.R_ext, dt, cfg)
-    return lm
+    if cfg.arc:
+        arcs, n_arcs = _arc_widths(polar, lm, N, old, aoff, arow, arcs, n_arcs, cfg)
+    return lm, arcs, n_arcs
