@@ -454,3 +454,16 @@ def test_cli_variant_appends_to_the_default_two(tmp_path, capsys):
         err = capsys.readouterr().err
         assert err.startswith("radarslam montecarlo: error: --variant") and err.count("\n") == 1
     assert not (tmp_path / "other").exists()
+
+
+@pytest.mark.parametrize("seed, trial, key", [(1, 0, "trial"), (1, -3, "trial"), (1, 1.5, "trial"), (-1, 1, "seed"),
+                                              ("1", 1, "seed")])
+def test_trial_seed_refuses_bad_numbers_in_one_line(seed, trial, key):
+    """Trials are numbered from 1 and seeds are non-negative integers: anything else is refused with
+    the argument's name (numpy's own message named neither)."""
+    from radarslam.core.errors import InputError
+    from radarslam.experiments.montecarlo import trial_seed
+
+    with pytest.raises(InputError, match=rf"^{key}: expected an integer"):
+        trial_seed(seed, trial)
+    assert trial_seed(1, 1).spawn_key == (0,)

@@ -41,6 +41,10 @@ SCALARS = ("position_avg_rmse_m", "heading_avg_rmse_deg", "landmark_mae_m", "mea
 
 def trial_seed(seed: int, trial: int) -> np.random.SeedSequence:
     """The stream of trial ``trial`` (1-based): ``SeedSequence(seed).spawn(n)[trial - 1]``."""
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise InputError(f"seed: expected an integer >= 0, got {seed!r}")
+    if isinstance(trial, bool) or not isinstance(trial, (int, np.integer)) or trial < 1:
+        raise InputError(f"trial: expected an integer >= 1 (trials are numbered from 1), got {trial!r}")
     return np.random.SeedSequence(seed, spawn_key=(trial - 1,))
 
 
