@@ -98,6 +98,12 @@ OVERLAYS = {
     "early-extents": {"extent": {"use_in_slam": True, "n_init": 3}, "landmarks": {"merge_distance_m": 4.0}},
     "no-tracking": {"extent": {"track": False}},
     "rule1-only": {"landmarks": {"confirm_points": 2, "alpha": 50.0}},
+    # first-estimates Jacobians (c.2.1) with each associator that evaluates them
+    "fej-nearest": {"filter": {"jacobians": "fej"}},
+    "fej-batch": {"filter": {"jacobians": "fej"}, "landmarks": {"associator": "batch"},
+                  "extent": {"use_in_slam": True}},
+    "fej-consistent": {"filter": {"jacobians": "fej"}, "landmarks": {"associator": "batch-joint", "init": "cluster"},
+                       "extent": {"use_in_slam": True, "pre_init_spread": "prior", "prior_extent_radius_m": 2.0}},
 }
 
 

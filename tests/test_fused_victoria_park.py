@@ -102,6 +102,16 @@ def test_fused_same_as_orchestrator_on_victoria_park(vp):
         assert np.array_equal(circles[:, 0, 0], circles[:, 1, 1])
 
 
+def test_fej_same_as_orchestrator_on_victoria_park(vp):
+    """First-estimates Jacobians (c.2.1) with the Ackermann model, the first 400 scans of each
+    input mode: the fused engine makes the orchestrator's run, and not the standard Jacobians' run."""
+    mode, cfg, data = vp
+    fej = replace(cfg, filter=replace(cfg.filter, jacobians="fej"))
+    r = _assert_same(fej, data.events)
+    std, _ = _fused.run(EkfSlam(cfg), data.events)
+    assert np.abs(r["poses"] - std["poses"]).max() > 1e3 * TOL
+
+
 def test_run_dataset_same_by_either_engine(vp, victoria_park_dir, monkeypatch):
     """``run_dataset`` takes the fused engine for the profile and gives the orchestrator's
     DatasetRun: per-scan records, every NIS, the final map and the reference hits."""

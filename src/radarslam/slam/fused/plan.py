@@ -66,6 +66,7 @@ class FusedParams(NamedTuple):
     encoder_offset: float  #: Ackermann H (filter.vehicle_H_m)
     lever: float           #: Ackermann laser lever arm from the rear axle, L + a (filter.sensor_a_m)
     sensor_b: float        #: Ackermann b (filter.sensor_b_m)
+    fej: bool              #: filter.jacobians == "fej": first-estimates Jacobians (docs/method.md c.2.1)
 
 
 class Stream(NamedTuple):
@@ -108,7 +109,6 @@ def why_not(slam, events=None) -> str | None:
     checks = (
         (f.fused, "filter.fused is false"),
         (f.backend == "numba", f"filter.backend is {f.backend!r}"),
-        (f.jacobians == "standard", "filter.jacobians 'fej' (first-estimates Jacobians, docs/method.md c.2.1)"),
         (getattr(slam, "view", None) is None, "the partial-view model (docs/method.md a.12)"),
         (not f.doppler_gate, "filter.doppler_gate (the Doppler gate, docs/method.md c.10.4)"),
         (f.odometry == "odometer", f"filter.odometry {f.odometry!r} (Doppler and gyro odometry, docs/method.md c.10.5)"),
@@ -180,6 +180,7 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
         beam_step=float(slam.extent.beam_step) if arc else 0.0,
         wheelbase=float(model.L) if ackermann else 0.0, encoder_offset=float(model.H) if ackermann else 0.0,
         lever=float(model.lever) if ackermann else 0.0, sensor_b=float(model.b) if ackermann else 0.0,
+        fej=f.jacobians == "fej",
     )
 
 
