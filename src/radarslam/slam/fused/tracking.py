@@ -18,6 +18,7 @@ from radarslam.extent._compiled import _fit_entries, measurement_contour, rma_ef
 from radarslam.models.ackermann import ackermann_jacobians, ackermann_step, centre_speed
 from radarslam.models.radar import polar_to_xy
 from radarslam.slam import ekf
+from radarslam.slam._jcbb_numba import jcbb_associate_scan
 from radarslam.slam._numba import (
     _wrap_2pi,
     _wrap_pi,
@@ -197,7 +198,7 @@ def _linearisation(lm, N, pose_first):  # pragma: no cover - compiled
 @njit(cache=True, inline="always")
 def associate_and_update(x, P, polar, cidx, lm, N, pose_first, noise, cfg):  # pragma: no cover - compiled
     """Step 4: associate the candidates ``cidx`` and update (c.4, a.7.2-a.7.3) with the
-    nearest-neighbour (``cfg.assoc`` 0), batch (1) or batch-joint (2) associator, the noise
+    nearest-neighbour (``cfg.assoc`` 0), batch (1), batch-joint (2) or JCBB (3, c.4.1) associator, the noise
     inflated by the spread of initialised extents (``cfg.inflate``) and, before, by the prior
     spread (``cfg.pre_prior``); with ``cfg.fej`` the Jacobians at the first estimates (c.2.1).
     Returns ``(x, P, landmark per candidate or -1, NIS values)``."""
@@ -219,6 +220,10 @@ def associate_and_update(x, P, polar, cidx, lm, N, pose_first, noise, cfg):  # p
     xlin = _linearisation(lm, N, pose_first) if cfg.fej else np.empty(0)
     if cfg.assoc == 0:
         x, P, out, nis = associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta, POSE_DIM, xlin)
+    elif cfg.assoc == 3:
+        x, P, out, nis, _ = jcbb_associate_scan(x, P, polar, cidx, R, gX, has, POSE_DIM, cfg.jcbb_eps,
+                                                cfg.jcbb_min_samples, cfg.jcbb_prefilter, noise.gates,
+                                                cfg.jcbb_max_nodes)
     elif cfg.assoc == 1:
         x, P, out, nis = batch_associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta, POSE_DIM,
                                               xlin)
