@@ -169,18 +169,40 @@ def _short(jacobians: str, **filt):
                    landmarks=replace(cfg.landmarks, init="cluster", associator="batch"))
 
 
-def test_fej_filter_runs_and_the_fused_engine_declines_it():
-    """The consistent variant with FEJ runs 40 scans of a trial through the orchestrator (finite,
-    within 1 m of the standard run's pose); the fused engine names the reason it declines."""
+def test_fej_filter_runs_and_the_fused_engine_covers_it():
+    """The consistent variant with FEJ runs 40 scans of a trial (finite, within 1 m of the standard
+    run's pose, and not the standard run); the fused engine covers it (tests/test_fused.py checks
+    that it makes the orchestrator's run)."""
     from radarslam.experiments.single import run_trial
 
     fej = run_trial(_short("fej"), 777)
     std = run_trial(_short("standard"), 777)
-    assert _fused.why_not(EkfSlam(_short("fej"))) == \
-        "filter.jacobians 'fej' (first-estimates Jacobians, docs/method.md c.2.1)"
+    assert _fused.why_not(EkfSlam(_short("fej"))) is None
     assert np.all(np.isfinite(fej.record.poses)) and np.all(np.isfinite(fej.record.pose_covs))
     assert not np.array_equal(fej.record.poses, std.record.poses)
     assert np.max(np.linalg.norm(fej.record.poses[:, :2] - std.record.poses[:, :2], axis=1)) < 1.0
+
+
+@pytest.mark.parametrize("associator", ["nearest-neighbour", "batch", "batch-joint"])
+def test_compiled_fej_associators_equal_the_python_ones(associator):
+    """The compiled associators evaluate the Jacobians at the first estimates as the Python
+    reference does (``SlamState.linearisation_all`` against ``linearisation(j)``): 60 scans of a
+    trial, orchestrator by orchestrator, the same associations and poses to rounding; and not the
+    standard Jacobians' run (negative control)."""
+    from radarslam.experiments.single import run_trial
+
+    def run(backend, jacobians="fej"):
+        cfg = _short(jacobians, backend=backend, fused=False)
+        cfg = replace(cfg, trajectory=replace(cfg.trajectory, n_steps=60),
+                      landmarks=replace(cfg.landmarks, associator=associator))
+        return run_trial(cfg, 5).record
+
+    py, nb, std = run("python"), run("numba"), run("numba", "standard")
+    assert np.array_equal(py.n_associated, nb.n_associated) and np.array_equal(py.n_landmarks, nb.n_landmarks)
+    assert py.n_associated.sum() > 300
+    np.testing.assert_allclose(nb.poses, py.poses, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(nb.pose_covs, py.pose_covs, rtol=1e-9, atol=1e-12)
+    assert np.abs(std.poses - py.poses).max() > 1e-6
 
 
 def test_fej_is_refused_where_it_is_not_built():

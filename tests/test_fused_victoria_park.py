@@ -102,6 +102,16 @@ def test_fused_same_as_orchestrator_on_victoria_park(vp):
         assert np.array_equal(circles[:, 0, 0], circles[:, 1, 1])
 
 
+def test_fej_same_as_orchestrator_on_victoria_park(vp):
+    """First-estimates Jacobians (c.2.1) with the Ackermann model, the first 400 scans of each
+    input mode: the fused engine makes the orchestrator's run, and not the standard Jacobians' run."""
+    mode, cfg, data = vp
+    fej = replace(cfg, filter=replace(cfg.filter, jacobians="fej"))
+    r = _assert_same(fej, data.events)
+    std, _ = _fused.run(EkfSlam(cfg), data.events)
+    assert np.abs(r["poses"] - std["poses"]).max() > 1e3 * TOL
+
+
 def test_run_dataset_same_by_either_engine(vp, victoria_park_dir, monkeypatch):
     """``run_dataset`` takes the fused engine for the profile and gives the orchestrator's
     DatasetRun: per-scan records, every NIS, the final map and the reference hits."""
@@ -169,7 +179,8 @@ def _fused_params(**kw):
                                            "sensor_b_m": -0.3}])
 def test_ackermann_prediction_compiled_same_as_model(geometry):
     """The engine's prediction (c.2) with the Ackermann model equals ``ekf.predict_terms`` with
-    :class:`AckermannModel`: pose, Jacobians and the covariance blocks, on random states."""
+    :class:`AckermannModel`: pose, Jacobians and the covariance blocks, on random states, with the
+    standard and the first-estimates Jacobians (c.2.1)."""
     slam, params = _fused_params(**geometry)
     model = slam.model
     assert params.motion == tracking.ACKERMANN and params.lever == model.L + model.a
@@ -186,15 +197,18 @@ def test_ackermann_prediction_compiled_same_as_model(geometry):
         Fx_m, Fu_m = model.jacobians(x[:3], u, dt)
         np.testing.assert_allclose(Fx, Fx_m, rtol=1e-14, atol=1e-14)
         np.testing.assert_allclose(Fu, Fu_m, rtol=1e-14, atol=1e-14)
-        want_pose, Ppp, Ppl = ekf.predict_terms(x, P, u, dt, model, slam.U, slam.Q)
-        xf, Pf = x.copy(), P.copy()
-        assert tracking.predict(xf, Pf, u[0], u[1], dt, slam.U, slam.Q, params)
-        np.testing.assert_allclose(xf[:3], want_pose, rtol=1e-14, atol=1e-12)
-        np.testing.assert_array_equal(xf[3:], x[3:])
-        np.testing.assert_allclose(Pf[:3, :3], Ppp, rtol=1e-12, atol=1e-12)
-        np.testing.assert_allclose(Pf[:3, 3:], Ppl, rtol=1e-12, atol=1e-12)
-        np.testing.assert_allclose(Pf[3:, :3], Ppl.T, rtol=1e-12, atol=1e-12)
-        np.testing.assert_array_equal(Pf[3:, 3:], P[3:, 3:])
+        first = x[:3] + rng.normal(0.0, [0.3, 0.3, 0.02])            # FEJ: the previous prediction (c.2.1)
+        for fej in (False, True):
+            want_pose, Ppp, Ppl = ekf.predict_terms(x, P, u, dt, model, slam.U, slam.Q, first if fej else None)
+            xf, Pf, pf = x.copy(), P.copy(), first.copy()
+            assert tracking.predict(xf, Pf, u[0], u[1], dt, slam.U, slam.Q, pf, params._replace(fej=fej))
+            np.testing.assert_allclose(xf[:3], want_pose, rtol=1e-14, atol=1e-12)
+            np.testing.assert_array_equal(pf, xf[:3] if fej else first)    # the new first estimate
+            np.testing.assert_array_equal(xf[3:], x[3:])
+            np.testing.assert_allclose(Pf[:3, :3], Ppp, rtol=1e-12, atol=1e-12)
+            np.testing.assert_allclose(Pf[:3, 3:], Ppl, rtol=1e-12, atol=1e-12)
+            np.testing.assert_allclose(Pf[3:, :3], Ppl.T, rtol=1e-12, atol=1e-12)
+            np.testing.assert_array_equal(Pf[3:, 3:], P[3:, 3:])
 
 
 def test_ackermann_prediction_is_not_the_unicycle():
@@ -213,5 +227,5 @@ def test_ackermann_prediction_refuses_a_non_finite_result():
     InputError is raised by fused.run from the status)."""
     slam, params = _fused_params()
     x, P = np.array([0.0, 0.0, 0.1]), np.eye(3)
-    assert not tracking.predict(x, P, 1e308, 0.1, 1e10, slam.U, slam.Q, params)
+    assert not tracking.predict(x, P, 1e308, 0.1, 1e10, slam.U, slam.Q, x.copy(), params)
     assert np.array_equal(x, [0.0, 0.0, 0.1]) and np.array_equal(P, np.eye(3))

@@ -329,10 +329,47 @@ def test_jcbb_runs_the_car_park_and_associates_most_detections():
 
 
 def test_the_numba_backend_runs_the_same_jcbb():
-    a, _, _ = _carpark("jcbb", 12, "python")
-    b, _, _ = _carpark("jcbb", 12, "numba")
-    np.testing.assert_array_equal(a.state.x, b.state.x)
-    np.testing.assert_array_equal(a.state.P, b.state.P)
+    """The compiled associator (radarslam.slam._jcbb_numba) against the reference on 40 scans of
+    the car park: the same associations and search (nodes) every scan, the state to rounding."""
+    from radarslam.slam._jcbb_numba import CompiledJcbbAssociator
+
+    a, _, ra = _carpark("jcbb", 40, "python")
+    b, _, rb = _carpark("jcbb", 40, "numba")
+    assert type(b.associator) is CompiledJcbbAssociator and type(a.associator) is JcbbAssociator
+    assert [{k: v.tolist() for k, v in r.associations.items()} for r in ra] == \
+        [{k: v.tolist() for k, v in r.associations.items()} for r in rb]
+    assert sum(r.n_associated for r in ra) > 500
+    la, lb = a.associator.last, b.associator.last
+    assert a.associator.nodes == b.associator.nodes and la.pairs == lb.pairs and la.pair_index == lb.pair_index
+    assert lb.d2 == pytest.approx(la.d2, rel=D2_RTOL)
+    np.testing.assert_allclose(b.state.x, a.state.x, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(b.state.P, a.state.P, rtol=1e-9, atol=1e-12)
+
+
+def test_compiled_search_equals_the_reference_and_the_brute_force():
+    """The compiled branch and bound (an explicit stack) against the recursive reference on the
+    oracle problems, with and without a node budget: the same hypothesis, nodes and exhaustion; its
+    D^2 to rounding; and the brute force's best hypothesis when the search completes."""
+    from radarslam.slam._jcbb_numba import jcbb_search, joint_gates
+
+    gates = joint_gates(0.99, 16)
+    assert [gates[k] for k in range(1, 17)] == [GATE(k) for k in range(1, 17)]   # the very thresholds
+    rng = np.random.default_rng(99)
+    cut = 0
+    for _ in range(150):
+        n_obs, n_lm = int(rng.integers(2, 7)), int(rng.integers(2, 7))
+        n = min(n_obs, n_lm + 1)
+        obs, lm, nu, C = _problem(rng, n, n_lm)
+        (rows, d2), _ = _brute_force(obs, lm, nu, C, n)
+        for budget in (10**6, 1, 3, 8):
+            ref = jcbb(obs, lm, nu, C, n, GATE, max_nodes=budget)
+            pairs, d2c, nodes, exhausted = jcbb_search(obs, lm, nu, C, n, gates, budget)
+            assert tuple(pairs.tolist()) == ref.pair_index and nodes == ref.nodes and exhausted == ref.exhausted
+            assert d2c == pytest.approx(ref.d2, rel=D2_RTOL, abs=1e-12)
+            cut += exhausted
+            if budget == 10**6:
+                assert sorted(pairs.tolist()) == sorted(rows)
+    assert cut > 100                                   # the budgets did cut searches short
 
 
 # ------------------------------------------------------------------------- configuration

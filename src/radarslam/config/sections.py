@@ -197,7 +197,7 @@ class FilterConfig:
                                "from N(0, diag(initial_pose_std^2)), per trial from its own child stream)",
                                choices=("fixed", "draw"))
     jacobians: str = param("standard", "[PROP] where the EKF's Jacobians are evaluated (c.2.1): standard (the "
-                           "current estimate) or fej (first estimates, Huang/Mourikis/Roumeliotis; orchestrator only)",
+                           "current estimate) or fej (first estimates, Huang/Mourikis/Roumeliotis)",
                            choices=("standard", "fej"))
     range_std_m: float = param(0.5, "R: range std (m)", low=0.0, low_open=True)
     azimuth_std_deg: float = param(1.0, "R: azimuth std (deg)", low=0.0, low_open=True)

@@ -147,7 +147,7 @@ ASSOCIATORS.register_lazy("nearest-neighbour", "radarslam.slam._numba", backend=
 ASSOCIATORS.register_lazy("batch", "radarslam.slam.association")
 ASSOCIATORS.register_lazy("batch", "radarslam.slam._numba", backend="numba")
 ASSOCIATORS.register_lazy("jcbb", "radarslam.slam.jcbb")
-ASSOCIATORS.register_lazy("jcbb", "radarslam.slam.jcbb", backend="numba")
+ASSOCIATORS.register_lazy("jcbb", "radarslam.slam._jcbb_numba", backend="numba")
 EXTENT_ESTIMATORS.register_lazy("rma-efa", "radarslam.extent.estimator")
 EXTENT_ESTIMATORS.register_lazy("visible-arc", "radarslam.extent.visible_arc")
 EXTENT_ESTIMATORS.register_lazy("mem-ekf", "radarslam.extent.mem_ekf")

@@ -212,9 +212,11 @@ def min_log_distance(x, P, z0, z1, n_nearest, R, platform):  # pragma: no cover 
 
 
 @njit(cache=True)
-def associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta, platform):  # pragma: no cover - compiled
+def associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta, platform, xlin):  # pragma: no cover - compiled
     """Sequential association + EKF updates of the detections ``polar[cand]``, in place on ``x``, ``P``
-    (a state whose platform block has ``platform`` entries, :mod:`radarslam.slam.layout`).
+    (a state whose platform block has ``platform`` entries, :mod:`radarslam.slam.layout`). The
+    measurement Jacobians are evaluated at ``x`` or, under first-estimates Jacobians (c.2.1), at
+    ``xlin`` (:meth:`~radarslam.slam.state.SlamState.linearisation_all`; empty for the standard ones).
 
     Returns ``(x, P, out, nis)``: the updated state (the same arrays), the landmark associated to
     each candidate (-1 where none) and the NIS of each update.
@@ -233,7 +235,7 @@ def associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta, platform):
         if best_j < 0 or not best_D < beta:
             continue
         out[c] = best_j
-        Hs, idx = _sparse_jacobian(x, best_j, platform)
+        Hs, idx = _sparse_jacobian(xlin if xlin.shape[0] else x, best_j, platform)
         Rj = _r_eff(R, Hs, gX[best_j]) if has_gX[best_j] else R
         q = _joseph_update_inplace(x, P, np.array([be0, be1]), Hs, idx, Rj)
         nis[n_up] = q
@@ -257,10 +259,11 @@ def _batch_scores(x, P, polar, cand, R, gX, has_gX, n_nearest, beta, platform): 
 
 
 @njit(cache=True)
-def batch_associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta, platform):  # pragma: no cover
+def batch_associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta, platform, xlin):  # pragma: no cover
     """The per-landmark batch update (:class:`radarslam.slam.association.BatchAssociator`): score
     every candidate at the prior state, then one update per landmark with the mean of its
-    detections. Returns ``(x, P, out, nis)``."""
+    detections (its Jacobian at ``xlin`` under first-estimates Jacobians, c.2.1). Returns
+    ``(x, P, out, nis)``."""
     N = (x.shape[0] - platform) // 2
     nis = np.empty(N)
     if N == 0:
@@ -278,6 +281,8 @@ def batch_associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta, plat
         zbar[1] = pts[:, 1].mean()
         noise = _batch_noise(x[2], np.ascontiguousarray(gX[j]), has_gX[j], R_xy, m)
         h, Hs, idx = _sensor_xy_measurement(x, j, platform)
+        if xlin.shape[0]:                           # first-estimates Jacobian (c.2.1), h at the estimate
+            Hs = _sensor_xy_measurement(xlin, j, platform)[1]
         q = _joseph_update_inplace(x, P, zbar - h, Hs, idx, noise)
         nis[n_up] = q
         n_up += 1
@@ -392,9 +397,10 @@ def joint_update_loops(x, P, e, Hs, idx, Rb):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def joint_batch_associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta, platform):  # pragma: no cover
+def joint_batch_associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta, platform, xlin):  # pragma: no cover
     """:class:`radarslam.slam.association.JointBatchAssociator`: the batch scoring, then every
-    landmark seen in one stacked update at the prior state. Returns ``(x, P, out, nis)``."""
+    landmark seen in one stacked update at the prior state (the Jacobians at ``xlin`` under
+    first-estimates Jacobians, c.2.1). Returns ``(x, P, out, nis)``."""
     N = (x.shape[0] - platform) // 2
     if N == 0:
         return x, P, np.full(cand.shape[0], -1), np.empty(0)
@@ -416,6 +422,8 @@ def joint_batch_associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta
         rows = cand[out == j]
         pts, R_xy = _polar_to_sensor_xy(polar[rows], R)
         h, Hs, idx = _sensor_xy_measurement(x, j, platform)
+        if xlin.shape[0]:                           # first-estimates Jacobian (c.2.1)
+            Hs = _sensor_xy_measurement(xlin, j, platform)[1]
         e[2 * a] = pts[:, 0].mean() - h[0]
         e[2 * a + 1] = pts[:, 1].mean() - h[1]
         Hs_all[a] = Hs
@@ -427,10 +435,12 @@ def joint_batch_associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta
 
 class _CompiledAssociator:
     """A compiled associator: ``scan`` is the njit function ``(x, P, polar, cand, R, gX, has_gX,
-    n_nearest, beta, platform) -> (x, P, out, nis)`` that does the work."""
+    n_nearest, beta, platform, xlin) -> (x, P, out, nis)`` that does the work."""
 
     name = ""
     backend = "numba"
+    #: Evaluates its Jacobians at the first estimates when ``state.lin_pose`` is set (c.2.1).
+    fej = True
 
     def __init__(self, beta: float, n_nearest: int, n_nearest_new: int):
         self.beta = float(beta)
@@ -438,7 +448,7 @@ class _CompiledAssociator:
         self.n_nearest_new = int(n_nearest_new)
 
     @staticmethod
-    def scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta, platform):  # pragma: no cover - abstract
+    def scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta, platform, xlin):  # pragma: no cover - abstract
         raise NotImplementedError
 
     def associate(self, state: SlamState, polar: np.ndarray, candidates: np.ndarray, R: np.ndarray,
@@ -446,7 +456,8 @@ class _CompiledAssociator:
         if not state.landmarks:
             return np.full(candidates.shape[0], -1, dtype=int), np.empty(0)
         x, P, out, nis = self.scan(state.x, state.P, polar, candidates.astype(np.int64), R, spreads.gX,
-                                   spreads.has, self.n_nearest, self.beta, state.platform_dim)
+                                   spreads.has, self.n_nearest, self.beta, state.platform_dim,
+                                   state.linearisation_all())
         state.set(x, P)
         return out, nis
 

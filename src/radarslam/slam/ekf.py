@@ -67,10 +67,11 @@ def fej_motion_jacobian(Fx: np.ndarray, pose_new: np.ndarray, pose_first: np.nda
     between the new prediction ``pose_new`` (3,) and the *first* estimate of the current pose,
     ``pose_first`` (3,), the previous prediction, instead of the updated estimate. Products of
     these Jacobians then telescope, ``F_{k+l-1} ... F_k = [[I, J (t_{k+l} - t_k)], [0, 1]]``,
-    which keeps the unobservable global rotation unobservable. Returns a new ``(3, 3)`` array."""
-    F = np.array(Fx, dtype=float)
-    F[0, 2] = -(float(pose_new[1]) - float(pose_first[1]))
-    F[1, 2] = float(pose_new[0]) - float(pose_first[0])
+    which keeps the unobservable global rotation unobservable. Returns a new ``(3, 3)`` array. A
+    kernel (the fused engine compiles it as it is)."""
+    F = np.asarray(Fx, dtype=np.float64).copy()
+    F[0, 2] = -(pose_new[1] - pose_first[1])
+    F[1, 2] = pose_new[0] - pose_first[0]
     return F
 
 

@@ -95,11 +95,11 @@ class EkfSlam:
         f = config.filter
         self.model = motion_model or motion_model_from_config(f)
         self.measurement = measurement_model or MEASUREMENT_MODELS.create(f.measurement_model, f)
-        #: First-estimates Jacobians (docs/method.md c.2.1): the Python associators evaluate them.
+        #: First-estimates Jacobians (docs/method.md c.2.1): the associators evaluate them.
         self.fej = f.jacobians == "fej"
         try:
             self.associator = associator or ASSOCIATORS.create(config.landmarks.associator, config,
-                                                               backend="python" if self.fej else f.backend)
+                                                               backend=f.backend)
         except ImportError:
             raise InputError("filter.backend: 'numba' needs numba (a dependency of radarslam: pip install numba), "
                              "or choose filter.backend = 'python'") from None

@@ -13,9 +13,9 @@ update. Two layers:
 
 - :func:`jcbb`, the pure search on arrays (innovations and their joint covariance), testable on
   synthetic problems;
-- :class:`JcbbAssociator`, the component registered as ``"jcbb"`` (both backends: the search is
-  combinatorial and its arithmetic is a few small matrices, so the compiled backend runs this
-  same class).
+- :class:`JcbbAssociator`, the component registered as ``"jcbb"``, the reference
+  (``filter.backend = "python"``); :mod:`radarslam.slam._jcbb_numba` is the compiled one, which
+  the fused engine runs too.
 """
 
 from __future__ import annotations
@@ -454,6 +454,5 @@ def make_jcbb(config) -> JcbbAssociator:
                           lc.jcbb_max_nodes, lc.cluster_eps_m, lc.cluster_min_samples)
 
 
-# The compiled backend runs the same class: JCBB is a combinatorial search over small matrices.
+# The compiled backend's is radarslam.slam._jcbb_numba (the same search, one compiled call a scan).
 ASSOCIATORS.register("jcbb", make_jcbb)
-ASSOCIATORS.register("jcbb", make_jcbb, backend="numba")

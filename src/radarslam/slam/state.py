@@ -140,6 +140,21 @@ class SlamState:
             x[i:i + 2] = first
         return x
 
+    def linearisation_all(self) -> np.ndarray:
+        """Every landmark's :meth:`linearisation` in one vector, for the compiled associators: empty
+        for the standard Jacobians; under first-estimates Jacobians a copy of ``x`` (n,) with the
+        pose ``lin_pose`` and every landmark at its first estimate (landmark ``j``'s Jacobian reads
+        only the pose and its own centroid, so at this vector it is the one at ``linearisation(j)``)."""
+        if self.lin_pose is None:
+            return np.empty(0)
+        x = self.x.copy()
+        x[:POSE_DIM] = self.lin_pose
+        for j, r in enumerate(self.landmarks):
+            if r.first is not None:
+                i = self.index(j)
+                x[i:i + 2] = r.first
+        return x
+
     # ---------------------------------------------------------------- changes
     def set(self, x: np.ndarray, P: np.ndarray) -> None:
         """Replace the mean and covariance (same dimension)."""

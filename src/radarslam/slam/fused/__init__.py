@@ -3,8 +3,9 @@
 :class:`~radarslam.slam.filter.EkfSlam` runs docs/method.md a.8 as a dozen Python calls per scan,
 each cheap, together ~0.4 ms a scan: the orchestration, not the arithmetic, is the cost of a
 car-park trial. For the built-in components (unicycle or Ackermann motion, range-azimuth radar or
-laser, the nearest-neighbour, batch or batch-joint associator, the RMA/EFA or visible-arc estimator,
-DBSCAN: every shipped profile, the car parks and both Victoria Park modes) this package runs the same
+laser, the nearest-neighbour, batch, batch-joint or JCBB associator, the RMA/EFA or visible-arc estimator,
+DBSCAN, the standard or first-estimates Jacobians: every shipped profile, the car parks and both
+Victoria Park modes) this package runs the same
 steps over the whole stream inside numba, with the landmark records held in arrays (ids, creation
 scans, M/N windows, extent states and their buffers) instead of Python objects, and records what
 :func:`radarslam.experiments.single.run_filter` records after every scan.

@@ -67,6 +67,7 @@ def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
     S = stream.scan_off.shape[0] - 1
     x = x0.copy()
     P = P0.copy()
+    pose_first = x0[:3].copy()                             # FEJ: the first estimate of the pose (c.2.1)
     m_max = 1
     for s in range(S):
         m_max = max(m_max, stream.scan_off[s + 1] - stream.scan_off[s])
@@ -86,7 +87,7 @@ def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
     for ev in range(stream.kinds.shape[0]):
         if stream.kinds[ev] == 0:                                                  # 1
             if not predict(x, P, stream.odo[e_odo, 0], stream.odo[e_odo, 1], stream.odo_dt[e_odo],
-                           noise.U, noise.Q, cfg):
+                           noise.U, noise.Q, pose_first, cfg):
                 status[0], status[1] = BAD_PREDICTION, ev
                 break
             dt_since += stream.odo_dt[e_odo]
@@ -100,7 +101,7 @@ def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
         prior = _blocks(x, P)                                                      # Decision 3
         cand = sift(x, P, polar, lm, N, prior, noise, cfg)                         # 3
         cidx = np.flatnonzero(cand)
-        x, P, out, nis = associate_and_update(x, P, polar, cidx, lm, N, noise, cfg)  # 4
+        x, P, out, nis = associate_and_update(x, P, polar, cidx, lm, N, pose_first, noise, cfg)  # 4
         n_assoc, aoff, arow, a_rows, n_arows = group_associations(out, cidx, N, lm.ids, s, a_rows, n_arows)
         x, P, N, old = remove_unseen(x, P, lm, N, aoff, k, cfg)                     # 5
         xy = _to_world(x, polar)                                    # seed eq. (3), updated pose

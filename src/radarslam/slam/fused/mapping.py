@@ -194,6 +194,7 @@ def augment(x, P, lm, N, next_id, confirmed, clusters, polar, k, noise, cfg):  #
             x, P = _augment(x, P, polar[i].copy(), noise.R)
         lm = grow_landmarks(lm, N + 1)
         lm.ids[N], lm.created[N], lm.mbits[N], lm.rbits[N] = next_id, k, 1, 1
+        lm.first[N, 0], lm.first[N, 1] = x[-2], x[-1]          # its first estimate (c.2.1)
         lm.einit[N], lm.alpha[N], lm.nbuf[N] = False, 0.0, 0
         lm.narc[N], lm.arc_head[N], lm.arc_tail[N] = 0, -1, -1
         next_id += 1

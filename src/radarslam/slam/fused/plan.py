@@ -21,7 +21,7 @@ from radarslam.slam.fused.engine import BAD_PREDICTION, OK, run_stream
 class FusedParams(NamedTuple):
     """The configuration of :func:`~radarslam.slam.fused.engine.run_stream`, by name."""
 
-    assoc: int             #: associator: 0 nearest neighbour, 1 batch, 2 batch-joint
+    assoc: int             #: associator: 0 nearest neighbour, 1 batch, 2 batch-joint, 3 JCBB (fused.tracking)
     n_near: int            #: associator.n_nearest
     n_new: int             #: associator.n_nearest_new (the alpha test)
     min_samples: int       #: landmarks.cluster_min_samples
@@ -66,6 +66,11 @@ class FusedParams(NamedTuple):
     encoder_offset: float  #: Ackermann H (filter.vehicle_H_m)
     lever: float           #: Ackermann laser lever arm from the rear axle, L + a (filter.sensor_a_m)
     sensor_b: float        #: Ackermann b (filter.sensor_b_m)
+    fej: bool              #: filter.jacobians == "fej": first-estimates Jacobians (docs/method.md c.2.1)
+    jcbb_max_nodes: int    #: JCBB: landmarks.jcbb_max_nodes (docs/method.md c.4.1)
+    jcbb_prefilter: int    #: JCBB: nearest landmarks gated per observation (slam.jcbb.N_PREFILTER)
+    jcbb_eps: float        #: JCBB: the observations' DBSCAN radius (landmarks.cluster_eps_m)
+    jcbb_min_samples: int  #: JCBB: their DBSCAN minimum (landmarks.cluster_min_samples)
 
 
 class Stream(NamedTuple):
@@ -88,6 +93,7 @@ class Noise(NamedTuple):
     U: np.ndarray             #: (2, 2) control noise
     Q: np.ndarray             #: (3, 3) process noise
     prior_spread: np.ndarray  #: (2, 2) the prior spread (zeros when not used)
+    gates: np.ndarray         #: (K + 1,) JCBB's joint gates of k pairings (slam._jcbb_numba.joint_gates)
 
 
 def why_not(slam, events=None) -> str | None:
@@ -101,6 +107,7 @@ def why_not(slam, events=None) -> str | None:
     from radarslam.models.ackermann import AckermannModel
     from radarslam.models.motion import UnicycleModel
     from radarslam.models.radar import RangeAzimuthModel
+    from radarslam.slam._jcbb_numba import CompiledJcbbAssociator
     from radarslam.slam._numba import (CompiledBatchAssociator, CompiledJointBatchAssociator,
                                        CompiledNearestNeighbourAssociator)
 
@@ -108,7 +115,6 @@ def why_not(slam, events=None) -> str | None:
     checks = (
         (f.fused, "filter.fused is false"),
         (f.backend == "numba", f"filter.backend is {f.backend!r}"),
-        (f.jacobians == "standard", "filter.jacobians 'fej' (first-estimates Jacobians, docs/method.md c.2.1)"),
         (getattr(slam, "view", None) is None, "the partial-view model (docs/method.md a.12)"),
         (not f.doppler_gate, "filter.doppler_gate (the Doppler gate, docs/method.md c.10.4)"),
         (f.odometry == "odometer", f"filter.odometry {f.odometry!r} (Doppler and gyro odometry, docs/method.md c.10.5)"),
@@ -116,7 +122,7 @@ def why_not(slam, events=None) -> str | None:
         (type(slam.model) in (UnicycleModel, AckermannModel), f"motion model {type(slam.model).__name__}"),
         (type(slam.measurement) is RangeAzimuthModel, f"measurement model {type(slam.measurement).__name__}"),
         (type(slam.associator) in (CompiledNearestNeighbourAssociator, CompiledBatchAssociator,
-                                   CompiledJointBatchAssociator),
+                                   CompiledJointBatchAssociator, CompiledJcbbAssociator),
          f"associator {type(slam.associator).__name__}"),
         (type(slam.extent) in (RmaEfaEstimator, VisibleArcEstimator), f"extent estimator {type(slam.extent).__name__}"),
         (ec.efa_mode == "per_scan", f"extent.efa_mode {ec.efa_mode!r}"),
@@ -142,6 +148,7 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
     lc, ec, f = slam.config.landmarks, slam.config.extent, slam.config.filter
     from radarslam.extent.visible_arc import VisibleArcEstimator
     from radarslam.models.ackermann import AckermannModel
+    from radarslam.slam._jcbb_numba import CompiledJcbbAssociator
     from radarslam.slam._numba import CompiledBatchAssociator, CompiledJointBatchAssociator
     from radarslam.slam.fused.tracking import ACKERMANN, UNICYCLE
 
@@ -151,7 +158,8 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
 
     in_slam = bool(ec.use_in_slam)
     return FusedParams(
-        assoc={CompiledBatchAssociator: 1, CompiledJointBatchAssociator: 2}.get(type(slam.associator), 0),
+        assoc={CompiledBatchAssociator: 1, CompiledJointBatchAssociator: 2,
+               CompiledJcbbAssociator: 3}.get(type(slam.associator), 0),
         n_near=int(slam.associator.n_nearest), n_new=int(slam.associator.n_nearest_new),
         min_samples=int(lc.cluster_min_samples),
         confirm_points=int(lc.confirm_points), confirm_window=int(lc.confirm_window),
@@ -180,6 +188,11 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
         beam_step=float(slam.extent.beam_step) if arc else 0.0,
         wheelbase=float(model.L) if ackermann else 0.0, encoder_offset=float(model.H) if ackermann else 0.0,
         lever=float(model.lever) if ackermann else 0.0, sensor_b=float(model.b) if ackermann else 0.0,
+        fej=f.jacobians == "fej",
+        jcbb_max_nodes=int(getattr(slam.associator, "max_nodes", 1)),
+        jcbb_prefilter=int(getattr(slam.associator, "n_prefilter", 1)),
+        jcbb_eps=float(getattr(slam.associator, "cluster_eps", 1.0)),
+        jcbb_min_samples=int(getattr(slam.associator, "cluster_min_samples", 1)),
     )
 
 
@@ -277,7 +290,11 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None):
     st = slam.state
     ext = slam.extent
     prior_spread = ext.prior_spread if ext.initial_spread() is not None or cfg.pre_prior else np.zeros((2, 2))
-    noise = Noise(slam.R, ext.R_extent, slam.U, slam.Q, np.ascontiguousarray(prior_spread, dtype=float))
+    gates = np.zeros(2)
+    if cfg.assoc == 3:                         # JCBB: a gate for every depth a scan's candidates allow
+        off = stream.scan_off
+        gates = slam.associator.gates(max(1, int((off[1:] - off[:-1]).max(initial=1))))
+    noise = Noise(slam.R, ext.R_extent, slam.U, slam.Q, np.ascontiguousarray(prior_spread, dtype=float), gates)
     status, n_scans, (rec, maps), arows = run_stream(stream, st.x, st.P, noise, cfg)
     if status[0] != OK:
         ev = events[int(status[1])]

@@ -17,6 +17,8 @@ from radarslam.core.jit import compile_kernels
 from radarslam.extent._compiled import _fit_entries, measurement_contour, rma_efa_step
 from radarslam.models.ackermann import ackermann_jacobians, ackermann_step, centre_speed
 from radarslam.models.radar import polar_to_xy
+from radarslam.slam import ekf
+from radarslam.slam._jcbb_numba import jcbb_associate_scan
 from radarslam.slam._numba import (
     _wrap_2pi,
     _wrap_pi,
@@ -41,6 +43,7 @@ _to_world = compile_kernels(polar_to_xy)["polar_to_xy"]
 _ACK = compile_kernels(centre_speed, wrap_2pi_scalar, ackermann_step, ackermann_jacobians)
 _ackermann_step = _ACK["ackermann_step"]
 _ackermann_jacobians = _ACK["ackermann_jacobians"]
+_fej_motion_jacobian = compile_kernels(ekf.fej_motion_jacobian)["fej_motion_jacobian"]
 
 #: Motion-model codes of ``FusedParams.motion``.
 UNICYCLE, ACKERMANN = 0, 1
@@ -80,10 +83,14 @@ def _motion(x, u0, u1, dt, cfg):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def predict(x, P, u0, u1, dt, U, Q, cfg):  # pragma: no cover - compiled
-    """c.2 with the motion model of ``cfg.motion`` (:func:`_motion`), in place. Returns False,
+def predict(x, P, u0, u1, dt, U, Q, pose_first, cfg):  # pragma: no cover - compiled
+    """c.2 with the motion model of ``cfg.motion`` (:func:`_motion`), in place; with ``cfg.fej``
+    the pose Jacobian's heading column from ``pose_first``, the first estimate of the current pose
+    (the previous prediction), which then becomes the new prediction (c.2.1). Returns False,
     leaving the state as it was, if the prediction is not finite."""
     pose, Fx, Fu = _motion(x, u0, u1, dt, cfg)
+    if cfg.fej:
+        Fx = _fej_motion_jacobian(Fx, pose, pose_first)
     pose0, pose1, pose2 = pose[0], pose[1], pose[2]
     T = _matmul(Fx, P[:3, :3])
     FU = _matmul(Fu, U)
@@ -111,6 +118,8 @@ def predict(x, P, u0, u1, dt, U, Q, cfg):  # pragma: no cover - compiled
     if not ok:
         return False
     x[0], x[1], x[2] = pose0, pose1, pose2
+    if cfg.fej:
+        pose_first[0], pose_first[1], pose_first[2] = pose0, pose1, pose2
     for i in range(3):
         for j in range(3):
             P[i, j] = Ppp[i, j]
@@ -175,11 +184,24 @@ def sift(x, P, polar, lm, N, prior, noise, cfg):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def associate_and_update(x, P, polar, cidx, lm, N, noise, cfg):  # pragma: no cover - compiled
+def _linearisation(lm, N, pose_first):  # pragma: no cover - compiled
+    """The first estimates (c.2.1) as the compiled associators take them (``xlin``,
+    SlamState.linearisation_all): the pose ``pose_first`` (the prediction), every landmark at its
+    centroid at birth."""
+    xlin = np.empty(POSE_DIM + 2 * N)
+    xlin[:POSE_DIM] = pose_first
+    for j in range(N):
+        xlin[POSE_DIM + 2 * j], xlin[POSE_DIM + 2 * j + 1] = lm.first[j, 0], lm.first[j, 1]
+    return xlin
+
+
+@njit(cache=True, inline="always")
+def associate_and_update(x, P, polar, cidx, lm, N, pose_first, noise, cfg):  # pragma: no cover - compiled
     """Step 4: associate the candidates ``cidx`` and update (c.4, a.7.2-a.7.3) with the
-    nearest-neighbour (``cfg.assoc`` 0), batch (1) or batch-joint (2) associator, the noise
+    nearest-neighbour (``cfg.assoc`` 0), batch (1), batch-joint (2) or JCBB (3, c.4.1) associator, the noise
     inflated by the spread of initialised extents (``cfg.inflate``) and, before, by the prior
-    spread (``cfg.pre_prior``). Returns ``(x, P, landmark per candidate or -1, NIS values)``."""
+    spread (``cfg.pre_prior``); with ``cfg.fej`` the Jacobians at the first estimates (c.2.1).
+    Returns ``(x, P, landmark per candidate or -1, NIS values)``."""
     out = np.full(cidx.shape[0], -1, dtype=np.int64)
     nis = np.empty(0)
     if N == 0:
@@ -195,13 +217,19 @@ def associate_and_update(x, P, polar, cidx, lm, N, noise, cfg):  # pragma: no co
                 gX[j] = noise.prior_spread
                 has[j] = True
     R = noise.R
+    xlin = _linearisation(lm, N, pose_first) if cfg.fej else np.empty(0)
     if cfg.assoc == 0:
-        x, P, out, nis = associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta, POSE_DIM)
+        x, P, out, nis = associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta, POSE_DIM, xlin)
+    elif cfg.assoc == 3:
+        x, P, out, nis, _ = jcbb_associate_scan(x, P, polar, cidx, R, gX, has, POSE_DIM, cfg.jcbb_eps,
+                                                cfg.jcbb_min_samples, cfg.jcbb_prefilter, noise.gates,
+                                                cfg.jcbb_max_nodes)
     elif cfg.assoc == 1:
-        x, P, out, nis = batch_associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta, POSE_DIM)
+        x, P, out, nis = batch_associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta, POSE_DIM,
+                                              xlin)
     else:
         x, P, out, nis = joint_batch_associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta,
-                                                    POSE_DIM)
+                                                    POSE_DIM, xlin)
     return x, P, out, nis
 
 

@@ -1,0 +1,414 @@
+"""JCBB compiled (``landmarks.associator = "jcbb"`` with ``filter.backend = "numba"``; docs/method.md c.4.1).
+
+The same association as :class:`radarslam.slam.jcbb.JcbbAssociator`, the reference, as one compiled
+call per scan that the orchestrator's associator and the fused engine both make
+(:func:`jcbb_associate_scan`): the observations (DBSCAN of the candidates in the sensor frame,
+clusters in label order then the noise points), the individual gate against the
+``n_prefilter`` Euclidean-nearest landmarks (candidates by ``D^2`` then landmark), the search order
+(fewest candidates first, ties by observation), the joint covariance, the branch and bound
+(:func:`jcbb_search`: the recursion of :func:`radarslam.slam.jcbb.jcbb` as a loop over an explicit
+stack, the same children in the same order, the same pruning and node budget, so the same
+hypothesis), and the batch updates (landmarks ascending). Its kernels are the reference's
+(:mod:`radarslam.slam.ekf`: the batch measurement and noise, the Joseph update) and the compiled
+DBSCAN (:mod:`radarslam.landmarks._compiled`). What is written for numba: the incremental joint
+``D^2`` (:func:`extend_loops`, scipy's triangular solve as loops) and the search's stack. The two
+agree to rounding (tests/test_jcbb.py: every hypothesis of the brute-force oracle problems, car-park
+runs).
+
+The joint gates ``chi2.ppf(p, 2 k)`` come in as an array (:func:`joint_gates`): scipy is not
+compiled.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from radarslam.core.registry import ASSOCIATORS
+from radarslam.landmarks._compiled import dbscan_labels
+from radarslam.slam._numba import (
+    _batch_noise,
+    _joseph_update_inplace,
+    _polar_to_sensor_xy,
+    _sensor_xy_measurement,
+    _smallest,
+    min_log_distance,
+)
+from radarslam.slam.jcbb import JcbbAssociator, JcbbResult, make_jcbb
+
+
+def joint_gates(probability: float, depth: int) -> np.ndarray:
+    """``gates[k] = chi2.ppf(probability, 2 k)`` for ``k = 0 .. depth`` (``gates[0] = 0``): the joint
+    gate of ``k`` pairings, :func:`radarslam.slam.jcbb.joint_gate`, for the compiled search."""
+    from scipy.stats import chi2
+
+    g = np.zeros(depth + 1)
+    g[1:] = chi2.ppf(float(probability), 2 * np.arange(1, depth + 1))
+    return g
+
+
+@njit(cache=True)
+def extend_loops(C, nu, L, y, rows, k, m, d2):  # pragma: no cover - compiled
+    """:func:`radarslam.slam.jcbb._extend` as loops: ``D^2`` of the hypothesis (Cholesky factor ``L``,
+    ``y = L^-1 nu_h``, ``rows`` of ``C`` over its first ``k`` pairings) plus pairing ``m``; writes row
+    block ``k`` of ``L``, ``y``, ``rows``. ``inf`` when the Schur complement is not positive definite."""
+    r = 2 * k
+    c00 = C[2 * m, 2 * m]
+    c01 = 0.5 * (C[2 * m, 2 * m + 1] + C[2 * m + 1, 2 * m])
+    c11 = C[2 * m + 1, 2 * m + 1]
+    e0, e1 = nu[m, 0], nu[m, 1]
+    if k:
+        z = np.empty((r, 2))                    # L^-1 b, b = C[rows, 2m:2m+2], by forward substitution
+        for i in range(r):
+            a0 = C[rows[i], 2 * m]
+            a1 = C[rows[i], 2 * m + 1]
+            for q in range(i):
+                a0 -= L[i, q] * z[q, 0]
+                a1 -= L[i, q] * z[q, 1]
+            z[i, 0] = a0 / L[i, i]
+            z[i, 1] = a1 / L[i, i]
+        s00 = s01 = s11 = t0 = t1 = 0.0
+        for i in range(r):
+            s00 += z[i, 0] * z[i, 0]
+            s01 += z[i, 0] * z[i, 1]
+            s11 += z[i, 1] * z[i, 1]
+            t0 += z[i, 0] * y[i]
+            t1 += z[i, 1] * y[i]
+            L[r, i] = z[i, 0]
+            L[r + 1, i] = z[i, 1]
+        c00, c01, c11 = c00 - s00, c01 - s01, c11 - s11          # Schur complement
+        e0, e1 = e0 - t0, e1 - t1
+    if not c00 > 0.0:
+        return math.inf
+    l00 = math.sqrt(c00)
+    l10 = c01 / l00
+    q = c11 - l10 * l10
+    if not q > 0.0:
+        return math.inf
+    l11 = math.sqrt(q)
+    y0 = e0 / l00
+    y1 = (e1 - l10 * y0) / l11
+    L[r, r], L[r, r + 1], L[r + 1, r], L[r + 1, r + 1] = l00, 0.0, l10, l11
+    y[r], y[r + 1] = y0, y1
+    rows[r], rows[r + 1] = 2 * m, 2 * m + 1
+    return d2 + y0 * y0 + y1 * y1
+
+
+@njit(cache=True, inline="always")
+def _can_beat(k_max, d2_low, best_k, best_d2):  # pragma: no cover - compiled
+    """Whether a subtree with at most ``k_max`` pairings and ``D^2 >= d2_low`` can beat the best."""
+    return k_max > best_k or (k_max == best_k and d2_low < best_d2)
+
+
+@njit(cache=True)
+def jcbb_search(obs, lm, nu, C, n_obs, gates, max_nodes):  # pragma: no cover - compiled
+    """:func:`radarslam.slam.jcbb.jcbb` on checked arrays, the recursion as a loop over a stack of
+    frames ``(observation, pairings, D^2, next candidate, phase)``: phase 0 enters a node, 1 tries
+    its pairing children in input order, 2 its unpaired child, 3 returns. ``gates[k]`` is the joint
+    gate of ``k`` pairings (:func:`joint_gates`). Returns ``(pair rows by observation, D^2, nodes,
+    exhausted)``."""
+    M = obs.shape[0]
+    cnt = np.zeros(n_obs + 1, dtype=np.int64)                  # candidates by observation (input order)
+    for a in range(M):
+        cnt[obs[a] + 1] += 1
+    off = np.cumsum(cnt)
+    by_obs = np.empty(M, dtype=np.int64)
+    fill = off[:-1].copy()
+    for a in range(M):
+        by_obs[fill[obs[a]]] = a
+        fill[obs[a]] += 1
+    rest = np.zeros(n_obs + 1, dtype=np.int64)
+    for i in range(n_obs - 1, -1, -1):
+        rest[i] = rest[i + 1] + (1 if off[i + 1] > off[i] else 0)
+    labels = np.unique(lm)
+    code = np.searchsorted(labels, lm)                         # landmark labels as 0 .. U - 1
+    used = np.zeros(labels.shape[0], dtype=np.bool_)
+    depth = min(n_obs, M)
+    L = np.zeros((2 * depth + 2, 2 * depth + 2))
+    y = np.zeros(2 * depth + 2)
+    rows = np.zeros(2 * depth + 2, dtype=np.int64)
+    chosen = np.empty(depth + 1, dtype=np.int64)
+    best = np.empty(depth + 1, dtype=np.int64)
+    n_chosen, best_k, best_d2, nodes, exhausted = 0, 0, 0.0, 1, False
+    F = n_obs + 2
+    f_i, f_k, f_p, f_phase = (np.zeros(F, dtype=np.int64), np.zeros(F, dtype=np.int64),
+                              np.zeros(F, dtype=np.int64), np.zeros(F, dtype=np.int64))
+    f_d2 = np.zeros(F)
+    f_pend = np.zeros(F, dtype=np.bool_)                       # a pairing child is on the stack above
+    top = 1
+    while top > 0 and not exhausted:
+        f = top - 1
+        i, k, d2 = f_i[f], f_k[f], f_d2[f]
+        if f_phase[f] == 0:                                    # enter: skip observations without candidates
+            while i < n_obs and off[i + 1] == off[i]:
+                i += 1
+            f_i[f] = i
+            if i == n_obs:
+                top -= 1
+                continue
+            f_phase[f] = 1 if _can_beat(k + rest[i], d2, best_k, best_d2) else 2
+            f_p[f] = 0
+            continue
+        if f_phase[f] == 1:                                    # the pairing children
+            if f_pend[f]:                                      # back from one: undo its pairing
+                n_chosen -= 1
+                used[code[chosen[n_chosen]]] = False
+                f_pend[f] = False
+            pushed = False
+            while f_p[f] < off[i + 1] - off[i]:
+                m = by_obs[off[i] + f_p[f]]
+                f_p[f] += 1
+                if used[code[m]]:
+                    continue
+                if not _can_beat(k + rest[i], d2, best_k, best_d2):
+                    break
+                if nodes >= max_nodes:
+                    exhausted = True
+                    break
+                nodes += 1
+                d2_new = extend_loops(C, nu, L, y, rows, k, m, d2)
+                if not d2_new < gates[k + 1]:
+                    continue
+                chosen[n_chosen] = m
+                n_chosen += 1
+                used[code[m]] = True
+                if _can_beat(k + 1, d2_new, best_k, best_d2):   # a better hypothesis
+                    best[:n_chosen] = chosen[:n_chosen]
+                    best_k, best_d2 = k + 1, d2_new
+                f_pend[f] = True
+                f_i[top], f_k[top], f_d2[top], f_phase[top], f_pend[top] = i + 1, k + 1, d2_new, 0, False
+                top += 1
+                pushed = True
+                break
+            if not pushed:
+                f_phase[f] = 2
+            continue
+        if f_phase[f] == 2:                                    # the unpaired child
+            f_phase[f] = 3
+            if _can_beat(k + rest[i + 1], d2, best_k, best_d2):
+                if nodes >= max_nodes:
+                    exhausted = True
+                    break
+                nodes += 1
+                f_i[top], f_k[top], f_d2[top], f_phase[top], f_pend[top] = i + 1, k, d2, 0, False
+                top += 1
+            continue
+        top -= 1                                               # phase 3: return
+    pairs = best[:best_k].copy()
+    key = np.empty(best_k, dtype=np.int64)
+    for a in range(best_k):
+        key[a] = obs[pairs[a]]
+    return pairs[np.argsort(key)], best_d2, nodes, exhausted
+
+
+@njit(cache=True)
+def _observations(polar, cand, R, eps, min_samples):  # pragma: no cover - compiled
+    """:func:`radarslam.slam.jcbb.cluster_observations` of ``polar[cand]``: each observation's members
+    (positions in ``cand``) as ``members[moff[o]:moff[o + 1]]``, its sensor-frame mean ``zbar (n, 2)``
+    and mean detection noise ``R_xy (n, 2, 2)``."""
+    sub = np.empty((cand.shape[0], 2))
+    for a in range(cand.shape[0]):
+        sub[a] = polar[cand[a]]
+    pts, _ = _polar_to_sensor_xy(sub, R)
+    labels = dbscan_labels(pts, eps, min_samples)
+    n_cl = labels.max() + 1 if labels.shape[0] else 0
+    n_noise = 0
+    for a in range(labels.shape[0]):
+        if labels[a] < 0:
+            n_noise += 1
+    n = n_cl + n_noise
+    members = np.empty(labels.shape[0], dtype=np.int64)
+    moff = np.zeros(n + 1, dtype=np.int64)
+    q = 0
+    for o in range(n_cl):                                     # clusters in label order
+        for a in range(labels.shape[0]):
+            if labels[a] == o:
+                members[q] = a
+                q += 1
+        moff[o + 1] = q
+    o = n_cl
+    for a in range(labels.shape[0]):                          # then each noise point alone
+        if labels[a] < 0:
+            members[q] = a
+            q += 1
+            o += 1
+            moff[o] = q
+    zbar = np.empty((n, 2))
+    R_xy = np.empty((n, 2, 2))
+    for o in range(n):
+        rows = members[moff[o]:moff[o + 1]]
+        p, Rm = _polar_to_sensor_xy(sub[rows], R)
+        R_xy[o] = Rm
+        zbar[o, 0] = p[:, 0].mean()
+        zbar[o, 1] = p[:, 1].mean()
+    return members, moff, zbar, R_xy
+
+
+@njit(cache=True)
+def _candidate_pairs(x, P, zbar, R_xy, moff, gX, has_gX, platform, n_prefilter, gate1):  # pragma: no cover
+    """:meth:`radarslam.slam.jcbb.JcbbAssociator.candidate_pairs`: the individually compatible
+    pairings, as rows ``(observation, landmark, D^2, nu (2,), Hs (2, 5), idx (5,), noise (2, 2))``
+    grouped by observation (``coff``) and within one by ``D^2`` then landmark."""
+    n, N = zbar.shape[0], (x.shape[0] - platform) // 2
+    c, s = math.cos(x[2]), math.sin(x[2])
+    count = min(n_prefilter, N)
+    cap = max(1, n * count)
+    c_j, c_d2 = np.empty(cap, dtype=np.int64), np.empty(cap)
+    c_nu, c_H, c_idx, c_N = np.empty((cap, 2)), np.empty((cap, 2, 5)), np.empty((cap, 5), dtype=np.int64), np.empty((cap, 2, 2))
+    coff = np.zeros(n + 1, dtype=np.int64)
+    d = np.empty(N)
+    q = 0
+    for o in range(n):
+        w0 = x[0] + (c * zbar[o, 0] + -s * zbar[o, 1])            # the world-frame mean
+        w1 = x[1] + (s * zbar[o, 0] + c * zbar[o, 1])
+        for j in range(N):
+            d[j] = (x[platform + 2 * j] - w0) ** 2 + (x[platform + 2 * j + 1] - w1) ** 2
+        start = q
+        for j in _smallest(d, N, count):
+            h, Hs, idx = _sensor_xy_measurement(x, j, platform)
+            Nn = _batch_noise(x[2], np.ascontiguousarray(gX[j]), has_gX[j], R_xy[o], moff[o + 1] - moff[o])
+            S = np.empty((2, 2))
+            for t in range(2):
+                for u in range(2):
+                    acc = 0.0
+                    for a in range(5):
+                        for b in range(5):
+                            acc += Hs[t, a] * P[idx[a], idx[b]] * Hs[u, b]
+                    S[t, u] = acc + Nn[t, u]
+            e0, e1 = zbar[o, 0] - h[0], zbar[o, 1] - h[1]
+            a_, b_, dd = S[0, 0], 0.5 * (S[0, 1] + S[1, 0]), S[1, 1]
+            det = a_ * dd - b_ * b_
+            if not (a_ > 0.0 and det > 0.0):
+                continue
+            d2 = (dd * e0 * e0 - 2.0 * b_ * e0 * e1 + a_ * e1 * e1) / det
+            if not d2 < gate1:
+                continue
+            p = q                                              # insert in (D^2, landmark) order
+            while p > start and (c_d2[p - 1] > d2 or (c_d2[p - 1] == d2 and c_j[p - 1] > j)):
+                c_j[p], c_d2[p], c_nu[p], c_H[p], c_idx[p], c_N[p] = (c_j[p - 1], c_d2[p - 1], c_nu[p - 1],
+                                                                      c_H[p - 1], c_idx[p - 1], c_N[p - 1])
+                p -= 1
+            c_j[p], c_d2[p], c_H[p], c_idx[p], c_N[p] = j, d2, Hs, idx, Nn
+            c_nu[p, 0], c_nu[p, 1] = e0, e1
+            q += 1
+        coff[o + 1] = q
+    return coff, c_j[:q], c_nu[:q], c_H[:q], c_idx[:q], c_N[:q]
+
+
+@njit(cache=True)
+def _joint_covariance(rows, c_H, c_idx, c_N, P):  # pragma: no cover - compiled
+    """:func:`radarslam.slam.jcbb.joint_covariance` of the pairings ``rows`` from their sparse
+    Jacobians: ``C = H P H^T + blockdiag(N)``, symmetrised."""
+    M = rows.shape[0]
+    C = np.empty((2 * M, 2 * M))
+    for a in range(M):
+        ra = rows[a]
+        for b in range(M):
+            rb = rows[b]
+            for t in range(2):
+                for u in range(2):
+                    acc = 0.0
+                    for p in range(5):
+                        for q in range(5):
+                            acc += c_H[ra, t, p] * P[c_idx[ra, p], c_idx[rb, q]] * c_H[rb, u, q]
+                    C[2 * a + t, 2 * b + u] = acc
+        for t in range(2):
+            for u in range(2):
+                C[2 * a + t, 2 * a + u] += c_N[ra, t, u]
+    return 0.5 * (C + C.T)
+
+
+@njit(cache=True)
+def jcbb_associate_scan(x, P, polar, cand, R, gX, has_gX, platform, eps, min_samples, n_prefilter, gates,
+                        max_nodes):  # pragma: no cover - compiled
+    """:meth:`radarslam.slam.jcbb.JcbbAssociator.associate` of the candidates ``polar[cand]``, in place
+    on ``x``, ``P``: observations, individual gate, search order, joint covariance, branch and bound,
+    then one batch update per paired landmark (ascending), each at the state its predecessors left.
+    ``gates``: :func:`joint_gates` to at least the number of candidates. Returns ``(x, P, landmark
+    per candidate or -1, NIS values, (pair rows, their observations in search order, their
+    landmarks, D^2, nodes, exhausted))``."""
+    N = (x.shape[0] - platform) // 2
+    out = np.full(cand.shape[0], -1, dtype=np.int64)
+    none = np.empty(0, dtype=np.int64)
+    if N == 0 or cand.shape[0] == 0:
+        return x, P, out, np.empty(0), (none, none, none, 0.0, 0, False)
+    members, moff, zbar, R_xy = _observations(polar, cand, R, eps, min_samples)
+    coff, c_j, c_nu, c_H, c_idx, c_N = _candidate_pairs(x, P, zbar, R_xy, moff, gX, has_gX, platform,
+                                                        n_prefilter, gates[1])
+    n_cands = coff[1:] - coff[:-1]
+    searched = np.flatnonzero(n_cands > 0)
+    order = searched[np.argsort(n_cands[searched], kind="mergesort")]   # fewest first, ties by observation
+    M = c_j.shape[0]
+    rows = np.empty(M, dtype=np.int64)
+    obs = np.empty(M, dtype=np.int64)
+    q = 0
+    for rank in range(order.shape[0]):
+        for r in range(coff[order[rank]], coff[order[rank] + 1]):
+            rows[q], obs[q] = r, rank
+            q += 1
+    lm = c_j[rows]
+    pairs, d2, nodes, exhausted = none, 0.0, 1, False
+    if M:
+        C = _joint_covariance(rows, c_H, c_idx, c_N, P)
+        pairs, d2, nodes, exhausted = jcbb_search(obs, lm, c_nu[rows], C, order.shape[0], gates, max_nodes)
+    nis = np.empty(pairs.shape[0])
+    by_lm = pairs[np.argsort(lm[pairs], kind="mergesort")]
+    for a in range(by_lm.shape[0]):
+        j, o = lm[by_lm[a]], order[obs[by_lm[a]]]
+        h, Hs, idx = _sensor_xy_measurement(x, j, platform)
+        e = np.empty(2)
+        e[0], e[1] = zbar[o, 0] - h[0], zbar[o, 1] - h[1]
+        noise = _batch_noise(x[2], np.ascontiguousarray(gX[j]), has_gX[j], R_xy[o], moff[o + 1] - moff[o])
+        nis[a] = _joseph_update_inplace(x, P, e, Hs, idx, noise)
+        for b in range(moff[o], moff[o + 1]):
+            out[members[b]] = j
+    return x, P, out, nis, (pairs, obs[pairs], lm[pairs], d2, nodes, exhausted)
+
+
+class CompiledJcbbAssociator(JcbbAssociator):
+    """:class:`~radarslam.slam.jcbb.JcbbAssociator`, compiled (:func:`jcbb_associate_scan`); a scan
+    of more candidates than the compiled DBSCAN takes (``DENSE_MAX``) goes to the reference."""
+
+    backend = "numba"
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._gates = joint_gates(self.gate_probability, 64)
+
+    def gates(self, depth: int) -> np.ndarray:
+        """:func:`joint_gates` to at least ``depth`` pairings (kept and grown)."""
+        if self._gates.shape[0] <= depth:
+            self._gates = joint_gates(self.gate_probability, max(depth, 2 * (self._gates.shape[0] - 1)))
+        return self._gates
+
+    def associate(self, state, polar, candidates, R, spreads):
+        from radarslam.landmarks.clustering import DENSE_MAX
+
+        if not state.landmarks or candidates.size == 0 or candidates.size > DENSE_MAX:
+            return super().associate(state, polar, candidates, R, spreads)
+        x, P, out, nis, (rows, obs, lm, d2, nodes, exhausted) = jcbb_associate_scan(
+            state.x, state.P, polar, candidates.astype(np.int64), R, spreads.gX, spreads.has, state.platform_dim,
+            self.cluster_eps, self.cluster_min_samples, self.n_prefilter, self.gates(candidates.size),
+            self.max_nodes)
+        state.set(x, P)
+        self.last = JcbbResult(tuple(zip(obs.tolist(), lm.tolist())), tuple(rows.tolist()), float(d2), int(nodes),
+                               bool(exhausted))
+        self.nodes += self.last.nodes
+        self.budget_hits += int(self.last.exhausted)
+        return out, nis
+
+    def min_log_distance(self, state, s, R) -> float:
+        return float(min_log_distance(state.x, state.P, float(s[0]), float(s[1]), self.n_nearest_new, R,
+                                      state.platform_dim))
+
+
+def make_compiled_jcbb(config) -> CompiledJcbbAssociator:
+    """:func:`radarslam.slam.jcbb.make_jcbb`, compiled."""
+    ref = make_jcbb(config)
+    return CompiledJcbbAssociator(ref.beta, ref.n_nearest, ref.n_nearest_new, ref.gate_probability, ref.max_nodes,
+                                  ref.cluster_eps, ref.cluster_min_samples, ref.n_prefilter)
+
+
+ASSOCIATORS.register("jcbb", make_compiled_jcbb, backend="numba")
