@@ -5,7 +5,6 @@ associator through the registry and the filter, and its configuration keys."""
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import replace
 
 import numpy as np
@@ -187,9 +186,8 @@ def test_node_budget_stops_the_search_with_a_compatible_hypothesis():
     res1 = jcbb(obs, lm, nu, C, 14, GATE, max_nodes=1)
     assert res1.exhausted and res1.nodes == 1 and res1.pairs == () and res1.d2 == 0.0
     for budget in (2, 20, 300):
-        t0 = time.perf_counter()
+        # the budget bounds the work in nodes (no wall-clock assertion: speed is benchmarks/' business)
         res = jcbb(obs, lm, nu, C, 14, GATE, max_nodes=budget)
-        assert time.perf_counter() - t0 < 2.0                          # prompt (~ms); generous for CI
         assert res.exhausted and res.nodes <= budget
         rows = list(res.pair_index)
         assert len({int(lm[m]) for m in rows}) == len(rows) == len({int(obs[m]) for m in rows})
