@@ -24,7 +24,7 @@ COMPILED_SOURCES = (
     "extent/_compiled.py", "extent/_sym2.py", "extent/measurement.py", "extent/random_matrix.py",
     "extent/ellipse_fit.py", "extent/partial_view.py", "extent/view_estimator.py", "landmarks/_compiled.py",
     "metrics/_compiled.py", "simulation/_compiled.py", "models/radar.py", "models/doppler.py",
-    "models/ackermann.py", "extent/visible_arc.py",
+    "models/ackermann.py", "models/motion.py", "extent/visible_arc.py",
 )
 ROOT = Path(__file__).resolve().parents[1]
 STAMP = ROOT / "__pycache__" / "numba-sources.stamp"

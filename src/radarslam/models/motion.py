@@ -20,6 +20,24 @@ from radarslam.core.registry import MOTION_MODELS
 from radarslam.models.input_bias import TURN_RATE_KEYS, InputBias
 
 
+def unicycle_step(x: float, y: float, theta: float, v: float, psi: float, dt: float) -> np.ndarray:
+    """:meth:`UnicycleModel.step` of the pose ``(x, y, theta)`` with control ``(v, psi)`` (APSIPA
+    eq. 5). A kernel: numba compiles it as it is (the fused engine's prediction)."""
+    a = theta + 0.5 * dt * psi
+    return np.array([x + v * dt * math.cos(a), y + v * dt * math.sin(a), wrap_2pi_scalar(theta + psi * dt)])
+
+
+def unicycle_jacobians(theta: float, v: float, psi: float, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(F_x (3, 3), F_u (3, 2))`` of :func:`unicycle_step` (APSIPA App. A with
+    A = sin(theta + dt psi/2), B = cos(theta + dt psi/2)). A kernel: numba compiles it as it is."""
+    a = theta + 0.5 * dt * psi
+    A, B = math.sin(a), math.cos(a)
+    Fx = np.array([[1.0, 0.0, -dt * v * A], [0.0, 1.0, dt * v * B], [0.0, 0.0, 1.0]])
+    # The reference code has Fu[2, 1] = 1 (h.14); the derivative is dt.
+    Fu = np.array([[dt * B, -0.5 * dt * dt * v * A], [dt * A, 0.5 * dt * dt * v * B], [0.0, dt]])
+    return Fx, Fu
+
+
 class MotionModel(Protocol):
     """What the EKF prediction needs from a motion model."""
 
@@ -49,20 +67,10 @@ class UnicycleModel:
     se2_increment = True
 
     def step(self, pose: np.ndarray, u: np.ndarray, dt: float) -> np.ndarray:
-        v, psi = float(u[0]), float(u[1])
-        a = float(pose[2]) + 0.5 * dt * psi
-        return np.array([pose[0] + v * dt * math.cos(a), pose[1] + v * dt * math.sin(a),
-                         wrap_2pi_scalar(float(pose[2]) + psi * dt)])
+        return unicycle_step(float(pose[0]), float(pose[1]), float(pose[2]), float(u[0]), float(u[1]), dt)
 
     def jacobians(self, pose: np.ndarray, u: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        # APSIPA App. A with A = sin(theta + dt psi/2), B = cos(theta + dt psi/2).
-        v, psi = float(u[0]), float(u[1])
-        a = float(pose[2]) + 0.5 * dt * psi
-        A, B = math.sin(a), math.cos(a)
-        Fx = np.array([[1.0, 0.0, -dt * v * A], [0.0, 1.0, dt * v * B], [0.0, 0.0, 1.0]])
-        # The reference code has Fu[2, 1] = 1 (h.14); the derivative is dt.
-        Fu = np.array([[dt * B, -0.5 * dt * dt * v * A], [dt * A, 0.5 * dt * dt * v * B], [0.0, dt]])
-        return Fx, Fu
+        return unicycle_jacobians(float(pose[2]), float(u[0]), float(u[1]), dt)
 
     def control_cov(self, filter_config) -> np.ndarray:
         """diag(sigma_v^2, sigma_psi^2): speed and turn-rate noise (APSIPA Table I)."""

@@ -16,11 +16,11 @@ from radarslam.core.angles import wrap_2pi_scalar
 from radarslam.core.jit import compile_kernels
 from radarslam.extent._compiled import _fit_entries, measurement_contour, rma_efa_step
 from radarslam.models.ackermann import ackermann_jacobians, ackermann_step, centre_speed
+from radarslam.models.motion import unicycle_jacobians, unicycle_step
 from radarslam.models.radar import polar_to_xy
 from radarslam.slam import ekf
 from radarslam.slam._jcbb_numba import jcbb_associate_scan
 from radarslam.slam._numba import (
-    _wrap_2pi,
     _wrap_pi,
     associate_scan,
     batch_associate_scan,
@@ -43,6 +43,9 @@ _to_world = compile_kernels(polar_to_xy)["polar_to_xy"]
 _ACK = compile_kernels(centre_speed, wrap_2pi_scalar, ackermann_step, ackermann_jacobians)
 _ackermann_step = _ACK["ackermann_step"]
 _ackermann_jacobians = _ACK["ackermann_jacobians"]
+_UNI = compile_kernels(wrap_2pi_scalar, unicycle_step, unicycle_jacobians)
+_unicycle_step = _UNI["unicycle_step"]
+_unicycle_jacobians = _UNI["unicycle_jacobians"]
 _fej_motion_jacobian = compile_kernels(ekf.fej_motion_jacobian)["fej_motion_jacobian"]
 
 #: Motion-model codes of ``FusedParams.motion``.
@@ -73,12 +76,8 @@ def _motion(x, u0, u1, dt, cfg):  # pragma: no cover - compiled
                                cfg.sensor_b)
         Fx, Fu = _ackermann_jacobians(x[2], u0, u1, dt, cfg.wheelbase, cfg.encoder_offset, cfg.lever, cfg.sensor_b)
         return pose, Fx, Fu
-    v, psi = u0, u1
-    a = x[2] + 0.5 * dt * psi
-    A, B = math.sin(a), math.cos(a)
-    Fx = np.array([[1.0, 0.0, -dt * v * A], [0.0, 1.0, dt * v * B], [0.0, 0.0, 1.0]])
-    Fu = np.array([[dt * B, -0.5 * dt * dt * v * A], [dt * A, 0.5 * dt * dt * v * B], [0.0, dt]])
-    pose = np.array([x[0] + v * dt * math.cos(a), x[1] + v * dt * math.sin(a), _wrap_2pi(x[2] + psi * dt)])
+    pose = _unicycle_step(x[0], x[1], x[2], u0, u1, dt)
+    Fx, Fu = _unicycle_jacobians(x[2], u0, u1, dt)
     return pose, Fx, Fu
 
 
