@@ -99,3 +99,23 @@ def test_warm_up_says_it_compiles_and_leaves_results_unchanged(tmp_path, monkeyp
         for key in a.files:
             if key != "__meta__":                                   # meta holds wall times
                 assert np.array_equal(a[key], b[key], equal_nan=True), key
+
+
+def test_a_stale_index_counts_as_cold(monkeypatch):
+    """An index written for another version of the source (an upgraded install) holds no code numba
+    will load: the warm-up must take it as cold, not only a missing index. Negative control: the
+    same index with its own source stamp is fresh."""
+    require("numba")
+    from radarslam.slam._fused import run_stream
+
+    warmup.warm_up(profile_config(), mc.DEFAULT_VARIANTS[:1], lambda s: None, parallel=False)
+    fresh = warmup._has_fresh_code(run_stream)
+    assert fresh is not None, "numba's cache layout is not the one cache_is_cold reads"
+    cache_file = run_stream._cache._cache_file
+    if not fresh:                # the warm-up only compiles a cold engine; make sure it is cached
+        from radarslam.experiments.single import run_filter
+        run_filter(profile_config(), warmup._tiny_stream())
+    assert warmup._has_fresh_code(run_stream) is True
+    monkeypatch.setattr(cache_file, "_source_stamp", ("another source", 0))
+    assert warmup._has_fresh_code(run_stream) is False
+    assert warmup.cache_is_cold() is True

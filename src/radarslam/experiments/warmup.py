@@ -28,15 +28,27 @@ from radarslam.experiments.variants import Variant, apply_variant
 COMPILING = "compiling the numba kernels (once per machine, about a minute); later runs load them in about a second"
 
 
-def cache_is_cold() -> bool:
-    """True when numba has no cached machine code of the fused engine (its index file is absent),
-    so that the next compiled run compiles first. Where that cannot be told, False."""
-    from radarslam.slam._fused import run_stream
+def _has_fresh_code(dispatcher) -> bool | None:
+    """Whether numba's cache holds machine code of ``dispatcher`` for its current source (an index
+    that exists and whose source stamp matches), or None where that cannot be told."""
     try:
-        index = run_stream._cache._cache_file._index_path   # numba's FunctionCache, in-tree or user-wide
-    except AttributeError:                                    # pragma: no cover - another numba layout
-        return False
-    return not os.path.exists(index)
+        cache_file = dispatcher._cache._cache_file          # numba's FunctionCache, in-tree or user-wide
+        if not os.path.exists(cache_file._index_path):
+            return False
+        return bool(cache_file._load_index())             # {} when stale (another source stamp)
+    except (AttributeError, OSError, EOFError, ValueError):  # pragma: no cover - another numba layout
+        return None
+
+
+def cache_is_cold() -> bool:
+    """True when numba has no fresh cached machine code of the fused engine, the scan simulation or
+    the evaluation's matching (an index file absent or stale), so that the next compiled run
+    compiles first. Where that cannot be told, False."""
+    from radarslam.metrics._compiled import match_scans
+    from radarslam.simulation._compiled import simulate_scans
+    from radarslam.slam._fused import run_stream
+
+    return any(_has_fresh_code(d) is False for d in (run_stream, simulate_scans, match_scans))
 
 
 def _tiny_stream() -> list:
