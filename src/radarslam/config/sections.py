@@ -215,6 +215,24 @@ class FilterConfig:
                                "association and landmark creation (c.10.4); needs Scan.channels['doppler_mps']")
     doppler_gate_probability: float = param(0.99, "[PROP] chi-square probability of the static-world test (c.10.4)",
                                             low=0.0, low_open=True, high=0.999999)
+    doppler_object_radius_m: float = param(0.0, "[PROP] under filter.doppler_gate, detections within this distance "
+                                           "of each other form one object, tested as a whole against the static "
+                                           "world (m; 0 = the per-detection test alone; c.10.4.2)", low=0.0)
+    doppler_object_probability: float = param(0.999, "[PROP] chi-square probability of the object test (c.10.4.2)",
+                                              low=0.0, low_open=True, high=0.999999)
+    doppler_memory_scans: int = param(0, "[PROP] under filter.doppler_gate, a moving object's detections keep new "
+                                      "clusters near them from becoming landmarks for this many scans (0 = no "
+                                      "memory; c.10.4.3)", low=0, high=10_000)
+    doppler_memory_radius_m: float = param(3.0, "[PROP] radius (m) of that memory around each remembered detection "
+                                           "(c.10.4.3)", low=0.0)
+    doppler_probation_scans: int = param(0, "[PROP] under filter.doppler_gate, a landmark younger than this many scans "
+                                         "is removed when a moving object is seen within doppler_memory_radius_m of "
+                                         "it (0 = never; c.10.4.5)", low=0, high=10_000)
+    doppler_confirm_probability: float = param(0.999, "[PROP] under filter.doppler_gate, a cluster is confirmed as a "
+                                               "landmark only when its object passes the object test at this "
+                                               "chi-square probability (below doppler_object_probability: a stricter "
+                                               "test for new landmarks; c.10.4.4)", low=0.0, low_open=True,
+                                               high=0.999999)
     doppler_threshold_mps: float = param(0.3, "[PROP] RANSAC consensus threshold |d + u.v| (m/s; c.10.2)", low=0.0,
                                          low_open=True)
     doppler_iterations: int = param(50, "[PROP] RANSAC minimal sets per scan (c.10.2)", low=1, high=100_000)
@@ -428,7 +446,8 @@ class SensorConfig:
 
 @dataclass(frozen=True)
 class EstimatorConfig:
-    """The sections the estimator receives (config by owner): ``filter``, ``landmarks``, ``extent``.
+    """The sections the estimator receives (config by owner): ``filter``, ``landmarks``, ``extent`` and
+    ``sensor`` (the radar's mounting, for the Doppler).
 
     The simulation, world and metrics sections never reach :class:`~radarslam.slam.EkfSlam`.
     """
@@ -436,6 +455,8 @@ class EstimatorConfig:
     filter: FilterConfig
     landmarks: LandmarkConfig
     extent: ExtentConfig
+    #: The radar's mounting: the Doppler's directions and the sensor's velocity (c.10.1, c.10.4, c.10.5.1).
+    sensor: SensorConfig = field(default_factory=SensorConfig)
 
 
 @dataclass
@@ -457,4 +478,4 @@ class Config:
     @property
     def estimator(self) -> EstimatorConfig:
         """The estimator's own sections (shared, not copied)."""
-        return EstimatorConfig(self.filter, self.landmarks, self.extent)
+        return EstimatorConfig(self.filter, self.landmarks, self.extent, self.sensor)
