@@ -17,23 +17,26 @@ import numpy as np
 from radarslam.config import Config, validate
 from radarslam.experiments.single import with_initial_estimate
 from radarslam.metrics.pose import avg_rmse, pose_errors
-from radarslam.metrics.statistics import clopper_pearson
+from radarslam.metrics.statistics import bootstrap_avg_rmse, bootstrap_counts, clopper_pearson, percentile_interval
 from radarslam.simulation.doppler import is_moving_source
 from radarslam.simulation.scenario import generate_scenario
 from radarslam.slam.filter import EkfSlam
 
 #: The gate's settings compared (``[filter]`` overlays): off (the negative control), the
-#: per-detection test alone (c.10.4.1), with the object test (c.10.4.2), and with the memory (c.10.4.3).
+#: per-detection test alone (c.10.4.1), with the object test (c.10.4.2), with the memory (c.10.4.3),
+#: and with the young landmarks' removal too (c.10.4.4; the defaults).
 GATE_SETTINGS: dict[str, dict] = {
     "off": {"doppler_gate": False},
-    "detection": {"doppler_gate": True, "doppler_object_radius_m": 0.0, "doppler_memory_scans": 0},
-    "object": {"doppler_gate": True, "doppler_memory_scans": 0},
+    "detection": {"doppler_gate": True, "doppler_object_radius_m": 0.0, "doppler_memory_scans": 0,
+                  "doppler_probation_scans": 0},
+    "object": {"doppler_gate": True, "doppler_memory_scans": 0, "doppler_probation_scans": 0},
+    "memory": {"doppler_gate": True, "doppler_probation_scans": 0},
     "full": {"doppler_gate": True},
 }
 
 
 #: A moving car's landmark removed fewer scans than this after its creation (by the landmark test,
-#: c.10.4.5, or M/N) is not counted as *lasting*; one still in the map at the end always is.
+#: c.10.4.4, or M/N) is not counted as *lasting*; one still in the map at the end always is.
 LASTING_SCANS = 5
 
 
@@ -48,7 +51,8 @@ def moving_landmark_trial(config: Config, seed, gate: bool | dict = True) -> dic
     Returns ``{"moving_landmarks": confirmed landmarks whose cluster's detections are mostly a
     moving car's, "mixed_landmarks": those with any moving car's detection, "landmarks": all
     confirmed, "moving_detections": moving-car detections, "gated_moving": of those dropped by the
-    gate, "static_detections", "gated_static": parked-car detections dropped, "position_errors",
+    gate, "static_detections", "gated_static": parked-car detections dropped, "moving_associated":
+    moving-car detections associated to a landmark, "position_errors",
     "heading_errors": (K,) m and rad, "moving_landmark_lifetimes": scans each moving car's landmark
     stayed in the map (inf: to the end)}``.
     """
@@ -58,7 +62,7 @@ def moving_landmark_trial(config: Config, seed, gate: bool | dict = True) -> dic
     sc = generate_scenario(config, np.random.default_rng(ss))
     slam = EkfSlam(with_initial_estimate(config, sc, ss))
     out = {"moving_landmarks": 0, "mixed_landmarks": 0, "landmarks": 0, "moving_detections": 0, "gated_moving": 0,
-           "static_detections": 0, "gated_static": 0}
+           "static_detections": 0, "gated_static": 0, "moving_associated": 0}
     poses, born, lifetimes = [], {}, []    # the moving cars' landmarks: id -> creation scan; scans they lived
     k = 0
     for ev in sc.events:
@@ -71,6 +75,8 @@ def moving_landmark_trial(config: Config, seed, gate: bool | dict = True) -> dic
         out["gated_moving"] += int(moving[rep.moving].sum())
         out["static_detections"] += int((src >= 0).sum())
         out["gated_static"] += int((src[rep.moving] >= 0).sum())
+        assoc = np.concatenate([np.empty(0, dtype=int), *rep.associations.values()])
+        out["moving_associated"] += int(is_moving_source(src[assoc]).sum())
         for lid in rep.removed:
             if lid in born:
                 lifetimes.append(k - born.pop(lid))
@@ -105,6 +111,7 @@ def summarise(rows: list[dict]) -> dict:
             "moving_landmarks": sum(r["moving_landmarks"] for r in rows),
             "landmarks": sum(r["landmarks"] for r in rows),
             "moving_detections_gated": sum(r["gated_moving"] for r in rows) / max(1, moving),
+            "moving_detections_associated": sum(r["moving_associated"] for r in rows) / max(1, moving),
             "static_detections_gated": sum(r["gated_static"] for r in rows) / max(1, static),
             "position_avg_rmse_m": avg_rmse(np.array([r["position_errors"] for r in rows])),
             "heading_avg_rmse_deg": math.degrees(avg_rmse(np.array([r["heading_errors"] for r in rows])))}
@@ -122,9 +129,23 @@ def gate_study(config: Config, seeds, *, moving_vehicles: int = 3, settings: dic
     seeds = list(seeds)
     res = {}
     for name, overlay in (settings or GATE_SETTINGS).items():
-        res[name] = summarise([moving_landmark_trial(moving_cfg, s, overlay) for s in seeds])
+        rows = [moving_landmark_trial(moving_cfg, s, overlay) for s in seeds]
+        res[name] = summarise(rows)
         if reference:
-            ref = res[f"{name}/static"] = summarise([moving_landmark_trial(static_cfg, s, overlay) for s in seeds])
-            res[f"{name}/change_pct"] = {
-                key: 100.0 * (res[name][key] / ref[key] - 1.0) for key in ("position_avg_rmse_m", "heading_avg_rmse_deg")}
+            ref = [moving_landmark_trial(static_cfg, s, overlay) for s in seeds]
+            res[f"{name}/static"] = summarise(ref)
+            res[f"{name}/change_pct"] = paired_change(rows, ref)
     return res
+
+
+def paired_change(rows: list[dict], ref: list[dict], n_boot: int = 2000) -> dict:
+    """Position and heading avg. RMSE of ``rows`` against ``ref`` (the same trials), in %, with the
+    95% percentile interval of the paired trial bootstrap (f.2; resamples from a generator seeded 0)."""
+    counts = bootstrap_counts(len(rows), n_boot, np.random.default_rng(0))
+    out = {}
+    for key, err in (("position_avg_rmse_m", "position_errors"), ("heading_avg_rmse_deg", "heading_errors")):
+        a, b = np.array([r[err] for r in rows]), np.array([r[err] for r in ref])
+        out[key] = 100.0 * (avg_rmse(a) / avg_rmse(b) - 1.0)
+        out[key + "_ci95"] = [100.0 * (x - 1.0) for x in
+                              percentile_interval(bootstrap_avg_rmse(a, counts) / bootstrap_avg_rmse(b, counts))]
+    return out

@@ -22,7 +22,7 @@ class Tentative:
 
 
 def rule2_step(tentatives: list[Tentative], clusters: list[Cluster], *, gate: float, confirm_points: int,
-               window: int, hits: int, confirmable=None) -> tuple[list[Cluster], list[Tentative]]:
+               window: int, hits: int) -> tuple[list[Cluster], list[Tentative]]:
     """One scan of Rule 1 / Rule 2 over the clusters that passed the alpha test.
 
     1. Greedy one-to-one matching of clusters to last scan's tentatives: repeatedly the pair with
@@ -33,10 +33,6 @@ def rule2_step(tentatives: list[Tentative], clusters: list[Cluster], *, gate: fl
        when ``count + M - window < N`` (they can no longer reach N hits).
     4. Unmatched clusters: confirmed at once with ``size >= confirm_points`` (Rule 1), otherwise
        a new tentative with ``count = window = 1``.
-
-    ``confirmable`` (one bool per cluster; None = all, the paper): a cluster marked False is matched
-    and counted as above but not confirmed in this scan (the Doppler gate's confirmation test,
-    docs/method.md c.10.4.4).
 
     Returns
     -------
@@ -64,7 +60,7 @@ def rule2_step(tentatives: list[Tentative], clusters: list[Cluster], *, gate: fl
             t.count += 1
             t.centre_xy = c.centre_xy
             t.npts = c.size
-            if (t.count >= hits or t.npts >= confirm_points) and (confirmable is None or confirmable[ci]):
+            if t.count >= hits or t.npts >= confirm_points:
                 confirmed.append(c)
                 t.window = -1  # marks it consumed
     kept: list[Tentative] = []
@@ -78,7 +74,7 @@ def rule2_step(tentatives: list[Tentative], clusters: list[Cluster], *, gate: fl
     for ci, c in enumerate(clusters):
         if ci in matched_c:
             continue
-        if c.size >= confirm_points and (confirmable is None or confirmable[ci]):
+        if c.size >= confirm_points:
             confirmed.append(c)
         else:
             kept.append(Tentative(c.centre_xy, 1, 1, c.size))

@@ -323,24 +323,19 @@ CLIP_SIGMAS = 3.0
 
 
 def moving_objects(U: np.ndarray, doppler: np.ndarray, ego: EgoVelocity, labels: np.ndarray,
-                   probability: float = 0.999) -> tuple[np.ndarray, np.ndarray]:
+                   probability: float = 0.999) -> np.ndarray:
     """Detections of the objects whose Doppler fails the static-world test (c.10.4.2).
 
     ``labels`` (n,) group the detections into objects (single linkage within a radius). Each
     detection's residual ``r_i = d_i + u_i . v`` is clipped to ``+-CLIP_SIGMAS sigma_i``
     (``sigma_i^2 = s^2 + u_i^T C u_i``) and an object of ``m >= 2`` detections moves when
     :func:`object_statistic` of the clipped residuals exceeds its chi-square ``probability``
-    quantile. Returns the moving detections ``(n,)`` bool and, per detection, the upper tail
-    probability ``P(chi2_dof > T)`` of its object ``(n,)`` (1 for single detections and when the
-    fit is not valid).
+    quantile. Returns the moving detections ``(n,)`` bool (none when the fit is not valid).
     """
-    from scipy.stats import chi2
-
     n = U.shape[0]
     out = np.zeros(n, dtype=bool)
-    tail = np.ones(n)
     if not ego.valid or n < 2:
-        return out, tail
+        return out
     s2 = ego.sigma_mps ** 2
     sd = np.sqrt(s2 + np.einsum("ia,ab,ib->i", U, ego.cov, U))
     r = np.clip(np.asarray(doppler, dtype=float) + U @ ego.v, -CLIP_SIGMAS * sd, CLIP_SIGMAS * sd)
@@ -351,8 +346,7 @@ def moving_objects(U: np.ndarray, doppler: np.ndarray, ego: EgoVelocity, labels:
             continue
         T, dof = object_statistic(U[rows], r[rows], s2, ego.cov)
         out[rows] = T > chi2_quantile(probability, dof)
-        tail[rows] = float(chi2.sf(T, dof))
-    return out, tail
+    return out
     s2 = ego.sigma_mps ** 2
     r = np.asarray(doppler, dtype=float) + U @ ego.v
     z2 = r * r / (s2 + np.einsum("ia,ab,ib->i", U, ego.cov, U))
@@ -367,5 +361,4 @@ def moving_objects(U: np.ndarray, doppler: np.ndarray, ego: EgoVelocity, labels:
         test = rows if rows.size < 3 else np.delete(rows, np.argmax(z2[rows]))
         T, dof = object_statistic(U[test], r[test], s2, ego.cov)
         out[rows] = T > chi2_quantile(probability, dof)
-        tail[rows] = float(chi2.sf(T, dof))
-    return out, tail
+    return out

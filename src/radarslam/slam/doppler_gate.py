@@ -50,8 +50,8 @@ class DopplerGate:
         self.rng = np.random.default_rng(0)
         #: (scan index, world positions (n, 2)) of the moving objects' detections, newest last.
         self.memory: list[tuple[int, np.ndarray]] = []
-        #: Per kept detection of the last scan, its object's upper tail probability (c.10.4.4).
-        self._tail = np.ones(0)
+        #: World positions (n, 2) of this scan's moving objects' detections (c.10.4.4).
+        self.now = np.empty((0, 2))
 
     def apply(self, scan, polar: np.ndarray, pose: np.ndarray):
         """Steps 1-4 on one scan: ``(kept rows, moving rows, EgoVelocity)``."""
@@ -69,42 +69,33 @@ class DopplerGate:
                                iterations=f.doppler_iterations, sigma_floor_mps=f.doppler_std_floor_mps,
                                zero_probability=f.zero_velocity_probability)
         bad = moving_mask(U, d, ego, f.doppler_gate_probability)
-        tail = np.ones(polar.shape[0])
         if f.doppler_object_radius_m > 0 and polar.shape[0] >= 2:
             xy = _platform_xy(polar)
             labels = dbscan_labels(xy, f.doppler_object_radius_m, 1)
-            objects, tail = moving_objects(U, d, ego, labels, f.doppler_object_probability)
+            objects = moving_objects(U, d, ego, labels, f.doppler_object_probability)
             bad = bad | objects
             self._remember(scan.index, xy[objects], pose)
-        self._tail = tail[~bad]
         return np.flatnonzero(~bad), np.flatnonzero(bad), ego
-
-    def confirmable(self, clusters: list[Cluster]) -> list[bool]:
-        """Whether each cluster (members: rows of the scan's kept detections) may be confirmed as a
-        landmark in this scan (c.10.4.4): the object test of every object it touches passes at
-        ``filter.doppler_confirm_probability``."""
-        tail = self._tail
-        alpha = 1.0 - self.f.doppler_confirm_probability
-        return [bool(np.all(tail[c.members] >= alpha)) for c in clusters]
 
     def _remember(self, k: int, xy: np.ndarray, pose: np.ndarray) -> None:
         """Keep this scan's moving objects (world frame) and forget those older than the memory."""
         n = self.f.doppler_memory_scans
+        self.now = _to_world(xy, pose)
         self.memory = [(j, p) for j, p in self.memory if k - j < n]
         if n > 0 and xy.shape[0]:
-            self.memory.append((k, _to_world(xy, pose)))
+            self.memory.append((k, self.now))
 
     def moving_landmarks(self, positions: np.ndarray, created: np.ndarray, k: int) -> list[int]:
         """The landmarks (state positions) created less than ``filter.doppler_probation_scans`` scans
-        before scan ``k`` with a detection of this scan's moving objects within
-        ``filter.doppler_memory_radius_m`` (c.10.4.5)."""
+        before scan ``k`` with a detection of this scan's moving objects (:meth:`apply` of scan
+        ``k``) within ``filter.doppler_memory_radius_m`` (c.10.4.4)."""
         n = self.f.doppler_probation_scans
-        if n <= 0 or not self.memory or self.memory[-1][0] != k or positions.shape[0] == 0:
+        if n <= 0 or self.now.shape[0] == 0 or positions.shape[0] == 0:
             return []
         young = np.flatnonzero(k - created < n)
         if young.size == 0:
             return []
-        near = _near(positions[young], self.memory[-1:], self.f.doppler_memory_radius_m)
+        near = _near(positions[young], [(k, self.now)], self.f.doppler_memory_radius_m)
         return young[near].tolist()
 
     def veto(self, clusters: list[Cluster], xy: np.ndarray) -> list[Cluster]:

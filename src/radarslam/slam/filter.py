@@ -266,11 +266,9 @@ class EkfSlam:
         self._extent_step(polar, xy, assoc, prior, dt, k)                 # 6
         clusters = self._cluster(polar, xy, cand)                         # 7
         fresh = self._alpha_test(clusters)                                # 7
-        confirmable = None
         if self._gate is not None:
             fresh = self._gate.veto(fresh, xy)                            # c.10.4.3
-            confirmable = self._gate.confirmable(fresh)                   # c.10.4.4
-        confirmed, members = self._confirm_and_augment(fresh, polar, k, confirmable)   # 8-9
+        confirmed, members = self._confirm_and_augment(fresh, polar, k)   # 8-9
         merged = self._merge()                                            # 10
         _check_finite(self.state.x, self.state.P, f"scan {k} (t={scan.t!r}, {polar.shape[0]} detections)")
         n_assoc = sum(a.size for a in associations.values())
@@ -328,12 +326,12 @@ class EkfSlam:
 
     def _remove_unseen(self, assoc: list[list[int]], k: int) -> tuple[list[int], list[list[int]]]:
         """Step 5: M/N windows of every landmark and removal (c.5, Decision 8); under the Doppler
-        gate also the young landmarks a moving object was seen on (c.10.4.5)."""
+        gate also the young landmarks a moving object was seen on (c.10.4.4)."""
         st, f, lc = self.state, self.config.filter, self.config.landmarks
         in_view = in_sensor_view(st.positions, st.pose, f.max_range_m, f.field_of_view_deg)
         hit = np.array([bool(a) for a in assoc], dtype=bool)
         drop = removal_step(st.landmarks, hit, in_view, k, window=lc.removal_window, max_hits=lc.removal_max_hits)
-        if self._gate is not None:                                        # c.10.4.5
+        if self._gate is not None:                                        # c.10.4.4
             drop = sorted(set(drop) | set(self._gate.moving_landmarks(st.positions, st.created(), k)))
         removed = [r.id for r in st.remove(drop)]
         gone = set(drop)
@@ -374,8 +372,8 @@ class EkfSlam:
         alpha = self.config.landmarks.alpha
         return [c for c in clusters if self.associator.min_log_distance(self.state, c.centre_polar, self.R) > alpha]
 
-    def _confirm_and_augment(self, fresh: list[Cluster], polar: np.ndarray, k: int,
-                             confirmable=None) -> tuple[list[int], list[np.ndarray]]:
+    def _confirm_and_augment(self, fresh: list[Cluster], polar: np.ndarray,
+                             k: int) -> tuple[list[int], list[np.ndarray]]:
         """Steps 8-9: Rule 2 / Rule 1 and state augmentation (c.7, c.8); the new ids and the
         detections (rows of ``polar``) of the cluster each was confirmed from.
 
@@ -385,7 +383,7 @@ class EkfSlam:
         st, lc = self.state, self.config.landmarks
         confirmed, st.tentatives = rule2_step(st.tentatives, fresh, gate=lc.tentative_gate_m,
                                               confirm_points=lc.confirm_points, window=lc.confirm_window,
-                                              hits=lc.confirm_hits, confirmable=confirmable)
+                                              hits=lc.confirm_hits)
         if lc.init == "cluster":
             spread = self.extent.initial_spread()
             ids = [st.add_landmark_at_mean(polar[c.members], self.R, k, self.extent.new(), spread)
