@@ -56,7 +56,8 @@ def test_platform_input_covariance_against_differences_and_monte_carlo():
         # Monte Carlo: 40,000 draws of w (and the gyro); sample covariance within 3% on the diagonal
         ws = rng.multivariate_normal(w0, C, 40_000)
         gs = np.zeros(40_000) if yaw_rate is None else yaw_rate + math.sqrt(yaw_var) * rng.standard_normal(40_000)
-        us = np.array([platform_input(w, C, MOUNT, None if yaw_rate is None else g, yaw_var)[0] for w, g in zip(ws, gs)])
+        us = np.array([platform_input(w, C, MOUNT, None if yaw_rate is None else g, yaw_var)[0]
+                       for w, g in zip(ws, gs)])
         S = np.cov(us.T)
         d = np.diag(U) > 0
         np.testing.assert_allclose(np.diag(S)[d], np.diag(U)[d], rtol=0.03)

@@ -222,7 +222,8 @@ class DopplerOdometry:
                                  f"expected shape ({polar.shape[0]},), got {d.shape}")
             f = self.f
             ego = fit_ego_velocity(mounted_directions(polar, *self.mount), d, self.rng,
-                                   threshold_mps=f.doppler_threshold_mps, iterations=f.doppler_iterations, sigma_floor_mps=f.doppler_std_floor_mps,
+                                   threshold_mps=f.doppler_threshold_mps, iterations=f.doppler_iterations,
+                                   sigma_floor_mps=f.doppler_std_floor_mps,
                                    zero_probability=f.zero_velocity_probability)
         if ego.valid and np.all(np.isfinite(ego.v)) and np.all(np.isfinite(ego.cov)):
             self.v, self.C = np.asarray(ego.v, dtype=float)[:2].copy(), np.asarray(ego.cov, dtype=float)[:2, :2].copy()
