@@ -308,16 +308,21 @@ def _small_config():
 
 @pytest.mark.parametrize("fmt, mount", [("mcap", None), ("sqlite3", (1.5, -0.4, 20.0)), ("ros1", (0.0, 0.0, 0.0))])
 def test_round_trip_through_a_bag_and_the_plain_format_equals_the_simulation(tmp_path, fmt, mount):
-    """A non-zero mounting too: the bag holds sensor-frame detections and /tf_static; the same run results."""
+    """A non-zero mounting too: the simulated radar is mounted there (docs/method.md b.4.3), the bag
+    holds its sensor-frame detections and /tf_static; the same run results."""
     require("rosbags")
+    import dataclasses
+
     from radarslam.config import load_config
     from radarslam.experiments.recording import export_simulation, run_recording
     from radarslam.experiments.single import run_trial
     from radarslam.io.recording import read_recording
 
     cfg = _small_config()
-    sim = run_trial(cfg, 7)
     m = Mounting(mount[0], mount[1], math.radians(mount[2])) if mount else None
+    mounted = cfg if m is None else dataclasses.replace(cfg, sensor=dataclasses.replace(
+        cfg.sensor, mount_x_m=m.x, mount_y_m=m.y, mount_yaw_deg=mount[2]))
+    sim = run_trial(mounted, 7)
     paths = export_simulation(cfg, 7, tmp_path, fmt=fmt, mounting=m)
     run_cfg = load_config(paths["config"])
     for src in (paths["bag"], paths["plain"]):

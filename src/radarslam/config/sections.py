@@ -217,6 +217,19 @@ class FilterConfig:
                                "association and landmark creation (c.10.4); needs Scan.channels['doppler_mps']")
     doppler_gate_probability: float = param(0.99, "[PROP] chi-square probability of the static-world test (c.10.4)",
                                             low=0.0, low_open=True, high=0.999999)
+    doppler_object_radius_m: float = param(2.0, "[PROP] under filter.doppler_gate, detections within this distance "
+                                           "of each other form one object, tested as a whole against the static "
+                                           "world (m; 0 = the per-detection test alone; c.10.4.2)", low=0.0)
+    doppler_object_probability: float = param(0.99, "[PROP] chi-square probability of the object test (c.10.4.2)",
+                                              low=0.0, low_open=True, high=0.999999)
+    doppler_memory_scans: int = param(5, "[PROP] under filter.doppler_gate, a moving object's detections keep new "
+                                      "clusters near them from becoming landmarks for this many scans (0 = no "
+                                      "memory; c.10.4.3)", low=0, high=10_000)
+    doppler_memory_radius_m: float = param(3.0, "[PROP] radius (m) of that memory around each remembered detection "
+                                           "(c.10.4.3)", low=0.0)
+    doppler_probation_scans: int = param(5, "[PROP] under filter.doppler_gate, a landmark younger than this many scans "
+                                         "is removed when a moving object is seen within doppler_memory_radius_m of "
+                                         "it (0 = never; c.10.4.4)", low=0, high=10_000)
     doppler_threshold_mps: float = param(0.3, "[PROP] RANSAC consensus threshold |d + u.v| (m/s; c.10.2)", low=0.0,
                                          low_open=True)
     doppler_iterations: int = param(50, "[PROP] RANSAC minimal sets per scan (c.10.2)", low=1, high=100_000)
@@ -228,6 +241,10 @@ class FilterConfig:
                           "paper), doppler (each scan's Doppler ego-velocity fit and the gyro; the odometer is "
                           "ignored) or both (the odometer's speed fused with the Doppler fit; orchestrator only)",
                           choices=("odometer", "doppler", "both"))
+    yaw_rate: str = param("gyro", "[PROP] under filter.odometry doppler: where the yaw rate comes from: gyro (the "
+                          "odometry events' gyro_rad_s, c.10.5) or doppler (the radar alone: the no-sideslip model "
+                          "turns the sensor's fitted velocity into forward speed and yaw rate, needs sensor.mount_x_m "
+                          "!= 0; c.10.5.1)", choices=("gyro", "doppler"))
     gyro_std_deg_s: float = param(0.1, "[PROP] U: gyro yaw-rate std (deg/s) under filter.odometry doppler/both",
                                   low=0.0)
     doppler_hold_std_mps: float = param(1.0, "[PROP] under filter.odometry doppler/both, a scan without a valid "
@@ -446,7 +463,8 @@ class SensorConfig:
 
 @dataclass(frozen=True)
 class EstimatorConfig:
-    """The sections the estimator receives (config by owner): ``filter``, ``landmarks``, ``extent``.
+    """The sections the estimator receives (config by owner): ``filter``, ``landmarks``, ``extent`` and
+    ``sensor`` (the radar's mounting, for the Doppler).
 
     The simulation, world and metrics sections never reach :class:`~radarslam.slam.EkfSlam`.
     """
@@ -454,6 +472,8 @@ class EstimatorConfig:
     filter: FilterConfig
     landmarks: LandmarkConfig
     extent: ExtentConfig
+    #: The radar's mounting: the Doppler's directions and the sensor's velocity (c.10.1, c.10.4, c.10.5.1).
+    sensor: SensorConfig = field(default_factory=SensorConfig)
 
 
 @dataclass
@@ -475,4 +495,4 @@ class Config:
     @property
     def estimator(self) -> EstimatorConfig:
         """The estimator's own sections (shared, not copied)."""
-        return EstimatorConfig(self.filter, self.landmarks, self.extent)
+        return EstimatorConfig(self.filter, self.landmarks, self.extent, self.sensor)

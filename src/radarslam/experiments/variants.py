@@ -23,8 +23,9 @@ from dataclasses import dataclass, field
 from radarslam.config import Config, from_dict, merge_tables, read_toml, to_dict
 from radarslam.core.errors import ConfigError, InputError
 
-#: Configuration sections that define the simulated data, shared by every variant of a run.
-SIMULATION_SECTIONS = ("profile", "trajectory", "odometer", "radar", "world")
+#: Configuration sections that define the simulated data, shared by every variant of a run (``sensor``:
+#: the radar's mounting, from which the simulator measures, docs/method.md b.4.3).
+SIMULATION_SECTIONS = ("profile", "trajectory", "odometer", "radar", "world", "sensor")
 
 #: Keys of the Monte Carlo results (:func:`~.montecarlo.load_results`), of the report's tables and
 #: of its CSV headers that sit beside the per-variant entries; a variant cannot take these names...

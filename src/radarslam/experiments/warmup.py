@@ -53,9 +53,11 @@ def cache_is_cold() -> bool:
 
 def _tiny_stream() -> list:
     """Two events that take every part of the fused engine's code through the compiler (numba
-    compiles a whole function whatever the data)."""
-    return [Odometry(0.1, 0.1, np.array([1.0, 0.0])),
-            Scan(0.1, 1, np.array([[5.0, 0.10], [5.1, 0.11], [5.2, 0.12]]))]
+    compiles a whole function whatever the data); with a gyro reading and a Doppler channel, so that
+    variants driven by the Doppler (docs/method.md c.10.5) or gated by it (c.10.4) run too."""
+    return [Odometry(0.1, 0.1, np.array([1.0, 0.0]), gyro_rad_s=0.0),      # a gyro for filter.odometry doppler
+            Scan(0.1, 1, np.array([[5.0, 0.10], [5.1, 0.11], [5.2, 0.12]]),
+                 channels={"doppler_mps": np.array([-1.0, -1.0, -1.0])})]
 
 
 def _side(cfg_dict: dict, overlay: dict) -> None:

@@ -10,8 +10,11 @@ Definitions ([PROP]):
 - *avg. RMSE* of a resample: ``mean_k sqrt(mean over the resampled runs of e_{r,k}^2)``
   (:func:`radarslam.metrics.pose.avg_rmse` on the resampled rows).
 - *RMSE over defined values* at step k: ``sqrt(mean over the runs with a finite value of g_{r,k}^2)``.
+- *Clopper-Pearson interval* of a count ``k`` of ``n`` trials: the exact binomial interval from the
+  beta quantiles (:func:`clopper_pearson`).
 
-This module depends on numpy only; the random draws come from the ``numpy.random.Generator`` passed in.
+This module depends on numpy (and scipy's beta quantile for :func:`clopper_pearson`); the random
+draws come from the ``numpy.random.Generator`` passed in.
 """
 
 from __future__ import annotations
@@ -107,3 +110,18 @@ def rmse_over_defined(g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     has = n > 0
     rmse[has] = np.sqrt(s.sum(axis=0)[has] / n[has])
     return rmse, n.astype(int)
+
+
+def clopper_pearson(k: int, n: int, level: float = 0.95) -> list[float]:
+    """The exact (Clopper-Pearson) ``level`` interval of a binomial proportion from ``k`` of ``n``:
+    ``[B((1-level)/2; k, n-k+1), B((1+level)/2; k+1, n-k)]`` (``B`` the beta quantile), 0 and 1 at the ends."""
+    if not (isinstance(n, (int, np.integer)) and n >= 1 and isinstance(k, (int, np.integer)) and 0 <= k <= n):
+        raise InputError(f"k, n: expected integers with 0 <= k <= n and n >= 1, got {k!r}, {n!r}")
+    if not 0.0 < level < 1.0:
+        raise InputError(f"level: expected a probability in (0, 1), got {level!r}")
+    from scipy.stats import beta
+
+    a = (1.0 - level) / 2.0
+    lo = 0.0 if k == 0 else float(beta.ppf(a, k, n - k + 1))
+    hi = 1.0 if k == n else float(beta.ppf(1.0 - a, k + 1, n - k))
+    return [lo, hi]

@@ -22,7 +22,8 @@ from numba import njit
 
 from radarslam.core.errors import InputError
 
-__all__ = ["EgoVelocity", "directions", "fit_ego_velocity", "moving_mask", "sensor_velocity"]
+__all__ = ["EgoVelocity", "directions", "fit_ego_velocity", "mounted_directions", "moving_mask", "moving_objects",
+           "object_statistic", "sensor_velocity"]
 
 
 @dataclass(frozen=True)
@@ -75,6 +76,23 @@ def directions(polar: np.ndarray, z: np.ndarray | None = None) -> np.ndarray:
     n = np.hypot(r, z)
     n = np.where(n > 0, n, 1.0)
     return np.column_stack([r * c / n, r * s / n, z / n])
+
+
+def mounted_directions(polar: np.ndarray, mount_x: float = 0.0, mount_y: float = 0.0,
+                       mount_yaw: float = 0.0) -> np.ndarray:
+    """Unit directions ``(n, 2)`` from a sensor mounted at ``(mount_x, mount_y)`` (m) with boresight
+    ``mount_yaw`` (rad), in the sensor frame, of detections given as platform-frame ``polar``
+    ``[range m, azimuth rad]`` about the platform origin (c.10.1): ``q = R(-yaw_m)(p - l)``,
+    ``u = q / |q|``. A zero mounting gives :func:`directions` exactly."""
+    if mount_x == 0.0 and mount_y == 0.0 and mount_yaw == 0.0:
+        return directions(polar)
+    polar = np.asarray(polar, dtype=float).reshape(-1, 2)
+    x = polar[:, 0] * np.cos(polar[:, 1]) - mount_x
+    y = polar[:, 0] * np.sin(polar[:, 1]) - mount_y
+    c, s = math.cos(mount_yaw), math.sin(mount_yaw)
+    q = np.column_stack([c * x + s * y, -s * x + c * y])
+    n = np.hypot(q[:, 0], q[:, 1])
+    return q / np.where(n > 0, n, 1.0)[:, None]
 
 
 def sensor_velocity(v_forward: float, v_lateral: float, yaw_rate: float, mount_x: float = 0.0,
@@ -276,3 +294,71 @@ def moving_mask(U: np.ndarray, doppler: np.ndarray, ego: EgoVelocity, probabilit
     r = np.asarray(doppler, dtype=float) + U @ ego.v
     var = ego.sigma_mps ** 2 + np.einsum("ia,ab,ib->i", U, ego.cov, U)
     return r * r > chi2_quantile(probability, 1) * var
+
+
+def object_statistic(U: np.ndarray, r: np.ndarray, s2: float, cov: np.ndarray) -> tuple[float, int]:
+    """The static-world test of one object's detections pooled (c.10.4.2): ``(T, dof)``.
+
+    ``r`` (m,) are the detections' Doppler residuals ``d_i + u_i . v`` against the ego fit ``v``
+    (covariance ``cov``, residual variance ``s2``), ``U`` (m, dim) their directions; for a static
+    object ``Cov(r) = s2 I + U cov U^T``. The object's own velocity ``w = (U^T U)^-1 U^T r`` then has
+    covariance ``s2 (U^T U)^-1 + cov``, and ``T = w^T (s2 (U^T U)^-1 + cov)^-1 w`` is chi-square with
+    ``dof = dim``. When the directions are (nearly) parallel (``m = 1`` or ``det(U^T U) <= 1e-9``)
+    only the radial part is tested: the mean residual ``r_bar`` with variance
+    ``s2 / m + u_bar^T cov u_bar``, ``T = r_bar^2 / var`` with 1 dof.
+    """
+    m = U.shape[0]
+    N = U.T @ U
+    if m >= 2 and np.linalg.det(N) > 1e-9:
+        w = np.linalg.solve(N, U.T @ r)
+        return float(w @ np.linalg.solve(s2 * np.linalg.inv(N) + cov, w)), U.shape[1]
+    ub = U.mean(axis=0)
+    rb = float(r.mean())
+    return rb * rb / (s2 / m + float(ub @ cov @ ub)), 1
+
+
+#: Residuals are clipped at this many of their own stds before an object's detections are pooled
+#: (c.10.4.2): one clutter detection (Doppler anywhere in +-5 m/s) weighs no more than a 3-sigma one.
+CLIP_SIGMAS = 3.0
+
+
+def moving_objects(U: np.ndarray, doppler: np.ndarray, ego: EgoVelocity, labels: np.ndarray,
+                   probability: float = 0.999) -> np.ndarray:
+    """Detections of the objects whose Doppler fails the static-world test (c.10.4.2).
+
+    ``labels`` (n,) group the detections into objects (single linkage within a radius). Each
+    detection's residual ``r_i = d_i + u_i . v`` is clipped to ``+-CLIP_SIGMAS sigma_i``
+    (``sigma_i^2 = s^2 + u_i^T C u_i``) and an object of ``m >= 2`` detections moves when
+    :func:`object_statistic` of the clipped residuals exceeds its chi-square ``probability``
+    quantile. Returns the moving detections ``(n,)`` bool (none when the fit is not valid).
+    """
+    n = U.shape[0]
+    out = np.zeros(n, dtype=bool)
+    if not ego.valid or n < 2:
+        return out
+    s2 = ego.sigma_mps ** 2
+    sd = np.sqrt(s2 + np.einsum("ia,ab,ib->i", U, ego.cov, U))
+    r = np.clip(np.asarray(doppler, dtype=float) + U @ ego.v, -CLIP_SIGMAS * sd, CLIP_SIGMAS * sd)
+    order = np.argsort(labels, kind="stable")
+    bounds = np.flatnonzero(np.diff(labels[order])) + 1
+    for rows in np.split(order, bounds):
+        if rows.size < 2:
+            continue
+        T, dof = object_statistic(U[rows], r[rows], s2, ego.cov)
+        out[rows] = T > chi2_quantile(probability, dof)
+    return out
+    s2 = ego.sigma_mps ** 2
+    r = np.asarray(doppler, dtype=float) + U @ ego.v
+    z2 = r * r / (s2 + np.einsum("ia,ab,ib->i", U, ego.cov, U))
+    order = np.argsort(labels, kind="stable")
+    bounds = np.flatnonzero(np.diff(labels[order])) + 1
+    for rows in np.split(order, bounds):
+        if rows.size < 2:
+            continue
+        if flagged[rows].sum() >= 2:
+            out[rows], tail[rows] = True, 0.0
+            continue
+        test = rows if rows.size < 3 else np.delete(rows, np.argmax(z2[rows]))
+        T, dof = object_statistic(U[test], r[test], s2, ego.cov)
+        out[rows] = T > chi2_quantile(probability, dof)
+    return out

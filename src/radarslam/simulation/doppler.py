@@ -112,6 +112,14 @@ def moving_detections(traffic: MovingTraffic, k: int, pose: np.ndarray, config: 
     return np.concatenate(polar), np.concatenate(true_az), np.concatenate(src)
 
 
+def sensor_poses(poses: np.ndarray, mount) -> np.ndarray:
+    """The radar's poses ``(K, 3)`` from the platform's ``poses`` and its ``mount`` (``x``, ``y``,
+    ``yaw``): ``[p + R(theta) l, theta + yaw_m]``."""
+    c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
+    return np.column_stack([poses[:, 0] + c * mount.x - s * mount.y, poses[:, 1] + s * mount.x + c * mount.y,
+                            poses[:, 2] + mount.yaw])
+
+
 def platform_velocities(controls: np.ndarray) -> np.ndarray:
     """``[v (m/s), psi (rad/s)]`` at each scan, ``(K, 2)``: the control that moves pose k on (the
     last scan keeps the last control); row k - 1 of the trial's controls moves pose k - 1 to k."""
@@ -123,14 +131,14 @@ def scan_doppler(true_az: np.ndarray, sources: np.ndarray, pose: np.ndarray, vel
                  traffic: MovingTraffic | None, k: int, config: Config, rng: np.random.Generator) -> np.ndarray:
     """Radial velocities ``(m,)`` (m/s) of one scan's detections (module docstring, b.4.3).
 
-    ``true_az`` are the noise-free azimuths in the platform frame; the sensor's mounting from
-    ``[sensor]`` (the simulator's radar is at the platform origin by default) sets its velocity.
+    ``true_az`` are the noise-free azimuths in the sensor frame (the scan is drawn from the radar's
+    pose, :func:`sensor_poses`); the sensor's mounting from ``[sensor]`` (the platform origin by
+    default) sets its velocity, ``pose`` is the platform's.
     """
     radar, sc = config.radar, config.sensor
     yaw_m = math.radians(sc.mount_yaw_deg)
     vs = sensor_velocity(float(velocity[0]), 0.0, float(velocity[1]), sc.mount_x_m, sc.mount_y_m, yaw_m)
-    a = true_az - yaw_m
-    u = np.column_stack([np.cos(a), np.sin(a)])
+    u = np.column_stack([np.cos(true_az), np.sin(true_az)])
     obj = np.zeros((sources.size, 2))
     moving = is_moving_source(sources)
     if traffic is not None and moving.any():

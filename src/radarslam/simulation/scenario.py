@@ -10,8 +10,9 @@ import numpy as np
 from radarslam.config import Config, FilterConfig
 from radarslam.core.errors import InputError
 from radarslam.core.types import Odometry, Scan
+from radarslam.io.recording.mounting import Mounting, to_platform
 from radarslam.simulation.doppler import (MovingTraffic, moving_detections, moving_traffic, platform_velocities,
-                                          scan_doppler)
+                                          scan_doppler, sensor_poses)
 from radarslam.simulation.radar import simulate_scan
 from radarslam.simulation.trajectory import (commanded_controls, driven_path, odometer_readings, process_noise,
                                               true_path)
@@ -92,37 +93,41 @@ def generate_scenario(config: Config, rng: np.random.Generator, *, compiled: boo
             rng, GYRO_CHILD).standard_normal(controls.shape[0])
     # only the surface model is compiled; contour, visible-faces and scatter-centres (docs/method.md
     # b.4.1, b.4.2) always run through the Python reference, simulate_scan
+    mount = Mounting.from_config(config.sensor)
+    spose = poses if mount.is_identity else sensor_poses(poses, mount)    # b.4.3: measured from the radar
     if compiled and config.radar.spread_model == "surface":
         from radarslam.simulation._compiled import simulate
 
-        batch = simulate(poses[:traj.n_steps], vehicles, config.radar, rng, true_azimuth=extra)
+        batch = simulate(spose[:traj.n_steps], vehicles, config.radar, rng, true_azimuth=extra)
     for k in range(1, traj.n_steps + 1):
         if k > 1:
             events.append(Odometry(t=(k - 1) * traj.dt_s, dt=traj.dt_s, control=odo[k - 1],
                                    gyro_rad_s=None if gyro is None else float(gyro[k - 1])))
         if batch is None:
-            out = simulate_scan(poses[k - 1], vehicles, k, config.radar, rng, true_azimuth=extra)
+            out = simulate_scan(spose[k - 1], vehicles, k, config.radar, rng, true_azimuth=extra)
         else:
             a, b = batch[0][k - 1], batch[0][k]
             out = tuple(arr[a:b] for arr in batch[1:])
         polar, src = out[0], out[1]
         channels = None
         if extra:
-            polar, src, channels = _extras(out, k, poses[k - 1], velocity[k - 1], traffic, config, moving_rng,
-                                           doppler_rng)
+            polar, src, channels = _extras(out, k, poses[k - 1], spose[k - 1], velocity[k - 1], traffic, config,
+                                           moving_rng, doppler_rng)
+        polar = to_platform(polar, mount)
         events.append(Scan(t=(k - 1) * traj.dt_s, index=k, polar=polar, channels=channels))
         sources.append(src)
     truth = GroundTruth(poses, controls, vehicles, presence(vehicles, traj.n_steps), sources, traffic)
     return Scenario(events, truth, odo)
 
 
-def _extras(out, k: int, pose: np.ndarray, velocity: np.ndarray, traffic, config: Config,
+def _extras(out, k: int, pose: np.ndarray, spose: np.ndarray, velocity: np.ndarray, traffic, config: Config,
             moving_rng: np.random.Generator, doppler_rng: np.random.Generator):
-    """Scan ``k`` with the moving cars' detections appended (shuffled in with ``moving_rng`` when
-    the radar shuffles) and the Doppler channel (b.4.3): ``(polar, sources, channels or None)``."""
+    """Scan ``k`` (sensor frame; ``pose`` the platform's, ``spose`` the radar's) with the moving cars'
+    detections appended (shuffled in with ``moving_rng`` when the radar shuffles) and the Doppler
+    channel (b.4.3): ``(polar, sources, channels or None)``."""
     polar, src, az = out
     if traffic is not None:
-        mp, maz, msrc = moving_detections(traffic, k, pose, config, moving_rng)
+        mp, maz, msrc = moving_detections(traffic, k, spose, config, moving_rng)
         if msrc.size:
             polar, src, az = np.concatenate([polar, mp]), np.concatenate([src, msrc]), np.concatenate([az, maz])
             if config.radar.shuffle_detections:

@@ -34,6 +34,7 @@ from radarslam.models.motion import MotionModel, motion_model_from_config
 from radarslam.slam import ekf
 from radarslam.slam.association import Associator, Spreads
 from radarslam.slam.bias import bias_states, initial_state, predict_terms
+from radarslam.slam.doppler_gate import DopplerGate, mounting
 from radarslam.slam.odometry_source import odometry_source
 from radarslam.slam.partial_view import view_components, view_corrected_centroid, view_walk
 from radarslam.slam.state import LandmarkRecord
@@ -58,6 +59,7 @@ class ScanReport:
     nis: np.ndarray = field(default_factory=lambda: np.empty(0))  # NIS of each update (2 dof)
     moving: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=int))  # detections failing c.10.4
     ego: object = None  # the scan's EgoVelocity (c.10) under filter.doppler_gate, else None
+    created: dict[int, np.ndarray] = field(default_factory=dict)  # new landmark id -> its cluster's detections
 
 
 @dataclass(frozen=True)
@@ -124,8 +126,8 @@ class EkfSlam:
         self._view_angle: dict[int, float] = {}        # a.12.5: bearing landmark -> sensor at the last scan
         self._scans = 0
         self._last_scan_t: float | None = None
-        #: Draws RANSAC's minimal sets under filter.doppler_gate (c.10.2): a fixed seed, so a run is reproducible.
-        self._doppler_rng = np.random.default_rng(0) if f.doppler_gate else None
+        #: filter.doppler_gate: moving objects kept out of the map (c.10.4), else None.
+        self._gate = DopplerGate(f, mounting(config.sensor)) if f.doppler_gate else None
         #: filter.odometry "doppler"/"both": the Doppler-and-gyro prediction driver (c.10.5), else None.
         self._odometry = odometry_source(self)
 
@@ -260,8 +262,8 @@ class EkfSlam:
         self._last_scan_t = t
         k = scan.index
         keep, moving, ego = None, np.empty(0, dtype=int), None
-        if self.config.filter.doppler_gate:                               # c.10.4
-            keep, moving, ego = self._doppler_gate(scan, polar)
+        if self._gate is not None:                                        # c.10.4
+            keep, moving, ego = self._gate.apply(scan, polar, self.state.pose)
             polar = polar[keep]
         dt = self._take_scan_interval()
         if self.view is not None:
@@ -279,37 +281,17 @@ class EkfSlam:
         self._extent_step(polar, xy, assoc, prior, dt, k)                 # 6
         clusters = self._cluster(polar, xy, cand)                         # 7
         fresh = self._alpha_test(clusters)                                # 7
-        confirmed = self._confirm_and_augment(fresh, polar, k)            # 8-9
+        if self._gate is not None:
+            fresh = self._gate.veto(fresh, xy)                            # c.10.4.3
+        confirmed, members = self._confirm_and_augment(fresh, polar, k)   # 8-9
         merged = self._merge()                                            # 10
         _check_finite(self.state.x, self.state.P, f"scan {k} (t={scan.t!r}, {polar.shape[0]} detections)")
         n_assoc = sum(a.size for a in associations.values())
+        created = {i: (m if keep is None else keep[m]) for i, m in zip(confirmed, members)}
         return ScanReport(k, polar.shape[0] + moving.size, int(cand.sum()), n_assoc, associations, removed,
-                          confirmed, merged, len(clusters), len(self.state.tentatives), nis, moving, ego)
+                          confirmed, merged, len(clusters), len(self.state.tentatives), nis, moving, ego, created)
 
     # ------------------------------------------------------------------ the steps
-    def _doppler_gate(self, scan: Scan, polar: np.ndarray):
-        """Fit the sensor velocity to the scan's Doppler (c.10.2) and test each detection against
-        the static world (c.10.4): ``(kept rows, moving rows, EgoVelocity)``. The directions are
-        the platform-frame azimuths: exact for a sensor at the platform origin, and for a lever
-        arm ``l`` off by at most ``|l| / range`` rad."""
-        from radarslam.models.doppler import directions, fit_ego_velocity, moving_mask
-
-        f = self.config.filter
-        ch = scan.channels or {}
-        if polar.shape[0] and "doppler_mps" not in ch:
-            raise InputError(f"scan {scan.index}: filter.doppler_gate expected channels['doppler_mps'], got "
-                             f"channels {sorted(ch)}")
-        d = np.asarray(ch.get("doppler_mps", np.empty(0)), dtype=float)
-        if d.shape != (polar.shape[0],):
-            raise InputError(f"scan {scan.index}: channels['doppler_mps']: expected shape ({polar.shape[0]},), "
-                             f"got {d.shape}")
-        U = directions(polar)
-        ego = fit_ego_velocity(U, d, self._doppler_rng, threshold_mps=f.doppler_threshold_mps,
-                               iterations=f.doppler_iterations, sigma_floor_mps=f.doppler_std_floor_mps,
-                               zero_probability=f.zero_velocity_probability)
-        bad = moving_mask(U, d, ego, f.doppler_gate_probability)
-        return np.flatnonzero(~bad), np.flatnonzero(bad), ego
-
     def _take_scan_interval(self) -> float:
         """Time since the previous scan (0 at the first), for the extent prediction (a.4)."""
         dt = self._dt_since_scan if self._scans else 0.0
@@ -358,11 +340,14 @@ class EkfSlam:
         return assoc, np.asarray(nis, dtype=float)
 
     def _remove_unseen(self, assoc: list[list[int]], k: int) -> tuple[list[int], list[list[int]]]:
-        """Step 5: M/N windows of every landmark and removal (c.5, Decision 8)."""
+        """Step 5: M/N windows of every landmark and removal (c.5, Decision 8); under the Doppler
+        gate also the young landmarks a moving object was seen on (c.10.4.4)."""
         st, f, lc = self.state, self.config.filter, self.config.landmarks
         in_view = in_sensor_view(st.positions, st.pose, f.max_range_m, f.field_of_view_deg)
         hit = np.array([bool(a) for a in assoc], dtype=bool)
         drop = removal_step(st.landmarks, hit, in_view, k, window=lc.removal_window, max_hits=lc.removal_max_hits)
+        if self._gate is not None:                                        # c.10.4.4
+            drop = sorted(set(drop) | set(self._gate.moving_landmarks(st.positions, st.created(), k)))
         removed = [r.id for r in st.remove(drop)]
         gone = set(drop)
         return removed, [a for j, a in enumerate(assoc) if j not in gone]
@@ -402,8 +387,10 @@ class EkfSlam:
         alpha = self.config.landmarks.alpha
         return [c for c in clusters if self.associator.min_log_distance(self.state, c.centre_polar, self.R) > alpha]
 
-    def _confirm_and_augment(self, fresh: list[Cluster], polar: np.ndarray, k: int) -> list[int]:
-        """Steps 8-9: Rule 2 / Rule 1 and state augmentation (c.7, c.8); the new ids.
+    def _confirm_and_augment(self, fresh: list[Cluster], polar: np.ndarray,
+                             k: int) -> tuple[list[int], list[np.ndarray]]:
+        """Steps 8-9: Rule 2 / Rule 1 and state augmentation (c.7, c.8); the new ids and the
+        detections (rows of ``polar``) of the cluster each was confirmed from.
 
         ``landmarks.init = "nearest"``: at the cluster's nearest detection with R (the paper);
         ``"cluster"``: at the mean of its detections with the mean's noise and the extent
@@ -421,8 +408,9 @@ class EkfSlam:
                 for j in range(st.n_landmarks - len(ids), st.n_landmarks):     # a.12.6
                     i = st.index(j)
                     st.x[i:i + 2] = view_corrected_centroid(st.x[i:i + 2].copy(), st.x[:2], X0)
-            return ids
-        return [st.add_landmark(c.centre_polar, self.R, k, self.extent.new()) for c in confirmed]
+        else:
+            ids = [st.add_landmark(c.centre_polar, self.R, k, self.extent.new()) for c in confirmed]
+        return ids, [c.members for c in confirmed]
 
     def _merge(self) -> list[tuple[int, int]]:
         """Step 10 (c.9): repeatedly drop the later-created landmark of the closest eligible pair."""

@@ -19,10 +19,16 @@ Before the first fit (odometry events ahead of the first scan) and after a scan 
 valid (c.10.3), the last valid fit is held with ``filter.doppler_hold_std_mps`` added to its std
 (zero velocity before any fit).
 
-The fit's directions are the platform-frame azimuths: the sensor is taken at the platform origin
-with zero boresight (the car park's radar). Under "both" the odometer's forward speed (the unicycle's
-``control[0]``, std ``filter.speed_std_mps``) is fused with the fit, information-weighted (a
-Kalman update of ``(v_x, v_y)`` by the scalar ``v_x`` reading); the yaw rate stays the gyro's.
+The fit's directions are those from the radar (``[sensor]`` mounting, c.10.1), so the fit is the
+sensor's velocity ``w`` in its own frame; it moves to the platform origin with the yaw rate
+(:func:`platform_input`): with the gyro (``filter.yaw_rate = "gyro"``) ``v = R(yaw_m) w - omega x l``,
+``(v_x, v_y, omega)`` free (the body-velocity model); from the Doppler alone (``"doppler"``, c.10.5.1)
+the no-sideslip model ``v_y = 0`` gives ``omega = w_y' / l_x`` and ``v = w_x' + l_y omega``
+(``w' = R(yaw_m) w``), observable only with the radar off the rear axle (``l_x != 0``). A 3-D
+recording's scans carry their velocity at the platform origin already (``Scan.ego``, c.10.6). Under
+"both" the odometer's forward speed (the unicycle's ``control[0]``, std ``filter.speed_std_mps``) is
+fused with the input, information-weighted (a Kalman update of ``(v_x, v_y, omega)`` by the scalar
+``v_x`` reading); the yaw rate stays the gyro's.
 """
 
 from __future__ import annotations
@@ -36,8 +42,9 @@ from radarslam.core.types import Odometry, Scan
 from radarslam.models.body_velocity import BodyVelocityModel
 from radarslam.slam import ekf
 from radarslam.slam.bias import predict_terms
+from radarslam.slam.doppler_gate import mounting
 
-__all__ = ["DopplerOdometry", "fuse_forward_speed", "odometry_source"]
+__all__ = ["DopplerOdometry", "fuse_forward_speed", "odometry_source", "platform_input"]
 
 
 def odometry_source(slam) -> "DopplerOdometry | None":
@@ -47,11 +54,20 @@ def odometry_source(slam) -> "DopplerOdometry | None":
     Raises
     ------
     ConfigError
-        For "body-velocity" as ``filter.motion_model`` with the odometer (its readings are
-        ``[v, psi]``), or for "doppler"/"both" with first-estimates Jacobians, or "both" with a
-        motion model other than the unicycle (whose ``control[0]`` is the forward speed).
+        For ``filter.yaw_rate = "doppler"`` without ``filter.odometry = "doppler"`` or with the radar on
+        the rear axle (``sensor.mount_x_m = 0``), for "body-velocity" as ``filter.motion_model`` with
+        the odometer (its readings are ``[v, psi]``), or for "doppler"/"both" with first-estimates
+        Jacobians, or "both" with a motion model other than the unicycle (whose ``control[0]`` is
+        the forward speed).
     """
     f = slam.config.filter
+    if f.yaw_rate == "doppler":
+        if f.odometry != "doppler":
+            raise ConfigError(f"filter.yaw_rate: 'doppler' expected with filter.odometry 'doppler' (the radar alone, "
+                              f"c.10.5.1), got filter.odometry {f.odometry!r}")
+        if slam.config.sensor.mount_x_m == 0.0:
+            raise ConfigError("filter.yaw_rate: 'doppler' needs the radar off the rear axle (omega = w_y / l_x is "
+                              "unobservable at l_x = 0, c.10.5.1), got sensor.mount_x_m = 0.0")
     if f.odometry == "odometer":
         if f.motion_model == "body-velocity":
             raise ConfigError("filter.motion_model: 'body-velocity' is driven by filter.odometry 'doppler' or "
@@ -63,13 +79,47 @@ def odometry_source(slam) -> "DopplerOdometry | None":
     if f.odometry == "both" and f.motion_model != "unicycle":
         raise ConfigError(f"filter.motion_model: expected 'unicycle' with filter.odometry 'both' (its control[0] is "
                           f"the forward speed), got {f.motion_model!r}")
-    return DopplerOdometry(f)
+    return DopplerOdometry(f, mounting(slam.config.sensor))
+
+
+def platform_input(w: np.ndarray, C: np.ndarray, mount, yaw_rate: float | None,
+                   yaw_var: float) -> tuple[np.ndarray, np.ndarray]:
+    """The body-velocity model's input ``u = [v_x, v_y, omega]`` and its covariance ``U`` (3, 3) from a
+    sensor velocity ``w`` (2,) (sensor frame, m/s) of covariance ``C`` (2, 2) of a radar mounted at
+    ``mount = (l_x, l_y, yaw_m)`` (m, m, rad) (c.10.1, c.10.5.1; both maps linear, so ``U`` is exact).
+
+    With a gyro (``yaw_rate`` its reading, rad/s, variance ``yaw_var``): ``w' = R(yaw_m) w`` and
+    ``u = J [w', omega]`` with ``J = [[1, 0, l_y], [0, 1, -l_x], [0, 0, 1]]``,
+    ``U = J blockdiag(R C R^T, yaw_var) J^T``. From the Doppler alone (``yaw_rate`` None; needs
+    ``l_x != 0``): no sideslip, ``u = [w'_x + (l_y / l_x) w'_y, 0, w'_y / l_x] = A w'`` on rows 0 and 2,
+    ``U = A R C R^T A^T`` there with ``A = [[1, l_y / l_x], [0, 1 / l_x]]`` and zero on row 1.
+    """
+    lx, ly, yaw = mount
+    if yaw != 0.0:
+        c, s = math.cos(yaw), math.sin(yaw)
+        R = np.array([[c, -s], [s, c]])
+        w, C = R @ w, R @ C @ R.T
+    if yaw_rate is None:
+        A = np.array([[1.0, ly / lx], [0.0, 1.0 / lx]])
+        vw, Cvw = A @ w, A @ C @ A.T
+        u = np.array([vw[0], 0.0, vw[1]])
+        U = np.zeros((3, 3))
+        U[np.ix_([0, 2], [0, 2])] = Cvw
+        return u, U
+    u = np.array([w[0], w[1], yaw_rate])
+    U = np.zeros((3, 3))
+    U[:2, :2], U[2, 2] = C, yaw_var
+    if lx != 0.0 or ly != 0.0:
+        J = np.array([[1.0, 0.0, ly], [0.0, 1.0, -lx], [0.0, 0.0, 1.0]])
+        u, U = J @ u, J @ U @ J.T
+    return u, U
 
 
 def fuse_forward_speed(v: np.ndarray, C: np.ndarray, speed: float, var: float) -> tuple[np.ndarray, np.ndarray]:
-    """Information-weighted fusion of a velocity ``v`` (2,) m/s with covariance ``C`` (2, 2) and a
-    forward-speed reading ``speed`` (m/s) of variance ``var`` (m^2/s^2): the Kalman update with
-    ``H = [1, 0]`` (equal to ``(C^-1 + H^T H / var)^-1 (C^-1 v + H^T speed / var)``), ``(v', C')``."""
+    """Information-weighted fusion of an input ``v`` (n,) whose first component is the forward speed
+    (m/s), with covariance ``C`` (n, n), and a forward-speed reading ``speed`` (m/s) of variance
+    ``var`` (m^2/s^2): the Kalman update with ``H = [1, 0, ...]`` (equal to
+    ``(C^-1 + H^T H / var)^-1 (C^-1 v + H^T speed / var)``), ``(v', C')``."""
     s = float(C[0, 0]) + var
     if not s > 0:
         return v.copy(), C.copy()
@@ -88,8 +138,11 @@ class DopplerOdometry:
         ``doppler_std_floor_mps``, ``zero_velocity_probability``).
     """
 
-    def __init__(self, filter_config):
+    def __init__(self, filter_config, mount=(0.0, 0.0, 0.0)):
         self.f = filter_config
+        self.mount = tuple(float(m) for m in mount)
+        #: Whether the held velocity is the sensor's (a fit of the scan) or the platform's (``Scan.ego``).
+        self.sensor_frame = True
         self.model = BodyVelocityModel()
         self.gyro_var = math.radians(filter_config.gyro_std_deg_s) ** 2
         #: RANSAC's minimal sets (c.10.2): a fixed seed of its own, so a run is reproducible.
@@ -120,7 +173,9 @@ class DopplerOdometry:
         if not (math.isfinite(dt) and dt > 0):
             raise InputError(f"odometry.dt: expected a finite value > 0, got {odo.dt!r}")
         g = odo.gyro_rad_s
-        if g is None or not math.isfinite(float(g)):
+        if self.f.yaw_rate == "doppler":
+            g = 0.0                           # c.10.5.1: the radar alone, the gyro is not read
+        elif g is None or not math.isfinite(float(g)):
             raise InputError(f"odometry.gyro_rad_s: filter.odometry {self.f.odometry!r} expected a finite gyro "
                              f"reading (t={odo.t!r}), got {g!r}")
         if self.f.odometry == "both":
@@ -134,12 +189,11 @@ class DopplerOdometry:
 
     def _predict(self, slam, t) -> None:
         """Predict over the accumulated interval (c.10.5), then clear it."""
-        v, C = self.v, self.C
+        omega = None if self.f.yaw_rate == "doppler" else self.gyro_dt / self.dt
+        u, U = platform_input(self.v, self.C, self.mount if self.sensor_frame else (0.0, 0.0, 0.0), omega,
+                              self.gyro_var)
         if self.f.odometry == "both":
-            v, C = fuse_forward_speed(v, C, self.speed_dt / self.dt, self.f.speed_std_mps ** 2)
-        u = np.array([v[0], v[1], self.gyro_dt / self.dt])
-        U = np.zeros((3, 3))
-        U[:2, :2], U[2, 2] = C, self.gyro_var
+            u, U = fuse_forward_speed(u, U, self.speed_dt / self.dt, self.f.speed_std_mps ** 2)
         st, dt = slam.state, self.dt
         with np.errstate(over="ignore", invalid="ignore"):
             pose, Ppp, Ppl = predict_terms(slam.bias_model, st.x, st.P, u, dt, self.model, U, self.n * slam.Q)
@@ -155,8 +209,12 @@ class DopplerOdometry:
         recording's levelled fit, c.10.6), else the Doppler gate's fit when it ran, else a fit of the
         scan's platform-frame azimuths (c.10.2)."""
         ego = scan.ego if scan.ego is not None else report.ego     # c.10.6: a recording's 3-D fit first
+        if scan.ego is not None and self.f.yaw_rate == "doppler":
+            raise InputError(f"scan {scan.index}: filter.yaw_rate 'doppler' expected the radar's own fit, got a scan "
+                             f"carrying its velocity at the platform origin (Scan.ego, c.10.6)")
+        self.sensor_frame = scan.ego is None
         if ego is None:
-            from radarslam.models.doppler import directions, fit_ego_velocity
+            from radarslam.models.doppler import fit_ego_velocity, mounted_directions
 
             polar = np.asarray(scan.polar, dtype=float).reshape(-1, 2)
             d = np.asarray((scan.channels or {}).get("doppler_mps", np.empty(0)), dtype=float)
@@ -164,8 +222,9 @@ class DopplerOdometry:
                 raise InputError(f"scan {scan.index}: channels['doppler_mps']: filter.odometry {self.f.odometry!r} "
                                  f"expected shape ({polar.shape[0]},), got {d.shape}")
             f = self.f
-            ego = fit_ego_velocity(directions(polar), d, self.rng, threshold_mps=f.doppler_threshold_mps,
-                                   iterations=f.doppler_iterations, sigma_floor_mps=f.doppler_std_floor_mps,
+            ego = fit_ego_velocity(mounted_directions(polar, *self.mount), d, self.rng,
+                                   threshold_mps=f.doppler_threshold_mps, iterations=f.doppler_iterations,
+                                   sigma_floor_mps=f.doppler_std_floor_mps,
                                    zero_probability=f.zero_velocity_probability)
         if ego.valid and np.all(np.isfinite(ego.v)) and np.all(np.isfinite(ego.cov)):
             self.v, self.C = np.asarray(ego.v, dtype=float)[:2].copy(), np.asarray(ego.cov, dtype=float)[:2, :2].copy()

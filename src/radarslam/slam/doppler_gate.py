@@ -1,0 +1,129 @@
+"""The Doppler gate: moving objects kept out of the map (``filter.doppler_gate``, docs/method.md c.10.4).
+
+Per scan (:meth:`DopplerGate.apply`, before sifting):
+
+1. the sensor velocity is fitted to the scan's Doppler (c.10.2), with the directions from the
+   sensor's mounting (``[sensor]``, :func:`~radarslam.models.doppler.mounted_directions`);
+2. each detection is tested against the static world (the per-detection test, c.10.4.1);
+3. the detections are grouped into objects (single linkage within ``filter.doppler_object_radius_m``)
+   and each object is tested as a whole (its own fitted velocity, c.10.4.2): all detections of a
+   moving object are dropped, including those whose own Doppler passed;
+4. the moving objects' detections are remembered in the world frame for
+   ``filter.doppler_memory_scans`` scans (c.10.4.3).
+
+At landmark creation (:meth:`DopplerGate.veto`, step 7) a new cluster with a detection within
+``filter.doppler_memory_radius_m`` of a remembered moving detection neither starts nor feeds an
+unconfirmed landmark: a car crossing the line of sight has a radial velocity near zero for a few
+scans and passes every instantaneous test, but it was seen moving just before.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from radarslam.core.errors import InputError
+from radarslam.landmarks.clustering import Cluster, dbscan_labels
+from radarslam.models.doppler import fit_ego_velocity, mounted_directions, moving_mask, moving_objects
+
+__all__ = ["DopplerGate", "mounting"]
+
+
+class DopplerGate:
+    """c.10.4 on a stream of scans (module docstring).
+
+    Parameters
+    ----------
+    filter_config : FilterConfig
+        The RANSAC settings (c.10.2) and the gate's (``doppler_gate_probability``,
+        ``doppler_object_radius_m``, ``doppler_object_probability``, ``doppler_memory_scans``,
+        ``doppler_memory_radius_m``).
+    mounting : tuple of float
+        ``(x m, y m, yaw rad)`` of the radar on the platform (``[sensor]``).
+    """
+
+    def __init__(self, filter_config, mounting=(0.0, 0.0, 0.0)):
+        self.f = filter_config
+        self.mounting = tuple(float(m) for m in mounting)
+        #: RANSAC's minimal sets (c.10.2): a fixed seed, so a run is reproducible.
+        self.rng = np.random.default_rng(0)
+        #: (scan index, world positions (n, 2)) of the moving objects' detections, newest last.
+        self.memory: list[tuple[int, np.ndarray]] = []
+        #: World positions (n, 2) of this scan's moving objects' detections (c.10.4.4).
+        self.now = np.empty((0, 2))
+
+    def apply(self, scan, polar: np.ndarray, pose: np.ndarray):
+        """Steps 1-4 on one scan: ``(kept rows, moving rows, EgoVelocity)``."""
+        f = self.f
+        ch = scan.channels or {}
+        if polar.shape[0] and "doppler_mps" not in ch:
+            raise InputError(f"scan {scan.index}: filter.doppler_gate expected channels['doppler_mps'], got "
+                             f"channels {sorted(ch)}")
+        d = np.asarray(ch.get("doppler_mps", np.empty(0)), dtype=float)
+        if d.shape != (polar.shape[0],):
+            raise InputError(f"scan {scan.index}: channels['doppler_mps']: expected shape ({polar.shape[0]},), "
+                             f"got {d.shape}")
+        U = mounted_directions(polar, *self.mounting)
+        ego = fit_ego_velocity(U, d, self.rng, threshold_mps=f.doppler_threshold_mps,
+                               iterations=f.doppler_iterations, sigma_floor_mps=f.doppler_std_floor_mps,
+                               zero_probability=f.zero_velocity_probability)
+        bad = moving_mask(U, d, ego, f.doppler_gate_probability)
+        if f.doppler_object_radius_m > 0 and polar.shape[0] >= 2:
+            xy = _platform_xy(polar)
+            labels = dbscan_labels(xy, f.doppler_object_radius_m, 1)
+            objects = moving_objects(U, d, ego, labels, f.doppler_object_probability)
+            bad = bad | objects
+            self._remember(scan.index, xy[objects], pose)
+        return np.flatnonzero(~bad), np.flatnonzero(bad), ego
+
+    def _remember(self, k: int, xy: np.ndarray, pose: np.ndarray) -> None:
+        """Keep this scan's moving objects (world frame) and forget those older than the memory."""
+        n = self.f.doppler_memory_scans
+        self.now = _to_world(xy, pose)
+        self.memory = [(j, p) for j, p in self.memory if k - j < n]
+        if n > 0 and xy.shape[0]:
+            self.memory.append((k, self.now))
+
+    def moving_landmarks(self, positions: np.ndarray, created: np.ndarray, k: int) -> list[int]:
+        """The landmarks (state positions) created less than ``filter.doppler_probation_scans`` scans
+        before scan ``k`` with a detection of this scan's moving objects (:meth:`apply` of scan
+        ``k``) within ``filter.doppler_memory_radius_m`` (c.10.4.4)."""
+        n = self.f.doppler_probation_scans
+        if n <= 0 or self.now.shape[0] == 0 or positions.shape[0] == 0:
+            return []
+        young = np.flatnonzero(k - created < n)
+        if young.size == 0:
+            return []
+        near = _near(positions[young], [(k, self.now)], self.f.doppler_memory_radius_m)
+        return young[near].tolist()
+
+    def veto(self, clusters: list[Cluster], xy: np.ndarray) -> list[Cluster]:
+        """The clusters with no detection (world positions ``xy`` of the scan's kept detections)
+        within ``filter.doppler_memory_radius_m`` of a remembered moving detection (c.10.4.3)."""
+        if not self.memory or not clusters:
+            return clusters
+        return [c for c in clusters if not _near(xy[c.members], self.memory, self.f.doppler_memory_radius_m).any()]
+
+
+def mounting(sensor) -> tuple[float, float, float]:
+    """``(x m, y m, yaw rad)`` of the radar from a :class:`~radarslam.config.SensorConfig`."""
+    return float(sensor.mount_x_m), float(sensor.mount_y_m), math.radians(sensor.mount_yaw_deg)
+
+
+def _to_world(xy: np.ndarray, pose: np.ndarray) -> np.ndarray:
+    """Platform-frame points ``(n, 2)`` in the world frame of ``pose``."""
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    return np.column_stack([pose[0] + c * xy[:, 0] - s * xy[:, 1], pose[1] + s * xy[:, 0] + c * xy[:, 1]])
+
+
+def _near(points: np.ndarray, memory, radius: float) -> np.ndarray:
+    """Whether each world point ``(n, 2)`` lies within ``radius`` of a remembered detection."""
+    mem = np.concatenate([p for _, p in memory])
+    d = points[:, None, :] - mem[None, :, :]
+    return np.any(np.einsum("ijk,ijk->ij", d, d) <= radius * radius, axis=1)
+
+
+def _platform_xy(polar: np.ndarray) -> np.ndarray:
+    """Platform-frame positions ``(n, 2)`` of ``[range, azimuth]`` detections."""
+    return np.column_stack([polar[:, 0] * np.cos(polar[:, 1]), polar[:, 0] * np.sin(polar[:, 1])])
