@@ -121,3 +121,24 @@ def test_duplicate_landmarks_counts_pairs_by_radius():
     assert d["pairs_within"] == {1.0: 1, 1.5: 2, 2.0: 3, 3.0: 3}
     with pytest.raises(InputError, match="diameter_m"):
         duplicate_landmarks(run, 0.0)
+
+
+def test_position_consistency_counts_the_bound_per_axis_with_the_gps_std():
+    """Analytic oracle: errors of 1, 3 and 5 m east against a filter std of 1 m and a GPS std of
+    1 m (bound 2 sqrt(1 + 2) = 3.46 m) are inside, inside, outside; with the filter alone (2 m) only
+    the first is."""
+    from types import SimpleNamespace
+
+    from radarslam.experiments.dataset import position_consistency
+
+    poses = np.array([[1.0, 0.0, 0.0], [3.0, 0.0, 0.0], [5.0, 0.0, 0.0]])
+    covs = np.tile(np.diag([1.0, 1.0, 0.01]), (3, 1, 1))
+    run = SimpleNamespace(poses=poses, pose_covs=covs, times=np.arange(3.0),
+                          data=SimpleNamespace(gps=SimpleNamespace(xy=np.zeros((3, 2)))))
+    c = position_consistency(run, {"index": np.arange(3), "fix": np.arange(3)}, gps_std_m=1.0)
+    assert c["inside_east"] == pytest.approx(2 / 3) and c["inside_north"] == 1.0
+    assert c["inside_both"] == pytest.approx(2 / 3) and c["inside_both_filter_only"] == pytest.approx(1 / 3)
+    np.testing.assert_allclose(c["error_m"][:, 0], [1.0, 3.0, 5.0])
+    assert c["mean_mahalanobis2"] == pytest.approx((1 + 9 + 25) / 3 / 3)
+    with pytest.raises(InputError, match="gps_std_m"):
+        position_consistency(run, {"index": np.arange(3), "fix": np.arange(3)}, gps_std_m=-1.0)

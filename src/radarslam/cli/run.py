@@ -161,8 +161,8 @@ def write_outputs(out, res, wall: float, argv=None) -> None:
 def run_dataset_cmd(args: argparse.Namespace) -> int:
     """``radarslam run --dataset NAME PATH``: the whole recording, evaluated against its GPS."""
     from radarslam.experiments.dataset import (compare_tree_diameters, dead_reckoning, evaluate_against_gps,
-                                               duplicate_landmarks, evaluate_published, nis_fraction, run_dataset,
-                                               victoria_park_options)
+                                               duplicate_landmarks, evaluate_published, nis_fraction,
+                                               position_consistency, run_dataset, victoria_park_options)
     from radarslam.io.datasets import list_datasets
 
     name, path = args.dataset
@@ -192,6 +192,7 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
     res = run_dataset(name, path, config, first_scan=args.first_scan, n_scans=args.scans, loader_options=loader)
     ev = evaluate_against_gps(res)
     pub = evaluate_published(res) if published else None
+    cons = position_consistency(res, pub) if published else None     # docs/method.md v.7
     dr_poses = dead_reckoning(res.data, res.config)[1]
     dr_ev = evaluate_against_gps(res, dr_poses)
     diam = compare_tree_diameters(res) if res.reference_hits is not None and args.input == "laser" else None
@@ -228,6 +229,8 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
                "duplicated_trunks": {"n_pairs": dup["n_pairs"], "n_landmarks": dup["n_landmarks"],
                                      "diameter_m": dup["diameter_m"],
                                      "pairs_within_m": {str(k): v for k, v in dup["pairs_within"].items()}},
+               "consistency": None if cons is None else {
+                   k: v for k, v in cons.items() if not isinstance(v, np.ndarray)},
                "nis": {k: nis[k] for k in ("n", "mean", "median", "inside", "below", "above", "band", "probability")},
                "odometry_bias": None if res.bias is None else {
                    n: {"final": float(res.bias[-1, i]), "final_std": float(res.bias_std[-1, i]),
@@ -241,14 +244,20 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
                                   "scans": args.scans, "version": __version__, "argv": sys.argv,
                                   "config": to_dict(res.config)})
     if not args.no_plot:
-        _dataset_plots(out, res, ev, (dr_poses, dr_ev), diam, pub, nis, args)
+        _dataset_plots(out, res, ev, (dr_poses, dr_ev), diam, pub, nis, args, cons)
     _print_dataset_summary(name, metrics, res, ev, dr_ev, pub, nis, diam, dup, config)
+    if cons is not None:
+        print(f"2-sigma bound (filter + GPS std {cons['gps_std_m']:g} m at this fix and the first) contains the GPS error on both axes at "
+              f"{100 * cons['inside_both']:.1f}% of {cons['n']} scans (east {100 * cons['inside_east']:.1f}%, north "
+              f"{100 * cons['inside_north']:.1f}%; filter alone {100 * cons['inside_both_filter_only']:.1f}%; "
+              f"95.4% per axis expected)")
     print(f"wrote {out}/")
     return 0
 
 
-def _dataset_plots(out, res, ev, dead_reckoning, diam, pub, nis, args) -> None:
-    """``map.png`` and ``errors.png`` of :func:`run_dataset_cmd`, when matplotlib is there."""
+def _dataset_plots(out, res, ev, dead_reckoning, diam, pub, nis, args, cons=None) -> None:
+    """``map.png``, ``errors.png`` and, under the published protocol, ``consistency.png`` of
+    :func:`run_dataset_cmd`, when matplotlib is there."""
     from radarslam.viz import have_matplotlib
 
     if have_matplotlib():
@@ -264,6 +273,10 @@ def _dataset_plots(out, res, ev, dead_reckoning, diam, pub, nis, args) -> None:
             err_t, err = ev["fix_t"], ev["errors_m"]
         plot_dataset_errors(out / "errors.png", err_t, err, nis, protocol=args.protocol,
                             name=f"{res.name} ({args.input})", scan_times=res.times)
+        if cons is not None:
+            from radarslam.viz.dataset import plot_consistency
+
+            plot_consistency(out / "consistency.png", cons, name=f"{res.name} ({args.input})")
         if res.bias is not None:
             from radarslam.viz.dataset import plot_bias
 

@@ -266,6 +266,11 @@ class FilterConfig:
                                                        "of the turn-rate offset (deg/s/sqrt(s); c.11)", low=0.0)
     bias_tau_s: float = param(0.0, "[PROP] 0: the bias states are random walks; > 0: first-order Gauss-Markov "
                               "processes about 0 with this time constant (s), the drift driving them (c.11)", low=0.0)
+    odometry_tau_s: float = param(0.0, "[PROP] 0: U is white noise per odometry sample (the paper); > 0: the input "
+                                  "errors are Gauss-Markov with U's stds and this correlation time (s), and each "
+                                  "sample takes the equivalent white noise U 2 tau / odometry_sample_s (c.11.6)", low=0.0)
+    odometry_sample_s: float = param(0.0, "[PROP] the odometry sample interval (s) for filter.odometry_tau_s "
+                                     "(Victoria Park: 0.025)", low=0.0)
 
     @property
     def R(self) -> np.ndarray:

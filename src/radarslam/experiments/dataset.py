@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import sys
 import time
 from dataclasses import dataclass
@@ -363,3 +364,50 @@ def nis_fraction(run: DatasetRun, *, window: int = 100) -> dict:
             "below": float(np.mean(q < lo)), "above": float(np.mean(q > hi)), "window_scan": ws * window,
             "window_mean": np.array([q[w == k].mean() for k in ws]),
             "window_inside": np.array([inside[w == k].mean() for k in ws])}
+
+
+#: The GPS's own error (m, std per axis) that :func:`position_consistency` adds to the filter's
+#: bound (docs/method.md v.7): the fixes wander by 0.2-0.6 m (std per axis) while the car stands
+#: still for 10-18 s (t = 814-832 s, 1539-1549 s), and ACFR's note calls the unit failing (jumps,
+#: slow multipath drifts of metres); 1 m is the value this project states, not a fitted one.
+GPS_STD_M = 1.0
+#: Two-sided probability of "within 2 sigma" of one Gaussian axis, and the chi-square(2) quantile
+#: of the same probability for the error ellipse.
+TWO_SIGMA_PROBABILITY = 0.9545
+
+
+def position_consistency(run: DatasetRun, published: dict, gps_std_m: float = GPS_STD_M) -> dict:
+    """The filter's position covariance against the GPS error of the published protocol (v.7).
+
+    At every scan of ``published`` (:func:`evaluate_published`: ``index``, ``fix``) the error
+    ``e = p_hat - p_GPS`` (east, north) is compared with the filter's position covariance ``P_xy``
+    plus twice the GPS's own ``g^2 I`` (``g = gps_std_m``): once for the fix compared with and once
+    for the first fix, where the published protocol starts the filter (a translation of the whole
+    estimate, which the filter's initial std of 0.01 m leaves out and which changes no estimate:
+    EKF-SLAM is invariant to it, tested). Per axis ``|e_i| <= 2 sqrt(P_ii + 2 g^2)`` (95.45% for a
+    consistent filter and a GPS of that std), both axes at once, and the ellipse
+    ``e^T (P_xy + 2 g^2 I)^-1 e <= chi2_2(0.9545) = 6.18``; also with ``g = 0`` (the filter alone).
+
+    Returns ``t`` (K,), ``error_m`` (K, 2), ``sigma_filter_m`` (K, 2), ``gps_std_m``, the fractions
+    ``inside_east``, ``inside_north``, ``inside_both``, ``inside_ellipse``, ``inside_both_filter_only``,
+    ``mean_mahalanobis2`` (2 expected) and ``n``.
+    """
+    from radarslam.extent.sifting import chi2_2dof_quantile
+
+    if not (isinstance(gps_std_m, (int, float)) and math.isfinite(gps_std_m) and gps_std_m >= 0):
+        raise InputError(f"gps_std_m: expected a finite number >= 0, got {gps_std_m!r}")
+    idx, fix = np.asarray(published["index"], dtype=int), np.asarray(published["fix"], dtype=int)
+    e = run.poses[idx, :2] - np.asarray(run.data.gps.xy, dtype=float)[fix]
+    Pf = run.pose_covs[idx, :2, :2]
+    var_f = np.stack([Pf[:, 0, 0], Pf[:, 1, 1]], axis=1)
+    sig = np.sqrt(var_f + 2.0 * gps_std_m ** 2)
+    inside = np.abs(e) <= 2.0 * sig
+    C = Pf + 2.0 * gps_std_m ** 2 * np.eye(2)
+    m2 = np.einsum("ki,kij,kj->k", e, np.linalg.inv(C), e) if idx.size else np.empty(0)
+    frac = (lambda a: float(np.mean(a)) if a.size else float("nan"))
+    return {"n": int(idx.size), "t": run.times[idx], "error_m": e, "sigma_filter_m": np.sqrt(var_f),
+            "gps_std_m": float(gps_std_m), "inside_east": frac(inside[:, 0]), "inside_north": frac(inside[:, 1]),
+            "inside_both": frac(inside.all(axis=1)),
+            "inside_ellipse": frac(m2 <= chi2_2dof_quantile(TWO_SIGMA_PROBABILITY)),
+            "inside_both_filter_only": frac((np.abs(e) <= 2.0 * np.sqrt(var_f)).all(axis=1)),
+            "mean_mahalanobis2": frac(m2), "probability": TWO_SIGMA_PROBABILITY}

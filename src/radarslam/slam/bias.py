@@ -27,7 +27,7 @@ from radarslam.slam import ekf
 from radarslam.slam.layout import POSE_DIM
 from radarslam.slam.state import SlamState
 
-__all__ = ["BiasStates", "bias_states", "initial_state", "predict_terms"]
+__all__ = ["BiasStates", "bias_states", "control_noise", "initial_state", "predict_terms"]
 
 
 class BiasStates:
@@ -121,3 +121,20 @@ def predict_terms(bias: BiasStates | None, x: np.ndarray, P: np.ndarray, u: np.n
     if bias is None:
         return ekf.predict_terms(x, P, u, dt, model, U, Q, pose_first)
     return bias.predict_terms(x, P, u, dt, model, U, Q)
+
+
+def control_noise(model, f) -> np.ndarray:
+    """The control covariance U of each odometry sample (docs/method.md c.11.6): the model's
+    ``control_cov(f)`` (white noise per sample, the paper's), or under ``filter.odometry_tau_s > 0``
+    that of input errors that are first-order Gauss-Markov processes with the stds of U and time
+    constant tau, replaced by the white noise of the same effect on the integrated pose over times
+    much longer than tau: each sample's variance ``sigma^2 2 tau / dt`` with ``dt`` =
+    ``filter.odometry_sample_s``. The same U for every sample, so both engines take it."""
+    U = model.control_cov(f)
+    tau, dt = f.odometry_tau_s, f.odometry_sample_s
+    if tau == 0:
+        return U
+    if not dt > 0:
+        raise ConfigError(f"filter.odometry_sample_s: expected the odometry sample interval (s, > 0) with "
+                          f"filter.odometry_tau_s = {tau:g}, got {dt!r}")
+    return U * (2.0 * tau / dt)

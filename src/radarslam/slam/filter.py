@@ -33,7 +33,7 @@ from radarslam.models.body_velocity import BodyVelocityModel
 from radarslam.models.motion import MotionModel, motion_model_from_config
 from radarslam.slam import ekf
 from radarslam.slam.association import Associator, Spreads
-from radarslam.slam.bias import bias_states, initial_state, predict_terms
+from radarslam.slam.bias import bias_states, control_noise, initial_state, predict_terms
 from radarslam.slam.doppler_gate import DopplerGate, mounting
 from radarslam.slam.odometry_source import odometry_source
 from radarslam.slam.partial_view import view_components, view_corrected_centroid, view_walk
@@ -112,7 +112,7 @@ class EkfSlam:
                                                                   extent_estimator is None, associator is None)
         self._clusters = _cluster_kernel(f.backend)
         self.R = self.measurement.noise(f)
-        self.U = self.model.control_cov(f)
+        self.U = control_noise(self.model, f)        # c.11.6: white, or the equivalent of correlated errors
         self.Q = f.Q
         #: The odometry-bias states (docs/method.md c.11) under filter.odometry_bias "states", else None.
         #: They belong to the model that drives the prediction: the body-velocity model under Doppler odometry.

@@ -211,3 +211,45 @@ def plot_bias(path: str | Path, t: np.ndarray, values: np.ndarray, stds: np.ndar
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
+
+
+def plot_consistency(path: str | Path, cons: dict, *, name: str = "dataset") -> None:
+    """Save the GPS error of the published protocol per axis (east, north) over time with the
+    filter's +-2 sigma bound, alone and with the GPS's own std added (docs/method.md v.7).
+
+    ``cons`` is :func:`~radarslam.experiments.dataset.position_consistency`'s dict (``t``,
+    ``error_m``, ``sigma_filter_m``, ``gps_std_m`` and the fractions)."""
+    missing = [k for k in ("t", "error_m", "sigma_filter_m", "gps_std_m", "inside_east", "inside_north",
+                           "inside_both", "inside_both_filter_only") if k not in cons]
+    if missing:
+        raise InputError(f"cons: expected the dict of experiments.dataset.position_consistency, missing {missing}")
+    t = np.asarray(cons["t"], dtype=float)
+    e, sf = np.asarray(cons["error_m"], dtype=float), np.asarray(cons["sigma_filter_m"], dtype=float)
+    if e.shape != (t.size, 2) or sf.shape != e.shape:
+        raise InputError(f"cons: expected error_m and sigma_filter_m of shape ({t.size}, 2), got {e.shape}, {sf.shape}")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    g = cons["gps_std_m"]
+    fig, axes = plt.subplots(2, 1, figsize=(10, 6.5), sharex=True)
+    for i, (ax, axis) in enumerate(zip(axes, ("east", "north"))):
+        bound = 2.0 * np.sqrt(sf[:, i] ** 2 + 2.0 * g ** 2)
+        ax.fill_between(t, -bound, bound, color="tab:orange", alpha=0.25, lw=0,
+                        label=f"+-2 sigma, filter and GPS (std {g:g} m, this fix and the first)")
+        ax.fill_between(t, -2 * sf[:, i], 2 * sf[:, i], color="tab:blue", alpha=0.35, lw=0, label="+-2 sigma, filter")
+        ax.plot(t, e[:, i], ".", ms=2, color="k", label="estimate - GPS")
+        ax.axhline(0.0, color="k", lw=0.5)
+        ax.set_ylabel(f"{axis} error (m)")
+        ax.set_title(f"{axis}: {100 * cons[f'inside_{axis}']:.1f}% inside the bound with the GPS std "
+                     f"(95.4% expected)", fontsize=10)
+        ax.grid(alpha=0.3)
+    axes[0].legend(loc="upper left", fontsize=8)
+    axes[1].set_xlabel("time (s)")
+    fig.suptitle(f"{name}: error against the GPS and the filter's bound (published protocol); both axes inside: "
+                 f"{100 * cons['inside_both']:.1f}% (filter alone {100 * cons['inside_both_filter_only']:.1f}%)",
+                 fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
