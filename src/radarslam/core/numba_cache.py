@@ -19,6 +19,7 @@ from pathlib import Path
 #: (``core.jit.compile_kernels``); ``tests/test_layering.py`` checks that it is complete.
 COMPILED_SOURCES = (
     "core/angles.py", "core/jit.py", "slam/ekf.py", "slam/layout.py", "slam/_numba.py", "slam/_jcbb_numba.py",
+    "slam/jcbb.py",
     "slam/fused/storage.py", "slam/fused/tracking.py", "slam/fused/mapping.py", "slam/fused/engine.py",
     "slam/fused/plan.py",
     "extent/_compiled.py", "extent/_sym2.py", "extent/measurement.py", "extent/random_matrix.py",

@@ -26,6 +26,7 @@ import math
 import numpy as np
 from numba import njit
 
+from radarslam.core.jit import compile_kernels
 from radarslam.core.registry import ASSOCIATORS
 from radarslam.landmarks._compiled import dbscan_labels
 from radarslam.slam._numba import (
@@ -36,7 +37,7 @@ from radarslam.slam._numba import (
     _smallest,
     min_log_distance,
 )
-from radarslam.slam.jcbb import JcbbAssociator, JcbbResult, make_jcbb
+from radarslam.slam.jcbb import JcbbAssociator, JcbbResult, close_block, make_jcbb
 
 
 def joint_gates(probability: float, depth: int) -> np.ndarray:
@@ -47,6 +48,10 @@ def joint_gates(probability: float, depth: int) -> np.ndarray:
     g = np.zeros(depth + 1)
     g[1:] = chi2.ppf(float(probability), 2 * np.arange(1, depth + 1))
     return g
+
+
+#: The joint factor's new diagonal block, the reference's own kernel compiled as it is (jcbb.close_block).
+_close_block = compile_kernels(close_block)["close_block"]
 
 
 @njit(cache=True)
@@ -80,20 +85,7 @@ def extend_loops(C, nu, L, y, rows, k, m, d2):  # pragma: no cover - compiled
             L[r + 1, i] = z[i, 1]
         c00, c01, c11 = c00 - s00, c01 - s01, c11 - s11          # Schur complement
         e0, e1 = e0 - t0, e1 - t1
-    if not c00 > 0.0:
-        return math.inf
-    l00 = math.sqrt(c00)
-    l10 = c01 / l00
-    q = c11 - l10 * l10
-    if not q > 0.0:
-        return math.inf
-    l11 = math.sqrt(q)
-    y0 = e0 / l00
-    y1 = (e1 - l10 * y0) / l11
-    L[r, r], L[r, r + 1], L[r + 1, r], L[r + 1, r + 1] = l00, 0.0, l10, l11
-    y[r], y[r + 1] = y0, y1
-    rows[r], rows[r + 1] = 2 * m, 2 * m + 1
-    return d2 + y0 * y0 + y1 * y1
+    return _close_block(L, y, rows, r, m, c00, c01, c11, e0, e1, d2)
 
 
 @njit(cache=True, inline="always")

@@ -137,6 +137,28 @@ def _by_observation(obs: np.ndarray, n_obs: int) -> tuple[list[list[int]], np.nd
     return by_obs, rest
 
 
+def close_block(L, y, rows, r, m, c00, c01, c11, e0, e1, d2):
+    """The new pairing's 2 x 2 diagonal block of the joint factor: the Cholesky factor of its Schur
+    complement ``[[c00, c01], [c01, c11]]`` into ``L[r:r+2, r:r+2]``, ``y[r:r+2]`` from the reduced
+    innovation ``(e0, e1)`` and ``rows[r:r+2]``; returns ``d2 + |y_new|^2``, or ``inf`` when the
+    complement is not positive definite. A kernel: :func:`_extend` calls it and numba compiles it
+    as it is for :func:`radarslam.slam._jcbb_numba.extend_loops` (one arithmetic, docs/method.md c.4.1)."""
+    if not c00 > 0.0:
+        return math.inf
+    l00 = math.sqrt(c00)
+    l10 = c01 / l00
+    q = c11 - l10 * l10
+    if not q > 0.0:
+        return math.inf
+    l11 = math.sqrt(q)
+    y0 = e0 / l00
+    y1 = (e1 - l10 * y0) / l11
+    L[r, r], L[r, r + 1], L[r + 1, r], L[r + 1, r + 1] = l00, 0.0, l10, l11
+    y[r], y[r + 1] = y0, y1
+    rows[r], rows[r + 1] = 2 * m, 2 * m + 1
+    return d2 + y0 * y0 + y1 * y1
+
+
 def _extend(C, nu, L, y, rows, k: int, m: int, d2: float) -> float:
     """``D^2`` of the hypothesis (its Cholesky factor ``L``, ``y = L^-1 nu_h`` and ``rows`` of
     ``C`` over its first ``k`` pairings) plus pairing ``m``; writes row block ``k`` of L, y, rows
@@ -154,20 +176,7 @@ def _extend(C, nu, L, y, rows, k: int, m: int, d2: float) -> float:
         t = L21T.T @ y[:r]
         e0, e1 = e0 - t[0], e1 - t[1]
         L[r:r + 2, :r] = L21T.T
-    if not c00 > 0.0:
-        return math.inf
-    l00 = math.sqrt(c00)
-    l10 = c01 / l00
-    q = c11 - l10 * l10
-    if not q > 0.0:
-        return math.inf
-    l11 = math.sqrt(q)
-    y0 = e0 / l00
-    y1 = (e1 - l10 * y0) / l11
-    L[r, r], L[r, r + 1], L[r + 1, r], L[r + 1, r + 1] = l00, 0.0, l10, l11
-    y[r], y[r + 1] = y0, y1
-    rows[r], rows[r + 1] = 2 * m, 2 * m + 1
-    return d2 + y0 * y0 + y1 * y1
+    return close_block(L, y, rows, r, m, c00, c01, c11, e0, e1, d2)
 
 
 def jcbb(obs: np.ndarray, lm: np.ndarray, nu: np.ndarray, C: np.ndarray, n_obs: int,
