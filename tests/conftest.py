@@ -14,6 +14,10 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, settings
 
+# A Monte Carlo that meets a cold numba cache would start a detached compilation of the fused
+# engine (experiments/background.py); the tests that need it say so themselves.
+os.environ.setdefault("RADARSLAM_BACKGROUND_COMPILE", "0")
+
 settings.register_profile("ci", derandomize=True, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 settings.load_profile("ci")
 

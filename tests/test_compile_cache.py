@@ -90,6 +90,7 @@ def test_warm_up_says_it_compiles_and_leaves_results_unchanged(tmp_path, monkeyp
     mc.run_montecarlo(cfg, 5, 2, tmp_path / "plain", jobs=1, progress=False, log=logs.append)
     assert not any(warmup.COMPILING in line for line in logs)
     monkeypatch.setattr(warmup, "cache_is_cold", lambda: True)
+    monkeypatch.setattr(warmup, "first_run_engine", lambda *a: "auto")     # a long run: the fused engine first
     logs.clear()
     mc.run_montecarlo(cfg, 5, 2, tmp_path / "warm", jobs=2, progress=False, log=logs.append)
     assert sum(warmup.COMPILING in line for line in logs) == 1
@@ -119,3 +120,81 @@ def test_a_stale_index_counts_as_cold(monkeypatch):
     monkeypatch.setattr(cache_file, "_source_stamp", ("another source", 0))
     assert warmup._has_fresh_code(run_stream) is False
     assert warmup.cache_is_cold() is True
+
+
+def test_first_run_engine_takes_the_orchestrator_while_it_ends_sooner():
+    """The choice of a cold first run (experiments/warmup.py): the orchestrator up to the trial
+    count where compiling the fused engine first pays for itself, computed from the measured
+    costs, and the fused engine beyond it; more workers move the boundary up in proportion."""
+    per = warmup.ORCHESTRATOR_S - warmup.FUSED_S
+    saved = warmup.FUSED_COMPILE_S - warmup.ORCHESTRATOR_COMPILE_S
+    boundary = int(saved / per * 2 / 3)                  # three variants on two workers
+    assert boundary == 1353
+    assert warmup.first_run_engine(200, 3, 2) == "orchestrator"           # the README's main job
+    assert warmup.first_run_engine(boundary, 3, 2) == "orchestrator"
+    assert warmup.first_run_engine(boundary + 1, 3, 2) == "auto"
+    assert warmup.first_run_engine(5000, 3, 2) == "auto"
+    assert warmup.first_run_engine(int(saved / per * 4 / 3), 3, 4) == "orchestrator"
+    assert warmup.first_run_engine(boundary + 1, 3, 1) == "auto"         # one worker: less time to save
+
+
+def test_a_short_cold_run_uses_the_orchestrator_and_stores_the_same_results(tmp_path, monkeypatch):
+    """A cold cache and a short run: the compiling line says the run does not wait, the detached
+    compilation is started once, every trial records the orchestrator, and the results equal a
+    fused run's (same associations and landmark counts exactly, values to 1e-9); the report's
+    Fig. 2 reruns trial 1 with the engine that stored it, bit for bit. Negative control: the plain
+    run's trials record the fused engine."""
+    require("numba")
+    require("matplotlib")
+    from radarslam.experiments import background
+    from radarslam.experiments.report import write_report
+
+    cfg = profile_config()
+    mc.run_montecarlo(cfg, 5, 2, tmp_path / "plain", jobs=1, progress=False, log=lambda s: None)
+    started: list = []
+    monkeypatch.setattr(warmup, "cache_is_cold", lambda: True)
+    monkeypatch.setattr(background, "start", lambda *a: started.append(a) or 4242)
+    logs: list[str] = []
+    mc.run_montecarlo(cfg, 5, 2, tmp_path / "short", jobs=2, progress=False, log=logs.append)
+    assert sum(warmup.COMPILING_SHORT in line for line in logs) == 1
+    assert len(started) == 1 and any("pid 4242" in line for line in logs)
+    plain = mc.load_results(tmp_path / "plain")
+    short = mc.load_results(tmp_path / "short")
+    assert all(e == ["fused", "fused"] for e in plain["engines"].values())
+    assert all(e == ["orchestrator", "orchestrator"] for e in short["engines"].values())
+    for v in ("noext", "ext", "consistent"):
+        a, b = plain[v], short[v]
+        assert np.array_equal(a["n_landmarks"], b["n_landmarks"])
+        np.testing.assert_allclose(b["poses"], a["poses"], rtol=0, atol=1e-9)
+    rep = write_report(tmp_path / "short", n_boot=50)
+    assert rep["fig2"]["matches_stored"] is True
+
+
+def test_background_compilation_runs_once_per_cache(tmp_path, monkeypatch):
+    """The detached compilation's lock: while one process holds it another is told it is busy and
+    nothing is started; turned off by RADARSLAM_BACKGROUND_COMPILE=0; the job itself compiles
+    (here: loads) the fused engine, deletes its job file and exits 0, or exits 0 at once when the
+    lock is held elsewhere."""
+    require("numba")
+    import json
+
+    from radarslam.experiments import background
+    from radarslam.experiments.variants import variants_to_json
+
+    monkeypatch.setattr(background, "lock_path", lambda: tmp_path / "compile.lock")
+    monkeypatch.setenv(background.ENV, "1")
+    assert background.busy() is False
+    job = tmp_path / "job.json"
+    job.write_text(json.dumps({"config": mc.to_dict(profile_config()),
+                               "variants": variants_to_json(mc.DEFAULT_VARIANTS[:1])}))
+    with background.held_lock(tmp_path / "compile.lock") as mine:
+        assert mine is True
+        assert background.busy() is True
+        assert background.start({}, []) is None                     # held: nothing started
+        assert background.main(str(job)) == 0 and not job.exists()   # held elsewhere: nothing to do
+    monkeypatch.setenv(background.ENV, "0")
+    assert background.enabled() is False and background.start({}, []) is None
+    job.write_text(json.dumps({"config": mc.to_dict(profile_config()),
+                               "variants": variants_to_json(mc.DEFAULT_VARIANTS[:1])}))
+    assert background.main(str(job)) == 0 and not job.exists()
+    assert warmup._has_fresh_code(__import__("radarslam.slam._fused", fromlist=["run_stream"]).run_stream) is True

@@ -151,11 +151,11 @@ def test_corrupt_trial_is_detected_and_recomputed(reference_run, tmp_path, damag
 _REAL_COMPUTE = mc.compute_trial
 
 
-def _dies_on_trial_3(config, seed, trial, variants=DEFAULT_VARIANTS, chash=None):
+def _dies_on_trial_3(config, seed, trial, variants=DEFAULT_VARIANTS, chash=None, engine="auto"):
     """Module level, so the pool pickles it by name; forked workers resolve it."""
     if trial == 3:
         os._exit(9)  # a worker killed mid-trial
-    return _REAL_COMPUTE(config, seed, trial, variants, chash)
+    return _REAL_COMPUTE(config, seed, trial, variants, chash, engine)
 
 
 def test_killed_worker_keeps_finished_trials(reference_run, tmp_path, monkeypatch):
@@ -174,10 +174,10 @@ def test_killed_worker_keeps_finished_trials(reference_run, tmp_path, monkeypatc
 def test_ctrl_c_keeps_finished_trials(reference_run, tmp_path, monkeypatch):
     real = mc.compute_trial
 
-    def interrupted_at_3(config, seed, trial, variants=DEFAULT_VARIANTS, chash=None):
+    def interrupted_at_3(config, seed, trial, variants=DEFAULT_VARIANTS, chash=None, engine="auto"):
         if trial == 3:
             raise KeyboardInterrupt
-        return real(config, seed, trial, variants, chash)
+        return real(config, seed, trial, variants, chash, engine)
 
     monkeypatch.setattr(mc, "compute_trial", interrupted_at_3)
     with pytest.raises(KeyboardInterrupt):
@@ -274,10 +274,10 @@ def test_cli_montecarlo_interrupt_reports_stored_trials(tmp_path, capsys, monkey
 
     real = mc.compute_trial
 
-    def interrupted_at_2(config, seed, trial, variants=DEFAULT_VARIANTS, chash=None):
+    def interrupted_at_2(config, seed, trial, variants=DEFAULT_VARIANTS, chash=None, engine="auto"):
         if trial == 2:
             raise KeyboardInterrupt
-        return real(config, seed, trial, variants, chash)
+        return real(config, seed, trial, variants, chash, engine)
 
     monkeypatch.setattr(mc, "compute_trial", interrupted_at_2)
     cfg = tmp_path / "short.toml"

@@ -76,14 +76,16 @@ def variant_config(config: Config, variant: Variant) -> Config:
 
 
 def compute_trial(config: Config | dict, seed: int, trial: int,
-                  variants: Sequence[Variant] = DEFAULT_VARIANTS, chash: str | None = None) -> bytes:
+                  variants: Sequence[Variant] = DEFAULT_VARIANTS, chash: str | None = None,
+                  engine: str = "auto") -> bytes:
     """Run trial ``trial`` for every variant and return its encoded result (a picklable, top-level worker function).
 
     The scenario is simulated once from the base ``config``; each variant's configuration
     (:func:`~.variants.apply_variant`) runs the filter on it. Arrays are stored as
     ``"{variant}/{key}"`` beside the shared ``true_poses``; the meta lists the variant names in order
     and the trial's identity: seed, number and the configuration hash ``chash`` of its run (by
-    default that of ``config`` and ``variants``).
+    default that of ``config`` and ``variants``). ``engine`` is :func:`~.single.run_filter`'s; the
+    meta records which engine ran each variant (``engines``).
     """
     cfg = from_dict(config) if isinstance(config, dict) else config
     variants = check_variants(variants)
@@ -92,10 +94,10 @@ def compute_trial(config: Config | dict, seed: int, trial: int,
     scenario = generate_scenario(cfg, np.random.default_rng(ss))
     arrays: dict[str, np.ndarray] = {"true_poses": scenario.truth.poses}
     K = scenario.truth.poses.shape[0]
-    seconds = {}
+    seconds, engines = {}, {}
     for v in variants:
         c = with_initial_estimate(variant_config(cfg, v), scenario, ss)   # b.5: fixed, or drawn per trial
-        rec = run_filter(c, scenario.events)
+        rec = run_filter(c, scenario.events, engine=engine)
         m = evaluate(c, scenario, rec)
         name = v.name
         arrays[f"{name}/poses"] = rec.poses
@@ -106,8 +108,9 @@ def compute_trial(config: Config | dict, seed: int, trial: int,
             arrays[f"{name}/{key}"] = np.asarray(m[key])
         arrays[f"{name}/scalars"] = np.array([float(m[k]) for k in SCALARS])
         seconds[name] = rec.seconds
+        engines[name] = rec.engine
     meta = {"trial": trial, "seed": seed, "spawn_key": [trial - 1], "seconds": time.perf_counter() - t0,
-            "filter_seconds": seconds, "scalar_names": list(SCALARS), "variants": [v.name for v in variants],
+            "filter_seconds": seconds, "engines": engines, "scalar_names": list(SCALARS), "variants": [v.name for v in variants],
             "config_hash": chash or config_hash(cfg, variants)}
     return encode_trial(arrays, meta)
 
@@ -243,21 +246,23 @@ def _run_locked(store, config, seed, n_trials, variants, jobs, scheduler, dask_l
         bar.update()
 
     local_workers = dask_local is not None or (scheduler is None and min(jobs, len(todo)) > 1)
-    rest = todo
+    rest, engine = todo, "auto"
     if todo and scheduler is None:
         # A cold numba cache is filled here, on two cores, before any trial or local worker starts
         # (experiments/warmup.py), and the progress output says so; the workers then load it
-        # instead of each compiling the same code (benchmarks/bench_compile.py).
-        warm_up(config, variants, log, parallel=local_workers)
+        # instead of each compiling the same code (benchmarks/bench_compile.py). A short local run
+        # goes through the orchestrator meanwhile, the fused engine compiling in the background.
+        engine = warm_up(config, variants, log, parallel=local_workers,
+                         n_trials=len(todo) if dask_local is None else None, jobs=jobs)
         bar.restart()
     if rest:
         if scheduler is not None or dask_local is not None:
             _run_dask(cfg_dict, seed, variants, rest, finish, scheduler, dask_local, store.chash)
         elif min(jobs, len(rest)) == 1:
             for t in rest:
-                finish(t, compute_trial(config, seed, t, variants, store.chash))
+                finish(t, compute_trial(config, seed, t, variants, store.chash, engine))
         else:
-            _run_pool(cfg_dict, seed, variants, rest, finish, min(jobs, len(rest)), store.chash)   # no idle workers
+            _run_pool(cfg_dict, seed, variants, rest, finish, min(jobs, len(rest)), store.chash, engine)
     return MonteCarloSummary(Path(out), n_trials, len(todo), len(good), len(bad), time.perf_counter() - t0)
 
 
@@ -280,13 +285,13 @@ def _sigterm_as_interrupt():
 
 
 def _run_pool(cfg_dict: dict, seed: int, variants: tuple[Variant, ...], todo: list[int], finish,
-              jobs: int, chash: str) -> None:
+              jobs: int, chash: str, engine: str = "auto") -> None:
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
     from concurrent.futures.process import BrokenProcessPool
 
     ex = ProcessPoolExecutor(max_workers=jobs, initializer=_init_pool_worker)
     try:
-        pending = {ex.submit(compute_trial, cfg_dict, seed, t, variants, chash): t for t in todo}
+        pending = {ex.submit(compute_trial, cfg_dict, seed, t, variants, chash, engine): t for t in todo}
         while pending:
             done, _ = wait(pending, return_when=FIRST_COMPLETED)
             for f in done:
@@ -374,7 +379,9 @@ def load_results(out: str | Path, n_trials: int | None = None) -> dict:
                  "trials": np.array([t for t, _, _ in loaded]),
                  "corrupt": corrupt, "stray": [str(p) for p in store.strays()], "seconds": np.array([m["seconds"] for _, _, m in loaded]),
                  "filter_seconds": {v.name: np.array([m["filter_seconds"][v.name] for _, _, m in loaded])
-                                    for v in store.variants}}
+                                    for v in store.variants},
+                 "engines": {v.name: [m.get("engines", {}).get(v.name, "unrecorded") for _, _, m in loaded]
+                             for v in store.variants}}
     res["true_poses"] = np.stack([a["true_poses"] for _, a, _ in loaded])
     names = loaded[0][2]["scalar_names"]
     for v in store.variants:

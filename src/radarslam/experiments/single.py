@@ -32,6 +32,8 @@ class FilterRecord:
         Sum and number of the normalised innovations squared of the scan's EKF updates (2 dof each).
     seconds : float
         Wall time of the filter alone.
+    engine : str
+        Which engine ran it: ``"fused"`` (one compiled call) or ``"orchestrator"`` (per event).
     """
 
     poses: np.ndarray
@@ -44,20 +46,30 @@ class FilterRecord:
     events: list = field(default_factory=list)
     nis_sum: np.ndarray = field(default_factory=lambda: np.empty(0))
     nis_count: np.ndarray = field(default_factory=lambda: np.empty(0))
+    engine: str = "orchestrator"
+
+
+#: ``engine`` of :func:`run_filter`: the fused engine where it covers the configuration, or never.
+ENGINES = ("auto", "orchestrator")
 
 
 def run_filter(config: Config, events: list[Odometry | Scan], slam: EkfSlam | None = None,
-               on_scan=None) -> FilterRecord:
+               on_scan=None, engine: str = "auto") -> FilterRecord:
     """Run :class:`EkfSlam` over an event stream, recording the estimate after every scan;
     ``on_scan()`` (optional) is called after each scan (a progress bar).
 
-    Without ``slam``, a configuration the fused engine covers (:func:`radarslam.slam._fused.why_not`)
-    runs the whole stream in one compiled call: the same record (docs/architecture.md "The fused
-    engine"); ``on_scan`` is then called once per scan at the end."""
+    Without ``slam`` and with ``engine="auto"``, a configuration the fused engine covers
+    (:func:`radarslam.slam._fused.why_not`) runs the whole stream in one compiled call: the same
+    record (docs/architecture.md "The fused engine"); ``on_scan`` is then called once per scan at
+    the end. ``engine="orchestrator"`` runs it event by event whatever the configuration (the same
+    associations, values equal to 1e-9: the first run on a machine uses it while the fused engine
+    has not been compiled yet, experiments/warmup.py)."""
+    if engine not in ENGINES:
+        raise ConfigError(f"engine: expected one of {', '.join(ENGINES)}, got {engine!r}")
     t0 = time.perf_counter()
     if slam is None:
         slam = EkfSlam(config)
-        if _fused.why_not(slam, events) is None:
+        if engine == "auto" and _fused.why_not(slam, events) is None:
             return _fused_record(slam, events, t0, on_scan)
     poses, covs, maps, ndet, nass, nlm, nis_sum, nis_n = [], [], [], [], [], [], [], []
     for ev in events:
@@ -90,7 +102,7 @@ def _fused_record(slam: EkfSlam, events, t0: float, on_scan) -> FilterRecord:
         for _ in maps:
             on_scan()
     return FilterRecord(r["poses"], r["pose_covs"], maps, r["n_detections"], r["n_associated"], r["n_landmarks"],
-                        seconds, nis_sum=r["nis_sum"], nis_count=r["nis_count"].astype(float))
+                        seconds, nis_sum=r["nis_sum"], nis_count=r["nis_count"].astype(float), engine="fused")
 
 
 def vehicle_rectangles(vehicles) -> np.ndarray:
@@ -167,11 +179,11 @@ def with_initial_estimate(config: Config, scenario: Scenario, ss: np.random.Seed
 
 
 def run_trial(config: Config, seed: int | np.random.SeedSequence, *, use_extent: bool | None = None,
-              on_scan=None) -> TrialResult:
+              on_scan=None, engine: str = "auto") -> TrialResult:
     """Simulate one scenario from ``seed`` and run the filter on it.
 
-    ``use_extent`` overrides ``config.extent.use_in_slam`` (same data either way); ``on_scan`` is
-    passed to :func:`run_filter`.
+    ``use_extent`` overrides ``config.extent.use_in_slam`` (same data either way); ``on_scan`` and
+    ``engine`` are passed to :func:`run_filter`.
     """
     config = check_simulation_config(validate(config))
     if use_extent is not None:
@@ -179,6 +191,6 @@ def run_trial(config: Config, seed: int | np.random.SeedSequence, *, use_extent:
     ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
     scenario = generate_scenario(config, np.random.default_rng(ss))
     config = with_initial_estimate(config, scenario, ss)
-    rec = run_filter(config, scenario.events, on_scan=on_scan)
+    rec = run_filter(config, scenario.events, on_scan=on_scan, engine=engine)
     seed_out = ss.entropy if not ss.spawn_key else {"entropy": ss.entropy, "spawn_key": list(ss.spawn_key)}
     return TrialResult(config, seed_out, scenario, rec, evaluate(config, scenario, rec))

@@ -9,6 +9,14 @@ two events made up for the purpose, and the simulation and the evaluation in a s
 runs one trial with the Python filter (``filter.backend = "python"`` runs no compiled filter code).
 Both write numba's cache, from which the first real trial and every worker then load. Results are
 not touched: the warm-up's outputs are thrown away.
+
+Compiling the fused engine costs far more (about 85 s of the 104 s) than compiling the kernels
+the per-event orchestrator calls (about 18 s on two cores), while a trial then runs about 4x
+faster. A Monte Carlo short enough to end sooner without it (:func:`first_run_engine`, from the
+costs measured by ``benchmarks/bench_compile.py``) therefore runs its trials with the
+orchestrator, the same associations and values to 1e-9, and leaves the fused engine to a detached
+low-priority process (:mod:`.background`) for the runs that come after. Each trial's meta says
+which engine ran it.
 """
 
 from __future__ import annotations
@@ -26,6 +34,27 @@ from radarslam.experiments.variants import Variant, apply_variant
 
 #: What the progress output says while the cache is filled.
 COMPILING = "compiling the numba kernels (once per machine, about a minute); later runs load them in about a second"
+#: ... and when this run's trials go through the orchestrator (:func:`first_run_engine`).
+COMPILING_SHORT = ("compiling the numba kernels the per-event engine uses (once per machine, about 20 s); "
+                   "this run is short, so it does not wait for the fused engine")
+
+#: Costs on two cores of this kind of machine (``python benchmarks/bench_compile.py``): seconds per
+#: variant and trial with a warm cache, fused engine and orchestrator; wall seconds to fill a cold
+#: cache for each, the simulation and the evaluation included.
+FUSED_S, ORCHESTRATOR_S = 0.012, 0.045
+FUSED_COMPILE_S, ORCHESTRATOR_COMPILE_S = 85.0, 18.0
+
+
+def first_run_engine(n_trials: int, n_variants: int, jobs: int) -> str:
+    """The engine that ends a run of ``n_trials`` trials of ``n_variants`` variants on ``jobs``
+    workers sooner from a cold cache: ``"auto"`` (compile the fused engine first) or
+    ``"orchestrator"``. With the constants above and three variants on two workers the
+    orchestrator is chosen up to 1,353 trials."""
+    par = max(1, min(int(jobs), int(n_trials)))
+    work = n_trials * n_variants / par
+    fused = FUSED_COMPILE_S + work * FUSED_S
+    orchestrator = ORCHESTRATOR_COMPILE_S + work * ORCHESTRATOR_S
+    return "orchestrator" if orchestrator < fused else "auto"
 
 
 def _has_fresh_code(dispatcher) -> bool | None:
@@ -69,19 +98,45 @@ def _side(cfg_dict: dict, overlay: dict) -> None:
     compute_trial(cfg, 1, 1, (Variant("warmup", "warm-up", python),))
 
 
-def warm_up(config: Config, variants: tuple[Variant, ...], log: Callable[[str], None], parallel: bool = True) -> None:
+def _orchestrator_trial(config: Config, variants: tuple[Variant, ...]) -> None:
+    """One car park (the reference simulation, which compiles nothing) through every variant with
+    the orchestrator: what a real trial makes numba compile of the orchestrator's kernels."""
+    from radarslam.simulation.scenario import generate_scenario
+
+    scenario = generate_scenario(config, np.random.default_rng(0), compiled=False)
+    for v in variants:
+        run_filter(apply_variant(config, v), scenario.events, engine="orchestrator")
+
+
+def warm_up(config: Config, variants: tuple[Variant, ...], log: Callable[[str], None], parallel: bool = True,
+            n_trials: int | None = None, jobs: int = 1) -> str:
     """Compile the backend before the first trial when the cache is cold (module docstring); a
-    no-op, silent, when it is warm or the backend is ``python``."""
+    no-op, silent, when it is warm or the backend is ``python``. Returns the ``engine`` the trials
+    run with (:func:`~.single.run_filter`): ``"orchestrator"`` when ``n_trials`` (None: unknown,
+    compile the fused engine) on ``jobs`` workers end sooner so (:func:`first_run_engine`), the
+    fused engine then compiling in the background (:mod:`.background`); else ``"auto"``."""
     if config.filter.backend != "numba" or not cache_is_cold():
-        return
-    log(f"montecarlo: {COMPILING}")
+        return "auto"
+    short = n_trials is not None and first_run_engine(n_trials, len(variants), jobs) == "orchestrator"
+    log(f"montecarlo: {COMPILING_SHORT if short else COMPILING}")
+    if short:
+        from radarslam.experiments import background
+        from radarslam.experiments.variants import variants_to_json
+
+        pid = background.start(to_dict(config), variants_to_json(variants))
+        if pid is not None:
+            log(f"montecarlo: the fused engine compiles in the background at low priority (pid {pid}, log "
+                f"{background.lock_path().with_suffix('.log')}) for later runs, about 4x faster per trial")
     side = None
     if parallel:
         side = ProcessPoolExecutor(max_workers=1)
         job = side.submit(_side, to_dict(config), dict(variants[0].overlay))
     try:
-        for v in variants:                       # one signature covers them; variants outside the engine compile here too
-            run_filter(apply_variant(config, v), _tiny_stream())
+        if short:
+            _orchestrator_trial(config, variants)
+        else:
+            for v in variants:                   # one signature covers them; variants outside the engine compile here too
+                run_filter(apply_variant(config, v), _tiny_stream())
     finally:
         if side is not None:
             try:
@@ -89,4 +144,5 @@ def warm_up(config: Config, variants: tuple[Variant, ...], log: Callable[[str], 
             except Exception as exc:             # only a warm-up: the first trial compiles what is missing
                 log(f"montecarlo: the second compiling process failed ({type(exc).__name__}); compiling on one core")
             side.shutdown(wait=True)
+    return "orchestrator" if short else "auto"
 
