@@ -153,11 +153,22 @@ def test_a_short_cold_run_uses_the_orchestrator_and_stores_the_same_results(tmp_
     mc.run_montecarlo(cfg, 5, 2, tmp_path / "plain", jobs=1, progress=False, log=lambda s: None)
     started: list = []
     monkeypatch.setattr(warmup, "cache_is_cold", lambda: True)
+    monkeypatch.setattr(warmup, "_orchestrator_is_cold", lambda: True)
     monkeypatch.setattr(background, "start", lambda *a: started.append(a) or 4242)
     logs: list[str] = []
     mc.run_montecarlo(cfg, 5, 2, tmp_path / "short", jobs=2, progress=False, log=logs.append)
     assert sum(warmup.COMPILING_SHORT in line for line in logs) == 1
     assert len(started) == 1 and any("pid 4242" in line for line in logs)
+    # the orchestrator's kernels cached, the fused engine still compiling: no compiling line, no
+    # second background process, the trials by the orchestrator again
+    monkeypatch.setattr(warmup, "_orchestrator_is_cold", lambda: False)
+    monkeypatch.setattr(background, "enabled", lambda: True)
+    monkeypatch.setattr(background, "busy", lambda: True)
+    logs.clear()
+    mc.run_montecarlo(cfg, 5, 1, tmp_path / "again", jobs=1, progress=False, log=logs.append)
+    assert not any("compiling the numba" in line for line in logs)
+    assert sum("still compiling in the background" in line for line in logs) == 1 and len(started) == 1
+    assert mc.load_results(tmp_path / "again")["engines"]["consistent"] == ["orchestrator"]
     plain = mc.load_results(tmp_path / "plain")
     short = mc.load_results(tmp_path / "short")
     assert all(e == ["fused", "fused"] for e in plain["engines"].values())

@@ -108,6 +108,32 @@ def _orchestrator_trial(config: Config, variants: tuple[Variant, ...]) -> None:
         run_filter(apply_variant(config, v), scenario.events, engine="orchestrator")
 
 
+def _orchestrator_is_cold() -> bool:
+    """True when the kernels a short first run needs (the simulation, the evaluation's matching
+    and the orchestrator's nearest-neighbour associator) have no fresh cached code."""
+    from radarslam.metrics._compiled import match_scans
+    from radarslam.simulation._compiled import simulate_scans
+    from radarslam.slam._numba import associate_scan
+
+    return any(_has_fresh_code(d) is False for d in (simulate_scans, match_scans, associate_scan))
+
+
+def _background(config: Config, variants: tuple[Variant, ...], log: Callable[[str], None]) -> None:
+    """Start the detached compilation of the fused engine (:mod:`.background`), or say that one runs."""
+    from radarslam.experiments import background
+    from radarslam.experiments.variants import variants_to_json
+
+    where = f"log {background.lock_path().with_suffix('.log')}"
+    if background.enabled() and background.busy():
+        log(f"montecarlo: the fused engine is still compiling in the background ({where}); this run uses the "
+            "per-event engine, with the same results")
+        return
+    pid = background.start(to_dict(config), variants_to_json(variants))
+    if pid is not None:
+        log(f"montecarlo: the fused engine compiles in the background at low priority (pid {pid}, {where}) for "
+            "later runs, about 4x faster per trial")
+
+
 def warm_up(config: Config, variants: tuple[Variant, ...], log: Callable[[str], None], parallel: bool = True,
             n_trials: int | None = None, jobs: int = 1) -> str:
     """Compile the backend before the first trial when the cache is cold (module docstring); a
@@ -118,15 +144,11 @@ def warm_up(config: Config, variants: tuple[Variant, ...], log: Callable[[str], 
     if config.filter.backend != "numba" or not cache_is_cold():
         return "auto"
     short = n_trials is not None and first_run_engine(n_trials, len(variants), jobs) == "orchestrator"
-    log(f"montecarlo: {COMPILING_SHORT if short else COMPILING}")
     if short:
-        from radarslam.experiments import background
-        from radarslam.experiments.variants import variants_to_json
-
-        pid = background.start(to_dict(config), variants_to_json(variants))
-        if pid is not None:
-            log(f"montecarlo: the fused engine compiles in the background at low priority (pid {pid}, log "
-                f"{background.lock_path().with_suffix('.log')}) for later runs, about 4x faster per trial")
+        _background(config, variants, log)
+        if not _orchestrator_is_cold():
+            return "orchestrator"
+    log(f"montecarlo: {COMPILING_SHORT if short else COMPILING}")
     side = None
     if parallel:
         side = ProcessPoolExecutor(max_workers=1)
@@ -145,4 +167,3 @@ def warm_up(config: Config, variants: tuple[Variant, ...], log: Callable[[str], 
                 log(f"montecarlo: the second compiling process failed ({type(exc).__name__}); compiling on one core")
             side.shutdown(wait=True)
     return "orchestrator" if short else "auto"
-
