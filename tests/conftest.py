@@ -69,3 +69,22 @@ def victoria_park_dir() -> Path:
             pytest.fail(msg + " (CI must provide ../shared)")
         pytest.skip(msg)
     return VICTORIA_PARK
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _fused_engine_compiled():
+    """Compile the fused engine once before the first test when numba's cache is cold, so that
+    every Monte Carlo in the session runs its trials with the engine the results are compared
+    against (a short run on a cold cache would take the orchestrator, equal only to 1e-9,
+    experiments/warmup.py). Without numba, nothing to do."""
+    try:
+        import numba  # noqa: F401
+    except ImportError:
+        yield
+        return
+    from radarslam.config import profile_config
+    from radarslam.experiments.variants import DEFAULT_VARIANTS
+    from radarslam.experiments.warmup import warm_up
+
+    warm_up(profile_config("apsipa"), DEFAULT_VARIANTS, lambda s: None, parallel=False)
+    yield
