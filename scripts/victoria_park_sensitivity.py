@@ -54,6 +54,14 @@ def _set(section: str, **kv):
     return change
 
 
+def _standard_jacobians(d: dict) -> dict:
+    """JCBB evaluates its Jacobians at the estimate (its orchestrated form refuses first estimates,
+    docs/method.md c.2.1): a candidate with ``filter.jacobians = "fej"`` runs its JCBB row with the
+    standard ones."""
+    d["filter"]["jacobians"] = "standard"
+    return d
+
+
 #: name -> (change of the profile's dict, loader options)
 VARIANTS = {
     "profile": (lambda d: d, {}),
@@ -67,7 +75,7 @@ VARIANTS = {
     "laser time +50 ms": (lambda d: d, {"laser_time_offset": 0.05}),
     "associator nearest-neighbour": (_set("landmarks", associator="nearest-neighbour"), {}),
     "associator batch": (_set("landmarks", associator="batch"), {}),
-    "associator jcbb": (_set("landmarks", associator="jcbb"), {}),
+    "associator jcbb": (lambda d: _standard_jacobians(_set("landmarks", associator="jcbb")(d)), {}),
 }
 
 
