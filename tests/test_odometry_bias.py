@@ -142,6 +142,62 @@ def test_frozen_bias_states_reproduce_the_plain_filter(backend, associator, view
     assert np.array_equal(s1.bias, np.zeros(2))
 
 
+@pytest.mark.parametrize("backend", ["python", "numba"])
+@pytest.mark.parametrize("associator", ["nearest-neighbour", "batch", "batch-joint"])
+def test_frozen_bias_states_reproduce_the_plain_filter_under_fej(backend, associator):
+    """The same under first-estimates Jacobians (c.11.7): the pose block's first-estimates heading
+    column, the scan's linearisation pose and the landmarks' first estimates are read past a
+    platform block of 5, and frozen states give the plain FEJ filter to 1e-9. Negative control: the
+    FEJ run differs from the standard one (so FEJ is exercised)."""
+    cfg = _short_carpark()
+    cfg = replace(cfg, landmarks=replace(cfg.landmarks, associator=associator),
+                  filter=replace(cfg.filter, backend=backend, fused=False, jacobians="fej"))
+    events = generate_scenario(cfg, np.random.default_rng(3)).events
+    p0, s0 = _run_poses(cfg, events)
+    p1, s1 = _run_poses(replace(cfg, filter=replace(cfg.filter, odometry_bias="states", **FROZEN)), events)
+    ps, _ = _run_poses(replace(cfg, filter=replace(cfg.filter, jacobians="standard")), events)
+    assert s1.fej and s1.state.platform_dim == 5 and s0.landmarks
+    np.testing.assert_allclose(p1, p0, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(s1.landmark_positions, s0.landmark_positions, rtol=0, atol=1e-9)
+    assert np.abs(ps - p0).max() > 1e-6
+
+
+@pytest.mark.parametrize("model, u", MODELS, ids=lambda v: getattr(v, "name", ""))
+@pytest.mark.parametrize("tau", [0.0, 20.0])
+def test_fej_platform_jacobians_keep_the_rotation_unobservable(model, u, tau):
+    """Under FEJ (c.11.7) two predictions with an update between them (the pose moved by the update)
+    telescope: the product of the platform Jacobians maps the global rotation's direction at the
+    first estimate, ``N = [J t; 1; 0, 0]`` (the biases are invariant), to the one at the last
+    prediction; the pose block's heading column is ``J (t_new - t_first)``. Negative control: the
+    standard Jacobians (at the updated pose) do not telescope."""
+    J = np.array([[0.0, -1.0], [1.0, 0.0]])
+    bias = BiasStates(model.input_bias, [0.05, 0.02], [1e-3, 1e-3], tau)
+    u, dt, m, p = np.array(u), 0.1, bias.dim, bias.platform_dim
+    x0 = np.array([1.0, -2.0, 0.4, 0.03, -0.01])
+    P = np.eye(p) * 1e-2
+    U, Q = np.eye(u.size) * 1e-4, np.eye(3) * 1e-6
+
+    def F_of(x, first):
+        """The new platform block and the F_s that predict_terms applied (recovered from P_sl = F_s P_sl
+        with P_sl = I: the cross-covariance with p unit landmark columns)."""
+        Pl = np.zeros((p + p, p + p))
+        Pl[:p, :p] = P
+        Pl[:p, p:] = Pl[p:, :p] = np.eye(p)
+        s, _, Psl = bias.predict_terms(np.concatenate([x, np.zeros(p)]), Pl, u, dt, model, U, Q, first)
+        return s, Psl
+    s1, F1 = F_of(x0, x0[:3])                   # first prediction: the first estimate is the pose itself
+    x1 = s1.copy()
+    x1[:3] += [0.3, -0.2, 0.05]                  # an update moves the pose (and not the first estimate s1)
+    s2, F2 = F_of(x1, s1[:3])
+    np.testing.assert_allclose(F2[:2, 2], J @ (s2[:2] - s1[:2]), atol=1e-15)
+    N0 = np.concatenate([J @ x0[:2], [1.0], np.zeros(m)])
+    N2 = np.concatenate([J @ s2[:2], [1.0], np.zeros(m)])
+    np.testing.assert_allclose(F2 @ F1 @ N0, N2, atol=1e-12)
+    _, G2 = F_of(x1, None)
+    _, G1 = F_of(x0, None)
+    assert np.abs(G2 @ G1 @ N0 - N2).max() > 0.1
+
+
 def test_frozen_bias_states_under_doppler_odometry():
     """The same with the body-velocity model driven by Doppler and gyro (c.10.5): its declared bias
     states (speed scale, yaw-rate offset) are the ones the filter carries."""
@@ -156,16 +212,16 @@ def test_frozen_bias_states_under_doppler_odometry():
 
 def test_option_default_and_refusals():
     """'none' keeps the 3-entry platform block and the fused engine; 'states' is declined by the
-    fused engine with a reason, refused with first-estimates Jacobians and for a model that
-    declares no bias; negative stds are refused by validation."""
+    fused engine with a reason (with first-estimates Jacobians too, c.11.7) and refused for a model
+    that declares no bias; negative stds are refused by validation."""
     cfg = profile_config("apsipa")
     assert EkfSlam(cfg).state.platform_dim == 3 and _fused.why_not(EkfSlam(cfg)) is None
     on = replace(cfg, filter=replace(cfg.filter, odometry_bias="states"))
     slam = EkfSlam(on)
     assert slam.x.shape == (5,) and slam.P[3, 3] == pytest.approx(0.05 ** 2)
     assert "odometry_bias" in _fused.why_not(slam)
-    with pytest.raises(ConfigError, match="filter.jacobians"):
-        EkfSlam(replace(on, filter=replace(on.filter, jacobians="fej")))
+    fej = EkfSlam(replace(on, filter=replace(on.filter, jacobians="fej")))
+    assert fej.fej and fej.state.platform_dim == 5 and "odometry_bias" in _fused.why_not(fej)
 
     class NoBias(UnicycleModel):
         input_bias = None

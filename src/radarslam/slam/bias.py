@@ -75,20 +75,27 @@ class BiasStates:
         return F, Fu @ Cu, uc
 
     def predict_terms(self, x: np.ndarray, P: np.ndarray, u: np.ndarray, dt: float, model, U: np.ndarray,
-                      Q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                      Q: np.ndarray, pose_first: np.ndarray | None = None
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """:func:`radarslam.slam.ekf.predict_terms` for the platform block with bias states: the new
         block ``(p,)``, its covariance ``(p, p)`` and its cross-covariance with the landmarks
         ``(p, n - p)``, without touching ``x`` or ``P`` (c.11.2); :func:`~radarslam.slam.ekf.apply_prediction`
-        writes them."""
+        writes them. With ``pose_first`` (3,), the first estimate of the current pose, the pose
+        block's heading column is the first-estimates one (c.2.1, c.11.7); ``F_u C_b`` and ``Phi``
+        stay at the estimate (the global rotation and translation leave the biases unchanged, so
+        these columns do not enter the nullspace condition)."""
         p = self.platform_dim
         pose, b = x[:POSE_DIM], x[POSE_DIM:p]
         F, G, uc = self.jacobians(pose, b, u, dt, model)
         phi, qb = self.transition(dt)
+        new_pose = model.step(pose, uc, dt)
+        if pose_first is not None:
+            F[:POSE_DIM, :POSE_DIM] = ekf.fej_motion_jacobian(F[:POSE_DIM, :POSE_DIM], new_pose, pose_first)
         Pss = F @ P[:p, :p] @ F.T
         Pss[:POSE_DIM, :POSE_DIM] += G @ U @ G.T + Q
         Pss[POSE_DIM:, POSE_DIM:] += np.diag(qb)
         Pss = 0.5 * (Pss + Pss.T)
-        s = np.concatenate([model.step(pose, uc, dt), phi * b])
+        s = np.concatenate([new_pose, phi * b])
         return s, Pss, F @ P[:p, p:]
 
 
@@ -117,10 +124,10 @@ def predict_terms(bias: BiasStates | None, x: np.ndarray, P: np.ndarray, u: np.n
                   U: np.ndarray, Q: np.ndarray, pose_first: np.ndarray | None = None):
     """The prediction's terms for :func:`radarslam.slam.ekf.apply_prediction`: without bias states
     :func:`radarslam.slam.ekf.predict_terms` (c.2, with ``pose_first`` under FEJ), else
-    :meth:`BiasStates.predict_terms` (c.11.2)."""
+    :meth:`BiasStates.predict_terms` (c.11.2; with ``pose_first`` too, c.11.7)."""
     if bias is None:
         return ekf.predict_terms(x, P, u, dt, model, U, Q, pose_first)
-    return bias.predict_terms(x, P, u, dt, model, U, Q)
+    return bias.predict_terms(x, P, u, dt, model, U, Q, pose_first)
 
 
 def control_noise(model, f) -> np.ndarray:

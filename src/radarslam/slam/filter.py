@@ -137,9 +137,7 @@ class EkfSlam:
         unicycle, Ackermann and body-velocity models are), an associator that does not evaluate
         them, or the partial view."""
         got = None
-        if self.bias_model is not None:
-            got = "filter.odometry_bias 'states' (the bias states of c.11)"
-        elif not getattr(self.model, "se2_increment", False):
+        if not getattr(self.model, "se2_increment", False):
             got = f"motion model {config.filter.motion_model!r}"
         elif not getattr(self.associator, "fej", False):
             got = f"associator {config.landmarks.associator!r}"
@@ -241,7 +239,7 @@ class EkfSlam:
                           f"odometry at t={odo.t!r} (control {u.tolist()}, dt {dt!r})")
         ekf.apply_prediction(st.x, st.P, pose, Ppp, Ppl)
         if self.fej:
-            self._pose_first = pose.copy()      # the first estimate of the new pose (c.2.1)
+            self._pose_first = pose[:3].copy()  # the first estimate of the new pose (c.2.1; pose: the platform block)
         self._dt_since_scan += dt
 
     def update(self, scan: Scan) -> ScanReport:
