@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -11,74 +11,110 @@ from radarslam.core.angles import wrap_pi
 from radarslam.landmarks.clustering import Cluster
 
 
-@dataclass
-class Tentative:
-    """An unconfirmed landmark (Rule 2)."""
+class Tentatives(NamedTuple):
+    """The unconfirmed landmarks of Rule 2 (c.7), one row each, as the orchestrator keeps them in
+    :class:`~radarslam.slam.state.SlamState` and the fused engine in its loop."""
 
-    centre_xy: np.ndarray
-    count: int
-    window: int
-    npts: int
+    centre: np.ndarray     #: (T, 2) the last matched cluster's centre detection, world frame [m]
+    count: np.ndarray      #: (T,) int64, scans in which it was matched
+    window: np.ndarray     #: (T,) int64, scans since it was created
+    npts: np.ndarray       #: (T,) int64, points of the last matched cluster
 
 
-def rule2_step(tentatives: list[Tentative], clusters: list[Cluster], *, gate: float, confirm_points: int,
-               window: int, hits: int) -> tuple[list[Cluster], list[Tentative]]:
-    """One scan of Rule 1 / Rule 2 over the clusters that passed the alpha test.
+def no_tentatives() -> Tentatives:
+    """No tentatives."""
+    return Tentatives(np.empty((0, 2)), np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64),
+                      np.empty(0, dtype=np.int64))
 
-    1. Greedy one-to-one matching of clusters to last scan's tentatives: repeatedly the pair with
-       the smallest centre distance, if below ``gate`` (gamma_a).
-    2. Matched: ``count += 1``, centre and ``npts`` from the cluster; confirmed if
-       ``count >= hits`` or ``npts >= confirm_points``.
-    3. The remaining tentatives age (``window += 1``) and are dropped when ``window >= M`` or
-       when ``count + M - window < N`` (they can no longer reach N hits).
-    4. Unmatched clusters: confirmed at once with ``size >= confirm_points`` (Rule 1), otherwise
-       a new tentative with ``count = window = 1``.
+
+def rule12(t_centre, t_count, t_window, t_npts, c_centre, c_size, gate, confirm_points, window, hits):
+    """One scan of Rule 2 then Rule 1 (c.7) over arrays; a kernel (``core.jit``): the orchestrator
+    calls it as Python (:func:`rule2_step`), the fused engine compiles it as it is.
+
+    Tentative ``t`` is ``(t_centre[t], t_count[t], t_window[t], t_npts[t])``; cluster ``c`` (one
+    that passed the alpha test) has its centre detection ``c_centre[c]`` and ``c_size[c]`` points.
+
+    1. Greedy one-to-one matching, closest pair first (distances in row-major order, a stable
+       sort), while the distance is below ``gate`` (gamma_a): the tentative's count grows by one,
+       its centre and points become the cluster's; it is confirmed with ``count >= hits`` or
+       ``npts >= confirm_points``.
+    2. The tentatives not confirmed age (``window + 1``) and are dropped at ``window >= window``
+       or when ``count + window - age < hits`` (they can no longer reach ``hits``).
+    3. An unmatched cluster is confirmed at once with ``size >= confirm_points`` (Rule 1), else it
+       becomes a tentative with count and age 1.
+
+    Returns ``(confirmed clusters in order, new t_centre, t_count, t_window, t_npts)``."""
+    T, C = t_count.shape[0], c_size.shape[0]
+    confirmed = np.empty(C, dtype=np.int64)
+    n_conf = 0
+    count, npts, centre = t_count.copy(), t_npts.copy(), t_centre.copy()
+    matched_c = np.zeros(C, dtype=np.bool_)
+    consumed = np.zeros(T, dtype=np.bool_)
+    if T > 0 and C > 0:
+        d = np.empty(T * C)
+        for t in range(T):
+            for c in range(C):
+                d0 = t_centre[t, 0] - c_centre[c, 0]
+                d1 = t_centre[t, 1] - c_centre[c, 1]
+                d[t * C + c] = math.sqrt(d0 * d0 + d1 * d1)
+        matched_t = np.zeros(T, dtype=np.bool_)
+        for flat in np.argsort(d, kind="mergesort"):
+            if d[flat] >= gate:
+                break
+            t, c = flat // C, flat % C
+            if matched_t[t] or matched_c[c]:
+                continue
+            matched_t[t] = True
+            matched_c[c] = True
+            count[t] += 1
+            centre[t, 0], centre[t, 1] = c_centre[c, 0], c_centre[c, 1]
+            npts[t] = c_size[c]
+            if count[t] >= hits or npts[t] >= confirm_points:
+                confirmed[n_conf] = c
+                n_conf += 1
+                consumed[t] = True
+    o_centre = np.empty((T + C, 2))
+    o_count = np.empty(T + C, dtype=np.int64)
+    o_window = np.empty(T + C, dtype=np.int64)
+    o_npts = np.empty(T + C, dtype=np.int64)
+    n = 0
+    for t in range(T):
+        age = t_window[t] + 1
+        if consumed[t] or age >= window or count[t] + window - age < hits:
+            continue
+        o_centre[n, 0], o_centre[n, 1] = centre[t, 0], centre[t, 1]
+        o_count[n], o_window[n], o_npts[n] = count[t], age, npts[t]
+        n += 1
+    for c in range(C):
+        if matched_c[c]:
+            continue
+        if c_size[c] >= confirm_points:
+            confirmed[n_conf] = c
+            n_conf += 1
+        else:
+            o_centre[n, 0], o_centre[n, 1] = c_centre[c, 0], c_centre[c, 1]
+            o_count[n], o_window[n], o_npts[n] = 1, 1, c_size[c]
+            n += 1
+    return (confirmed[:n_conf].copy(), o_centre[:n].copy(), o_count[:n].copy(), o_window[:n].copy(),
+            o_npts[:n].copy())
+
+
+def rule2_step(tentatives: Tentatives, clusters: list[Cluster], *, gate: float, confirm_points: int,
+               window: int, hits: int) -> tuple[list[Cluster], Tentatives]:
+    """One scan of Rule 1 / Rule 2 over the clusters that passed the alpha test (:func:`rule12`).
 
     Returns
     -------
     confirmed : list of Cluster
         Clusters whose centre (this scan's measurement) initialises a new landmark.
-    tentatives : list of Tentative
+    tentatives : Tentatives
         The unconfirmed landmarks carried to the next scan.
     """
-    confirmed: list[Cluster] = []
-    matched_c: set[int] = set()
-    matched_t: set[int] = set()
-    if tentatives and clusters:
-        tc = np.array([t.centre_xy for t in tentatives])
-        cc = np.array([c.centre_xy for c in clusters])
-        d = np.linalg.norm(tc[:, None, :] - cc[None, :, :], axis=2)
-        for flat in np.argsort(d, axis=None, kind="stable"):
-            ti, ci = divmod(int(flat), len(clusters))
-            if d[ti, ci] >= gate:
-                break
-            if ti in matched_t or ci in matched_c:
-                continue
-            matched_t.add(ti)
-            matched_c.add(ci)
-            t, c = tentatives[ti], clusters[ci]
-            t.count += 1
-            t.centre_xy = c.centre_xy
-            t.npts = c.size
-            if t.count >= hits or t.npts >= confirm_points:
-                confirmed.append(c)
-                t.window = -1  # marks it consumed
-    kept: list[Tentative] = []
-    for t in tentatives:
-        if t.window < 0:
-            continue
-        t.window += 1
-        if t.window >= window or t.count + window - t.window < hits:
-            continue
-        kept.append(t)
-    for ci, c in enumerate(clusters):
-        if ci in matched_c:
-            continue
-        if c.size >= confirm_points:
-            confirmed.append(c)
-        else:
-            kept.append(Tentative(c.centre_xy, 1, 1, c.size))
-    return confirmed, kept
+    cc = np.array([c.centre_xy for c in clusters], dtype=float).reshape(-1, 2)
+    cs = np.array([c.size for c in clusters], dtype=np.int64)
+    conf, *rows = rule12(tentatives.centre, tentatives.count, tentatives.window, tentatives.npts, cc, cs,
+                         float(gate), int(confirm_points), int(window), int(hits))
+    return [clusters[int(c)] for c in conf], Tentatives(*rows)
 
 
 def push_bit(window: int, bit: bool, length: int) -> int:

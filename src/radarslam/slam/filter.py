@@ -287,7 +287,7 @@ class EkfSlam:
         n_assoc = sum(a.size for a in associations.values())
         created = {i: (m if keep is None else keep[m]) for i, m in zip(confirmed, members)}
         return ScanReport(k, polar.shape[0] + moving.size, int(cand.sum()), n_assoc, associations, removed,
-                          confirmed, merged, len(clusters), len(self.state.tentatives), nis, moving, ego, created)
+                          confirmed, merged, len(clusters), self.state.tentatives.count.shape[0], nis, moving, ego, created)
 
     # ------------------------------------------------------------------ the steps
     def _take_scan_interval(self) -> float:

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from radarslam.landmarks.confirmation import Tentative
+from radarslam.landmarks.confirmation import Tentatives, no_tentatives
 from radarslam.slam import ekf
 from radarslam.slam.layout import LANDMARK_DIM, POSE_DIM, landmark_index
 
@@ -47,7 +47,7 @@ class SlamState:
     x: np.ndarray
     P: np.ndarray
     landmarks: list[LandmarkRecord] = field(default_factory=list)
-    tentatives: list[Tentative] = field(default_factory=list)
+    tentatives: Tentatives = field(default_factory=no_tentatives)
     next_id: int = 0
     #: Under first-estimates Jacobians (docs/method.md c.2.1): the pose [x_m, y_m, theta_rad] at
     #: which this scan's measurement Jacobians are evaluated (its prediction); None = the estimate.

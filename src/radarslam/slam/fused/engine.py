@@ -14,6 +14,7 @@ import time
 import numpy as np
 from numba import njit, objmode
 
+from radarslam.landmarks.confirmation import Tentatives
 from radarslam.slam.fused.mapping import alpha_test, augment, cluster, confirm, merge
 from radarslam.slam.fused.storage import (
     _all_finite,
@@ -22,7 +23,6 @@ from radarslam.slam.fused.storage import (
     new_arcs,
     new_landmarks,
     new_records,
-    new_tentatives,
     record_map,
     record_scan,
 )
@@ -73,8 +73,8 @@ def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
         m_max = max(m_max, stream.scan_off[s + 1] - stream.scan_off[s])
     lm = new_landmarks(16, cfg.n_init + m_max + 1)        # landmark records in state order
     N, next_id = 0, 0
-    tent = new_tentatives(16)                              # tentatives (Rule 2)
-    T = 0
+    tent = Tentatives(np.empty((0, 2)), np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64),
+                      np.empty(0, dtype=np.int64))      # tentatives (Rule 2)
     rec, maps = new_records(S, 64)
     arcs, n_arcs = new_arcs(64), 0                         # visible-arc widths (a.9)
     a_rows = np.empty((64, 3), dtype=np.int64)
@@ -109,7 +109,7 @@ def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
                                        noise, cfg)                                 # 6
         clusters = cluster(xy, polar, cand, cfg)                                   # 7
         fresh = alpha_test(x, P, polar, clusters, noise, cfg)                      # 7
-        confirmed, tent, T = confirm(tent, T, fresh, clusters, xy, cfg)            # 8
+        confirmed, tent = confirm(tent, fresh, clusters, xy, cfg)                  # 8
         x, P, lm, N, next_id = augment(x, P, lm, N, next_id, confirmed, clusters, polar, k, noise, cfg)  # 9
         x, P, lm, N = merge(x, P, lm, N, arcs, cfg)                                # 10
         if not _all_finite(x, P):

@@ -13,6 +13,7 @@ from numba import njit
 
 from radarslam.core.jit import compile_kernels
 from radarslam.landmarks._compiled import dbscan_centres, dbscan_labels
+from radarslam.landmarks.confirmation import Tentatives, rule12
 from radarslam.models.radar import inverse_jacobians, polar_to_xy
 from radarslam.slam import ekf
 from radarslam.slam._numba import _polar_to_sensor_xy, min_log_distance
@@ -22,12 +23,12 @@ from radarslam.slam.fused.storage import (
     _drop_state_rows,
     compact_landmarks,
     grow_landmarks,
-    grow_tentatives,
     pool_arcs,
     with_buffer,
 )
 
-# The reference's own kernels, compiled as they are: the augmentation (c.8).
+# The reference's own kernels, compiled as they are: Rule 1 / Rule 2 (c.7), the augmentation (c.8).
+_rule12 = compile_kernels(rule12)["rule12"]
 _K = compile_kernels(polar_to_xy, inverse_jacobians, ekf.augment, ekf.augment_point)
 _augment = _K["augment"]
 _augment_point = _K["augment_point"]
@@ -75,85 +76,23 @@ def alpha_test(x, P, polar, clusters, noise, cfg):  # pragma: no cover - compile
 
 
 @njit(cache=True, inline="always")
-def _rule2(tent, T, fresh, cl_centre, cl_size, xy, confirmed, cfg):  # pragma: no cover - compiled
-    """Rule 2 (c.7): match tentatives and fresh clusters, closest pairs first within
-    ``cfg.tentative_gate``; a tentative seen often enough or with enough points is confirmed.
-    Returns ``(matched clusters, consumed tentatives, number confirmed)``."""
+def confirm(tent, fresh, clusters, xy, cfg):  # pragma: no cover - compiled
+    """Step 8: Rule 2 then Rule 1 (c.7) of the fresh clusters, the orchestrator's own kernel
+    (landmarks.confirmation.rule12) compiled as it is. Returns ``(confirmed clusters, tent)``."""
     nf = fresh.shape[0]
-    n_conf = 0
-    matched_c = np.zeros(nf, dtype=np.bool_)
-    consumed = np.zeros(T, dtype=np.bool_)
-    if T == 0 or nf == 0:
-        return matched_c, consumed, n_conf
-    d = np.empty(T * nf)
-    for t in range(T):
-        for f in range(nf):
-            i = cl_centre[fresh[f]]
-            d0 = tent.centre[t, 0] - xy[i, 0]
-            d1 = tent.centre[t, 1] - xy[i, 1]
-            d[t * nf + f] = math.sqrt(d0 * d0 + d1 * d1)
-    matched_t = np.zeros(T, dtype=np.bool_)
-    for flat in np.argsort(d, kind="mergesort"):
-        if d[flat] >= cfg.tentative_gate:
-            break
-        t, f = flat // nf, flat % nf
-        if matched_t[t] or matched_c[f]:
-            continue
-        matched_t[t] = True
-        matched_c[f] = True
-        i = cl_centre[fresh[f]]
-        tent.count[t] += 1
-        tent.centre[t, 0], tent.centre[t, 1] = xy[i, 0], xy[i, 1]
-        tent.npts[t] = cl_size[fresh[f]]
-        if tent.count[t] >= cfg.confirm_hits or tent.npts[t] >= cfg.confirm_points:
-            confirmed[n_conf] = fresh[f]
-            n_conf += 1
-            consumed[t] = True
-    return matched_c, consumed, n_conf
-
-
-@njit(cache=True, inline="always")
-def _age_tentatives(tent, T, consumed, cfg):  # pragma: no cover - compiled
-    """Age the tentatives not confirmed, dropping those that can no longer reach
-    ``cfg.confirm_hits`` in ``cfg.confirm_window`` scans. Returns the number left."""
-    Mw, Nh = cfg.confirm_window, cfg.confirm_hits
-    T_new = 0
-    for t in range(T):
-        if consumed[t]:
-            continue
-        tent.window[t] += 1
-        if tent.window[t] >= Mw or tent.count[t] + Mw - tent.window[t] < Nh:
-            continue
-        tent.centre[T_new], tent.count[T_new] = tent.centre[t], tent.count[t]
-        tent.window[T_new], tent.npts[T_new] = tent.window[t], tent.npts[t]
-        T_new += 1
-    return T_new
-
-
-@njit(cache=True, inline="always")
-def confirm(tent, T, fresh, clusters, xy, cfg):  # pragma: no cover - compiled
-    """Step 8: Rule 2 (matched tentatives) then Rule 1 (c.7): a fresh cluster not matched is
-    confirmed with ``cfg.confirm_points`` points, else becomes a tentative. Returns ``(confirmed
-    clusters, tent, T)``."""
-    cl_centre, cl_size = clusters.centre, clusters.size
-    nf = fresh.shape[0]
-    confirmed = np.empty(nf, dtype=np.int64)
-    matched_c, consumed, n_conf = _rule2(tent, T, fresh, cl_centre, cl_size, xy, confirmed, cfg)
-    T = _age_tentatives(tent, T, consumed, cfg)
+    cc = np.empty((nf, 2))
+    cs = np.empty(nf, dtype=np.int64)
     for f in range(nf):
-        if matched_c[f]:
-            continue
-        c = fresh[f]
-        if cl_size[c] >= cfg.confirm_points:
-            confirmed[n_conf] = c
-            n_conf += 1
-        else:
-            tent = grow_tentatives(tent, T + 1)
-            i = cl_centre[c]
-            tent.centre[T, 0], tent.centre[T, 1] = xy[i, 0], xy[i, 1]
-            tent.count[T], tent.window[T], tent.npts[T] = 1, 1, cl_size[c]
-            T += 1
-    return confirmed[:n_conf], tent, T
+        i = clusters.centre[fresh[f]]
+        cc[f, 0], cc[f, 1] = xy[i, 0], xy[i, 1]
+        cs[f] = clusters.size[fresh[f]]
+    conf, centre, count, window, npts = _rule12(tent.centre, tent.count, tent.window, tent.npts, cc, cs,
+                                                cfg.tentative_gate, cfg.confirm_points, cfg.confirm_window,
+                                                cfg.confirm_hits)
+    confirmed = np.empty(conf.shape[0], dtype=np.int64)
+    for a in range(conf.shape[0]):
+        confirmed[a] = fresh[conf[a]]
+    return confirmed, Tentatives(centre, count, window, npts)
 
 
 @njit(cache=True, inline="always")

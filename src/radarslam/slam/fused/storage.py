@@ -52,15 +52,6 @@ class Arcs(NamedTuple):
     nxt: np.ndarray        #: (n,) int64, the landmark's next entry, -1 at its last
 
 
-class Tentatives(NamedTuple):
-    """The tentative landmarks of Rule 2 (c.7), rows ``0 .. T - 1`` in use."""
-
-    centre: np.ndarray     #: (T, 2) last matched cluster centre
-    count: np.ndarray      #: (T,) int64, matched scans
-    window: np.ndarray     #: (T,) int64, scans since creation
-    npts: np.ndarray       #: (T,) int64, points of the last matched cluster
-
-
 class Clusters(NamedTuple):
     """The clusters of a scan's unclaimed detections (a.8 step 7)."""
 
@@ -228,22 +219,6 @@ def compact_landmarks(lm, keep):  # pragma: no cover - compiled
 
 
 # ---------------------------------------------------------------------------------------- tentatives
-@njit(cache=True, inline="always")
-def new_tentatives(cap):  # pragma: no cover - compiled
-    """Empty tentatives with room for ``cap``."""
-    return Tentatives(np.empty((cap, 2)), np.empty(cap, dtype=np.int64), np.empty(cap, dtype=np.int64),
-                      np.empty(cap, dtype=np.int64))
-
-
-@njit(cache=True, inline="always")
-def grow_tentatives(tent, n):  # pragma: no cover - compiled
-    """``tent`` with room for at least ``n`` tentatives."""
-    if n <= tent.count.shape[0]:
-        return tent
-    return Tentatives(_grow_rows(tent.centre, n), _grow_rows(tent.count, n), _grow_rows(tent.window, n),
-                      _grow_rows(tent.npts, n))
-
-
 # ---------------------------------------------------------------------------------------- visible arcs
 @njit(cache=True, inline="always")
 def new_arcs(cap):  # pragma: no cover - compiled
