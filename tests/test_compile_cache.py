@@ -119,7 +119,7 @@ def test_a_stale_index_counts_as_cold(monkeypatch):
     assert warmup._has_fresh_code(run_stream) is True
     monkeypatch.setattr(cache_file, "_source_stamp", ("another source", 0))
     assert warmup._has_fresh_code(run_stream) is False
-    assert warmup.cache_is_cold() is True
+    assert warmup.cache_is_cold() is True and warmup.fused_is_cold() is True
 
 
 def test_first_run_engine_takes_the_orchestrator_while_it_ends_sooner():
@@ -153,6 +153,7 @@ def test_a_short_cold_run_uses_the_orchestrator_and_stores_the_same_results(tmp_
     mc.run_montecarlo(cfg, 5, 2, tmp_path / "plain", jobs=1, progress=False, log=lambda s: None)
     started: list = []
     monkeypatch.setattr(warmup, "cache_is_cold", lambda: True)
+    monkeypatch.setattr(warmup, "fused_is_cold", lambda: True)
     monkeypatch.setattr(warmup, "_orchestrator_is_cold", lambda: True)
     monkeypatch.setattr(background, "start", lambda *a: started.append(a) or 4242)
     logs: list[str] = []

@@ -80,6 +80,13 @@ def cache_is_cold() -> bool:
     return any(_has_fresh_code(d) is False for d in (run_stream, simulate_scans, match_scans))
 
 
+def fused_is_cold() -> bool:
+    """True when numba has no fresh cached machine code of the fused engine."""
+    from radarslam.slam._fused import run_stream
+
+    return _has_fresh_code(run_stream) is False
+
+
 def _tiny_stream() -> list:
     """Two events that take every part of the fused engine's code through the compiler (numba
     compiles a whole function whatever the data); with a gyro reading and a Doppler channel, so that
@@ -143,7 +150,8 @@ def warm_up(config: Config, variants: tuple[Variant, ...], log: Callable[[str], 
     fused engine then compiling in the background (:mod:`.background`); else ``"auto"``."""
     if config.filter.backend != "numba" or not cache_is_cold():
         return "auto"
-    short = n_trials is not None and first_run_engine(n_trials, len(variants), jobs) == "orchestrator"
+    short = (n_trials is not None and fused_is_cold()
+             and first_run_engine(n_trials, len(variants), jobs) == "orchestrator")
     if short:
         _background(config, variants, log)
         if not _orchestrator_is_cold():
@@ -159,6 +167,8 @@ def warm_up(config: Config, variants: tuple[Variant, ...], log: Callable[[str], 
         else:
             for v in variants:                   # one signature covers them; variants outside the engine compile here too
                 run_filter(apply_variant(config, v), _tiny_stream())
+        if side is None:                         # one core: the simulation and the evaluation next, here
+            _side(to_dict(config), dict(variants[0].overlay))
     finally:
         if side is not None:
             try:
