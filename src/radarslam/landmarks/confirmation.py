@@ -117,15 +117,41 @@ def rule2_step(tentatives: Tentatives, clusters: list[Cluster], *, gate: float, 
     return [clusters[int(c)] for c in conf], Tentatives(*rows)
 
 
-def push_bit(window: int, bit: bool, length: int) -> int:
-    """Shift a newest-first bit window (bit 0 = this scan) and keep ``length`` bits."""
-    return ((window << 1) | int(bit)) & ((1 << length) - 1)
+def popcount(v):
+    """Number of set bits of the non-negative integer ``v``; a kernel (``core.jit``)."""
+    c = 0
+    while v:
+        c += v & 1
+        v >>= 1
+    return c
 
 
-def should_remove(k: int, created: int, assoc: int, in_range: int, *, window: int, max_hits: int) -> bool:
-    """M/N removal (c.5): old enough, in range in all of the last M scans, associated in <= N."""
-    return (k - window + 1 >= created and in_range.bit_count() == window
-            and assoc.bit_count() <= max_hits)
+def push_bit(window, bit, length):
+    """Shift a newest-first bit window (bit 0 = this scan) and keep ``length`` bits; a kernel."""
+    return ((window << 1) | (1 if bit else 0)) & ((1 << length) - 1)
+
+
+def should_remove(k, created, assoc, in_range, window, max_hits):
+    """M/N removal (c.5): old enough, in range in all of the last M scans, associated in <= N; a
+    kernel."""
+    return k - window + 1 >= created and popcount(in_range) == window and popcount(assoc) <= max_hits
+
+
+def mn_windows(assoc, in_range, created, hit, in_view, k, window, max_hits):
+    """One scan of the M/N removal windows (c.5, every scan, Decision 8) over arrays, in place; a
+    kernel that the orchestrator (:func:`removal_step`) calls as Python and the fused engine
+    compiles as it is. Landmark ``j`` pushes whether it was associated (``hit[j]``) and whether it
+    was in range (``in_view[j]``; an associated landmark counts as in range) into its windows
+    ``assoc[j]``, ``in_range[j]``. Returns which landmarks stay (boolean)."""
+    n = assoc.shape[0]
+    keep = np.ones(n, dtype=np.bool_)
+    for j in range(n):
+        h = bool(hit[j])
+        assoc[j] = push_bit(assoc[j], h, window)
+        in_range[j] = push_bit(in_range[j], h or bool(in_view[j]), window)
+        if should_remove(k, created[j], assoc[j], in_range[j], window, max_hits):
+            keep[j] = False
+    return keep
 
 
 def in_sensor_view(positions: np.ndarray, pose: np.ndarray, max_range: float, field_of_view_deg: float) -> np.ndarray:
@@ -145,17 +171,14 @@ def in_sensor_view(positions: np.ndarray, pose: np.ndarray, max_range: float, fi
 
 def removal_step(records: list, hit: np.ndarray, in_view: np.ndarray, k: int, *, window: int,
                  max_hits: int) -> list[int]:
-    """One scan of the M/N removal windows (c.5, every scan, Decision 8).
-
-    Each record (``.assoc``, ``.in_range``, ``.created``) pushes whether it was associated and
-    whether it was in range (an associated landmark counts as in range); returns the positions of
-    the records to remove, ascending.
-    """
-    drop = []
-    seen = np.logical_or(hit, in_view).tolist()          # an associated landmark counts as in range
-    for j, (r, h, v) in enumerate(zip(records, hit.tolist(), seen)):
-        r.assoc = push_bit(r.assoc, h, window)
-        r.in_range = push_bit(r.in_range, v, window)
-        if should_remove(k, r.created, r.assoc, r.in_range, window=window, max_hits=max_hits):
-            drop.append(j)
-    return drop
+    """:func:`mn_windows` on the records (``.assoc``, ``.in_range``, ``.created``), their windows
+    updated; returns the positions of the records to remove, ascending."""
+    n = len(records)
+    assoc = np.array([r.assoc for r in records], dtype=np.int64).reshape(n)
+    in_range = np.array([r.in_range for r in records], dtype=np.int64).reshape(n)
+    created = np.array([r.created for r in records], dtype=np.int64).reshape(n)
+    keep = mn_windows(assoc, in_range, created, np.asarray(hit, dtype=bool), np.asarray(in_view, dtype=bool),
+                      int(k), int(window), int(max_hits))
+    for r, a, v in zip(records, assoc.tolist(), in_range.tolist()):
+        r.assoc, r.in_range = a, v
+    return np.flatnonzero(~keep).tolist()

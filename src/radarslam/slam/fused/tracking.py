@@ -15,6 +15,7 @@ from numba import njit
 from radarslam.core.angles import wrap_2pi_scalar
 from radarslam.core.jit import compile_kernels
 from radarslam.extent._compiled import _fit_entries, measurement_contour, rma_efa_step
+from radarslam.landmarks.confirmation import mn_windows, popcount, push_bit, should_remove
 from radarslam.models.ackermann import ackermann_jacobians, ackermann_step, centre_speed
 from radarslam.models.motion import unicycle_jacobians, unicycle_step
 from radarslam.models.radar import polar_to_xy
@@ -47,6 +48,8 @@ _UNI = compile_kernels(wrap_2pi_scalar, unicycle_step, unicycle_jacobians)
 _unicycle_step = _UNI["unicycle_step"]
 _unicycle_jacobians = _UNI["unicycle_jacobians"]
 _fej_motion_jacobian = compile_kernels(ekf.fej_motion_jacobian)["fej_motion_jacobian"]
+# the M/N windows (c.5), the orchestrator's kernel
+_mn_windows = compile_kernels(popcount, push_bit, should_remove, mn_windows)["mn_windows"]
 
 #: Motion-model codes of ``FusedParams.motion``.
 UNICYCLE, ACKERMANN = 0, 1
@@ -260,37 +263,27 @@ def group_associations(out, cidx, N, ids, s, a_rows, n_arows):  # pragma: no cov
 
 
 @njit(cache=True, inline="always")
-def _popcount(v):  # pragma: no cover - compiled
-    c = 0
-    while v:
-        c += v & 1
-        v >>= 1
-    return c
-
-
-@njit(cache=True, inline="always")
 def remove_unseen(x, P, lm, N, aoff, k, cfg):  # pragma: no cover - compiled
     """Step 5: age the M/N windows of scan ``k`` and remove the landmarks seen in too few of the
-    last ``cfg.removal_window`` scans they were in view (c.5). Returns ``(x, P, N, old)``: each
+    last ``cfg.removal_window`` scans they were in view (c.5), by the orchestrator's own kernel
+    (landmarks.confirmation.mn_windows) compiled as it is. Returns ``(x, P, N, old)``: each
     survivor's position before the removal."""
-    Wr = cfg.removal_window
-    mask = (1 << Wr) - 1
-    keep = np.ones(N, dtype=np.bool_)
-    n_keep = 0
+    hit = np.empty(N, dtype=np.bool_)
+    view = np.empty(N, dtype=np.bool_)
     for j in range(N):
         i = 3 + 2 * j
         dx = x[i] - x[0]
         dy = x[i + 1] - x[1]
-        view = math.hypot(dx, dy) <= cfg.max_range
+        v = math.hypot(dx, dy) <= cfg.max_range
         if cfg.half_fov < math.pi:
-            view = view and abs(_wrap_pi(math.atan2(dy, dx) - x[2])) <= cfg.half_fov
-        h = aoff[j + 1] > aoff[j]
-        lm.mbits[j] = ((lm.mbits[j] << 1) | (1 if h else 0)) & mask
-        lm.rbits[j] = ((lm.rbits[j] << 1) | (1 if (h or view) else 0)) & mask
-        if (k - Wr + 1 >= lm.created[j] and _popcount(lm.rbits[j]) == Wr
-                and _popcount(lm.mbits[j]) <= cfg.removal_max):
-            keep[j] = False
-        else:
+            v = v and abs(_wrap_pi(math.atan2(dy, dx) - x[2])) <= cfg.half_fov
+        view[j] = v
+        hit[j] = aoff[j + 1] > aoff[j]
+    keep = _mn_windows(lm.mbits[:N], lm.rbits[:N], lm.created[:N], hit, view, k, cfg.removal_window,
+                       cfg.removal_max)
+    n_keep = 0
+    for j in range(N):
+        if keep[j]:
             n_keep += 1
     if n_keep < N:
         x, P = _drop_state_rows(x, P, keep)
