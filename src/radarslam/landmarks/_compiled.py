@@ -1,4 +1,4 @@
-"""Clustering compiled with numba (``filter.backend = "numba"``; docs/architecture.md "Backends").
+"""Clustering, Rule 1 / Rule 2 and the M/N windows compiled with numba (``filter.backend = "numba"``; docs/architecture.md "Backends").
 
 The reference is scikit-learn's DBSCAN (:func:`.clustering.dbscan_labels`); these loops give the
 same labels for one scan's few dozen detections in a few microseconds instead of ~90 us of
@@ -11,6 +11,15 @@ import math
 
 import numpy as np
 from numba import njit
+
+from radarslam.core.jit import compile_kernels
+from radarslam.landmarks.confirmation import mn_windows, popcount, push_bit, rule12, should_remove
+
+# Rule 1 / Rule 2 and the M/N windows (c.7, c.5): the kernels of landmarks.confirmation compiled as
+# they are, for the orchestrator's numba backend and the fused engine alike.
+_K = compile_kernels(popcount, push_bit, should_remove, mn_windows, rule12)
+compiled_mn_windows = _K["mn_windows"]
+compiled_rule12 = _K["rule12"]
 
 
 @njit(cache=True)

@@ -100,8 +100,9 @@ def rule12(t_centre, t_count, t_window, t_npts, c_centre, c_size, gate, confirm_
 
 
 def rule2_step(tentatives: Tentatives, clusters: list[Cluster], *, gate: float, confirm_points: int,
-               window: int, hits: int) -> tuple[list[Cluster], Tentatives]:
-    """One scan of Rule 1 / Rule 2 over the clusters that passed the alpha test (:func:`rule12`).
+               window: int, hits: int, compiled: bool = False) -> tuple[list[Cluster], Tentatives]:
+    """One scan of Rule 1 / Rule 2 over the clusters that passed the alpha test (:func:`rule12`,
+    compiled with ``compiled``: the numba backend).
 
     Returns
     -------
@@ -112,7 +113,10 @@ def rule2_step(tentatives: Tentatives, clusters: list[Cluster], *, gate: float, 
     """
     cc = np.array([c.centre_xy for c in clusters], dtype=float).reshape(-1, 2)
     cs = np.array([c.size for c in clusters], dtype=np.int64)
-    conf, *rows = rule12(tentatives.centre, tentatives.count, tentatives.window, tentatives.npts, cc, cs,
+    kernel = rule12
+    if compiled:
+        from radarslam.landmarks._compiled import compiled_rule12 as kernel
+    conf, *rows = kernel(tentatives.centre, tentatives.count, tentatives.window, tentatives.npts, cc, cs,
                          float(gate), int(confirm_points), int(window), int(hits))
     return [clusters[int(c)] for c in conf], Tentatives(*rows)
 
@@ -170,14 +174,18 @@ def in_sensor_view(positions: np.ndarray, pose: np.ndarray, max_range: float, fi
 
 
 def removal_step(records: list, hit: np.ndarray, in_view: np.ndarray, k: int, *, window: int,
-                 max_hits: int) -> list[int]:
-    """:func:`mn_windows` on the records (``.assoc``, ``.in_range``, ``.created``), their windows
-    updated; returns the positions of the records to remove, ascending."""
+                 max_hits: int, compiled: bool = False) -> list[int]:
+    """:func:`mn_windows` (compiled with ``compiled``: the numba backend) on the records
+    (``.assoc``, ``.in_range``, ``.created``), their windows updated; returns the positions of the
+    records to remove, ascending."""
+    kernel = mn_windows
+    if compiled:
+        from radarslam.landmarks._compiled import compiled_mn_windows as kernel
     n = len(records)
     assoc = np.array([r.assoc for r in records], dtype=np.int64).reshape(n)
     in_range = np.array([r.in_range for r in records], dtype=np.int64).reshape(n)
     created = np.array([r.created for r in records], dtype=np.int64).reshape(n)
-    keep = mn_windows(assoc, in_range, created, np.asarray(hit, dtype=bool), np.asarray(in_view, dtype=bool),
+    keep = kernel(assoc, in_range, created, np.asarray(hit, dtype=bool), np.asarray(in_view, dtype=bool),
                       int(k), int(window), int(max_hits))
     for r, a, v in zip(records, assoc.tolist(), in_range.tolist()):
         r.assoc, r.in_range = a, v

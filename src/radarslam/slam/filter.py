@@ -343,7 +343,8 @@ class EkfSlam:
         st, f, lc = self.state, self.config.filter, self.config.landmarks
         in_view = in_sensor_view(st.positions, st.pose, f.max_range_m, f.field_of_view_deg)
         hit = np.array([bool(a) for a in assoc], dtype=bool)
-        drop = removal_step(st.landmarks, hit, in_view, k, window=lc.removal_window, max_hits=lc.removal_max_hits)
+        drop = removal_step(st.landmarks, hit, in_view, k, window=lc.removal_window, max_hits=lc.removal_max_hits,
+                            compiled=self.config.filter.backend == "numba")
         if self._gate is not None:                                        # c.10.4.4
             drop = sorted(set(drop) | set(self._gate.moving_landmarks(st.positions, st.created(), k)))
         removed = [r.id for r in st.remove(drop)]
@@ -396,7 +397,7 @@ class EkfSlam:
         st, lc = self.state, self.config.landmarks
         confirmed, st.tentatives = rule2_step(st.tentatives, fresh, gate=lc.tentative_gate_m,
                                               confirm_points=lc.confirm_points, window=lc.confirm_window,
-                                              hits=lc.confirm_hits)
+                                              hits=lc.confirm_hits, compiled=self.config.filter.backend == "numba")
         if lc.init == "cluster":
             spread = self.extent.initial_spread()
             ids = [st.add_landmark_at_mean(polar[c.members], self.R, k, self.extent.new(), spread)

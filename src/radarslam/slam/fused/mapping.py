@@ -12,8 +12,9 @@ import numpy as np
 from numba import njit
 
 from radarslam.core.jit import compile_kernels
+from radarslam.landmarks._compiled import compiled_rule12 as _rule12
 from radarslam.landmarks._compiled import dbscan_centres, dbscan_labels
-from radarslam.landmarks.confirmation import Tentatives, rule12
+from radarslam.landmarks.confirmation import Tentatives
 from radarslam.models.radar import inverse_jacobians, polar_to_xy
 from radarslam.slam import ekf
 from radarslam.slam._numba import _polar_to_sensor_xy, min_log_distance
@@ -27,8 +28,7 @@ from radarslam.slam.fused.storage import (
     with_buffer,
 )
 
-# The reference's own kernels, compiled as they are: Rule 1 / Rule 2 (c.7), the augmentation (c.8).
-_rule12 = compile_kernels(rule12)["rule12"]
+# The reference's own kernels, compiled as they are: the augmentation (c.8).
 _K = compile_kernels(polar_to_xy, inverse_jacobians, ekf.augment, ekf.augment_point)
 _augment = _K["augment"]
 _augment_point = _K["augment_point"]

@@ -15,7 +15,7 @@ from numba import njit
 from radarslam.core.angles import wrap_2pi_scalar
 from radarslam.core.jit import compile_kernels
 from radarslam.extent._compiled import _fit_entries, measurement_contour, rma_efa_step
-from radarslam.landmarks.confirmation import mn_windows, popcount, push_bit, should_remove
+from radarslam.landmarks._compiled import compiled_mn_windows as _mn_windows
 from radarslam.models.ackermann import ackermann_jacobians, ackermann_step, centre_speed
 from radarslam.models.motion import unicycle_jacobians, unicycle_step
 from radarslam.models.radar import polar_to_xy
@@ -48,8 +48,6 @@ _UNI = compile_kernels(wrap_2pi_scalar, unicycle_step, unicycle_jacobians)
 _unicycle_step = _UNI["unicycle_step"]
 _unicycle_jacobians = _UNI["unicycle_jacobians"]
 _fej_motion_jacobian = compile_kernels(ekf.fej_motion_jacobian)["fej_motion_jacobian"]
-# the M/N windows (c.5), the orchestrator's kernel
-_mn_windows = compile_kernels(popcount, push_bit, should_remove, mn_windows)["mn_windows"]
 
 #: Motion-model codes of ``FusedParams.motion``.
 UNICYCLE, ACKERMANN = 0, 1
