@@ -210,3 +210,15 @@ def test_background_compilation_runs_once_per_cache(tmp_path, monkeypatch):
                                "variants": variants_to_json(mc.DEFAULT_VARIANTS[:1])}))
     assert background.main(str(job)) == 0 and not job.exists()
     assert warmup._has_fresh_code(__import__("radarslam.slam._fused", fromlist=["run_stream"]).run_stream) is True
+
+
+def test_first_run_engine_scans_for_a_recording():
+    """One run of a recording on a cold cache: event by event up to the scan count where the fused
+    engine's compilation pays for itself, from the measured costs (Victoria Park's whole run,
+    about 7,200 scans, well inside); the fused engine beyond."""
+    saved = warmup.FUSED_COMPILE_S - warmup.ORCHESTRATOR_COMPILE_S
+    boundary = int(saved / (warmup.ORCHESTRATOR_SCAN_S - warmup.FUSED_SCAN_S))
+    assert 7300 < boundary == 35263
+    assert warmup.first_run_engine_scans(7300) == "orchestrator"
+    assert warmup.first_run_engine_scans(boundary) == "orchestrator"
+    assert warmup.first_run_engine_scans(boundary + 1) == "auto"

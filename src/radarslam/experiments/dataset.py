@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from radarslam.config import Config, validate
+from radarslam.config import Config, to_dict, validate
 from radarslam.core.registry import EXTENT_ESTIMATORS
 from radarslam.core.types import Odometry, Scan
 from radarslam.core.errors import ConfigError, InputError
@@ -84,7 +84,7 @@ def run_dataset(name: str, path, config: Config, *, first_scan: int | None = Non
         trees = None      # the trees are the input: there is no independent reference to attribute
     reference = _Reference(trees, config.filter.max_range_m)
     t0 = time.perf_counter()
-    if _fused.why_not(slam, data.events) is None:
+    if _fused.why_not(slam, data.events) is None and not _orchestrate_first_run(config, n, progress):
         if progress:
             from radarslam.experiments.warmup import COMPILING, cache_is_cold
 
@@ -147,6 +147,29 @@ def _run_orchestrated(slam: EkfSlam, events, reference: _Reference, bar):
     return (np.array(times), np.array(poses).reshape(-1, 3), np.array(covs).reshape(-1, 3, 3), np.array(nlm),
             np.array(nas), slam.snapshot(), hits, np.concatenate(nis) if nis else np.empty((0, 2)),
             np.array(bias).reshape(-1, 2 * m) if m else None)
+
+
+def _orchestrate_first_run(config: Config, n_scans: int, progress: bool) -> bool:
+    """True when the fused engine is not compiled on this machine yet and ``n_scans`` scans end
+    sooner event by event (:func:`~radarslam.experiments.warmup.first_run_engine_scans`): the run
+    then goes through the orchestrator (the same run, values to 1e-9) and the fused engine compiles
+    in a detached low-priority process for later runs (:mod:`.background`)."""
+    from radarslam.experiments import background
+    from radarslam.experiments.variants import Variant, variants_to_json
+    from radarslam.experiments.warmup import first_run_engine_scans, fused_is_cold
+
+    if config.filter.backend != "numba" or not fused_is_cold() or first_run_engine_scans(n_scans) != "orchestrator":
+        return False
+    busy = background.enabled() and background.busy()
+    pid = None if busy else background.start(to_dict(config), variants_to_json([Variant("run", "run", {})]))
+    if progress:
+        where = f"log {background.lock_path().with_suffix('.log')}"
+        later = (f"still compiles in the background ({where})" if busy else
+                 f"compiles in the background at low priority (pid {pid}, {where}) for later runs" if pid else
+                 "compiles on a later, longer run")
+        print(f"run: the fused engine is not compiled on this machine yet and {n_scans} scans end sooner without it: "
+              f"this run goes event by event (the same results); the fused engine {later}", file=sys.stderr, flush=True)
+    return True
 
 
 def _run_fused(slam: EkfSlam, events, reference: _Reference):

@@ -57,6 +57,20 @@ def first_run_engine(n_trials: int, n_variants: int, jobs: int) -> str:
     return "orchestrator" if orchestrator < fused else "auto"
 
 
+#: Seconds per scan of a real recording, orchestrator and fused engine (``python
+#: benchmarks/bench_dataset.py``: Victoria Park's raw laser, the slower mode, over the whole run;
+#: the orchestrator's figure is its first 1,000 scans' 1.5 ms, doubled for the larger map later).
+ORCHESTRATOR_SCAN_S, FUSED_SCAN_S = 0.003, 0.0011
+
+
+def first_run_engine_scans(n_scans: int) -> str:
+    """:func:`first_run_engine` for one run of ``n_scans`` scans of a recording, on one core:
+    ``"orchestrator"`` up to about 35,000 scans with the constants above."""
+    fused = FUSED_COMPILE_S + n_scans * FUSED_SCAN_S
+    orchestrator = ORCHESTRATOR_COMPILE_S + n_scans * ORCHESTRATOR_SCAN_S
+    return "orchestrator" if orchestrator < fused else "auto"
+
+
 def _has_fresh_code(dispatcher) -> bool | None:
     """Whether numba's cache holds machine code of ``dispatcher`` for its current source (an index
     that exists and whose source stamp matches), or None where that cannot be told."""
