@@ -109,6 +109,17 @@ OVERLAYS = {
     "jcbb-consistent": {"landmarks": {"associator": "jcbb", "init": "cluster"},
                         "extent": {"use_in_slam": True, "pre_init_spread": "prior", "prior_extent_radius_m": 2.0}},
     "jcbb-budget": {"landmarks": {"associator": "jcbb", "jcbb_max_nodes": 4}, "extent": {"use_in_slam": True}},
+    # MEM-EKF* (a.10): the map only, in SLAM (sifting, R_eff), and with the centroid's and the pose's
+    # covariance in each detection's noise and the noise-corrected EFA baseline
+    "mem-ekf": {"extent": {"estimator": "mem-ekf"}},
+    "mem-ekf-in-slam": {"extent": {"estimator": "mem-ekf", "use_in_slam": True}},
+    "mem-ekf-consistent": {"landmarks": {"associator": "batch-joint", "init": "cluster"},
+                           "extent": {"estimator": "mem-ekf", "use_in_slam": True, "pre_init_spread": "prior",
+                                      "prior_extent_radius_m": 2.0}},
+    "mem-ekf-full-noise": {"extent": {"estimator": "mem-ekf", "use_in_slam": True, "mem_ekf_noise": "full",
+                                      "efa_noise_correct": True, "n_init": 3}},
+    "mem-ekf-no-centroid": {"extent": {"estimator": "mem-ekf", "mem_ekf_noise": "no-centroid",
+                                       "use_posterior_landmark": True}},
 }
 
 
@@ -158,7 +169,6 @@ def test_golden_runs_reproduced():
 @pytest.mark.parametrize("overlay,reason", [
     ({"filter": {"fused": False}}, "filter.fused"),
     ({"filter": {"backend": "python"}}, "filter.backend"),
-    ({"extent": {"estimator": "mem-ekf"}}, "extent estimator"),
     ({"extent": {"efa_mode": "sliding"}}, "extent.efa_mode"),
     ({"extent": {"w_mode": "mean"}}, "extent.w_mode"),
     ({"extent": {"pre_init_spread": "scatter"}}, "extent.pre_init_spread"),

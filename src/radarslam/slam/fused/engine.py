@@ -2,7 +2,7 @@
 
 :func:`run_stream` reads like :meth:`radarslam.slam.filter.EkfSlam.update`: per odometry event the
 prediction, per scan the steps of docs/method.md a.8 in the orchestrator's order, each a compiled
-function of :mod:`~radarslam.slam.fused.tracking` (steps 1-6) or
+function of :mod:`~radarslam.slam.fused.tracking` (steps 1-5), :mod:`~radarslam.slam.fused.extent` (6) or
 :mod:`~radarslam.slam.fused.mapping` (steps 7-10), then the record after the scan
 (:mod:`~radarslam.slam.fused.storage`).
 """
@@ -14,6 +14,7 @@ import time
 import numpy as np
 from numba import njit, objmode
 
+from radarslam.slam.fused.extent import extent_step
 from radarslam.slam.fused.mapping import alpha_test, augment, cluster, confirm, merge
 from radarslam.slam.fused.storage import (
     _all_finite,
@@ -29,7 +30,6 @@ from radarslam.slam.fused.storage import (
 from radarslam.slam.fused.tracking import (
     _to_world,
     associate_and_update,
-    extent_step,
     group_associations,
     predict,
     remove_unseen,

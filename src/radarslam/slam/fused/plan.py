@@ -62,6 +62,10 @@ class FusedParams(NamedTuple):
     eig_floor: float       #: extent.eig_floor_m2
     kappa: float           #: extent.kappa
     beam_step: float       #: extent.beam_step_deg, in radians (visible-arc)
+    mem: bool              #: the extent estimator is "mem-ekf" (MEM-EKF*, docs/method.md a.10)
+    mem_noise: int         #: extent.mem_ekf_noise: 0 sensor, 1 no-centroid, 2 full (fused.extent.MEM_SENSOR, ...)
+    mem_q_theta: float     #: extent.mem_ekf_process_std[0], in radians per sqrt(s)
+    mem_q_axis: float      #: extent.mem_ekf_process_std[1] (m per sqrt(s))
     wheelbase: float       #: Ackermann L (filter.vehicle_L_m)
     encoder_offset: float  #: Ackermann H (filter.vehicle_H_m)
     lever: float           #: Ackermann laser lever arm from the rear axle, L + a (filter.sensor_a_m)
@@ -94,6 +98,7 @@ class Noise(NamedTuple):
     Q: np.ndarray             #: (3, 3) process noise
     prior_spread: np.ndarray  #: (2, 2) the prior spread (zeros when not used)
     gates: np.ndarray         #: (K + 1,) JCBB's joint gates of k pairings (slam._jcbb_numba.joint_gates)
+    Cp0: np.ndarray           #: (3, 3) MEM-EKF*'s initial shape covariance (zeros for the other estimators)
 
 
 def why_not(slam, events=None) -> str | None:
@@ -103,6 +108,7 @@ def why_not(slam, events=None) -> str | None:
     ``landmarks.clustering.DENSE_MAX`` detections (the compiled DBSCAN builds an m x m
     neighbourhood; the orchestrator hands such scans to scikit-learn's)."""
     from radarslam.extent.estimator import RmaEfaEstimator
+    from radarslam.extent.mem_ekf import MemEkfEstimator
     from radarslam.extent.visible_arc import VisibleArcEstimator
     from radarslam.models.ackermann import AckermannModel
     from radarslam.models.motion import UnicycleModel
@@ -124,7 +130,8 @@ def why_not(slam, events=None) -> str | None:
         (type(slam.associator) in (CompiledNearestNeighbourAssociator, CompiledBatchAssociator,
                                    CompiledJointBatchAssociator, CompiledJcbbAssociator),
          f"associator {type(slam.associator).__name__}"),
-        (type(slam.extent) in (RmaEfaEstimator, VisibleArcEstimator), f"extent estimator {type(slam.extent).__name__}"),
+        (type(slam.extent) in (RmaEfaEstimator, VisibleArcEstimator, MemEkfEstimator),
+         f"extent estimator {type(slam.extent).__name__}"),
         (ec.efa_mode == "per_scan", f"extent.efa_mode {ec.efa_mode!r}"),
         (ec.w_mode == "max_trace", f"extent.w_mode {ec.w_mode!r}"),
         (ec.pre_init_spread in ("none", "prior"), f"extent.pre_init_spread {ec.pre_init_spread!r}"),
@@ -146,15 +153,18 @@ def why_not(slam, events=None) -> str | None:
 def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParams:
     """The :class:`FusedParams` of ``slam``'s configuration and components."""
     lc, ec, f = slam.config.landmarks, slam.config.extent, slam.config.filter
+    from radarslam.extent.mem_ekf import MemEkfEstimator
     from radarslam.extent.visible_arc import VisibleArcEstimator
     from radarslam.models.ackermann import AckermannModel
     from radarslam.slam._jcbb_numba import CompiledJcbbAssociator
+    from radarslam.slam.fused.extent import MEM_FULL, MEM_NO_CENTROID, MEM_SENSOR
     from radarslam.slam._numba import CompiledBatchAssociator, CompiledJointBatchAssociator
     from radarslam.slam.fused.tracking import ACKERMANN, UNICYCLE
 
     model = slam.model
     ackermann = type(model) is AckermannModel
     arc = type(slam.extent) is VisibleArcEstimator
+    mem = type(slam.extent) is MemEkfEstimator
 
     in_slam = bool(ec.use_in_slam)
     return FusedParams(
@@ -186,6 +196,8 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
         gate=float(slam.extent.gate), gamma=float(ec.spread_factor),
         alpha0=float(ec.alpha0), tau=float(ec.tau_s), eig_floor=float(ec.eig_floor_m2), kappa=float(ec.kappa),
         beam_step=float(slam.extent.beam_step) if arc else 0.0,
+        mem=mem, mem_noise={"sensor": MEM_SENSOR, "no-centroid": MEM_NO_CENTROID, "full": MEM_FULL}[ec.mem_ekf_noise],
+        mem_q_theta=float(slam.extent.q_theta) if mem else 0.0, mem_q_axis=float(slam.extent.q_axis) if mem else 0.0,
         wheelbase=float(model.L) if ackermann else 0.0, encoder_offset=float(model.H) if ackermann else 0.0,
         lever=float(model.lever) if ackermann else 0.0, sensor_b=float(model.b) if ackermann else 0.0,
         fej=f.jacobians == "fej",
@@ -294,7 +306,8 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None):
     if cfg.assoc == 3:                         # JCBB: a gate for every depth a scan's candidates allow
         off = stream.scan_off
         gates = slam.associator.gates(max(1, int((off[1:] - off[:-1]).max(initial=1))))
-    noise = Noise(slam.R, ext.R_extent, slam.U, slam.Q, np.ascontiguousarray(prior_spread, dtype=float), gates)
+    Cp0 = np.asarray(ext.Cp0, dtype=float) if cfg.mem else np.zeros((3, 3))
+    noise = Noise(slam.R, ext.R_extent, slam.U, slam.Q, np.ascontiguousarray(prior_spread, dtype=float), gates, Cp0)
     status, n_scans, (rec, maps), arows = run_stream(stream, st.x, st.P, noise, cfg)
     if status[0] != OK:
         ev = events[int(status[1])]

@@ -40,6 +40,8 @@ class Landmarks(NamedTuple):
     arc_head: np.ndarray   #: (L,) int64, the first of them in :class:`Arcs` (-1: none)
     arc_tail: np.ndarray   #: (L,) int64, the last of them (-1: none)
     first: np.ndarray      #: (L, 2) first estimates: the centroids at birth (FEJ, docs/method.md c.2.1)
+    shape: np.ndarray      #: (L, 3) MEM-EKF* shapes [theta, l1, l2] (a.10; ``X`` holds their matrices)
+    Cs: np.ndarray         #: (L, 3, 3) their covariances
 
 
 class Arcs(NamedTuple):
@@ -183,7 +185,7 @@ def new_landmarks(cap, buf_len):  # pragma: no cover - compiled
                      np.empty(cap, dtype=np.int64), np.zeros(cap, dtype=np.bool_), np.zeros((cap, 2, 2)),
                      np.zeros(cap), np.zeros((cap, 2, 2)), np.zeros(cap, dtype=np.int64),
                      np.zeros((cap, buf_len, 2)), np.zeros(cap, dtype=np.int64), np.full(cap, -1, dtype=np.int64),
-                     np.full(cap, -1, dtype=np.int64), np.zeros((cap, 2)))
+                     np.full(cap, -1, dtype=np.int64), np.zeros((cap, 2)), np.zeros((cap, 3)), np.zeros((cap, 3, 3)))
 
 
 @njit(cache=True, inline="always")
@@ -194,7 +196,8 @@ def grow_landmarks(lm, n):  # pragma: no cover - compiled
     return Landmarks(_grow_rows(lm.ids, n), _grow_rows(lm.created, n), _grow_rows(lm.mbits, n),
                      _grow_rows(lm.rbits, n), _grow_rows(lm.einit, n), _grow_rows(lm.X, n), _grow_rows(lm.alpha, n),
                      _grow_rows(lm.Xefa, n), _grow_rows(lm.nbuf, n), _grow_rows(lm.buf, n), _grow_rows(lm.narc, n),
-                     _grow_rows(lm.arc_head, n), _grow_rows(lm.arc_tail, n), _grow_rows(lm.first, n))
+                     _grow_rows(lm.arc_head, n), _grow_rows(lm.arc_tail, n), _grow_rows(lm.first, n),
+                     _grow_rows(lm.shape, n), _grow_rows(lm.Cs, n))
 
 
 @njit(cache=True, inline="always")
@@ -203,7 +206,7 @@ def with_buffer(lm, n):  # pragma: no cover - compiled
     if lm.buf.shape[1] >= n:
         return lm
     return Landmarks(lm.ids, lm.created, lm.mbits, lm.rbits, lm.einit, lm.X, lm.alpha, lm.Xefa, lm.nbuf,
-                     _grow_buffer(lm.buf, n), lm.narc, lm.arc_head, lm.arc_tail, lm.first)
+                     _grow_buffer(lm.buf, n), lm.narc, lm.arc_head, lm.arc_tail, lm.first, lm.shape, lm.Cs)
 
 
 @njit(cache=True, inline="always")
@@ -223,6 +226,8 @@ def compact_landmarks(lm, keep):  # pragma: no cover - compiled
                 lm.buf[q] = lm.buf[j]
                 lm.narc[q], lm.arc_head[q], lm.arc_tail[q] = lm.narc[j], lm.arc_head[j], lm.arc_tail[j]
                 lm.first[q] = lm.first[j]
+                lm.shape[q] = lm.shape[j]
+                lm.Cs[q] = lm.Cs[j]
             q += 1
     return old[:q]
 

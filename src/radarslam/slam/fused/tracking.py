@@ -1,7 +1,7 @@
-"""The fused engine's steps that track the landmarks it has (docs/method.md a.8 steps 1-6): predict
+"""The fused engine's steps that track the landmarks it has (docs/method.md a.8 steps 1-5): predict
 (c.2), sift (c.3, a.7.1), associate and update (c.4, a.7.2-a.7.3), the M/N windows and removal
-(c.5), and the extent step (a.3-a.5). One compiled function per step, each the bookkeeping
-between the compiled kernels the numba backend uses; ``cfg`` is the engine's
+(c.5); step 6, the extent step, is in :mod:`.extent`. One compiled function per step, each the
+bookkeeping between the compiled kernels the numba backend uses; ``cfg`` is the engine's
 :class:`~radarslam.slam.fused.plan.FusedParams`.
 """
 
@@ -14,7 +14,7 @@ from numba import njit
 
 from radarslam.core.angles import wrap_2pi_scalar
 from radarslam.core.jit import compile_kernels
-from radarslam.extent._compiled import _fit_entries, measurement_contour, rma_efa_step
+from radarslam.extent._compiled import measurement_contour
 from radarslam.models.ackermann import ackermann_jacobians, ackermann_step, centre_speed
 from radarslam.models.motion import unicycle_jacobians, unicycle_step
 from radarslam.models.radar import polar_to_xy
@@ -27,15 +27,7 @@ from radarslam.slam._numba import (
     joint_batch_associate_scan,
 )
 from radarslam.slam.layout import POSE_DIM
-from radarslam.slam.fused.storage import (
-    _arc_width_diameter,
-    _blocks,
-    _drop_state_rows,
-    _grow_rows,
-    add_arc,
-    compact_landmarks,
-    with_buffer,
-)
+from radarslam.slam.fused.storage import _drop_state_rows, _grow_rows, compact_landmarks
 
 # The reference's own kernels, compiled as they are: seed eq. (3), and the Ackermann model's step
 # and Jacobians (models.ackermann).
@@ -296,129 +288,3 @@ def remove_unseen(x, P, lm, N, aoff, k, cfg):  # pragma: no cover - compiled
         x, P = _drop_state_rows(x, P, keep)
     old = compact_landmarks(lm, keep)
     return x, P, n_keep, old
-
-
-@njit(cache=True, inline="always")
-def _buffer_and_initialise(lm, j, o, xy, aoff, arow, cfg):  # pragma: no cover - compiled
-    """a.3 for landmark ``j`` (row ``o`` of the associations) whose extent is not initialised:
-    buffer its detections, then the EFA (upper bound) once more than ``cfg.n_init`` are held.
-    Returns ``lm`` (its buffers may grow)."""
-    na = aoff[o + 1] - aoff[o]
-    lm = with_buffer(lm, lm.nbuf[j] + na)
-    buf = lm.buf
-    for a in range(na):
-        buf[j, lm.nbuf[j] + a, 0] = xy[arow[aoff[o] + a], 0]
-        buf[j, lm.nbuf[j] + a, 1] = xy[arow[aoff[o] + a], 1]
-    lm.nbuf[j] += na
-    if lm.nbuf[j] <= cfg.n_init:
-        return lm
-    data = buf[j, :lm.nbuf[j]].copy()
-    ok, _, _, e11, e12, e22 = _fit_entries(data, True, 0.0, 0.0, 0.0, cfg.gamma)
-    if ok:
-        lm.einit[j] = True
-        lm.X[j, 0, 0], lm.X[j, 0, 1], lm.X[j, 1, 0], lm.X[j, 1, 1] = e11, e12, e12, e22
-        lm.alpha[j] = cfg.alpha0
-        lm.Xefa[j] = lm.X[j]
-        lm.nbuf[j] = 0
-    else:
-        keep_n = cfg.n_init
-        buf[j, :keep_n] = data[lm.nbuf[j] - keep_n:]
-        lm.nbuf[j] = keep_n
-    return lm
-
-
-@njit(cache=True, inline="always")
-def _rma_efa_ready(x, P, polar, xy, lm, ready, old, aoff, arow, cents, ccovs, R_ext, dt, cfg):  # pragma: no cover - compiled
-    """a.4-a.5 for the landmarks ``ready`` (extent initialised): the RM step and the EFA on their
-    associated detections, in place."""
-    n_ready = ready.shape[0]
-    offsets = np.zeros(n_ready + 1, dtype=np.int64)
-    n_rows = 0
-    for l in range(n_ready):
-        o = old[ready[l]]
-        n_rows += aoff[o + 1] - aoff[o]
-    rpol = np.empty((n_rows, 2))
-    rpts = np.empty((n_rows, 2))
-    q = 0
-    for l in range(n_ready):
-        o = old[ready[l]]
-        for a in range(aoff[o], aoff[o + 1]):
-            rpol[q] = polar[arow[a]]
-            rpts[q] = xy[arow[a]]
-            q += 1
-        offsets[l + 1] = q
-    Xr = np.empty((n_ready, 2, 2))
-    ar = np.empty(n_ready)
-    cr = np.empty((n_ready, 2))
-    Cr = np.empty((n_ready, 2, 2))
-    for l in range(n_ready):
-        Xr[l] = lm.X[ready[l]]
-        ar[l] = lm.alpha[ready[l]]
-        cr[l] = cents[ready[l]]
-        Cr[l] = ccovs[ready[l]]
-    X_new, a_new, efa, efa_ok = rma_efa_step(Xr, ar, cr, Cr, offsets, rpol, rpts, x[:3].copy(),
-                                             P[:3, :3].copy(), R_ext, dt, cfg.tau, cfg.gamma,
-                                             cfg.eig_floor, cfg.upper)
-    for l in range(n_ready):
-        j = ready[l]
-        lm.X[j] = X_new[l]
-        lm.alpha[j] = a_new[l]
-        if efa_ok[l]:
-            lm.Xefa[j] = efa[l]
-
-
-@njit(cache=True, inline="always")
-def _arc_widths(polar, lm, N, old, aoff, arow, arcs, n_arcs, cfg):  # pragma: no cover - compiled
-    """The visible-arc estimator's part of step 6 (a.9): each landmark's width of this scan from
-    its associated detections, kept when they are consecutive beams. Returns ``(arcs, n_arcs)``."""
-    for j in range(N):
-        o = old[j]
-        na = aoff[o + 1] - aoff[o]
-        if na == 0:
-            continue
-        mine = np.empty((na, 2))
-        r_min = math.inf
-        for a in range(na):
-            mine[a] = polar[arow[aoff[o] + a]]
-            r_min = min(r_min, mine[a, 0])
-        d = _arc_width_diameter(mine, cfg.beam_step)
-        if math.isfinite(d):
-            arcs = add_arc(arcs, n_arcs, lm, j, d, r_min * cfg.beam_step)
-            n_arcs += 1
-    return arcs, n_arcs
-
-
-@njit(cache=True, inline="always")
-def extent_step(x, P, polar, xy, lm, N, old, aoff, arow, prior, dt, arcs, n_arcs, noise, cfg):  # pragma: no cover - compiled
-    """Step 6: the extent step (a.3-a.5) with the detections ``xy`` in the world frame of the
-    updated pose, about the posterior centroids (``cfg.posterior``) or the prior ones (``prior``,
-    by the rows before the removal, ``old``); with ``cfg.arc`` the visible-arc widths (a.9).
-    Returns ``(lm, arcs, n_arcs)`` (buffers may grow)."""
-    if not cfg.track or N == 0:
-        return lm, arcs, n_arcs
-    pos_prior, cov_prior = prior
-    if cfg.posterior:
-        cents, ccovs = _blocks(x, P)
-    else:
-        cents = np.empty((N, 2))
-        ccovs = np.empty((N, 2, 2))
-        for j in range(N):
-            cents[j] = pos_prior[old[j]]
-            ccovs[j] = cov_prior[old[j]]
-    n_ready = 0
-    for j in range(N):
-        if lm.einit[j]:
-            n_ready += 1
-    ready = np.empty(n_ready, dtype=np.int64)
-    r_i = 0
-    for j in range(N):
-        if lm.einit[j]:
-            ready[r_i] = j
-            r_i += 1
-            continue
-        lm = _buffer_and_initialise(lm, j, old[j], xy, aoff, arow, cfg)
-    if n_ready > 0:
-        _rma_efa_ready(x, P, polar, xy, lm, ready, old, aoff, arow, cents, ccovs, noise.R_ext, dt, cfg)
-    if cfg.arc:
-        arcs, n_arcs = _arc_widths(polar, lm, N, old, aoff, arow, arcs, n_arcs, cfg)
-    return lm, arcs, n_arcs
