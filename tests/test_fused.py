@@ -23,7 +23,7 @@ from radarslam.core.errors import InputError  # noqa: E402
 from radarslam.core.types import Odometry, Scan  # noqa: E402
 from radarslam.experiments.montecarlo import trial_seed  # noqa: E402
 from radarslam.experiments.single import run_filter  # noqa: E402
-from radarslam.experiments.variants import DEFAULT_VARIANTS, apply_variant  # noqa: E402
+from radarslam.experiments.variants import CONSISTENT, DEFAULT_VARIANTS, PAPER_VARIANTS, apply_variant  # noqa: E402
 from radarslam.simulation.scenario import generate_scenario  # noqa: E402
 from radarslam.slam import _fused  # noqa: E402
 from radarslam.slam.filter import EkfSlam  # noqa: E402
@@ -128,6 +128,25 @@ def test_covered_options_same_as_orchestrator(name):
     """Each option the engine claims to cover, on a whole run (trial 3)."""
     cfg = _overlay(profile_config("apsipa"), OVERLAYS[name])
     _assert_same_run(cfg, _scenario(profile_config("apsipa"), 3).events)
+
+
+@pytest.mark.parametrize("base", ["noext", "consistent"])
+@pytest.mark.parametrize("mode", ["doppler", "both", "radar-alone"])
+def test_doppler_odometry_same_as_orchestrator(base, mode):
+    """Doppler and gyro odometry (c.10.5; scripts/doppler_odometry_study.py's configurations): the
+    body-velocity inputs formed before the engine, the predictions in it, on a whole run (trial 3)
+    simulated with the Doppler channel; the radar alone (``yaw_rate`` doppler) ahead of the rear axle."""
+    overlay = PAPER_VARIANTS[0].overlay if base == "noext" else CONSISTENT.overlay
+    odometry = {"odometry": "doppler", "yaw_rate": "doppler"} if mode == "radar-alone" else {"odometry": mode}
+    mount = 3.7 if mode == "radar-alone" else 0.0
+    cfg = profile_config("apsipa")
+    cfg = replace(cfg, radar=replace(cfg.radar, doppler=True), sensor=replace(cfg.sensor, mount_x_m=mount))
+    events = _scenario(cfg, 3).events
+    run = _overlay(cfg, merge_tables(merge_tables({}, overlay), {"filter": odometry}))
+    assert _assert_same_run(run, events) > 1500
+    r, _ = _fused.run(EkfSlam(run), events)
+    r0, _ = _fused.run(EkfSlam(_overlay(cfg, overlay)), events)
+    assert not np.allclose(r["poses"], r0["poses"])          # the Doppler inputs drove it, not the odometer
 
 
 def test_large_map_same_as_orchestrator():

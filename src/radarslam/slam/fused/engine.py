@@ -28,6 +28,7 @@ from radarslam.slam.fused.storage import (
     record_scan,
 )
 from radarslam.slam.fused.tracking import (
+    BODY_VELOCITY,
     _to_world,
     associate_and_update,
     group_associations,
@@ -38,6 +39,8 @@ from radarslam.slam.fused.tracking import (
 
 #: Status codes of :func:`run_stream`: what made the state non-finite, at which event.
 OK, BAD_PREDICTION, BAD_SCAN = 0, 1, 2
+#: Event kinds of ``Stream.kinds``: an odometer reading, a scan, a body-velocity input (c.10.5).
+ODOMETRY, SCAN, VELOCITY = 0, 1, 2
 
 
 @njit(cache=True)
@@ -52,8 +55,10 @@ def _clock():  # pragma: no cover - compiled
 def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
     """Run the event stream through the filter.
 
-    ``stream`` is a :class:`~radarslam.slam.fused.plan.Stream`: the events ``kinds`` (0 odometry,
-    1 scan, in order); odometry ``e`` is ``odo[e] = [v, psi]`` over ``odo_dt[e]``; scan ``s`` has
+    ``stream`` is a :class:`~radarslam.slam.fused.plan.Stream`: the events ``kinds`` (ODOMETRY,
+    SCAN, VELOCITY, in order); odometry ``e`` is ``odo[e] = [v, psi]`` over ``odo_dt[e]`` (the
+    model ``cfg.motion``); a body-velocity input ``e`` (Doppler odometry, c.10.5) is ``vel[e] =
+    [v_x, v_y, omega]`` over ``vel_dt[e]`` with its ``vel_U[e]`` and ``vel_Q[e]``; scan ``s`` has
     the detections ``polar[scan_off[s]:scan_off[s + 1]]`` and the index ``scan_k[s]``. ``noise`` is
     a :class:`~radarslam.slam.fused.plan.Noise`, ``cfg`` the parameters
     (:class:`~radarslam.slam.fused.plan.FusedParams`). Returns a tuple: status ``(code, event)``;
@@ -84,14 +89,20 @@ def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
     dt_since = 0.0
     e_odo = 0
     s = 0
+    e_vel = 0
     for ev in range(stream.kinds.shape[0]):
-        if stream.kinds[ev] == 0:                                                  # 1
-            if not predict(x, P, stream.odo[e_odo, 0], stream.odo[e_odo, 1], stream.odo_dt[e_odo],
-                           noise.U, noise.Q, pose_first, cfg):
+        if stream.kinds[ev] != SCAN:                                               # 1
+            if stream.kinds[ev] == ODOMETRY:
+                u, dt, U, Q, model = stream.odo[e_odo], stream.odo_dt[e_odo], noise.U, noise.Q, cfg.motion
+                e_odo += 1
+            else:                                                                  # c.10.5
+                u, dt, U, Q, model = (stream.vel[e_vel], stream.vel_dt[e_vel], stream.vel_U[e_vel],
+                                      stream.vel_Q[e_vel], BODY_VELOCITY)
+                e_vel += 1
+            if not predict(x, P, u, dt, U, Q, pose_first, model, cfg):
                 status[0], status[1] = BAD_PREDICTION, ev
                 break
-            dt_since += stream.odo_dt[e_odo]
-            e_odo += 1
+            dt_since += dt
             continue
         # ------------------------------------------------------------ one scan (a.8 steps 2-10)
         polar = stream.polar[stream.scan_off[s]:stream.scan_off[s + 1]]

@@ -15,7 +15,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from radarslam.slam.fused.engine import BAD_PREDICTION, OK, run_stream
+from radarslam.slam.fused.engine import BAD_PREDICTION, ODOMETRY, OK, SCAN, VELOCITY, run_stream
 
 
 class FusedParams(NamedTuple):
@@ -80,9 +80,13 @@ class FusedParams(NamedTuple):
 class Stream(NamedTuple):
     """The event stream as arrays (:func:`_stream_arrays`)."""
 
-    kinds: np.ndarray      #: (E,) int64, 0 odometry, 1 scan
+    kinds: np.ndarray      #: (E,) int64, engine.ODOMETRY, SCAN or VELOCITY
     odo: np.ndarray        #: (O, 2) odometry controls [v, psi]
     odo_dt: np.ndarray     #: (O,) odometry intervals
+    vel: np.ndarray        #: (V, 3) body-velocity inputs [v_x, v_y, omega] (Doppler odometry, c.10.5)
+    vel_dt: np.ndarray     #: (V,) their intervals
+    vel_U: np.ndarray      #: (V, 3, 3) their covariances
+    vel_Q: np.ndarray      #: (V, 3, 3) the process noise of each (Q once per odometer interval)
     scan_off: np.ndarray   #: (S + 1,) int64, scan s is polar[scan_off[s]:scan_off[s + 1]]
     polar: np.ndarray      #: (M, 2) every scan's detections [range, azimuth]
     scan_k: np.ndarray     #: (S,) int64 scan indices
@@ -116,6 +120,7 @@ def why_not(slam, events=None) -> str | None:
     from radarslam.slam._jcbb_numba import CompiledJcbbAssociator
     from radarslam.slam._numba import (CompiledBatchAssociator, CompiledJointBatchAssociator,
                                        CompiledNearestNeighbourAssociator)
+    from radarslam.slam.odometry_source import DopplerOdometry
 
     f, ec = slam.config.filter, slam.config.extent
     checks = (
@@ -123,9 +128,12 @@ def why_not(slam, events=None) -> str | None:
         (f.backend == "numba", f"filter.backend is {f.backend!r}"),
         (getattr(slam, "view", None) is None, "the partial-view model (docs/method.md a.12)"),
         (not f.doppler_gate, "filter.doppler_gate (the Doppler gate, docs/method.md c.10.4)"),
-        (f.odometry == "odometer", f"filter.odometry {f.odometry!r} (Doppler and gyro odometry, docs/method.md c.10.5)"),
         (f.odometry_bias == "none", "filter.odometry_bias 'states' (odometry-bias states, docs/method.md c.11)"),
-        (type(slam.model) in (UnicycleModel, AckermannModel), f"motion model {type(slam.model).__name__}"),
+        # under Doppler odometry (c.10.5) the body-velocity model drives every prediction, not slam.model
+        (f.odometry != "odometer" or type(slam.model) in (UnicycleModel, AckermannModel),
+         f"motion model {type(slam.model).__name__}"),
+        (f.odometry == "odometer" or type(slam._odometry) is DopplerOdometry,
+         f"odometry source {type(slam._odometry).__name__}"),
         (type(slam.measurement) is RangeAzimuthModel, f"measurement model {type(slam.measurement).__name__}"),
         (type(slam.associator) in (CompiledNearestNeighbourAssociator, CompiledBatchAssociator,
                                    CompiledJointBatchAssociator, CompiledJcbbAssociator),
@@ -208,9 +216,15 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
     )
 
 
-def _stream_arrays(events, fast: bool = True) -> Stream:
+def _stream_arrays(events, fast: bool = True, odometry=None) -> Stream:
     """The event stream as arrays (a :class:`Stream`), each event checked as :meth:`EkfSlam.predict` and
     :meth:`EkfSlam.update` check it (the same one-line errors, the first bad event's).
+
+    ``odometry``, a :class:`~radarslam.slam.odometry_source.DopplerOdometry` that has processed
+    nothing the filter has not: the odometry events only accumulate in (a copy of) it, and each scan
+    is preceded by its body-velocity input (VELOCITY events, c.10.5) and followed by its Doppler fit,
+    as :meth:`~radarslam.slam.odometry_source.DopplerOdometry.process` does: the inputs depend on the
+    scans and readings only.
 
     ``fast``: a scan whose detections are already a float ``(m, 2)`` array is checked with all the
     others at once at the end (finite, ranges >= 0); if anything is wrong, the stream is checked
@@ -218,27 +232,33 @@ def _stream_arrays(events, fast: bool = True) -> Stream:
     from radarslam.core.errors import InputError
 
     if not fast:
-        return _stream_arrays_checked(events, False)
+        return _stream_arrays_checked(events, False, odometry)
     try:
-        out = _stream_arrays_checked(events, True)
+        out = _stream_arrays_checked(events, True, odometry)
     except InputError:
-        return _stream_arrays_checked(events, False)
+        return _stream_arrays_checked(events, False, odometry)
     polar = out.polar
     if not (np.isfinite(polar).all() and (polar[:, 0] >= 0).all()):
-        return _stream_arrays_checked(events, False)
+        return _stream_arrays_checked(events, False, odometry)
     return out
 
 
-def _stream_arrays_checked(events, defer_polar: bool) -> Stream:
+def _stream_arrays_checked(events, defer_polar: bool, odometry=None) -> Stream:
     """:func:`_stream_arrays`, the detections of a float ``(m, 2)`` array left unchecked with ``defer_polar``."""
+    import copy
+
     from radarslam.core.errors import InputError
     from radarslam.core.types import Odometry, Scan
     from radarslam.core.validation import as_array
     from radarslam.slam.filter import _number, _scan_polar
 
+    src, Q = (copy.deepcopy(odometry[0]), odometry[1]) if odometry is not None else (None, None)
     kinds, odo, odo_dt, polars, scan_k, last_t = [], [], [], [], [], None
+    vel, vel_dt, vel_U, vel_Q = [], [], [], []
     for ev in events:
-        if isinstance(ev, Odometry):
+        if isinstance(ev, Odometry) and src is not None:
+            src.accumulate(ev)
+        elif isinstance(ev, Odometry):
             u = ev.control
             if not (type(u) is np.ndarray and u.dtype == np.float64 and u.shape == (2,)
                     and math.isfinite(u[0]) and math.isfinite(u[1])):
@@ -246,10 +266,15 @@ def _stream_arrays_checked(events, defer_polar: bool) -> Stream:
             dt = _number(ev.dt, "odometry.dt")
             if not dt > 0:
                 raise InputError(f"odometry.dt: expected a finite value > 0, got {ev.dt!r}")
-            kinds.append(0)
+            kinds.append(ODOMETRY)
             odo.append(u)
             odo_dt.append(dt)
         elif isinstance(ev, Scan):
+            if src is not None and src.n:                                   # c.10.5
+                for lst, v in zip((vel, vel_U, vel_dt, vel_Q), src.prediction_input(Q)):
+                    lst.append(v)
+                src.clear_interval()
+                kinds.append(VELOCITY)
             polar = ev.polar
             if not (defer_polar and type(polar) is np.ndarray and polar.dtype == np.float64 and polar.ndim == 2
                     and polar.shape[1] == 2):
@@ -259,15 +284,19 @@ def _stream_arrays_checked(events, defer_polar: bool) -> Stream:
                 raise InputError(f"scan.t: expected scan times that do not go backwards, got {t!r} after "
                                  f"{last_t!r} (scan {ev.index})")
             last_t = t
-            kinds.append(1)
+            kinds.append(SCAN)
             polars.append(polar)
             scan_k.append(int(ev.index))
+            if src is not None:
+                src.fit(ev)
         else:
             raise InputError(f"event: expected Odometry or Scan, got {type(ev).__name__}")
     off = np.zeros(len(polars) + 1, dtype=np.int64)
     off[1:] = np.cumsum([p.shape[0] for p in polars])
     return Stream(np.array(kinds, dtype=np.int64), np.array(odo, dtype=float).reshape(-1, 2),
-                  np.array(odo_dt, dtype=float), off,
+                  np.array(odo_dt, dtype=float), np.array(vel, dtype=float).reshape(-1, 3),
+                  np.array(vel_dt, dtype=float), np.array(vel_U, dtype=float).reshape(-1, 3, 3),
+                  np.array(vel_Q, dtype=float).reshape(-1, 3, 3), off,
                   (np.concatenate(polars) if polars else np.empty((0, 2))).reshape(-1, 2),
                   np.array(scan_k, dtype=np.int64), np.zeros(len(polars), dtype=np.bool_))
 
@@ -292,7 +321,8 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None):
     """
     from radarslam.core.errors import InputError
 
-    stream = _stream_arrays(events)
+    doppler = (slam._odometry, slam.Q) if slam._odometry is not None else None
+    stream = _stream_arrays(events, odometry=doppler)
     if trace is not None:
         trace = np.asarray(trace, dtype=np.bool_)
         if trace.shape != stream.trace.shape:
@@ -310,13 +340,7 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None):
     noise = Noise(slam.R, ext.R_extent, slam.U, slam.Q, np.ascontiguousarray(prior_spread, dtype=float), gates, Cp0)
     status, n_scans, (rec, maps), arows = run_stream(stream, st.x, st.P, noise, cfg)
     if status[0] != OK:
-        ev = events[int(status[1])]
-        off = stream.scan_off
-        if status[0] == BAD_PREDICTION:
-            what = f"odometry at t={ev.t!r} (control {np.asarray(ev.control, dtype=float).tolist()}, dt {float(ev.dt)!r})"
-        else:
-            what = f"scan {ev.index} (t={ev.t!r}, {off[n_scans + 1] - off[n_scans]} detections)"
-        raise InputError(f"{what}: expected an input that keeps the state finite, got one that makes it non-finite")
+        raise InputError(_failure(events, stream, status, n_scans))
     out = {"poses": rec.poses, "pose_covs": rec.pose_covs, "n_detections": rec.n_det, "n_associated": rec.n_ass,
            "n_landmarks": rec.n_lm, "nis_sum": rec.nis_sum, "nis_count": rec.nis_cnt, "map_offsets": rec.map_off,
            "ids": maps.ids, "positions": maps.pos, "covs": maps.cov, "rma": maps.rma, "efa": maps.efa,
@@ -325,3 +349,22 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None):
     if timing:
         out["seconds"] = rec.seconds
     return out, arows
+
+
+def _failure(events, stream: Stream, status, n_scans: int) -> str:
+    """The orchestrator's message for the event ``status[1]`` of ``stream`` that made the state non-finite."""
+    from radarslam.core.types import Scan
+
+    ev, kind = int(status[1]), int(stream.kinds[int(status[1])])
+    scan = [e for e in events if isinstance(e, Scan)][n_scans] if kind != ODOMETRY else None
+    off = stream.scan_off
+    if status[0] == BAD_PREDICTION and kind == VELOCITY:
+        e = int((stream.kinds[:ev] == VELOCITY).sum())
+        return (f"odometry before the scan at t={scan.t!r}: expected an input that keeps the state finite "
+                f"(u {stream.vel[e].tolist()}, dt {float(stream.vel_dt[e])!r}), got one that makes it non-finite")
+    if status[0] == BAD_PREDICTION:
+        odo = events[ev]
+        what = f"odometry at t={odo.t!r} (control {np.asarray(odo.control, dtype=float).tolist()}, dt {float(odo.dt)!r})"
+    else:
+        what = f"scan {scan.index} (t={scan.t!r}, {off[n_scans + 1] - off[n_scans]} detections)"
+    return f"{what}: expected an input that keeps the state finite, got one that makes it non-finite"

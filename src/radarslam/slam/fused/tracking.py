@@ -16,6 +16,7 @@ from radarslam.core.angles import wrap_2pi_scalar
 from radarslam.core.jit import compile_kernels
 from radarslam.extent._compiled import measurement_contour
 from radarslam.models.ackermann import ackermann_jacobians, ackermann_step, centre_speed
+from radarslam.models.body_velocity import body_velocity_increment, body_velocity_jacobians, body_velocity_step
 from radarslam.models.motion import unicycle_jacobians, unicycle_step
 from radarslam.models.radar import polar_to_xy
 from radarslam.slam import ekf
@@ -29,8 +30,8 @@ from radarslam.slam._numba import (
 from radarslam.slam.layout import POSE_DIM
 from radarslam.slam.fused.storage import _drop_state_rows, _grow_rows, compact_landmarks
 
-# The reference's own kernels, compiled as they are: seed eq. (3), and the Ackermann model's step
-# and Jacobians (models.ackermann).
+# The reference's own kernels, compiled as they are: seed eq. (3), and the motion models' steps and
+# Jacobians (models.motion, models.ackermann, models.body_velocity).
 _to_world = compile_kernels(polar_to_xy)["polar_to_xy"]
 _ACK = compile_kernels(centre_speed, wrap_2pi_scalar, ackermann_step, ackermann_jacobians)
 _ackermann_step = _ACK["ackermann_step"]
@@ -38,10 +39,13 @@ _ackermann_jacobians = _ACK["ackermann_jacobians"]
 _UNI = compile_kernels(wrap_2pi_scalar, unicycle_step, unicycle_jacobians)
 _unicycle_step = _UNI["unicycle_step"]
 _unicycle_jacobians = _UNI["unicycle_jacobians"]
+_BV = compile_kernels(wrap_2pi_scalar, body_velocity_increment, body_velocity_step, body_velocity_jacobians)
+_body_velocity_step = _BV["body_velocity_step"]
+_body_velocity_jacobians = _BV["body_velocity_jacobians"]
 _fej_motion_jacobian = compile_kernels(ekf.fej_motion_jacobian)["fej_motion_jacobian"]
 
-#: Motion-model codes of ``FusedParams.motion``.
-UNICYCLE, ACKERMANN = 0, 1
+#: Motion-model codes of ``FusedParams.motion`` (BODY_VELOCITY: the Doppler odometry's predictions, c.10.5).
+UNICYCLE, ACKERMANN, BODY_VELOCITY = 0, 1, 2
 
 
 @njit(cache=True, inline="always")
@@ -58,28 +62,33 @@ def _matmul(A, B):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def _motion(x, u0, u1, dt, cfg):  # pragma: no cover - compiled
-    """The motion model's step and Jacobians at ``x[:3]`` with control ``(u0, u1)``: ``(pose (3,),
-    F_x, F_u)``. ``cfg.motion`` UNICYCLE: APSIPA eq. 5, App. A (models.motion.UnicycleModel);
-    ACKERMANN: the kernels of models.ackermann with ``cfg.wheelbase``, ``cfg.encoder_offset``,
-    ``cfg.lever`` and ``cfg.sensor_b``."""
-    if cfg.motion == ACKERMANN:
-        pose = _ackermann_step(x[0], x[1], x[2], u0, u1, dt, cfg.wheelbase, cfg.encoder_offset, cfg.lever,
+def _motion(x, u, dt, model, cfg):  # pragma: no cover - compiled
+    """The motion model's step and Jacobians at ``x[:3]`` with control ``u``: ``(pose (3,), F_x,
+    F_u)``. ``model`` UNICYCLE: APSIPA eq. 5, App. A (models.motion.UnicycleModel); ACKERMANN: the
+    kernels of models.ackermann with ``cfg.wheelbase``, ``cfg.encoder_offset``, ``cfg.lever`` and
+    ``cfg.sensor_b``; BODY_VELOCITY: models.body_velocity, ``u = [v_x, v_y, omega]`` (c.10.5)."""
+    if model == ACKERMANN:
+        pose = _ackermann_step(x[0], x[1], x[2], u[0], u[1], dt, cfg.wheelbase, cfg.encoder_offset, cfg.lever,
                                cfg.sensor_b)
-        Fx, Fu = _ackermann_jacobians(x[2], u0, u1, dt, cfg.wheelbase, cfg.encoder_offset, cfg.lever, cfg.sensor_b)
+        Fx, Fu = _ackermann_jacobians(x[2], u[0], u[1], dt, cfg.wheelbase, cfg.encoder_offset, cfg.lever,
+                                      cfg.sensor_b)
         return pose, Fx, Fu
-    pose = _unicycle_step(x[0], x[1], x[2], u0, u1, dt)
-    Fx, Fu = _unicycle_jacobians(x[2], u0, u1, dt)
+    if model == BODY_VELOCITY:
+        pose = _body_velocity_step(x[0], x[1], x[2], u[0], u[1], u[2], dt)
+        Fx, Fu = _body_velocity_jacobians(x[2], u[0], u[1], u[2], dt)
+        return pose, Fx, Fu
+    pose = _unicycle_step(x[0], x[1], x[2], u[0], u[1], dt)
+    Fx, Fu = _unicycle_jacobians(x[2], u[0], u[1], dt)
     return pose, Fx, Fu
 
 
 @njit(cache=True, inline="always")
-def predict(x, P, u0, u1, dt, U, Q, pose_first, cfg):  # pragma: no cover - compiled
-    """c.2 with the motion model of ``cfg.motion`` (:func:`_motion`), in place; with ``cfg.fej``
+def predict(x, P, u, dt, U, Q, pose_first, model, cfg):  # pragma: no cover - compiled
+    """c.2 with the motion model ``model`` (:func:`_motion`), in place; with ``cfg.fej``
     the pose Jacobian's heading column from ``pose_first``, the first estimate of the current pose
     (the previous prediction), which then becomes the new prediction (c.2.1). Returns False,
     leaving the state as it was, if the prediction is not finite."""
-    pose, Fx, Fu = _motion(x, u0, u1, dt, cfg)
+    pose, Fx, Fu = _motion(x, u, dt, model, cfg)
     if cfg.fej:
         Fx = _fej_motion_jacobian(Fx, pose, pose_first)
     pose0, pose1, pose2 = pose[0], pose[1], pose[2]
@@ -93,7 +102,7 @@ def predict(x, P, u0, u1, dt, U, Q, pose_first, cfg):  # pragma: no cover - comp
             for k in range(3):
                 s1 += T[i, k] * Fx[j, k]
             s2 = 0.0
-            for k in range(2):
+            for k in range(Fu.shape[1]):
                 s2 += FU[i, k] * Fu[j, k]
             Ppp[i, j] = s1 + s2 + Q[i, j]
             ok = ok and math.isfinite(Ppp[i, j])
