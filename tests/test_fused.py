@@ -149,6 +149,34 @@ def test_doppler_odometry_same_as_orchestrator(base, mode):
     assert not np.allclose(r["poses"], r0["poses"])          # the Doppler inputs drove it, not the odometer
 
 
+GATED = {
+    "consistent": CONSISTENT.overlay,
+    "noext-object-tests-only": merge_tables(PAPER_VARIANTS[0].overlay, {"filter": {"doppler_memory_scans": 0}}),
+    "no-objects-short-memory": merge_tables(CONSISTENT.overlay, {"filter": {"doppler_object_radius_m": 0.0,
+                                                                            "doppler_memory_scans": 2}}),
+    "doppler-odometry": merge_tables(CONSISTENT.overlay, {"filter": {"odometry": "doppler"}}),
+}
+
+
+@pytest.mark.parametrize("name", sorted(GATED))
+def test_doppler_gate_same_as_orchestrator(name):
+    """The Doppler gate (c.10.4) in a car park with three moving cars (trial 3): the scan's static
+    detections chosen before the engine, the memory, the veto and the young landmarks' removal in
+    it; associations by the scan's own detection rows."""
+    cfg = profile_config("apsipa")
+    cfg = replace(cfg, radar=replace(cfg.radar, doppler=True), world=replace(cfg.world, moving_vehicles=3))
+    events = _scenario(cfg, 3).events
+    run = _overlay(cfg, merge_tables(GATED[name], {"filter": {"doppler_gate": True}}))
+    assert _assert_same_run(run, events) > 1000
+    stream = _fused._stream_arrays(events, slam=EkfSlam(run))
+    assert stream.moving.sum() > 100                          # the gate dropped detections
+    assert (stream.seen.shape[0] > 100) == (name != "no-objects-short-memory")     # moving objects remembered
+    r, _ = _fused.run(EkfSlam(run), events)
+    r0, _ = _fused.run(EkfSlam(_overlay(cfg, GATED[name])), events)
+    assert np.array_equal(r["n_detections"], r0["n_detections"])                  # counted before the gate
+    assert not np.array_equal(r["n_landmarks"], r0["n_landmarks"])
+
+
 def test_large_map_same_as_orchestrator():
     """The records and buffers outgrow their first capacity (16 landmarks): a two-row large car
     park, 400 scans."""

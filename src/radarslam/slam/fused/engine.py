@@ -15,6 +15,7 @@ import numpy as np
 from numba import njit, objmode
 
 from radarslam.slam.fused.extent import extent_step
+from radarslam.slam.fused.gate import moving_young, remember, veto
 from radarslam.slam.fused.mapping import alpha_test, augment, cluster, confirm, merge
 from radarslam.slam.fused.storage import (
     _all_finite,
@@ -22,6 +23,7 @@ from radarslam.slam.fused.storage import (
     cut_records,
     new_arcs,
     new_landmarks,
+    new_memory,
     new_records,
     new_tentatives,
     record_map,
@@ -59,7 +61,9 @@ def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
     SCAN, VELOCITY, in order); odometry ``e`` is ``odo[e] = [v, psi]`` over ``odo_dt[e]`` (the
     model ``cfg.motion``); a body-velocity input ``e`` (Doppler odometry, c.10.5) is ``vel[e] =
     [v_x, v_y, omega]`` over ``vel_dt[e]`` with its ``vel_U[e]`` and ``vel_Q[e]``; scan ``s`` has
-    the detections ``polar[scan_off[s]:scan_off[s + 1]]`` and the index ``scan_k[s]``. ``noise`` is
+    the detections ``polar[scan_off[s]:scan_off[s + 1]]`` and the index ``scan_k[s]`` (under the
+    Doppler gate, ``cfg.doppler_gate``, its static ones, ``moving[s]`` dropped, and its moving
+    objects' detections ``seen[seen_off[s]:seen_off[s + 1]]`` when ``remember[s]``, c.10.4). ``noise`` is
     a :class:`~radarslam.slam.fused.plan.Noise`, ``cfg`` the parameters
     (:class:`~radarslam.slam.fused.plan.FusedParams`). Returns a tuple: status ``(code, event)``;
     the number of scans run; the per-scan :class:`~radarslam.slam.fused.storage.ScanRecord` (pose,
@@ -82,6 +86,7 @@ def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
     T = 0
     rec, maps = new_records(S, 64)
     arcs, n_arcs = new_arcs(64), 0                         # visible-arc widths (a.9)
+    mem, n_mem, n_now = new_memory(16), 0, 0               # the Doppler gate's memory (c.10.4)
     a_rows = np.empty((64, 3), dtype=np.int64)
     n_arows = 0
     status = np.zeros(2, dtype=np.int64)
@@ -107,6 +112,9 @@ def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
         # ------------------------------------------------------------ one scan (a.8 steps 2-10)
         polar = stream.polar[stream.scan_off[s]:stream.scan_off[s + 1]]
         k = stream.scan_k[s]
+        if cfg.doppler_gate and stream.remember[s]:                                # c.10.4.3
+            seen = stream.seen[stream.seen_off[s]:stream.seen_off[s + 1]]
+            mem, n_mem, n_now = remember(mem, n_mem, seen, x, k, cfg)
         dt = dt_since if s > 0 else 0.0
         dt_since = 0.0
         prior = _blocks(x, P)                                                      # Decision 3
@@ -114,19 +122,21 @@ def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
         cidx = np.flatnonzero(cand)
         x, P, out, nis = associate_and_update(x, P, polar, cidx, lm, N, pose_first, noise, cfg)  # 4
         n_assoc, aoff, arow, a_rows, n_arows = group_associations(out, cidx, N, lm.ids, s, a_rows, n_arows)
-        x, P, N, old = remove_unseen(x, P, lm, N, aoff, k, cfg)                     # 5
+        young = moving_young(x, lm, N, k, mem, n_now, cfg)                        # c.10.4.4
+        x, P, N, old = remove_unseen(x, P, lm, N, aoff, k, young, cfg)              # 5
         xy = _to_world(x, polar)                                    # seed eq. (3), updated pose
         lm, arcs, n_arcs = extent_step(x, P, polar, xy, lm, N, old, aoff, arow, prior, dt, arcs, n_arcs,
                                        noise, cfg)                                 # 6
         clusters = cluster(xy, polar, cand, cfg)                                   # 7
         fresh = alpha_test(x, P, polar, clusters, noise, cfg)                      # 7
+        fresh = veto(fresh, clusters, xy, mem, n_mem, cfg)                         # c.10.4.3
         confirmed, tent, T = confirm(tent, T, fresh, clusters, xy, cfg)            # 8
         x, P, lm, N, next_id = augment(x, P, lm, N, next_id, confirmed, clusters, polar, k, noise, cfg)  # 9
         x, P, lm, N = merge(x, P, lm, N, arcs, cfg)                                # 10
         if not _all_finite(x, P):
             status[0], status[1] = BAD_SCAN, ev
             break
-        rec = record_scan(rec, s, x, P, lm, N, polar.shape[0], n_assoc, nis, stream.trace[s])
+        rec = record_scan(rec, s, x, P, lm, N, polar.shape[0] + stream.moving[s], n_assoc, nis, stream.trace[s])
         if cfg.all_maps or s == S - 1:
             maps = record_map(rec, maps, s, x, P, lm, N, arcs, cfg)
         if cfg.timing:

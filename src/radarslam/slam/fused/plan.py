@@ -75,6 +75,10 @@ class FusedParams(NamedTuple):
     jcbb_prefilter: int    #: JCBB: nearest landmarks gated per observation (slam.jcbb.N_PREFILTER)
     jcbb_eps: float        #: JCBB: the observations' DBSCAN radius (landmarks.cluster_eps_m)
     jcbb_min_samples: int  #: JCBB: their DBSCAN minimum (landmarks.cluster_min_samples)
+    doppler_gate: bool     #: filter.doppler_gate (docs/method.md c.10.4)
+    gate_memory: int       #: filter.doppler_memory_scans
+    gate_probation: int    #: filter.doppler_probation_scans
+    gate_radius: float     #: filter.doppler_memory_radius_m
 
 
 class Stream(NamedTuple):
@@ -91,6 +95,11 @@ class Stream(NamedTuple):
     polar: np.ndarray      #: (M, 2) every scan's detections [range, azimuth]
     scan_k: np.ndarray     #: (S,) int64 scan indices
     trace: np.ndarray      #: (S,) bool: record the landmarks' ids and centroids after these scans
+    moving: np.ndarray     #: (S,) int64, detections the Doppler gate dropped (c.10.4; zeros without it)
+    remember: np.ndarray   #: (S,) bool, the gate tested the scan's objects (its memory takes them)
+    seen_off: np.ndarray   #: (S + 1,) int64, scan s's moving-object detections are seen[seen_off[s]:seen_off[s + 1]]
+    seen: np.ndarray       #: (G, 2) those detections in the platform frame
+    kept: np.ndarray       #: (M,) int64, under the gate each row of ``polar``'s row in its scan (else empty)
 
 
 class Noise(NamedTuple):
@@ -120,6 +129,7 @@ def why_not(slam, events=None) -> str | None:
     from radarslam.slam._jcbb_numba import CompiledJcbbAssociator
     from radarslam.slam._numba import (CompiledBatchAssociator, CompiledJointBatchAssociator,
                                        CompiledNearestNeighbourAssociator)
+    from radarslam.slam.doppler_gate import DopplerGate
     from radarslam.slam.odometry_source import DopplerOdometry
 
     f, ec = slam.config.filter, slam.config.extent
@@ -127,7 +137,7 @@ def why_not(slam, events=None) -> str | None:
         (f.fused, "filter.fused is false"),
         (f.backend == "numba", f"filter.backend is {f.backend!r}"),
         (getattr(slam, "view", None) is None, "the partial-view model (docs/method.md a.12)"),
-        (not f.doppler_gate, "filter.doppler_gate (the Doppler gate, docs/method.md c.10.4)"),
+        (not f.doppler_gate or type(slam._gate) is DopplerGate, f"Doppler gate {type(slam._gate).__name__}"),
         (f.odometry_bias == "none", "filter.odometry_bias 'states' (odometry-bias states, docs/method.md c.11)"),
         # under Doppler odometry (c.10.5) the body-velocity model drives every prediction, not slam.model
         (f.odometry != "odometer" or type(slam.model) in (UnicycleModel, AckermannModel),
@@ -213,37 +223,41 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
         jcbb_prefilter=int(getattr(slam.associator, "n_prefilter", 1)),
         jcbb_eps=float(getattr(slam.associator, "cluster_eps", 1.0)),
         jcbb_min_samples=int(getattr(slam.associator, "cluster_min_samples", 1)),
+        doppler_gate=bool(f.doppler_gate), gate_memory=int(f.doppler_memory_scans),
+        gate_probation=int(f.doppler_probation_scans), gate_radius=float(f.doppler_memory_radius_m),
     )
 
 
-def _stream_arrays(events, fast: bool = True, odometry=None) -> Stream:
+def _stream_arrays(events, fast: bool = True, slam=None) -> Stream:
     """The event stream as arrays (a :class:`Stream`), each event checked as :meth:`EkfSlam.predict` and
     :meth:`EkfSlam.update` check it (the same one-line errors, the first bad event's).
 
-    ``odometry``, a :class:`~radarslam.slam.odometry_source.DopplerOdometry` that has processed
-    nothing the filter has not: the odometry events only accumulate in (a copy of) it, and each scan
-    is preceded by its body-velocity input (VELOCITY events, c.10.5) and followed by its Doppler fit,
-    as :meth:`~radarslam.slam.odometry_source.DopplerOdometry.process` does: the inputs depend on the
-    scans and readings only.
+    ``slam``, the :class:`~radarslam.slam.filter.EkfSlam` the stream is for (it has processed no
+    scan), brings what depends on the scans and readings alone, formed here with (copies of) its own
+    components: under Doppler odometry (its ``DopplerOdometry``, c.10.5) the odometry events only
+    accumulate, each scan is preceded by its body-velocity input (a VELOCITY event) and followed by
+    its Doppler fit, as ``DopplerOdometry.process`` does; under the Doppler gate (its
+    ``DopplerGate.classify``, c.10.4) each scan keeps its static detections (``kept``: their rows in
+    the scan), and its moving objects' detections go to the engine, which remembers them.
 
     ``fast``: a scan whose detections are already a float ``(m, 2)`` array is checked with all the
     others at once at the end (finite, ranges >= 0); if anything is wrong, the stream is checked
     again event by event, so that the error is the one the orchestrator raises first."""
     from radarslam.core.errors import InputError
 
-    if not fast:
-        return _stream_arrays_checked(events, False, odometry)
+    if not fast or (slam is not None and slam._gate is not None):     # the gate reads checked scans only
+        return _stream_arrays_checked(events, False, slam)
     try:
-        out = _stream_arrays_checked(events, True, odometry)
+        out = _stream_arrays_checked(events, True, slam)
     except InputError:
-        return _stream_arrays_checked(events, False, odometry)
+        return _stream_arrays_checked(events, False, slam)
     polar = out.polar
     if not (np.isfinite(polar).all() and (polar[:, 0] >= 0).all()):
-        return _stream_arrays_checked(events, False, odometry)
+        return _stream_arrays_checked(events, False, slam)
     return out
 
 
-def _stream_arrays_checked(events, defer_polar: bool, odometry=None) -> Stream:
+def _stream_arrays_checked(events, defer_polar: bool, slam=None) -> Stream:
     """:func:`_stream_arrays`, the detections of a float ``(m, 2)`` array left unchecked with ``defer_polar``."""
     import copy
 
@@ -252,9 +266,10 @@ def _stream_arrays_checked(events, defer_polar: bool, odometry=None) -> Stream:
     from radarslam.core.validation import as_array
     from radarslam.slam.filter import _number, _scan_polar
 
-    src, Q = (copy.deepcopy(odometry[0]), odometry[1]) if odometry is not None else (None, None)
+    src, gate = (copy.deepcopy(slam._odometry), copy.deepcopy(slam._gate)) if slam is not None else (None, None)
     kinds, odo, odo_dt, polars, scan_k, last_t = [], [], [], [], [], None
     vel, vel_dt, vel_U, vel_Q = [], [], [], []
+    moving, remember, seen, kept = [], [], [], []
     for ev in events:
         if isinstance(ev, Odometry) and src is not None:
             src.accumulate(ev)
@@ -271,7 +286,7 @@ def _stream_arrays_checked(events, defer_polar: bool, odometry=None) -> Stream:
             odo_dt.append(dt)
         elif isinstance(ev, Scan):
             if src is not None and src.n:                                   # c.10.5
-                for lst, v in zip((vel, vel_U, vel_dt, vel_Q), src.prediction_input(Q)):
+                for lst, v in zip((vel, vel_U, vel_dt, vel_Q), src.prediction_input(slam.Q)):
                     lst.append(v)
                 src.clear_interval()
                 kinds.append(VELOCITY)
@@ -284,21 +299,44 @@ def _stream_arrays_checked(events, defer_polar: bool, odometry=None) -> Stream:
                 raise InputError(f"scan.t: expected scan times that do not go backwards, got {t!r} after "
                                  f"{last_t!r} (scan {ev.index})")
             last_t = t
+            ego = None
+            if gate is not None:                                            # c.10.4
+                keep, bad, ego, objects = gate.classify(ev, polar)
+                polar = polar[keep]
+                moving.append(bad.size)
+                remember.append(objects is not None)
+                seen.append(np.empty((0, 2)) if objects is None else objects)
+                kept.append(keep)
             kinds.append(SCAN)
             polars.append(polar)
             scan_k.append(int(ev.index))
             if src is not None:
-                src.fit(ev)
+                src.fit(ev, ego)
         else:
             raise InputError(f"event: expected Odometry or Scan, got {type(ev).__name__}")
-    off = np.zeros(len(polars) + 1, dtype=np.int64)
+    return _as_stream(kinds, odo, odo_dt, (vel, vel_dt, vel_U, vel_Q), polars, scan_k, (moving, remember, seen, kept))
+
+
+def _as_stream(kinds, odo, odo_dt, velocity, polars, scan_k, gated) -> Stream:
+    """The :class:`Stream` of the lists :func:`_stream_arrays_checked` gathered."""
+    vel, vel_dt, vel_U, vel_Q = velocity
+    moving, remember, seen, kept = gated
+    S = len(polars)
+    off = np.zeros(S + 1, dtype=np.int64)
     off[1:] = np.cumsum([p.shape[0] for p in polars])
+    seen_off = np.zeros(S + 1, dtype=np.int64)
+    if seen:
+        seen_off[1:] = np.cumsum([p.shape[0] for p in seen])
     return Stream(np.array(kinds, dtype=np.int64), np.array(odo, dtype=float).reshape(-1, 2),
                   np.array(odo_dt, dtype=float), np.array(vel, dtype=float).reshape(-1, 3),
                   np.array(vel_dt, dtype=float), np.array(vel_U, dtype=float).reshape(-1, 3, 3),
                   np.array(vel_Q, dtype=float).reshape(-1, 3, 3), off,
                   (np.concatenate(polars) if polars else np.empty((0, 2))).reshape(-1, 2),
-                  np.array(scan_k, dtype=np.int64), np.zeros(len(polars), dtype=np.bool_))
+                  np.array(scan_k, dtype=np.int64), np.zeros(S, dtype=np.bool_),
+                  np.array(moving if moving else [0] * S, dtype=np.int64),
+                  np.array(remember if remember else [False] * S, dtype=np.bool_), seen_off,
+                  (np.concatenate(seen) if seen else np.empty((0, 2))).reshape(-1, 2),
+                  (np.concatenate(kept) if kept else np.empty(0)).astype(np.int64))
 
 
 def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None):
@@ -321,8 +359,7 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None):
     """
     from radarslam.core.errors import InputError
 
-    doppler = (slam._odometry, slam.Q) if slam._odometry is not None else None
-    stream = _stream_arrays(events, odometry=doppler)
+    stream = _stream_arrays(events, slam=slam)
     if trace is not None:
         trace = np.asarray(trace, dtype=np.bool_)
         if trace.shape != stream.trace.shape:
@@ -341,6 +378,8 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None):
     status, n_scans, (rec, maps), arows = run_stream(stream, st.x, st.P, noise, cfg)
     if status[0] != OK:
         raise InputError(_failure(events, stream, status, n_scans))
+    if stream.kept.shape[0] and arows.shape[0]:           # the gate's kept rows back to the scan's detections
+        arows[:, 1] = stream.kept[stream.scan_off[arows[:, 0]] + arows[:, 1]]
     out = {"poses": rec.poses, "pose_covs": rec.pose_covs, "n_detections": rec.n_det, "n_associated": rec.n_ass,
            "n_landmarks": rec.n_lm, "nis_sum": rec.nis_sum, "nis_count": rec.nis_cnt, "map_offsets": rec.map_off,
            "ids": maps.ids, "positions": maps.pos, "covs": maps.cov, "rma": maps.rma, "efa": maps.efa,

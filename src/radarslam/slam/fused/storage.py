@@ -54,6 +54,15 @@ class Arcs(NamedTuple):
     nxt: np.ndarray        #: (n,) int64, the landmark's next entry, -1 at its last
 
 
+class Memory(NamedTuple):
+    """The Doppler gate's memory (docs/method.md c.10.4.3-c.10.4.4; :class:`~radarslam.slam.doppler_gate.DopplerGate`):
+    the moving objects' detections of the last scans, and those of the scan that last tested objects."""
+
+    xy: np.ndarray         #: (n, 2) remembered moving detections, world frame, oldest first
+    k: np.ndarray          #: (n,) int64, the scan of each
+    now: np.ndarray        #: (c, 2) the last tested scan's moving detections, world frame
+
+
 class Tentatives(NamedTuple):
     """The tentative landmarks of Rule 2 (c.7), rows ``0 .. T - 1`` in use."""
 
@@ -230,6 +239,13 @@ def compact_landmarks(lm, keep):  # pragma: no cover - compiled
                 lm.Cs[q] = lm.Cs[j]
             q += 1
     return old[:q]
+
+
+# ---------------------------------------------------------------------------------------- Doppler gate
+@njit(cache=True, inline="always")
+def new_memory(cap):  # pragma: no cover - compiled
+    """An empty :class:`Memory` with room for ``cap`` detections."""
+    return Memory(np.empty((cap, 2)), np.empty(cap, dtype=np.int64), np.empty((cap, 2)))
 
 
 # ---------------------------------------------------------------------------------------- tentatives

@@ -270,10 +270,10 @@ def _popcount(v):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def remove_unseen(x, P, lm, N, aoff, k, cfg):  # pragma: no cover - compiled
+def remove_unseen(x, P, lm, N, aoff, k, young, cfg):  # pragma: no cover - compiled
     """Step 5: age the M/N windows of scan ``k`` and remove the landmarks seen in too few of the
-    last ``cfg.removal_window`` scans they were in view (c.5). Returns ``(x, P, N, old)``: each
-    survivor's position before the removal."""
+    last ``cfg.removal_window`` scans they were in view (c.5), and those ``young`` marks (the Doppler
+    gate's, c.10.4.4). Returns ``(x, P, N, old)``: each survivor's position before the removal."""
     Wr = cfg.removal_window
     mask = (1 << Wr) - 1
     keep = np.ones(N, dtype=np.bool_)
@@ -288,8 +288,8 @@ def remove_unseen(x, P, lm, N, aoff, k, cfg):  # pragma: no cover - compiled
         h = aoff[j + 1] > aoff[j]
         lm.mbits[j] = ((lm.mbits[j] << 1) | (1 if h else 0)) & mask
         lm.rbits[j] = ((lm.rbits[j] << 1) | (1 if (h or view) else 0)) & mask
-        if (k - Wr + 1 >= lm.created[j] and _popcount(lm.rbits[j]) == Wr
-                and _popcount(lm.mbits[j]) <= cfg.removal_max):
+        if young[j] or (k - Wr + 1 >= lm.created[j] and _popcount(lm.rbits[j]) == Wr
+                        and _popcount(lm.mbits[j]) <= cfg.removal_max):
             keep[j] = False
         else:
             n_keep += 1
