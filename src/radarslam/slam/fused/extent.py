@@ -106,13 +106,14 @@ def _rma_efa_ready(x, P, polar, xy, lm, ready, old, aoff, arow, cents, ccovs, R_
             lm.Xefa[j] = efa[l]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _mem_ekf_ready(x, P, polar, xy, lm, ready, old, aoff, arow, cents, ccovs, R_ext, dt, cfg):  # pragma: no cover - compiled
     """a.10 for the landmarks ``ready`` (shape initialised), as
     :meth:`~radarslam.extent.mem_ekf.MemEkfEstimator.step`: the shape covariance grown over ``dt``,
     the scan's detections one by one (each with its ``W(i)``, of the sensor noise alone or with the
     pose's, and the centroid's covariance under ``cfg.mem_noise``), ``X`` the new shape's matrix,
-    and the EFA baseline of the scan (Decision 5), in place."""
+    and the EFA baseline of the scan (Decision 5), in place. Not inlined into ``run_stream``: a
+    function of its own compiled once, which kept the engine's cold compilation shorter."""
     p = P[:3, :3].copy()
     pc = np.zeros((3, 3)) if cfg.mem_noise == MEM_SENSOR else p
     z2 = np.zeros((2, 2))

@@ -8,7 +8,9 @@ the filter's state is here, as :class:`~radarslam.slam.doppler_gate.DopplerGate`
 memory in the world frame of the pose at the scan (:func:`remember`, c.10.4.3), the young
 landmarks a moving object was seen on (:func:`moving_young`, removed with step 5, c.10.4.4), and
 the veto of new clusters near a remembered moving detection (:func:`veto`, step 7). ``cfg`` is
-the engine's :class:`~radarslam.slam.fused.plan.FusedParams`.
+the engine's :class:`~radarslam.slam.fused.plan.FusedParams`. The three steps are compiled as
+functions of their own, not inlined into ``run_stream`` (as ``extent._mem_ekf_ready``): inlined,
+they made the engine's cold compilation longer (docs/architecture.md "The fused engine").
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from numba import njit
 from radarslam.slam.fused.storage import Memory, _grow_rows
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def remember(mem, n_mem, seen, x, k, cfg):  # pragma: no cover - compiled
     """DopplerGate._remember of scan ``k``: its moving detections ``seen`` (platform frame) in the
     world frame of the pose ``x[:3]`` become the current ones; the memory forgets those of
@@ -57,7 +59,7 @@ def _near(px, py, pts, n, r2):  # pragma: no cover - compiled
     return False
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def moving_young(x, lm, N, k, mem, n_now, cfg):  # pragma: no cover - compiled
     """DopplerGate.moving_landmarks (c.10.4.4): per landmark, whether it was created less than
     ``cfg.gate_probation`` scans before scan ``k`` and lies within ``cfg.gate_radius`` of the
@@ -72,7 +74,7 @@ def moving_young(x, lm, N, k, mem, n_now, cfg):  # pragma: no cover - compiled
     return out
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def veto(fresh, clusters, xy, mem, n_mem, cfg):  # pragma: no cover - compiled
     """DopplerGate.veto (c.10.4.3): the clusters ``fresh`` with no detection (world positions
     ``xy``) within ``cfg.gate_radius`` of a remembered moving detection, in order."""
