@@ -10,7 +10,8 @@ landmarks a moving object was seen on (:func:`moving_young`, removed with step 5
 the veto of new clusters near a remembered moving detection (:func:`veto`, step 7). ``cfg`` is
 the engine's :class:`~radarslam.slam.fused.plan.FusedParams`. The three steps are compiled as
 functions of their own, not inlined into ``run_stream`` (as ``extent._mem_ekf_ready``): inlined,
-they made the engine's cold compilation longer (docs/architecture.md "The fused engine").
+they made the engine's cold compilation longer (about 128-143 s of CPU against 126 s, measured
+under load with ``NUMBA_CACHE_DIR`` fresh).
 """
 
 from __future__ import annotations
