@@ -79,7 +79,7 @@ def test_fuse_forward_speed_is_the_information_form():
                                rtol=1e-12)
 
 
-def test_configuration_errors_and_the_fused_engine_declines():
+def test_configuration_errors_and_the_fused_engine_takes_it():
     from radarslam.slam._fused import why_not
     from radarslam.slam.filter import EkfSlam
 
@@ -87,8 +87,8 @@ def test_configuration_errors_and_the_fused_engine_declines():
         EkfSlam(from_dict({"filter": {"motion_model": "body-velocity"}}))
     with pytest.raises(ConfigError, match="filter.jacobians"):
         EkfSlam(from_dict({"filter": {"odometry": "doppler", "jacobians": "fej"}}))
-    for mode in ("doppler", "both"):
-        assert "filter.odometry" in why_not(EkfSlam(from_dict({"filter": {"odometry": mode}})))
+    for mode in ("doppler", "both"):       # the fused engine takes the Doppler inputs (tests/test_fused.py)
+        assert why_not(EkfSlam(from_dict({"filter": {"odometry": mode}}))) is None
     assert why_not(EkfSlam(from_dict({}))) is None
 
 
@@ -131,3 +131,43 @@ def test_doppler_odometry_end_to_end_and_its_negative_control():
     assert nominal["both"] < 1.5 * nominal["odometer"]
     inflated = _position_rmse(100.0, ("doppler",))
     assert inflated["doppler"] > 1.8 * nominal["doppler"]
+
+
+def test_compiled_body_velocity_prediction_same_as_the_model():
+    """The fused engine's body-velocity prediction (the model's kernels compiled, c.10.5) against
+    BodyVelocityModel and ekf.predict_terms, on random states; and, negative control, not the
+    unicycle's step for a lateral velocity."""
+    from conftest import require
+
+    require("numba")
+    from radarslam.slam import ekf
+    from radarslam.slam.filter import EkfSlam
+    from radarslam.slam.fused import _parameters, tracking
+
+    slam = EkfSlam(from_dict({"filter": {"odometry": "doppler"}}))
+    params = _parameters(slam)
+    model = BodyVelocityModel()
+    rng = np.random.default_rng(11)
+    for _ in range(20):
+        n = 3 + 2 * int(rng.integers(0, 4))
+        x = np.concatenate([rng.uniform(-50, 50, 2), [rng.uniform(0, 2 * math.pi)], rng.uniform(-50, 50, n - 3)])
+        A = rng.normal(size=(n, n))
+        P = A @ A.T + n * np.eye(n)
+        u = np.array([rng.uniform(-1, 7), rng.uniform(-1, 1), rng.uniform(-0.6, 0.6)])
+        B = rng.normal(size=(3, 3))
+        U, Q, dt = B @ B.T, np.diag(rng.uniform(0, 0.01, 3)), float(rng.uniform(0.01, 0.3))
+        pose, Fx, Fu = tracking._motion(x, u, dt, tracking.BODY_VELOCITY, params)
+        np.testing.assert_allclose(pose, model.step(x[:3], u, dt), rtol=1e-14, atol=1e-12)
+        Fx_m, Fu_m = model.jacobians(x[:3], u, dt)
+        np.testing.assert_allclose(Fx, Fx_m, rtol=1e-14, atol=1e-14)
+        np.testing.assert_allclose(Fu, Fu_m, rtol=1e-14, atol=1e-14)
+        want_pose, Ppp, Ppl = ekf.predict_terms(x, P, u, dt, model, U, Q)
+        xf, Pf = x.copy(), P.copy()
+        assert tracking.predict(xf, Pf, u, dt, U, Q, x[:3].copy(), tracking.BODY_VELOCITY, params)
+        np.testing.assert_allclose(xf[:3], want_pose, rtol=1e-14, atol=1e-12)
+        np.testing.assert_allclose(Pf[:3, :3], Ppp, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(Pf[:3, 3:], Ppl, rtol=1e-12, atol=1e-12)
+        np.testing.assert_array_equal(Pf[3:, 3:], P[3:, 3:])
+    x, u = np.array([1.0, 2.0, 0.3]), np.array([3.0, 0.5, 0.2])
+    uni = UnicycleModel().step(x, u[[0, 2]], 0.1)
+    assert np.abs(tracking._motion(x, u, 0.1, tracking.BODY_VELOCITY, params)[0] - uni).max() > 0.04

@@ -23,7 +23,7 @@ from radarslam.core.errors import InputError  # noqa: E402
 from radarslam.core.types import Odometry, Scan  # noqa: E402
 from radarslam.experiments.montecarlo import trial_seed  # noqa: E402
 from radarslam.experiments.single import run_filter  # noqa: E402
-from radarslam.experiments.variants import DEFAULT_VARIANTS, apply_variant  # noqa: E402
+from radarslam.experiments.variants import CONSISTENT, DEFAULT_VARIANTS, PAPER_VARIANTS, apply_variant  # noqa: E402
 from radarslam.simulation.scenario import generate_scenario  # noqa: E402
 from radarslam.slam import _fused  # noqa: E402
 from radarslam.slam.filter import EkfSlam  # noqa: E402
@@ -109,6 +109,17 @@ OVERLAYS = {
     "jcbb-consistent": {"landmarks": {"associator": "jcbb", "init": "cluster"},
                         "extent": {"use_in_slam": True, "pre_init_spread": "prior", "prior_extent_radius_m": 2.0}},
     "jcbb-budget": {"landmarks": {"associator": "jcbb", "jcbb_max_nodes": 4}, "extent": {"use_in_slam": True}},
+    # MEM-EKF* (a.10): the map only, in SLAM (sifting, R_eff), and with the centroid's and the pose's
+    # covariance in each detection's noise and the noise-corrected EFA baseline
+    "mem-ekf": {"extent": {"estimator": "mem-ekf"}},
+    "mem-ekf-in-slam": {"extent": {"estimator": "mem-ekf", "use_in_slam": True}},
+    "mem-ekf-consistent": {"landmarks": {"associator": "batch-joint", "init": "cluster"},
+                           "extent": {"estimator": "mem-ekf", "use_in_slam": True, "pre_init_spread": "prior",
+                                      "prior_extent_radius_m": 2.0}},
+    "mem-ekf-full-noise": {"extent": {"estimator": "mem-ekf", "use_in_slam": True, "mem_ekf_noise": "full",
+                                      "efa_noise_correct": True, "n_init": 3}},
+    "mem-ekf-no-centroid": {"extent": {"estimator": "mem-ekf", "mem_ekf_noise": "no-centroid",
+                                       "use_posterior_landmark": True}},
 }
 
 
@@ -117,6 +128,53 @@ def test_covered_options_same_as_orchestrator(name):
     """Each option the engine claims to cover, on a whole run (trial 3)."""
     cfg = _overlay(profile_config("apsipa"), OVERLAYS[name])
     _assert_same_run(cfg, _scenario(profile_config("apsipa"), 3).events)
+
+
+@pytest.mark.parametrize("base", ["noext", "consistent"])
+@pytest.mark.parametrize("mode", ["doppler", "both", "radar-alone"])
+def test_doppler_odometry_same_as_orchestrator(base, mode):
+    """Doppler and gyro odometry (c.10.5; scripts/doppler_odometry_study.py's configurations): the
+    body-velocity inputs formed before the engine, the predictions in it, on a whole run (trial 3)
+    simulated with the Doppler channel; the radar alone (``yaw_rate`` doppler) ahead of the rear axle."""
+    overlay = PAPER_VARIANTS[0].overlay if base == "noext" else CONSISTENT.overlay
+    odometry = {"odometry": "doppler", "yaw_rate": "doppler"} if mode == "radar-alone" else {"odometry": mode}
+    mount = 3.7 if mode == "radar-alone" else 0.0
+    cfg = profile_config("apsipa")
+    cfg = replace(cfg, radar=replace(cfg.radar, doppler=True), sensor=replace(cfg.sensor, mount_x_m=mount))
+    events = _scenario(cfg, 3).events
+    run = _overlay(cfg, merge_tables(merge_tables({}, overlay), {"filter": odometry}))
+    assert _assert_same_run(run, events) > 1500
+    r, _ = _fused.run(EkfSlam(run), events)
+    r0, _ = _fused.run(EkfSlam(_overlay(cfg, overlay)), events)
+    assert not np.allclose(r["poses"], r0["poses"])          # the Doppler inputs drove it, not the odometer
+
+
+GATED = {
+    "consistent": CONSISTENT.overlay,
+    "noext-object-tests-only": merge_tables(PAPER_VARIANTS[0].overlay, {"filter": {"doppler_memory_scans": 0}}),
+    "no-objects-short-memory": merge_tables(CONSISTENT.overlay, {"filter": {"doppler_object_radius_m": 0.0,
+                                                                            "doppler_memory_scans": 2}}),
+    "doppler-odometry": merge_tables(CONSISTENT.overlay, {"filter": {"odometry": "doppler"}}),
+}
+
+
+@pytest.mark.parametrize("name", sorted(GATED))
+def test_doppler_gate_same_as_orchestrator(name):
+    """The Doppler gate (c.10.4) in a car park with three moving cars (trial 3): the scan's static
+    detections chosen before the engine, the memory, the veto and the young landmarks' removal in
+    it; associations by the scan's own detection rows."""
+    cfg = profile_config("apsipa")
+    cfg = replace(cfg, radar=replace(cfg.radar, doppler=True), world=replace(cfg.world, moving_vehicles=3))
+    events = _scenario(cfg, 3).events
+    run = _overlay(cfg, merge_tables(GATED[name], {"filter": {"doppler_gate": True}}))
+    assert _assert_same_run(run, events) > 1000
+    stream = _fused._stream_arrays(events, slam=EkfSlam(run))
+    assert stream.moving.sum() > 100                          # the gate dropped detections
+    assert (stream.seen.shape[0] > 100) == (name != "no-objects-short-memory")     # moving objects remembered
+    r, _ = _fused.run(EkfSlam(run), events)
+    r0, _ = _fused.run(EkfSlam(_overlay(cfg, GATED[name])), events)
+    assert np.array_equal(r["n_detections"], r0["n_detections"])                  # counted before the gate
+    assert not np.array_equal(r["n_landmarks"], r0["n_landmarks"])
 
 
 def test_large_map_same_as_orchestrator():
@@ -158,7 +216,6 @@ def test_golden_runs_reproduced():
 @pytest.mark.parametrize("overlay,reason", [
     ({"filter": {"fused": False}}, "filter.fused"),
     ({"filter": {"backend": "python"}}, "filter.backend"),
-    ({"extent": {"estimator": "mem-ekf"}}, "extent estimator"),
     ({"extent": {"efa_mode": "sliding"}}, "extent.efa_mode"),
     ({"extent": {"w_mode": "mean"}}, "extent.w_mode"),
     ({"extent": {"pre_init_spread": "scatter"}}, "extent.pre_init_spread"),

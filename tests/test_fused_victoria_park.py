@@ -198,7 +198,7 @@ def test_ackermann_prediction_compiled_same_as_model(geometry):
         P = A @ A.T + n * np.eye(n)
         u = np.array([rng.uniform(-1, 7), rng.uniform(-0.6, 0.6)])
         dt = float(rng.uniform(0.01, 0.3))
-        pose, Fx, Fu = tracking._motion(x, u[0], u[1], dt, params)
+        pose, Fx, Fu = tracking._motion(x, u, dt, params.motion, params)
         np.testing.assert_allclose(pose, model.step(x[:3], u, dt), rtol=1e-14, atol=1e-12)
         Fx_m, Fu_m = model.jacobians(x[:3], u, dt)
         np.testing.assert_allclose(Fx, Fx_m, rtol=1e-14, atol=1e-14)
@@ -207,7 +207,7 @@ def test_ackermann_prediction_compiled_same_as_model(geometry):
         for fej in (False, True):
             want_pose, Ppp, Ppl = ekf.predict_terms(x, P, u, dt, model, slam.U, slam.Q, first if fej else None)
             xf, Pf, pf = x.copy(), P.copy(), first.copy()
-            assert tracking.predict(xf, Pf, u[0], u[1], dt, slam.U, slam.Q, pf, params._replace(fej=fej))
+            assert tracking.predict(xf, Pf, u, dt, slam.U, slam.Q, pf, params.motion, params._replace(fej=fej))
             np.testing.assert_allclose(xf[:3], want_pose, rtol=1e-14, atol=1e-12)
             np.testing.assert_array_equal(pf, xf[:3] if fej else first)    # the new first estimate
             np.testing.assert_array_equal(xf[3:], x[3:])
@@ -221,11 +221,11 @@ def test_ackermann_prediction_is_not_the_unicycle():
     """Negative control: the same control through the unicycle branch gives another pose."""
     slam, params = _fused_params()
     x = np.array([1.0, 2.0, 0.3])
-    u0, u1, dt = 3.0, 0.2, 0.1
-    ack = tracking._motion(x, u0, u1, dt, params)[0]
-    uni = tracking._motion(x, u0, u1, dt, params._replace(motion=tracking.UNICYCLE))[0]
+    u, dt = np.array([3.0, 0.2]), 0.1
+    ack = tracking._motion(x, u, dt, tracking.ACKERMANN, params)[0]
+    uni = tracking._motion(x, u, dt, tracking.UNICYCLE, params)[0]
     assert np.abs(ack - uni).max() > 0.01
-    np.testing.assert_allclose(ack, AckermannModel().step(x, np.array([u0, u1]), dt), rtol=1e-14)
+    np.testing.assert_allclose(ack, AckermannModel().step(x, u, dt), rtol=1e-14)
 
 
 def test_ackermann_prediction_refuses_a_non_finite_result():
@@ -233,5 +233,5 @@ def test_ackermann_prediction_refuses_a_non_finite_result():
     InputError is raised by fused.run from the status)."""
     slam, params = _fused_params()
     x, P = np.array([0.0, 0.0, 0.1]), np.eye(3)
-    assert not tracking.predict(x, P, 1e308, 0.1, 1e10, slam.U, slam.Q, x.copy(), params)
+    assert not tracking.predict(x, P, np.array([1e308, 0.1]), 1e10, slam.U, slam.Q, x.copy(), params.motion, params)
     assert np.array_equal(x, [0.0, 0.0, 0.1]) and np.array_equal(P, np.eye(3))

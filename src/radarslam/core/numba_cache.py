@@ -21,11 +21,12 @@ COMPILED_SOURCES = (
     "core/angles.py", "core/jit.py", "slam/ekf.py", "slam/layout.py", "slam/_numba.py", "slam/_jcbb_numba.py",
     "slam/jcbb.py",
     "slam/fused/storage.py", "slam/fused/tracking.py", "slam/fused/mapping.py", "slam/fused/engine.py",
-    "slam/fused/plan.py", "landmarks/confirmation.py",
+    "slam/fused/plan.py", "slam/fused/extent.py", "slam/fused/gate.py", "landmarks/confirmation.py",
     "extent/_compiled.py", "extent/_sym2.py", "extent/measurement.py", "extent/random_matrix.py",
     "extent/ellipse_fit.py", "extent/partial_view.py", "extent/view_estimator.py", "landmarks/_compiled.py",
     "metrics/_compiled.py", "simulation/_compiled.py", "models/radar.py", "models/doppler.py",
-    "models/ackermann.py", "models/motion.py", "extent/visible_arc.py",
+    "models/ackermann.py", "models/motion.py", "extent/visible_arc.py", "extent/mem_ekf_kernels.py",
+    "extent/ellipse.py", "models/body_velocity.py",
 )
 ROOT = Path(__file__).resolve().parents[1]
 STAMP = ROOT / "__pycache__" / "numba-sources.stamp"

@@ -44,17 +44,18 @@ import numpy as np
 from radarslam.core.errors import InputError
 from radarslam.core.registry import EXTENT_ESTIMATORS
 from radarslam.core.validation import as_array, as_points, as_scalar, as_spd
-from radarslam.extent._sym2 import spectral
-from radarslam.extent.ellipse import _axis_angle_mod_pi, _ellipse_to_matrix
+from radarslam.extent.ellipse import _ellipse_to_matrix
 from radarslam.extent.estimator import RmaEfaEstimator, RmaEfaState
-from radarslam.extent.measurement import _scan_W, _w_entries
+from radarslam.extent.measurement import _scan_W
+from radarslam.extent.mem_ekf_kernels import (
+    AXIS_FLOOR,
+    detection_cov_entries,
+    initial_shape,
+    mem_ekf_predict_cov,
+    mem_ekf_scan_entries,
+    shape_entries,
+)
 from radarslam.extent.random_matrix import GAMMA_Z
-
-#: Lower bound of the semi-axes (m) after every update ([PROP], docs/method.md a.10): 5 cm, well
-#: below any car and a tenth of the range noise; it keeps ``S`` of full rank.
-AXIS_FLOOR = 0.05
-
-_PI = math.pi
 
 
 # --------------------------------------------------------------------------- shape <-> matrix
@@ -114,11 +115,9 @@ def shape_from_matrix(X: np.ndarray) -> np.ndarray:
 
 
 def _shape_from_matrix(X: np.ndarray) -> np.ndarray:
-    """Kernel of :func:`shape_from_matrix` by the closed 2 x 2 spectral form (:mod:`._sym2`)."""
+    """Kernel of :func:`shape_from_matrix` (:func:`~.mem_ekf_kernels.shape_entries`)."""
     (a, b), (_, c) = X.tolist()
-    lam1, lam2, cos2, sin2 = spectral(a, b, c)
-    theta = _axis_angle_mod_pi(0.5 * math.atan2(sin2, cos2)) if lam1 > lam2 else 0.0
-    return np.array((theta, math.sqrt(max(lam1, 0.0)), math.sqrt(max(lam2, 0.0))))
+    return np.array(shape_entries(a, b, c))
 
 
 # --------------------------------------------------------------------------- the MEM-EKF* kernel
@@ -263,100 +262,10 @@ def _mem_ekf_update_scan(p: np.ndarray, Cp: np.ndarray, centroid: np.ndarray, ce
     (c11, c12, c13), (_, c22, c23), (_, _, c33) = Cp.tolist()
     mx, my = centroid.tolist()
     (m11, m12), (_, m22) = centroid_cov.tolist()
-    for (yx, yy), (v11, v12, v22) in zip(points.tolist(), cvs):
-        new = _mem_ekf_detection(th, l1, l2, c11, c12, c13, c22, c23, c33, yx - mx, yy - my,
-                                 m11, m12, m22, v11, v12, v22, c_h, axis_floor)
-        if new is not None:
-            th, l1, l2, c11, c12, c13, c22, c23, c33 = new
+    th, l1, l2, c11, c12, c13, c22, c23, c33 = mem_ekf_scan_entries(
+        th, l1, l2, c11, c12, c13, c22, c23, c33, mx, my, m11, m12, m22, points.tolist(), cvs, c_h, axis_floor)
     return (np.array((th, l1, l2)),
             np.array(((c11, c12, c13), (c12, c22, c23), (c13, c23, c33))))
-
-
-def _mem_ekf_detection(th, l1, l2, c11, c12, c13, c22, c23, c33, e0, e1, m11, m12, m22, v11, v12, v22,
-                       ch, axis_floor):
-    """One detection of :func:`_mem_ekf_update_scan` (its steps 1-6): the new ``(theta, l1, l2)``
-    and ``C_p`` entries ``(c11, c12, c13, c22, c23, c33)``, or None when the detection is skipped.
-    ``e0, e1`` is the innovation, ``m..`` the centroid covariance, ``v..`` the detection's."""
-    cs = math.cos(th)
-    sn = math.sin(th)
-    cc = cs * cs
-    ss = sn * sn
-    sc = sn * cs
-    q1 = l1 * l1
-    q2 = l2 * l2
-    # step 1: S S^T + C^II / c_h in the axes' frame
-    n11 = q1 + c22 + q2 * c11
-    n22 = q2 + c33 + q1 * c11
-    n12 = l1 * c12 - l2 * c13
-    # step 2: C_y, rotated to the world
-    y11 = m11 + v11 + ch * (cc * n11 - 2.0 * sc * n12 + ss * n22)
-    y22 = m22 + v22 + ch * (ss * n11 + 2.0 * sc * n12 + cc * n22)
-    y12 = m12 + v12 + ch * (sc * (n11 - n22) + (cc - ss) * n12)
-    det = y11 * y22 - y12 * y12
-    if not det > 0.0:
-        return None
-    # step 3: (C^Y)^-1 from P = C_y^-1
-    i11 = y22 / det
-    i22 = y11 / det
-    i12 = -y12 / det
-    g11 = 0.5 * i11 * i11
-    g22 = 0.5 * i22 * i22
-    g12 = 0.5 * i12 * i12
-    g13 = i11 * i12
-    g23 = i12 * i22
-    g33 = i11 * i22 + i12 * i12
-    # step 4: H (rows Y11, Y22, Y12; columns theta, l1, l2) and C^pY = C_p H^T (t_ij)
-    d = ch * (q1 - q2)
-    s2 = 2.0 * sc
-    c2 = cc - ss
-    a1 = 2.0 * ch * l1
-    a2 = 2.0 * ch * l2
-    h11, h12, h13 = -d * s2, a1 * cc, a2 * ss
-    h21, h22, h23 = d * s2, a1 * ss, a2 * cc
-    h31, h32, h33 = d * c2, 0.5 * a1 * s2, -0.5 * a2 * s2
-    t11 = c11 * h11 + c12 * h12 + c13 * h13
-    t12 = c11 * h21 + c12 * h22 + c13 * h23
-    t13 = c11 * h31 + c12 * h32 + c13 * h33
-    t21 = c12 * h11 + c22 * h12 + c23 * h13
-    t22 = c12 * h21 + c22 * h22 + c23 * h23
-    t23 = c12 * h31 + c22 * h32 + c23 * h33
-    t31 = c13 * h11 + c23 * h12 + c33 * h13
-    t32 = c13 * h21 + c23 * h22 + c33 * h23
-    t33 = c13 * h31 + c23 * h32 + c33 * h33
-    # step 5: K = C^pY (C^Y)^-1, the mean and the covariance
-    k11 = t11 * g11 + t12 * g12 + t13 * g13
-    k12 = t11 * g12 + t12 * g22 + t13 * g23
-    k13 = t11 * g13 + t12 * g23 + t13 * g33
-    k21 = t21 * g11 + t22 * g12 + t23 * g13
-    k22 = t21 * g12 + t22 * g22 + t23 * g23
-    k23 = t21 * g13 + t22 * g23 + t23 * g33
-    k31 = t31 * g11 + t32 * g12 + t33 * g13
-    k32 = t31 * g12 + t32 * g22 + t33 * g23
-    k33 = t31 * g13 + t32 * g23 + t33 * g33
-    n_c11 = c11 - (k11 * t11 + k12 * t12 + k13 * t13)
-    n_c12 = c12 - (k11 * t21 + k12 * t22 + k13 * t23)
-    n_c13 = c13 - (k11 * t31 + k12 * t32 + k13 * t33)
-    n_c22 = c22 - (k21 * t21 + k22 * t22 + k23 * t23)
-    n_c23 = c23 - (k21 * t31 + k22 * t32 + k23 * t33)
-    n_c33 = c33 - (k31 * t31 + k32 * t32 + k33 * t33)
-    # step 6: keep C_p positive definite (leading minors), else skip this detection
-    minor2 = n_c11 * n_c22 - n_c12 * n_c12
-    det3 = (n_c11 * (n_c22 * n_c33 - n_c23 * n_c23) - n_c12 * (n_c12 * n_c33 - n_c23 * n_c13)
-            + n_c13 * (n_c12 * n_c23 - n_c22 * n_c13))
-    if not (n_c11 > 0.0 and minor2 > 0.0 and det3 > 0.0):
-        return None
-    r1 = e0 * e0 - y11
-    r2 = e1 * e1 - y22
-    r3 = e0 * e1 - y12
-    th += k11 * r1 + k12 * r2 + k13 * r3
-    l1 += k21 * r1 + k22 * r2 + k23 * r3
-    l2 += k31 * r1 + k32 * r2 + k33 * r3
-    th %= _PI                      # [0, pi); a tiny negative theta rounds up to pi
-    if th >= _PI:
-        th = 0.0
-    l1 = l1 if l1 > axis_floor else axis_floor
-    l2 = l2 if l2 > axis_floor else axis_floor
-    return th, l1, l2, n_c11, n_c12, n_c13, n_c22, n_c23, n_c33
 
 
 def mem_ekf_predict(p: np.ndarray, Cp: np.ndarray, dt: float, q_theta: float,
@@ -393,23 +302,15 @@ def mem_ekf_predict(p: np.ndarray, Cp: np.ndarray, dt: float, q_theta: float,
 
 
 def _mem_ekf_predict(Cp: np.ndarray, dt: float, q_theta: float, q_axis: float) -> np.ndarray:
-    """Kernel of :func:`mem_ekf_predict`: the grown covariance, a new (3, 3) array."""
-    out = Cp.copy()
-    out[0, 0] += dt * q_theta * q_theta
-    qa = dt * q_axis * q_axis
-    out[1, 1] += qa
-    out[2, 2] += qa
-    return out
+    """Kernel of :func:`mem_ekf_predict` (:func:`~.mem_ekf_kernels.mem_ekf_predict_cov`): a new (3, 3) array."""
+    return mem_ekf_predict_cov(Cp, dt, q_theta, q_axis)
 
 
 def _detection_covs(pose: np.ndarray, pose_cov: np.ndarray, polar: np.ndarray, R: np.ndarray) -> list:
     """The per-detection ``W(i)`` of seed eq. (5) (docs/method.md a.2) as ``(W11, W12, W22)`` triples."""
-    theta = float(pose[2])
     (p00, p01, p02), (_, p11, p12), (_, _, p22) = pose_cov.tolist()
     (r00, r01), (_, r11) = R.tolist()
-    q22 = p22 + r11
-    return [_w_entries(math.cos(theta + phi), math.sin(theta + phi), r, p00, p01, p02, p11, p12, q22, r00, r01)
-            for r, phi in polar.tolist()]
+    return detection_cov_entries(float(pose[2]), p00, p01, p02, p11, p12, p22, r00, r01, r11, polar.tolist())
 
 
 _ZERO2, _ZERO3 = np.zeros((2, 2)), np.zeros((3, 3))
@@ -471,8 +372,8 @@ class MemEkfEstimator(RmaEfaEstimator):
         if not st.initialized:
             self._buffer(st, pts, k)
             if st.initialized:
-                p = _shape_from_matrix(st.X)
-                p[1:] = np.maximum(p[1:], AXIS_FLOOR)
+                (a, b), (_, c) = st.X.tolist()
+                p = np.array(initial_shape(a, b, c))
                 st.p, st.Cp = p, self.Cp0.copy()
                 st.X = _shape_matrix(p)
             return

@@ -23,7 +23,37 @@ from radarslam.core.angles import wrap_2pi_scalar
 from radarslam.core.registry import MOTION_MODELS
 from radarslam.models.input_bias import TURN_RATE_KEYS, InputBias
 
-__all__ = ["BodyVelocityModel"]
+__all__ = ["BodyVelocityModel", "body_velocity_increment", "body_velocity_jacobians", "body_velocity_step"]
+
+
+def body_velocity_increment(theta: float, vx: float, vy: float, w: float, dt: float) -> tuple[float, float]:
+    """The position increment ``(dx, dy)`` (m) in the world frame over ``dt`` from heading ``theta``
+    with input ``(v_x, v_y, omega)`` (module docstring). A kernel: numba compiles it as it is."""
+    a = theta + 0.5 * dt * w
+    c, s = math.cos(a), math.sin(a)
+    return dt * (vx * c - vy * s), dt * (vx * s + vy * c)
+
+
+def body_velocity_step(x: float, y: float, theta: float, vx: float, vy: float, w: float, dt: float) -> np.ndarray:
+    """:meth:`BodyVelocityModel.step` of the pose ``(x, y, theta)``: the next pose ``(3,)``, heading
+    wrapped to [0, 2 pi). A kernel (the fused engine's prediction under Doppler odometry)."""
+    dx, dy = body_velocity_increment(theta, vx, vy, w, dt)
+    return np.array([x + dx, y + dy, wrap_2pi_scalar(theta + w * dt)])
+
+
+def body_velocity_jacobians(theta: float, vx: float, vy: float, w: float, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(F_x (3, 3), F_u (3, 3))`` of :func:`body_velocity_step` (docs/method.md c.10.5):
+
+    F_x = [[1, 0, -dy], [0, 1, dx], [0, 0, 1]],
+    F_u = [[dt c, -dt s, -dt dy / 2], [dt s, dt c, dt dx / 2], [0, 0, dt]]
+
+    with ``c, s = cos a, sin a`` and ``(dx, dy)`` the position increment. A kernel."""
+    a = theta + 0.5 * dt * w
+    c, s = math.cos(a), math.sin(a)
+    dx, dy = body_velocity_increment(theta, vx, vy, w, dt)
+    Fx = np.array([[1.0, 0.0, -dy], [0.0, 1.0, dx], [0.0, 0.0, 1.0]])
+    Fu = np.array([[dt * c, -dt * s, -0.5 * dt * dy], [dt * s, dt * c, 0.5 * dt * dx], [0.0, 0.0, dt]])
+    return Fx, Fu
 
 
 class BodyVelocityModel:
@@ -35,32 +65,14 @@ class BodyVelocityModel:
     #: c.2.1: F_x's heading column is (-dy, dx) of the increment: first-estimates Jacobians apply.
     se2_increment = True
 
-    @staticmethod
-    def _increment(pose: np.ndarray, u: np.ndarray, dt: float) -> tuple[float, float]:
-        """The position increment ``(dx, dy)`` (m) in the world frame."""
-        vx, vy, w = float(u[0]), float(u[1]), float(u[2])
-        a = float(pose[2]) + 0.5 * dt * w
-        c, s = math.cos(a), math.sin(a)
-        return dt * (vx * c - vy * s), dt * (vx * s + vy * c)
-
     def step(self, pose: np.ndarray, u: np.ndarray, dt: float) -> np.ndarray:
-        """Next pose ``(3,)``, heading wrapped to [0, 2 pi)."""
-        dx, dy = self._increment(pose, u, dt)
-        return np.array([pose[0] + dx, pose[1] + dy, wrap_2pi_scalar(float(pose[2]) + float(u[2]) * dt)])
+        """Next pose ``(3,)``, heading wrapped to [0, 2 pi) (:func:`body_velocity_step`)."""
+        return body_velocity_step(float(pose[0]), float(pose[1]), float(pose[2]), float(u[0]), float(u[1]),
+                                  float(u[2]), dt)
 
     def jacobians(self, pose: np.ndarray, u: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """``(F_x (3, 3), F_u (3, 3))`` at ``(pose, u)`` (docs/method.md c.10.5):
-
-        F_x = [[1, 0, -dy], [0, 1, dx], [0, 0, 1]],
-        F_u = [[dt c, -dt s, -dt dy / 2], [dt s, dt c, dt dx / 2], [0, 0, dt]]
-
-        with ``c, s = cos a, sin a`` and ``(dx, dy)`` the position increment."""
-        a = float(pose[2]) + 0.5 * dt * float(u[2])
-        c, s = math.cos(a), math.sin(a)
-        dx, dy = self._increment(pose, u, dt)
-        Fx = np.array([[1.0, 0.0, -dy], [0.0, 1.0, dx], [0.0, 0.0, 1.0]])
-        Fu = np.array([[dt * c, -dt * s, -0.5 * dt * dy], [dt * s, dt * c, 0.5 * dt * dx], [0.0, 0.0, dt]])
-        return Fx, Fu
+        """``(F_x (3, 3), F_u (3, 3))`` at ``(pose, u)`` (:func:`body_velocity_jacobians`)."""
+        return body_velocity_jacobians(float(pose[2]), float(u[0]), float(u[1]), float(u[2]), dt)
 
     def control_cov(self, filter_config) -> np.ndarray:
         """A nominal U ``(3, 3)``: diag(sigma_v^2, sigma_v^2, sigma_gyro^2) from ``filter.speed_std_mps``

@@ -55,6 +55,16 @@ class DopplerGate:
 
     def apply(self, scan, polar: np.ndarray, pose: np.ndarray):
         """Steps 1-4 on one scan: ``(kept rows, moving rows, EgoVelocity)``."""
+        keep, bad, ego, objects = self.classify(scan, polar)
+        if objects is not None:
+            self._remember(scan.index, objects, pose)
+        return keep, bad, ego
+
+    def classify(self, scan, polar: np.ndarray):
+        """Steps 1-3 on one scan, which depend on the scan alone (not on the filter's state):
+        ``(kept rows, moving rows, EgoVelocity, the moving objects' detections in the platform
+        frame (n, 2), or None when the objects were not tested)``; step 4 (:meth:`_remember`, in the
+        world frame of the pose) is the caller's."""
         f = self.f
         ch = scan.channels or {}
         if polar.shape[0] and "doppler_mps" not in ch:
@@ -69,13 +79,14 @@ class DopplerGate:
                                iterations=f.doppler_iterations, sigma_floor_mps=f.doppler_std_floor_mps,
                                zero_probability=f.zero_velocity_probability)
         bad = moving_mask(U, d, ego, f.doppler_gate_probability)
+        seen = None
         if f.doppler_object_radius_m > 0 and polar.shape[0] >= 2:
             xy = _platform_xy(polar)
             labels = dbscan_labels(xy, f.doppler_object_radius_m, 1)
             objects = moving_objects(U, d, ego, labels, f.doppler_object_probability)
             bad = bad | objects
-            self._remember(scan.index, xy[objects], pose)
-        return np.flatnonzero(~bad), np.flatnonzero(bad), ego
+            seen = xy[objects]
+        return np.flatnonzero(~bad), np.flatnonzero(bad), ego, seen
 
     def _remember(self, k: int, xy: np.ndarray, pose: np.ndarray) -> None:
         """Keep this scan's moving objects (world frame) and forget those older than the memory."""

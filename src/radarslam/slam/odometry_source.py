@@ -150,25 +150,27 @@ class DopplerOdometry:
         self.v = np.zeros(2)                                  # the velocity driving the next interval
         self.C = np.eye(2) * filter_config.doppler_hold_std_mps ** 2
         self.fits = 0                                         # valid fits so far
-        self._reset()
+        self.clear_interval()
 
-    def _reset(self) -> None:
+    def clear_interval(self) -> None:
+        """Start a new interval (after a prediction)."""
         self.dt, self.n, self.gyro_dt, self.speed_dt = 0.0, 0, 0.0, 0.0
 
     def process(self, slam, event):
         """One event of the stream (module docstring): None for odometry, the scan's ScanReport."""
         if isinstance(event, Odometry):
-            self._accumulate(event)
+            self.accumulate(event)
             return None
         if isinstance(event, Scan):
             if self.n:
                 self._predict(slam, event.t)
             report = slam.update(event)
-            self._fit(slam, event, report)
+            self.fit(event, report.ego)
             return report
         raise InputError(f"event: expected Odometry or Scan, got {type(event).__name__}")
 
-    def _accumulate(self, odo: Odometry) -> None:
+    def accumulate(self, odo: Odometry) -> None:
+        """Add an odometry event to the interval before the next scan (module docstring)."""
         dt = float(odo.dt)
         if not (math.isfinite(dt) and dt > 0):
             raise InputError(f"odometry.dt: expected a finite value > 0, got {odo.dt!r}")
@@ -187,28 +189,35 @@ class DopplerOdometry:
         self.n += 1
         self.gyro_dt += float(g) * dt
 
-    def _predict(self, slam, t) -> None:
-        """Predict over the accumulated interval (c.10.5), then clear it."""
+    def prediction_input(self, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
+        """The body-velocity prediction over the accumulated interval (c.10.5) as ``(u (3,), U (3, 3),
+        dt, Q_n)``, ``Q_n`` the process noise ``Q`` once per odometer interval; it depends on the
+        scans and readings only, not on the filter's state (the fused engine's stream takes it)."""
         omega = None if self.f.yaw_rate == "doppler" else self.gyro_dt / self.dt
         u, U = platform_input(self.v, self.C, self.mount if self.sensor_frame else (0.0, 0.0, 0.0), omega,
                               self.gyro_var)
         if self.f.odometry == "both":
             u, U = fuse_forward_speed(u, U, self.speed_dt / self.dt, self.f.speed_std_mps ** 2)
-        st, dt = slam.state, self.dt
+        return u, U, self.dt, self.n * Q
+
+    def _predict(self, slam, t) -> None:
+        """Predict over the accumulated interval (c.10.5), then clear it."""
+        u, U, dt, Q = self.prediction_input(slam.Q)
+        st = slam.state
         with np.errstate(over="ignore", invalid="ignore"):
-            pose, Ppp, Ppl = predict_terms(slam.bias_model, st.x, st.P, u, dt, self.model, U, self.n * slam.Q)
+            pose, Ppp, Ppl = predict_terms(slam.bias_model, st.x, st.P, u, dt, self.model, U, Q)
         if not (np.isfinite(pose).all() and np.isfinite(Ppp).all() and np.isfinite(Ppl).all()):
             raise InputError(f"odometry before the scan at t={t!r}: expected an input that keeps the state finite "
                              f"(u {u.tolist()}, dt {dt!r}), got one that makes it non-finite")
         ekf.apply_prediction(st.x, st.P, pose, Ppp, Ppl)
         slam._dt_since_scan += dt
-        self._reset()
+        self.clear_interval()
 
-    def _fit(self, slam, scan: Scan, report) -> None:
+    def fit(self, scan: Scan, gate_ego=None) -> None:
         """This scan's ego velocity, held for the next interval: the one the scan carries (a 3-D
-        recording's levelled fit, c.10.6), else the Doppler gate's fit when it ran, else a fit of the
-        scan's platform-frame azimuths (c.10.2)."""
-        ego = scan.ego if scan.ego is not None else report.ego     # c.10.6: a recording's 3-D fit first
+        recording's levelled fit, c.10.6), else the Doppler gate's fit ``gate_ego`` when it ran, else
+        a fit of the scan's platform-frame azimuths (c.10.2)."""
+        ego = scan.ego if scan.ego is not None else gate_ego       # c.10.6: a recording's 3-D fit first
         if scan.ego is not None and self.f.yaw_rate == "doppler":
             raise InputError(f"scan {scan.index}: filter.yaw_rate 'doppler' expected the radar's own fit, got a scan "
                              f"carrying its velocity at the platform origin (Scan.ego, c.10.6)")

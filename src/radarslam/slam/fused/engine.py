@@ -2,7 +2,7 @@
 
 :func:`run_stream` reads like :meth:`radarslam.slam.filter.EkfSlam.update`: per odometry event the
 prediction, per scan the steps of docs/method.md a.8 in the orchestrator's order, each a compiled
-function of :mod:`~radarslam.slam.fused.tracking` (steps 1-6) or
+function of :mod:`~radarslam.slam.fused.tracking` (steps 1-5), :mod:`~radarslam.slam.fused.extent` (6) or
 :mod:`~radarslam.slam.fused.mapping` (steps 7-10), then the record after the scan
 (:mod:`~radarslam.slam.fused.storage`).
 """
@@ -15,6 +15,8 @@ import numpy as np
 from numba import njit, objmode
 
 from radarslam.landmarks.confirmation import Tentatives
+from radarslam.slam.fused.extent import extent_step
+from radarslam.slam.fused.gate import moving_young, remember, veto
 from radarslam.slam.fused.mapping import alpha_test, augment, cluster, confirm, merge
 from radarslam.slam.fused.storage import (
     _all_finite,
@@ -22,14 +24,15 @@ from radarslam.slam.fused.storage import (
     cut_records,
     new_arcs,
     new_landmarks,
+    new_memory,
     new_records,
     record_map,
     record_scan,
 )
 from radarslam.slam.fused.tracking import (
+    BODY_VELOCITY,
     _to_world,
     associate_and_update,
-    extent_step,
     group_associations,
     predict,
     remove_unseen,
@@ -38,6 +41,8 @@ from radarslam.slam.fused.tracking import (
 
 #: Status codes of :func:`run_stream`: what made the state non-finite, at which event.
 OK, BAD_PREDICTION, BAD_SCAN = 0, 1, 2
+#: Event kinds of ``Stream.kinds``: an odometer reading, a scan, a body-velocity input (c.10.5).
+ODOMETRY, SCAN, VELOCITY = 0, 1, 2
 
 
 @njit(cache=True)
@@ -52,9 +57,13 @@ def _clock():  # pragma: no cover - compiled
 def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
     """Run the event stream through the filter.
 
-    ``stream`` is a :class:`~radarslam.slam.fused.plan.Stream`: the events ``kinds`` (0 odometry,
-    1 scan, in order); odometry ``e`` is ``odo[e] = [v, psi]`` over ``odo_dt[e]``; scan ``s`` has
-    the detections ``polar[scan_off[s]:scan_off[s + 1]]`` and the index ``scan_k[s]``. ``noise`` is
+    ``stream`` is a :class:`~radarslam.slam.fused.plan.Stream`: the events ``kinds`` (ODOMETRY,
+    SCAN, VELOCITY, in order); odometry ``e`` is ``odo[e] = [v, psi]`` over ``odo_dt[e]`` (the
+    model ``cfg.motion``); a body-velocity input ``e`` (Doppler odometry, c.10.5) is ``vel[e] =
+    [v_x, v_y, omega]`` over ``vel_dt[e]`` with its ``vel_U[e]`` and ``vel_Q[e]``; scan ``s`` has
+    the detections ``polar[scan_off[s]:scan_off[s + 1]]`` and the index ``scan_k[s]`` (under the
+    Doppler gate, ``cfg.doppler_gate``, its static ones, ``moving[s]`` dropped, and its moving
+    objects' detections ``seen[seen_off[s]:seen_off[s + 1]]`` when ``remember[s]``, c.10.4). ``noise`` is
     a :class:`~radarslam.slam.fused.plan.Noise`, ``cfg`` the parameters
     (:class:`~radarslam.slam.fused.plan.FusedParams`). Returns a tuple: status ``(code, event)``;
     the number of scans run; the per-scan :class:`~radarslam.slam.fused.storage.ScanRecord` (pose,
@@ -77,6 +86,7 @@ def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
                       np.empty(0, dtype=np.int64))      # tentatives (Rule 2)
     rec, maps = new_records(S, 64)
     arcs, n_arcs = new_arcs(64), 0                         # visible-arc widths (a.9)
+    mem, n_mem, n_now = new_memory(16), 0, 0               # the Doppler gate's memory (c.10.4)
     a_rows = np.empty((64, 3), dtype=np.int64)
     n_arows = 0
     status = np.zeros(2, dtype=np.int64)
@@ -84,18 +94,27 @@ def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
     dt_since = 0.0
     e_odo = 0
     s = 0
+    e_vel = 0
     for ev in range(stream.kinds.shape[0]):
-        if stream.kinds[ev] == 0:                                                  # 1
-            if not predict(x, P, stream.odo[e_odo, 0], stream.odo[e_odo, 1], stream.odo_dt[e_odo],
-                           noise.U, noise.Q, pose_first, cfg):
+        if stream.kinds[ev] != SCAN:                                               # 1
+            if stream.kinds[ev] == ODOMETRY:
+                u, dt, U, Q, model = stream.odo[e_odo], stream.odo_dt[e_odo], noise.U, noise.Q, cfg.motion
+                e_odo += 1
+            else:                                                                  # c.10.5
+                u, dt, U, Q, model = (stream.vel[e_vel], stream.vel_dt[e_vel], stream.vel_U[e_vel],
+                                      stream.vel_Q[e_vel], BODY_VELOCITY)
+                e_vel += 1
+            if not predict(x, P, u, dt, U, Q, pose_first, model, cfg):
                 status[0], status[1] = BAD_PREDICTION, ev
                 break
-            dt_since += stream.odo_dt[e_odo]
-            e_odo += 1
+            dt_since += dt
             continue
         # ------------------------------------------------------------ one scan (a.8 steps 2-10)
         polar = stream.polar[stream.scan_off[s]:stream.scan_off[s + 1]]
         k = stream.scan_k[s]
+        if cfg.doppler_gate and stream.remember[s]:                                # c.10.4.3
+            seen = stream.seen[stream.seen_off[s]:stream.seen_off[s + 1]]
+            mem, n_mem, n_now = remember(mem, n_mem, seen, x, k, cfg)
         dt = dt_since if s > 0 else 0.0
         dt_since = 0.0
         prior = _blocks(x, P)                                                      # Decision 3
@@ -103,19 +122,21 @@ def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
         cidx = np.flatnonzero(cand)
         x, P, out, nis = associate_and_update(x, P, polar, cidx, lm, N, pose_first, noise, cfg)  # 4
         n_assoc, aoff, arow, a_rows, n_arows = group_associations(out, cidx, N, lm.ids, s, a_rows, n_arows)
-        x, P, N, old = remove_unseen(x, P, lm, N, aoff, k, cfg)                     # 5
+        young = moving_young(x, lm, N, k, mem, n_now, cfg)                        # c.10.4.4
+        x, P, N, old = remove_unseen(x, P, lm, N, aoff, k, young, cfg)              # 5
         xy = _to_world(x, polar)                                    # seed eq. (3), updated pose
         lm, arcs, n_arcs = extent_step(x, P, polar, xy, lm, N, old, aoff, arow, prior, dt, arcs, n_arcs,
                                        noise, cfg)                                 # 6
         clusters = cluster(xy, polar, cand, cfg)                                   # 7
         fresh = alpha_test(x, P, polar, clusters, noise, cfg)                      # 7
+        fresh = veto(fresh, clusters, xy, mem, n_mem, cfg)                         # c.10.4.3
         confirmed, tent = confirm(tent, fresh, clusters, xy, cfg)                  # 8
         x, P, lm, N, next_id = augment(x, P, lm, N, next_id, confirmed, clusters, polar, k, noise, cfg)  # 9
         x, P, lm, N = merge(x, P, lm, N, arcs, cfg)                                # 10
         if not _all_finite(x, P):
             status[0], status[1] = BAD_SCAN, ev
             break
-        rec = record_scan(rec, s, x, P, lm, N, polar.shape[0], n_assoc, nis, stream.trace[s])
+        rec = record_scan(rec, s, x, P, lm, N, polar.shape[0] + stream.moving[s], n_assoc, nis, stream.trace[s])
         if cfg.all_maps or s == S - 1:
             maps = record_map(rec, maps, s, x, P, lm, N, arcs, cfg)
         if cfg.timing:

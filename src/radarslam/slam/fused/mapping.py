@@ -181,6 +181,8 @@ def merge(x, P, lm, N, arcs, cfg):  # pragma: no cover - compiled
             lm.einit[bi], lm.X[bi], lm.alpha[bi], lm.Xefa[bi], lm.nbuf[bi] = (
                 True, lm.X[bj], lm.alpha[bj], lm.Xefa[bj], lm.nbuf[bj])
             lm.buf[bi] = lm.buf[bj]
+            lm.shape[bi] = lm.shape[bj]
+            lm.Cs[bi] = lm.Cs[bj]
         elif not lm.einit[bi] and not lm.einit[bj]:
             lm = with_buffer(lm, lm.nbuf[bi] + lm.nbuf[bj])
             lm.buf[bi, lm.nbuf[bi]:lm.nbuf[bi] + lm.nbuf[bj]] = lm.buf[bj, :lm.nbuf[bj]]

@@ -15,7 +15,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from radarslam.slam.fused.engine import BAD_PREDICTION, OK, run_stream
+from radarslam.slam.fused.engine import BAD_PREDICTION, ODOMETRY, OK, SCAN, VELOCITY, run_stream
 
 
 class FusedParams(NamedTuple):
@@ -62,6 +62,10 @@ class FusedParams(NamedTuple):
     eig_floor: float       #: extent.eig_floor_m2
     kappa: float           #: extent.kappa
     beam_step: float       #: extent.beam_step_deg, in radians (visible-arc)
+    mem: bool              #: the extent estimator is "mem-ekf" (MEM-EKF*, docs/method.md a.10)
+    mem_noise: int         #: extent.mem_ekf_noise: 0 sensor, 1 no-centroid, 2 full (fused.extent.MEM_SENSOR, ...)
+    mem_q_theta: float     #: extent.mem_ekf_process_std[0], in radians per sqrt(s)
+    mem_q_axis: float      #: extent.mem_ekf_process_std[1] (m per sqrt(s))
     wheelbase: float       #: Ackermann L (filter.vehicle_L_m)
     encoder_offset: float  #: Ackermann H (filter.vehicle_H_m)
     lever: float           #: Ackermann laser lever arm from the rear axle, L + a (filter.sensor_a_m)
@@ -71,18 +75,31 @@ class FusedParams(NamedTuple):
     jcbb_prefilter: int    #: JCBB: nearest landmarks gated per observation (slam.jcbb.N_PREFILTER)
     jcbb_eps: float        #: JCBB: the observations' DBSCAN radius (landmarks.cluster_eps_m)
     jcbb_min_samples: int  #: JCBB: their DBSCAN minimum (landmarks.cluster_min_samples)
+    doppler_gate: bool     #: filter.doppler_gate (docs/method.md c.10.4)
+    gate_memory: int       #: filter.doppler_memory_scans
+    gate_probation: int    #: filter.doppler_probation_scans
+    gate_radius: float     #: filter.doppler_memory_radius_m
 
 
 class Stream(NamedTuple):
     """The event stream as arrays (:func:`_stream_arrays`)."""
 
-    kinds: np.ndarray      #: (E,) int64, 0 odometry, 1 scan
+    kinds: np.ndarray      #: (E,) int64, engine.ODOMETRY, SCAN or VELOCITY
     odo: np.ndarray        #: (O, 2) odometry controls [v, psi]
     odo_dt: np.ndarray     #: (O,) odometry intervals
+    vel: np.ndarray        #: (V, 3) body-velocity inputs [v_x, v_y, omega] (Doppler odometry, c.10.5)
+    vel_dt: np.ndarray     #: (V,) their intervals
+    vel_U: np.ndarray      #: (V, 3, 3) their covariances
+    vel_Q: np.ndarray      #: (V, 3, 3) the process noise of each (Q once per odometer interval)
     scan_off: np.ndarray   #: (S + 1,) int64, scan s is polar[scan_off[s]:scan_off[s + 1]]
     polar: np.ndarray      #: (M, 2) every scan's detections [range, azimuth]
     scan_k: np.ndarray     #: (S,) int64 scan indices
     trace: np.ndarray      #: (S,) bool: record the landmarks' ids and centroids after these scans
+    moving: np.ndarray     #: (S,) int64, detections the Doppler gate dropped (c.10.4; zeros without it)
+    remember: np.ndarray   #: (S,) bool, the gate tested the scan's objects (its memory takes them)
+    seen_off: np.ndarray   #: (S + 1,) int64, scan s's moving-object detections are seen[seen_off[s]:seen_off[s + 1]]
+    seen: np.ndarray       #: (G, 2) those detections in the platform frame
+    kept: np.ndarray       #: (M,) int64, under the gate each row of ``polar``'s row in its scan (else empty)
 
 
 class Noise(NamedTuple):
@@ -94,6 +111,7 @@ class Noise(NamedTuple):
     Q: np.ndarray             #: (3, 3) process noise
     prior_spread: np.ndarray  #: (2, 2) the prior spread (zeros when not used)
     gates: np.ndarray         #: (K + 1,) JCBB's joint gates of k pairings (slam._jcbb_numba.joint_gates)
+    Cp0: np.ndarray           #: (3, 3) MEM-EKF*'s initial shape covariance (zeros for the other estimators)
 
 
 def why_not(slam, events=None) -> str | None:
@@ -103,6 +121,7 @@ def why_not(slam, events=None) -> str | None:
     ``landmarks.clustering.DENSE_MAX`` detections (the compiled DBSCAN builds an m x m
     neighbourhood; the orchestrator hands such scans to scikit-learn's)."""
     from radarslam.extent.estimator import RmaEfaEstimator
+    from radarslam.extent.mem_ekf import MemEkfEstimator
     from radarslam.extent.visible_arc import VisibleArcEstimator
     from radarslam.models.ackermann import AckermannModel
     from radarslam.models.motion import UnicycleModel
@@ -110,21 +129,27 @@ def why_not(slam, events=None) -> str | None:
     from radarslam.slam._jcbb_numba import CompiledJcbbAssociator
     from radarslam.slam._numba import (CompiledBatchAssociator, CompiledJointBatchAssociator,
                                        CompiledNearestNeighbourAssociator)
+    from radarslam.slam.doppler_gate import DopplerGate
+    from radarslam.slam.odometry_source import DopplerOdometry
 
     f, ec = slam.config.filter, slam.config.extent
     checks = (
         (f.fused, "filter.fused is false"),
         (f.backend == "numba", f"filter.backend is {f.backend!r}"),
         (getattr(slam, "view", None) is None, "the partial-view model (docs/method.md a.12)"),
-        (not f.doppler_gate, "filter.doppler_gate (the Doppler gate, docs/method.md c.10.4)"),
-        (f.odometry == "odometer", f"filter.odometry {f.odometry!r} (Doppler and gyro odometry, docs/method.md c.10.5)"),
+        (not f.doppler_gate or type(slam._gate) is DopplerGate, f"Doppler gate {type(slam._gate).__name__}"),
         (f.odometry_bias == "none", "filter.odometry_bias 'states' (odometry-bias states, docs/method.md c.11)"),
-        (type(slam.model) in (UnicycleModel, AckermannModel), f"motion model {type(slam.model).__name__}"),
+        # under Doppler odometry (c.10.5) the body-velocity model drives every prediction, not slam.model
+        (f.odometry != "odometer" or type(slam.model) in (UnicycleModel, AckermannModel),
+         f"motion model {type(slam.model).__name__}"),
+        (f.odometry == "odometer" or type(slam._odometry) is DopplerOdometry,
+         f"odometry source {type(slam._odometry).__name__}"),
         (type(slam.measurement) is RangeAzimuthModel, f"measurement model {type(slam.measurement).__name__}"),
         (type(slam.associator) in (CompiledNearestNeighbourAssociator, CompiledBatchAssociator,
                                    CompiledJointBatchAssociator, CompiledJcbbAssociator),
          f"associator {type(slam.associator).__name__}"),
-        (type(slam.extent) in (RmaEfaEstimator, VisibleArcEstimator), f"extent estimator {type(slam.extent).__name__}"),
+        (type(slam.extent) in (RmaEfaEstimator, VisibleArcEstimator, MemEkfEstimator),
+         f"extent estimator {type(slam.extent).__name__}"),
         (ec.efa_mode == "per_scan", f"extent.efa_mode {ec.efa_mode!r}"),
         (ec.w_mode == "max_trace", f"extent.w_mode {ec.w_mode!r}"),
         (ec.pre_init_spread in ("none", "prior"), f"extent.pre_init_spread {ec.pre_init_spread!r}"),
@@ -146,15 +171,18 @@ def why_not(slam, events=None) -> str | None:
 def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParams:
     """The :class:`FusedParams` of ``slam``'s configuration and components."""
     lc, ec, f = slam.config.landmarks, slam.config.extent, slam.config.filter
+    from radarslam.extent.mem_ekf import MemEkfEstimator
     from radarslam.extent.visible_arc import VisibleArcEstimator
     from radarslam.models.ackermann import AckermannModel
     from radarslam.slam._jcbb_numba import CompiledJcbbAssociator
+    from radarslam.slam.fused.extent import MEM_FULL, MEM_NO_CENTROID, MEM_SENSOR
     from radarslam.slam._numba import CompiledBatchAssociator, CompiledJointBatchAssociator
     from radarslam.slam.fused.tracking import ACKERMANN, UNICYCLE
 
     model = slam.model
     ackermann = type(model) is AckermannModel
     arc = type(slam.extent) is VisibleArcEstimator
+    mem = type(slam.extent) is MemEkfEstimator
 
     in_slam = bool(ec.use_in_slam)
     return FusedParams(
@@ -186,6 +214,8 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
         gate=float(slam.extent.gate), gamma=float(ec.spread_factor),
         alpha0=float(ec.alpha0), tau=float(ec.tau_s), eig_floor=float(ec.eig_floor_m2), kappa=float(ec.kappa),
         beam_step=float(slam.extent.beam_step) if arc else 0.0,
+        mem=mem, mem_noise={"sensor": MEM_SENSOR, "no-centroid": MEM_NO_CENTROID, "full": MEM_FULL}[ec.mem_ekf_noise],
+        mem_q_theta=float(slam.extent.q_theta) if mem else 0.0, mem_q_axis=float(slam.extent.q_axis) if mem else 0.0,
         wheelbase=float(model.L) if ackermann else 0.0, encoder_offset=float(model.H) if ackermann else 0.0,
         lever=float(model.lever) if ackermann else 0.0, sensor_b=float(model.b) if ackermann else 0.0,
         fej=f.jacobians == "fej",
@@ -193,40 +223,57 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
         jcbb_prefilter=int(getattr(slam.associator, "n_prefilter", 1)),
         jcbb_eps=float(getattr(slam.associator, "cluster_eps", 1.0)),
         jcbb_min_samples=int(getattr(slam.associator, "cluster_min_samples", 1)),
+        doppler_gate=bool(f.doppler_gate), gate_memory=int(f.doppler_memory_scans),
+        gate_probation=int(f.doppler_probation_scans), gate_radius=float(f.doppler_memory_radius_m),
     )
 
 
-def _stream_arrays(events, fast: bool = True) -> Stream:
+def _stream_arrays(events, fast: bool = True, slam=None) -> Stream:
     """The event stream as arrays (a :class:`Stream`), each event checked as :meth:`EkfSlam.predict` and
     :meth:`EkfSlam.update` check it (the same one-line errors, the first bad event's).
+
+    ``slam``, the :class:`~radarslam.slam.filter.EkfSlam` the stream is for (it has processed no
+    scan), brings what depends on the scans and readings alone, formed here with (copies of) its own
+    components: under Doppler odometry (its ``DopplerOdometry``, c.10.5) the odometry events only
+    accumulate, each scan is preceded by its body-velocity input (a VELOCITY event) and followed by
+    its Doppler fit, as ``DopplerOdometry.process`` does; under the Doppler gate (its
+    ``DopplerGate.classify``, c.10.4) each scan keeps its static detections (``kept``: their rows in
+    the scan), and its moving objects' detections go to the engine, which remembers them.
 
     ``fast``: a scan whose detections are already a float ``(m, 2)`` array is checked with all the
     others at once at the end (finite, ranges >= 0); if anything is wrong, the stream is checked
     again event by event, so that the error is the one the orchestrator raises first."""
     from radarslam.core.errors import InputError
 
-    if not fast:
-        return _stream_arrays_checked(events, False)
+    if not fast or (slam is not None and slam._gate is not None):     # the gate reads checked scans only
+        return _stream_arrays_checked(events, False, slam)
     try:
-        out = _stream_arrays_checked(events, True)
+        out = _stream_arrays_checked(events, True, slam)
     except InputError:
-        return _stream_arrays_checked(events, False)
+        return _stream_arrays_checked(events, False, slam)
     polar = out.polar
     if not (np.isfinite(polar).all() and (polar[:, 0] >= 0).all()):
-        return _stream_arrays_checked(events, False)
+        return _stream_arrays_checked(events, False, slam)
     return out
 
 
-def _stream_arrays_checked(events, defer_polar: bool) -> Stream:
+def _stream_arrays_checked(events, defer_polar: bool, slam=None) -> Stream:
     """:func:`_stream_arrays`, the detections of a float ``(m, 2)`` array left unchecked with ``defer_polar``."""
+    import copy
+
     from radarslam.core.errors import InputError
     from radarslam.core.types import Odometry, Scan
     from radarslam.core.validation import as_array
     from radarslam.slam.filter import _number, _scan_polar
 
+    src, gate = (copy.deepcopy(slam._odometry), copy.deepcopy(slam._gate)) if slam is not None else (None, None)
     kinds, odo, odo_dt, polars, scan_k, last_t = [], [], [], [], [], None
+    vel, vel_dt, vel_U, vel_Q = [], [], [], []
+    moving, remember, seen, kept = [], [], [], []
     for ev in events:
-        if isinstance(ev, Odometry):
+        if isinstance(ev, Odometry) and src is not None:
+            src.accumulate(ev)
+        elif isinstance(ev, Odometry):
             u = ev.control
             if not (type(u) is np.ndarray and u.dtype == np.float64 and u.shape == (2,)
                     and math.isfinite(u[0]) and math.isfinite(u[1])):
@@ -234,10 +281,15 @@ def _stream_arrays_checked(events, defer_polar: bool) -> Stream:
             dt = _number(ev.dt, "odometry.dt")
             if not dt > 0:
                 raise InputError(f"odometry.dt: expected a finite value > 0, got {ev.dt!r}")
-            kinds.append(0)
+            kinds.append(ODOMETRY)
             odo.append(u)
             odo_dt.append(dt)
         elif isinstance(ev, Scan):
+            if src is not None and src.n:                                   # c.10.5
+                for lst, v in zip((vel, vel_U, vel_dt, vel_Q), src.prediction_input(slam.Q)):
+                    lst.append(v)
+                src.clear_interval()
+                kinds.append(VELOCITY)
             polar = ev.polar
             if not (defer_polar and type(polar) is np.ndarray and polar.dtype == np.float64 and polar.ndim == 2
                     and polar.shape[1] == 2):
@@ -247,17 +299,44 @@ def _stream_arrays_checked(events, defer_polar: bool) -> Stream:
                 raise InputError(f"scan.t: expected scan times that do not go backwards, got {t!r} after "
                                  f"{last_t!r} (scan {ev.index})")
             last_t = t
-            kinds.append(1)
+            ego = None
+            if gate is not None:                                            # c.10.4
+                keep, bad, ego, objects = gate.classify(ev, polar)
+                polar = polar[keep]
+                moving.append(bad.size)
+                remember.append(objects is not None)
+                seen.append(np.empty((0, 2)) if objects is None else objects)
+                kept.append(keep)
+            kinds.append(SCAN)
             polars.append(polar)
             scan_k.append(int(ev.index))
+            if src is not None:
+                src.fit(ev, ego)
         else:
             raise InputError(f"event: expected Odometry or Scan, got {type(ev).__name__}")
-    off = np.zeros(len(polars) + 1, dtype=np.int64)
+    return _as_stream(kinds, odo, odo_dt, (vel, vel_dt, vel_U, vel_Q), polars, scan_k, (moving, remember, seen, kept))
+
+
+def _as_stream(kinds, odo, odo_dt, velocity, polars, scan_k, gated) -> Stream:
+    """The :class:`Stream` of the lists :func:`_stream_arrays_checked` gathered."""
+    vel, vel_dt, vel_U, vel_Q = velocity
+    moving, remember, seen, kept = gated
+    S = len(polars)
+    off = np.zeros(S + 1, dtype=np.int64)
     off[1:] = np.cumsum([p.shape[0] for p in polars])
+    seen_off = np.zeros(S + 1, dtype=np.int64)
+    if seen:
+        seen_off[1:] = np.cumsum([p.shape[0] for p in seen])
     return Stream(np.array(kinds, dtype=np.int64), np.array(odo, dtype=float).reshape(-1, 2),
-                  np.array(odo_dt, dtype=float), off,
+                  np.array(odo_dt, dtype=float), np.array(vel, dtype=float).reshape(-1, 3),
+                  np.array(vel_dt, dtype=float), np.array(vel_U, dtype=float).reshape(-1, 3, 3),
+                  np.array(vel_Q, dtype=float).reshape(-1, 3, 3), off,
                   (np.concatenate(polars) if polars else np.empty((0, 2))).reshape(-1, 2),
-                  np.array(scan_k, dtype=np.int64), np.zeros(len(polars), dtype=np.bool_))
+                  np.array(scan_k, dtype=np.int64), np.zeros(S, dtype=np.bool_),
+                  np.array(moving if moving else [0] * S, dtype=np.int64),
+                  np.array(remember if remember else [False] * S, dtype=np.bool_), seen_off,
+                  (np.concatenate(seen) if seen else np.empty((0, 2))).reshape(-1, 2),
+                  (np.concatenate(kept) if kept else np.empty(0)).astype(np.int64))
 
 
 def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None):
@@ -280,7 +359,7 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None):
     """
     from radarslam.core.errors import InputError
 
-    stream = _stream_arrays(events)
+    stream = _stream_arrays(events, slam=slam)
     if trace is not None:
         trace = np.asarray(trace, dtype=np.bool_)
         if trace.shape != stream.trace.shape:
@@ -294,16 +373,13 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None):
     if cfg.assoc == 3:                         # JCBB: a gate for every depth a scan's candidates allow
         off = stream.scan_off
         gates = slam.associator.gates(max(1, int((off[1:] - off[:-1]).max(initial=1))))
-    noise = Noise(slam.R, ext.R_extent, slam.U, slam.Q, np.ascontiguousarray(prior_spread, dtype=float), gates)
+    Cp0 = np.asarray(ext.Cp0, dtype=float) if cfg.mem else np.zeros((3, 3))
+    noise = Noise(slam.R, ext.R_extent, slam.U, slam.Q, np.ascontiguousarray(prior_spread, dtype=float), gates, Cp0)
     status, n_scans, (rec, maps), arows = run_stream(stream, st.x, st.P, noise, cfg)
     if status[0] != OK:
-        ev = events[int(status[1])]
-        off = stream.scan_off
-        if status[0] == BAD_PREDICTION:
-            what = f"odometry at t={ev.t!r} (control {np.asarray(ev.control, dtype=float).tolist()}, dt {float(ev.dt)!r})"
-        else:
-            what = f"scan {ev.index} (t={ev.t!r}, {off[n_scans + 1] - off[n_scans]} detections)"
-        raise InputError(f"{what}: expected an input that keeps the state finite, got one that makes it non-finite")
+        raise InputError(_failure(events, stream, status, n_scans))
+    if stream.kept.shape[0] and arows.shape[0]:           # the gate's kept rows back to the scan's detections
+        arows[:, 1] = stream.kept[stream.scan_off[arows[:, 0]] + arows[:, 1]]
     out = {"poses": rec.poses, "pose_covs": rec.pose_covs, "n_detections": rec.n_det, "n_associated": rec.n_ass,
            "n_landmarks": rec.n_lm, "nis_sum": rec.nis_sum, "nis_count": rec.nis_cnt, "map_offsets": rec.map_off,
            "ids": maps.ids, "positions": maps.pos, "covs": maps.cov, "rma": maps.rma, "efa": maps.efa,
@@ -312,3 +388,22 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None):
     if timing:
         out["seconds"] = rec.seconds
     return out, arows
+
+
+def _failure(events, stream: Stream, status, n_scans: int) -> str:
+    """The orchestrator's message for the event ``status[1]`` of ``stream`` that made the state non-finite."""
+    from radarslam.core.types import Scan
+
+    ev, kind = int(status[1]), int(stream.kinds[int(status[1])])
+    scan = [e for e in events if isinstance(e, Scan)][n_scans] if kind != ODOMETRY else None
+    off = stream.scan_off
+    if status[0] == BAD_PREDICTION and kind == VELOCITY:
+        e = int((stream.kinds[:ev] == VELOCITY).sum())
+        return (f"odometry before the scan at t={scan.t!r}: expected an input that keeps the state finite "
+                f"(u {stream.vel[e].tolist()}, dt {float(stream.vel_dt[e])!r}), got one that makes it non-finite")
+    if status[0] == BAD_PREDICTION:
+        odo = events[ev]
+        what = f"odometry at t={odo.t!r} (control {np.asarray(odo.control, dtype=float).tolist()}, dt {float(odo.dt)!r})"
+    else:
+        what = f"scan {scan.index} (t={scan.t!r}, {off[n_scans + 1] - off[n_scans]} detections)"
+    return f"{what}: expected an input that keeps the state finite, got one that makes it non-finite"

@@ -1,5 +1,6 @@
-"""The fused engine's records (:mod:`radarslam.slam.fused`): the landmarks, the tentatives and the
-per-scan outputs as arrays, with their growth, removal and the record after a scan.
+"""The fused engine's records (:mod:`radarslam.slam.fused`): the landmarks, the Doppler gate's memory
+and the per-scan outputs as arrays (the tentatives are the orchestrator's own record,
+landmarks.confirmation.Tentatives), with their growth, removal and the record after a scan.
 
 Each record is a :class:`typing.NamedTuple` of arrays, which numba compiles as a tuple with named
 fields: the arrays are changed in place; growing one makes new arrays, so the helpers that may grow
@@ -40,6 +41,8 @@ class Landmarks(NamedTuple):
     arc_head: np.ndarray   #: (L,) int64, the first of them in :class:`Arcs` (-1: none)
     arc_tail: np.ndarray   #: (L,) int64, the last of them (-1: none)
     first: np.ndarray      #: (L, 2) first estimates: the centroids at birth (FEJ, docs/method.md c.2.1)
+    shape: np.ndarray      #: (L, 3) MEM-EKF* shapes [theta, l1, l2] (a.10; ``X`` holds their matrices)
+    Cs: np.ndarray         #: (L, 3, 3) their covariances
 
 
 class Arcs(NamedTuple):
@@ -50,6 +53,15 @@ class Arcs(NamedTuple):
     d: np.ndarray          #: (n,) per-scan diameters (m)
     beam: np.ndarray       #: (n,) the beam widths at the trunk's range (m)
     nxt: np.ndarray        #: (n,) int64, the landmark's next entry, -1 at its last
+
+
+class Memory(NamedTuple):
+    """The Doppler gate's memory (docs/method.md c.10.4.3-c.10.4.4; :class:`~radarslam.slam.doppler_gate.DopplerGate`):
+    the moving objects' detections of the last scans, and those of the scan that last tested objects."""
+
+    xy: np.ndarray         #: (n, 2) remembered moving detections, world frame, oldest first
+    k: np.ndarray          #: (n,) int64, the scan of each
+    now: np.ndarray        #: (c, 2) the last tested scan's moving detections, world frame
 
 
 class Clusters(NamedTuple):
@@ -174,7 +186,7 @@ def new_landmarks(cap, buf_len):  # pragma: no cover - compiled
                      np.empty(cap, dtype=np.int64), np.zeros(cap, dtype=np.bool_), np.zeros((cap, 2, 2)),
                      np.zeros(cap), np.zeros((cap, 2, 2)), np.zeros(cap, dtype=np.int64),
                      np.zeros((cap, buf_len, 2)), np.zeros(cap, dtype=np.int64), np.full(cap, -1, dtype=np.int64),
-                     np.full(cap, -1, dtype=np.int64), np.zeros((cap, 2)))
+                     np.full(cap, -1, dtype=np.int64), np.zeros((cap, 2)), np.zeros((cap, 3)), np.zeros((cap, 3, 3)))
 
 
 @njit(cache=True, inline="always")
@@ -185,7 +197,8 @@ def grow_landmarks(lm, n):  # pragma: no cover - compiled
     return Landmarks(_grow_rows(lm.ids, n), _grow_rows(lm.created, n), _grow_rows(lm.mbits, n),
                      _grow_rows(lm.rbits, n), _grow_rows(lm.einit, n), _grow_rows(lm.X, n), _grow_rows(lm.alpha, n),
                      _grow_rows(lm.Xefa, n), _grow_rows(lm.nbuf, n), _grow_rows(lm.buf, n), _grow_rows(lm.narc, n),
-                     _grow_rows(lm.arc_head, n), _grow_rows(lm.arc_tail, n), _grow_rows(lm.first, n))
+                     _grow_rows(lm.arc_head, n), _grow_rows(lm.arc_tail, n), _grow_rows(lm.first, n),
+                     _grow_rows(lm.shape, n), _grow_rows(lm.Cs, n))
 
 
 @njit(cache=True, inline="always")
@@ -194,7 +207,7 @@ def with_buffer(lm, n):  # pragma: no cover - compiled
     if lm.buf.shape[1] >= n:
         return lm
     return Landmarks(lm.ids, lm.created, lm.mbits, lm.rbits, lm.einit, lm.X, lm.alpha, lm.Xefa, lm.nbuf,
-                     _grow_buffer(lm.buf, n), lm.narc, lm.arc_head, lm.arc_tail, lm.first)
+                     _grow_buffer(lm.buf, n), lm.narc, lm.arc_head, lm.arc_tail, lm.first, lm.shape, lm.Cs)
 
 
 @njit(cache=True, inline="always")
@@ -214,11 +227,19 @@ def compact_landmarks(lm, keep):  # pragma: no cover - compiled
                 lm.buf[q] = lm.buf[j]
                 lm.narc[q], lm.arc_head[q], lm.arc_tail[q] = lm.narc[j], lm.arc_head[j], lm.arc_tail[j]
                 lm.first[q] = lm.first[j]
+                lm.shape[q] = lm.shape[j]
+                lm.Cs[q] = lm.Cs[j]
             q += 1
     return old[:q]
 
 
-# ---------------------------------------------------------------------------------------- tentatives
+# ---------------------------------------------------------------------------------------- Doppler gate
+@njit(cache=True, inline="always")
+def new_memory(cap):  # pragma: no cover - compiled
+    """An empty :class:`Memory` with room for ``cap`` detections."""
+    return Memory(np.empty((cap, 2)), np.empty(cap, dtype=np.int64), np.empty((cap, 2)))
+
+
 # ---------------------------------------------------------------------------------------- visible arcs
 @njit(cache=True, inline="always")
 def new_arcs(cap):  # pragma: no cover - compiled

@@ -1,7 +1,7 @@
-"""The fused engine's steps that track the landmarks it has (docs/method.md a.8 steps 1-6): predict
+"""The fused engine's steps that track the landmarks it has (docs/method.md a.8 steps 1-5): predict
 (c.2), sift (c.3, a.7.1), associate and update (c.4, a.7.2-a.7.3), the M/N windows and removal
-(c.5), and the extent step (a.3-a.5). One compiled function per step, each the bookkeeping
-between the compiled kernels the numba backend uses; ``cfg`` is the engine's
+(c.5); step 6, the extent step, is in :mod:`.extent`. One compiled function per step, each the
+bookkeeping between the compiled kernels the numba backend uses; ``cfg`` is the engine's
 :class:`~radarslam.slam.fused.plan.FusedParams`.
 """
 
@@ -14,9 +14,10 @@ from numba import njit
 
 from radarslam.core.angles import wrap_2pi_scalar
 from radarslam.core.jit import compile_kernels
-from radarslam.extent._compiled import _fit_entries, measurement_contour, rma_efa_step
+from radarslam.extent._compiled import measurement_contour
 from radarslam.landmarks._compiled import compiled_mn_windows as _mn_windows
 from radarslam.models.ackermann import ackermann_jacobians, ackermann_step, centre_speed
+from radarslam.models.body_velocity import body_velocity_increment, body_velocity_jacobians, body_velocity_step
 from radarslam.models.motion import unicycle_jacobians, unicycle_step
 from radarslam.models.radar import polar_to_xy
 from radarslam.slam import ekf
@@ -28,18 +29,10 @@ from radarslam.slam._numba import (
     joint_batch_associate_scan,
 )
 from radarslam.slam.layout import POSE_DIM
-from radarslam.slam.fused.storage import (
-    _arc_width_diameter,
-    _blocks,
-    _drop_state_rows,
-    _grow_rows,
-    add_arc,
-    compact_landmarks,
-    with_buffer,
-)
+from radarslam.slam.fused.storage import _drop_state_rows, _grow_rows, compact_landmarks
 
-# The reference's own kernels, compiled as they are: seed eq. (3), and the Ackermann model's step
-# and Jacobians (models.ackermann).
+# The reference's own kernels, compiled as they are: seed eq. (3), and the motion models' steps and
+# Jacobians (models.motion, models.ackermann, models.body_velocity).
 _to_world = compile_kernels(polar_to_xy)["polar_to_xy"]
 _ACK = compile_kernels(centre_speed, wrap_2pi_scalar, ackermann_step, ackermann_jacobians)
 _ackermann_step = _ACK["ackermann_step"]
@@ -47,10 +40,13 @@ _ackermann_jacobians = _ACK["ackermann_jacobians"]
 _UNI = compile_kernels(wrap_2pi_scalar, unicycle_step, unicycle_jacobians)
 _unicycle_step = _UNI["unicycle_step"]
 _unicycle_jacobians = _UNI["unicycle_jacobians"]
+_BV = compile_kernels(wrap_2pi_scalar, body_velocity_increment, body_velocity_step, body_velocity_jacobians)
+_body_velocity_step = _BV["body_velocity_step"]
+_body_velocity_jacobians = _BV["body_velocity_jacobians"]
 _fej_motion_jacobian = compile_kernels(ekf.fej_motion_jacobian)["fej_motion_jacobian"]
 
-#: Motion-model codes of ``FusedParams.motion``.
-UNICYCLE, ACKERMANN = 0, 1
+#: Motion-model codes of ``FusedParams.motion`` (BODY_VELOCITY: the Doppler odometry's predictions, c.10.5).
+UNICYCLE, ACKERMANN, BODY_VELOCITY = 0, 1, 2
 
 
 @njit(cache=True, inline="always")
@@ -67,28 +63,33 @@ def _matmul(A, B):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def _motion(x, u0, u1, dt, cfg):  # pragma: no cover - compiled
-    """The motion model's step and Jacobians at ``x[:3]`` with control ``(u0, u1)``: ``(pose (3,),
-    F_x, F_u)``. ``cfg.motion`` UNICYCLE: APSIPA eq. 5, App. A (models.motion.UnicycleModel);
-    ACKERMANN: the kernels of models.ackermann with ``cfg.wheelbase``, ``cfg.encoder_offset``,
-    ``cfg.lever`` and ``cfg.sensor_b``."""
-    if cfg.motion == ACKERMANN:
-        pose = _ackermann_step(x[0], x[1], x[2], u0, u1, dt, cfg.wheelbase, cfg.encoder_offset, cfg.lever,
+def _motion(x, u, dt, model, cfg):  # pragma: no cover - compiled
+    """The motion model's step and Jacobians at ``x[:3]`` with control ``u``: ``(pose (3,), F_x,
+    F_u)``. ``model`` UNICYCLE: APSIPA eq. 5, App. A (models.motion.UnicycleModel); ACKERMANN: the
+    kernels of models.ackermann with ``cfg.wheelbase``, ``cfg.encoder_offset``, ``cfg.lever`` and
+    ``cfg.sensor_b``; BODY_VELOCITY: models.body_velocity, ``u = [v_x, v_y, omega]`` (c.10.5)."""
+    if model == ACKERMANN:
+        pose = _ackermann_step(x[0], x[1], x[2], u[0], u[1], dt, cfg.wheelbase, cfg.encoder_offset, cfg.lever,
                                cfg.sensor_b)
-        Fx, Fu = _ackermann_jacobians(x[2], u0, u1, dt, cfg.wheelbase, cfg.encoder_offset, cfg.lever, cfg.sensor_b)
+        Fx, Fu = _ackermann_jacobians(x[2], u[0], u[1], dt, cfg.wheelbase, cfg.encoder_offset, cfg.lever,
+                                      cfg.sensor_b)
         return pose, Fx, Fu
-    pose = _unicycle_step(x[0], x[1], x[2], u0, u1, dt)
-    Fx, Fu = _unicycle_jacobians(x[2], u0, u1, dt)
+    if model == BODY_VELOCITY:
+        pose = _body_velocity_step(x[0], x[1], x[2], u[0], u[1], u[2], dt)
+        Fx, Fu = _body_velocity_jacobians(x[2], u[0], u[1], u[2], dt)
+        return pose, Fx, Fu
+    pose = _unicycle_step(x[0], x[1], x[2], u[0], u[1], dt)
+    Fx, Fu = _unicycle_jacobians(x[2], u[0], u[1], dt)
     return pose, Fx, Fu
 
 
 @njit(cache=True, inline="always")
-def predict(x, P, u0, u1, dt, U, Q, pose_first, cfg):  # pragma: no cover - compiled
-    """c.2 with the motion model of ``cfg.motion`` (:func:`_motion`), in place; with ``cfg.fej``
+def predict(x, P, u, dt, U, Q, pose_first, model, cfg):  # pragma: no cover - compiled
+    """c.2 with the motion model ``model`` (:func:`_motion`), in place; with ``cfg.fej``
     the pose Jacobian's heading column from ``pose_first``, the first estimate of the current pose
     (the previous prediction), which then becomes the new prediction (c.2.1). Returns False,
     leaving the state as it was, if the prediction is not finite."""
-    pose, Fx, Fu = _motion(x, u0, u1, dt, cfg)
+    pose, Fx, Fu = _motion(x, u, dt, model, cfg)
     if cfg.fej:
         Fx = _fej_motion_jacobian(Fx, pose, pose_first)
     pose0, pose1, pose2 = pose[0], pose[1], pose[2]
@@ -102,7 +103,7 @@ def predict(x, P, u0, u1, dt, U, Q, pose_first, cfg):  # pragma: no cover - comp
             for k in range(3):
                 s1 += T[i, k] * Fx[j, k]
             s2 = 0.0
-            for k in range(2):
+            for k in range(Fu.shape[1]):
                 s2 += FU[i, k] * Fu[j, k]
             Ppp[i, j] = s1 + s2 + Q[i, j]
             ok = ok and math.isfinite(Ppp[i, j])
@@ -261,11 +262,11 @@ def group_associations(out, cidx, N, ids, s, a_rows, n_arows):  # pragma: no cov
 
 
 @njit(cache=True, inline="always")
-def remove_unseen(x, P, lm, N, aoff, k, cfg):  # pragma: no cover - compiled
+def remove_unseen(x, P, lm, N, aoff, k, young, cfg):  # pragma: no cover - compiled
     """Step 5: age the M/N windows of scan ``k`` and remove the landmarks seen in too few of the
     last ``cfg.removal_window`` scans they were in view (c.5), by the orchestrator's own kernel
-    (landmarks.confirmation.mn_windows) compiled as it is. Returns ``(x, P, N, old)``: each
-    survivor's position before the removal."""
+    (landmarks.confirmation.mn_windows) compiled as it is, and those ``young`` marks (the Doppler
+    gate's, c.10.4.4). Returns ``(x, P, N, old)``: each survivor's position before the removal."""
     hit = np.empty(N, dtype=np.bool_)
     view = np.empty(N, dtype=np.bool_)
     for j in range(N):
@@ -281,135 +282,11 @@ def remove_unseen(x, P, lm, N, aoff, k, cfg):  # pragma: no cover - compiled
                        cfg.removal_max)
     n_keep = 0
     for j in range(N):
+        if young[j]:
+            keep[j] = False
         if keep[j]:
             n_keep += 1
     if n_keep < N:
         x, P = _drop_state_rows(x, P, keep)
     old = compact_landmarks(lm, keep)
     return x, P, n_keep, old
-
-
-@njit(cache=True, inline="always")
-def _buffer_and_initialise(lm, j, o, xy, aoff, arow, cfg):  # pragma: no cover - compiled
-    """a.3 for landmark ``j`` (row ``o`` of the associations) whose extent is not initialised:
-    buffer its detections, then the EFA (upper bound) once more than ``cfg.n_init`` are held.
-    Returns ``lm`` (its buffers may grow)."""
-    na = aoff[o + 1] - aoff[o]
-    lm = with_buffer(lm, lm.nbuf[j] + na)
-    buf = lm.buf
-    for a in range(na):
-        buf[j, lm.nbuf[j] + a, 0] = xy[arow[aoff[o] + a], 0]
-        buf[j, lm.nbuf[j] + a, 1] = xy[arow[aoff[o] + a], 1]
-    lm.nbuf[j] += na
-    if lm.nbuf[j] <= cfg.n_init:
-        return lm
-    data = buf[j, :lm.nbuf[j]].copy()
-    ok, _, _, e11, e12, e22 = _fit_entries(data, True, 0.0, 0.0, 0.0, cfg.gamma)
-    if ok:
-        lm.einit[j] = True
-        lm.X[j, 0, 0], lm.X[j, 0, 1], lm.X[j, 1, 0], lm.X[j, 1, 1] = e11, e12, e12, e22
-        lm.alpha[j] = cfg.alpha0
-        lm.Xefa[j] = lm.X[j]
-        lm.nbuf[j] = 0
-    else:
-        keep_n = cfg.n_init
-        buf[j, :keep_n] = data[lm.nbuf[j] - keep_n:]
-        lm.nbuf[j] = keep_n
-    return lm
-
-
-@njit(cache=True, inline="always")
-def _rma_efa_ready(x, P, polar, xy, lm, ready, old, aoff, arow, cents, ccovs, R_ext, dt, cfg):  # pragma: no cover - compiled
-    """a.4-a.5 for the landmarks ``ready`` (extent initialised): the RM step and the EFA on their
-    associated detections, in place."""
-    n_ready = ready.shape[0]
-    offsets = np.zeros(n_ready + 1, dtype=np.int64)
-    n_rows = 0
-    for l in range(n_ready):
-        o = old[ready[l]]
-        n_rows += aoff[o + 1] - aoff[o]
-    rpol = np.empty((n_rows, 2))
-    rpts = np.empty((n_rows, 2))
-    q = 0
-    for l in range(n_ready):
-        o = old[ready[l]]
-        for a in range(aoff[o], aoff[o + 1]):
-            rpol[q] = polar[arow[a]]
-            rpts[q] = xy[arow[a]]
-            q += 1
-        offsets[l + 1] = q
-    Xr = np.empty((n_ready, 2, 2))
-    ar = np.empty(n_ready)
-    cr = np.empty((n_ready, 2))
-    Cr = np.empty((n_ready, 2, 2))
-    for l in range(n_ready):
-        Xr[l] = lm.X[ready[l]]
-        ar[l] = lm.alpha[ready[l]]
-        cr[l] = cents[ready[l]]
-        Cr[l] = ccovs[ready[l]]
-    X_new, a_new, efa, efa_ok = rma_efa_step(Xr, ar, cr, Cr, offsets, rpol, rpts, x[:3].copy(),
-                                             P[:3, :3].copy(), R_ext, dt, cfg.tau, cfg.gamma,
-                                             cfg.eig_floor, cfg.upper)
-    for l in range(n_ready):
-        j = ready[l]
-        lm.X[j] = X_new[l]
-        lm.alpha[j] = a_new[l]
-        if efa_ok[l]:
-            lm.Xefa[j] = efa[l]
-
-
-@njit(cache=True, inline="always")
-def _arc_widths(polar, lm, N, old, aoff, arow, arcs, n_arcs, cfg):  # pragma: no cover - compiled
-    """The visible-arc estimator's part of step 6 (a.9): each landmark's width of this scan from
-    its associated detections, kept when they are consecutive beams. Returns ``(arcs, n_arcs)``."""
-    for j in range(N):
-        o = old[j]
-        na = aoff[o + 1] - aoff[o]
-        if na == 0:
-            continue
-        mine = np.empty((na, 2))
-        r_min = math.inf
-        for a in range(na):
-            mine[a] = polar[arow[aoff[o] + a]]
-            r_min = min(r_min, mine[a, 0])
-        d = _arc_width_diameter(mine, cfg.beam_step)
-        if math.isfinite(d):
-            arcs = add_arc(arcs, n_arcs, lm, j, d, r_min * cfg.beam_step)
-            n_arcs += 1
-    return arcs, n_arcs
-
-
-@njit(cache=True, inline="always")
-def extent_step(x, P, polar, xy, lm, N, old, aoff, arow, prior, dt, arcs, n_arcs, noise, cfg):  # pragma: no cover - compiled
-    """Step 6: the extent step (a.3-a.5) with the detections ``xy`` in the world frame of the
-    updated pose, about the posterior centroids (``cfg.posterior``) or the prior ones (``prior``,
-    by the rows before the removal, ``old``); with ``cfg.arc`` the visible-arc widths (a.9).
-    Returns ``(lm, arcs, n_arcs)`` (buffers may grow)."""
-    if not cfg.track or N == 0:
-        return lm, arcs, n_arcs
-    pos_prior, cov_prior = prior
-    if cfg.posterior:
-        cents, ccovs = _blocks(x, P)
-    else:
-        cents = np.empty((N, 2))
-        ccovs = np.empty((N, 2, 2))
-        for j in range(N):
-            cents[j] = pos_prior[old[j]]
-            ccovs[j] = cov_prior[old[j]]
-    n_ready = 0
-    for j in range(N):
-        if lm.einit[j]:
-            n_ready += 1
-    ready = np.empty(n_ready, dtype=np.int64)
-    r_i = 0
-    for j in range(N):
-        if lm.einit[j]:
-            ready[r_i] = j
-            r_i += 1
-            continue
-        lm = _buffer_and_initialise(lm, j, old[j], xy, aoff, arow, cfg)
-    if n_ready > 0:
-        _rma_efa_ready(x, P, polar, xy, lm, ready, old, aoff, arow, cents, ccovs, noise.R_ext, dt, cfg)
-    if cfg.arc:
-        arcs, n_arcs = _arc_widths(polar, lm, N, old, aoff, arow, arcs, n_arcs, cfg)
-    return lm, arcs, n_arcs
