@@ -4,7 +4,10 @@ The first Monte Carlo on a machine runs its trials with the per-event orchestrat
 sooner than compiling the fused engine first (:func:`radarslam.experiments.warmup.first_run_engine`).
 The fused engine is then compiled here, in a process of its own that outlives the command: at the
 lowest CPU priority (``nice 19``), so that it takes the cores only when the run leaves them idle,
-in a session of its own (Ctrl-C on the command does not reach it), with its output in a log file.
+in a process group of its own (Ctrl-C on the command does not reach it), with its output in a log
+file. It stays in the command's session on purpose: Linux schedules each session (an "autogroup")
+as one unit, so a process in a session of its own would take a fair share of the cores whatever its
+nice value and slow the run down.
 It writes numba's cache, which every later run loads (docs/architecture.md "Backends").
 
 One compilation at a time per cache: the process holds an exclusive lock on a file named after
@@ -88,7 +91,7 @@ def start(cfg_dict: dict, variants_json: list, log_file: Path | None = None) -> 
     with open(log_file, "w") as out:
         proc = subprocess.Popen([sys.executable, "-m", "radarslam.experiments.background", job],
                                 stdin=subprocess.DEVNULL, stdout=out, stderr=subprocess.STDOUT,
-                                start_new_session=True, close_fds=True,
+                                process_group=0, close_fds=True,
                                 preexec_fn=_lower_priority if os.name == "posix" else None)
     return proc.pid
 
