@@ -1,4 +1,4 @@
-"""Clustering, Rule 1 / Rule 2 and the M/N windows compiled with numba (``filter.backend = "numba"``; docs/architecture.md "Backends").
+"""Clustering, Rule 1 / Rule 2, the M/N windows and the merge pair compiled with numba (``filter.backend = "numba"``; docs/architecture.md "Backends").
 
 The reference is scikit-learn's DBSCAN (:func:`.clustering.dbscan_labels`); these loops give the
 same labels for one scan's few dozen detections in a few microseconds instead of ~90 us of
@@ -14,12 +14,15 @@ from numba import njit
 
 from radarslam.core.jit import compile_kernels
 from radarslam.landmarks.confirmation import mn_windows, popcount, push_bit, rule12, should_remove
+from radarslam.landmarks.merging import closest_pair
 
-# Rule 1 / Rule 2 and the M/N windows (c.7, c.5): the kernels of landmarks.confirmation compiled as
-# they are, for the orchestrator's numba backend and the fused engine alike.
-_K = compile_kernels(popcount, push_bit, should_remove, mn_windows, rule12)
+# Rule 1 / Rule 2, the M/N windows and the merge pair (c.7, c.5, c.9): the kernels of
+# landmarks.confirmation and landmarks.merging compiled as they are, for the orchestrator's numba
+# backend and the fused engine alike.
+_K = compile_kernels(popcount, push_bit, should_remove, mn_windows, rule12, closest_pair)
 compiled_mn_windows = _K["mn_windows"]
 compiled_rule12 = _K["rule12"]
+compiled_closest_pair = _K["closest_pair"]
 
 
 @njit(cache=True)

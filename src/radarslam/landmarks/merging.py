@@ -41,17 +41,46 @@ def merge_candidates(positions: np.ndarray, distance: float, axis_tol: float = m
     return [(int(ii[o]), int(jj[o]), float(dd[o])) for o in order]
 
 
-def next_merge(positions: np.ndarray, created: np.ndarray, ids: np.ndarray, distance: float,
-               axis_tol: float = math.inf) -> tuple[int, int] | None:
-    """The closest eligible pair as ``(keep, drop)`` indices, or None.
+def closest_pair(positions, created, ids, distance, axis_tol):
+    """The closest eligible pair of landmarks (c.9) as ``(keep, drop)`` indices, ``(-1, -1)`` for
+    none; a kernel (``core.jit``): the orchestrator calls it (compiled with the numba backend) and
+    the fused engine's merge step compiles it as it is.
 
-    The older landmark (smaller ``created``, then smaller id) survives; the later-created one is
-    deleted without fusion (c.9).
-    """
-    pairs = merge_candidates(positions, distance, axis_tol)
-    if not pairs:
-        return None
-    i, j, _ = pairs[0]
-    if (created[j], ids[j]) < (created[i], ids[i]):
-        i, j = j, i
-    return i, j
+    Eligible: ``d < distance`` and, with a finite ``axis_tol``, ``|dx| <= axis_tol or |dy| <=
+    axis_tol``; the first of equal distances in the row-major order of the upper triangle. The
+    older landmark (smaller ``created``, then smaller id) survives; the later-created one is deleted
+    without fusion."""
+    n = positions.shape[0]
+    bi, bj, bd = -1, -1, math.inf
+    if not distance > 0:
+        return -1, -1
+    for i in range(n):
+        for j in range(i + 1, n):
+            dx = positions[i, 0] - positions[j, 0]
+            dy = positions[i, 1] - positions[j, 1]
+            if not (abs(dx) < distance and abs(dy) < distance):
+                continue            # hypot(dx, dy) >= max(|dx|, |dy|): out of reach, exactly
+            dd = np.hypot(dx, dy)
+            if not dd < distance:
+                continue
+            if math.isfinite(axis_tol) and not (abs(dx) <= axis_tol or abs(dy) <= axis_tol):
+                continue
+            if dd < bd:
+                bi, bj, bd = i, j, dd
+    if bi < 0:
+        return -1, -1
+    if created[bj] < created[bi] or (created[bj] == created[bi] and ids[bj] < ids[bi]):
+        bi, bj = bj, bi
+    return bi, bj
+
+
+def next_merge(positions: np.ndarray, created: np.ndarray, ids: np.ndarray, distance: float,
+               axis_tol: float = math.inf, compiled: bool = False) -> tuple[int, int] | None:
+    """:func:`closest_pair` (compiled with ``compiled``: the numba backend), or None."""
+    kernel = closest_pair
+    if compiled:
+        from radarslam.landmarks._compiled import compiled_closest_pair as kernel
+    keep, drop = kernel(np.ascontiguousarray(positions, dtype=float).reshape(-1, 2),
+                        np.asarray(created, dtype=np.int64), np.asarray(ids, dtype=np.int64),
+                        float(distance), float(axis_tol))
+    return None if keep < 0 else (int(keep), int(drop))

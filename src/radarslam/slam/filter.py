@@ -417,7 +417,7 @@ class EkfSlam:
         merged: list[tuple[int, int]] = []
         while st.n_landmarks >= 2 and (lc.merge_max_per_scan == 0 or len(merged) < lc.merge_max_per_scan):
             pair = next_merge(st.positions, st.created(), st.ids(), lc.merge_distance_m,
-                              lc.merge_axis_tol_m)
+                              lc.merge_axis_tol_m, compiled=self.config.filter.backend == "numba")
             if pair is None:
                 break
             keep, drop = pair

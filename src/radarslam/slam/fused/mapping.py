@@ -12,6 +12,7 @@ import numpy as np
 from numba import njit
 
 from radarslam.core.jit import compile_kernels
+from radarslam.landmarks._compiled import compiled_closest_pair as _closest_pair
 from radarslam.landmarks._compiled import compiled_rule12 as _rule12
 from radarslam.landmarks._compiled import dbscan_centres, dbscan_labels
 from radarslam.landmarks.confirmation import Tentatives
@@ -142,27 +143,6 @@ def augment(x, P, lm, N, next_id, confirmed, clusters, polar, k, noise, cfg):  #
 
 
 @njit(cache=True, inline="always")
-def _closest_pair(x, N, cfg):  # pragma: no cover - compiled
-    """The closest pair of landmarks eligible for merging (c.9), or ``(-1, -1)``."""
-    bi, bj, bd = -1, -1, math.inf
-    for i in range(N):
-        for j in range(i + 1, N):
-            dx = x[3 + 2 * i] - x[3 + 2 * j]
-            dy = x[4 + 2 * i] - x[4 + 2 * j]
-            if not (abs(dx) < cfg.merge_distance and abs(dy) < cfg.merge_distance):
-                continue            # hypot(dx, dy) >= max(|dx|, |dy|): out of reach, exactly
-            dd = math.hypot(dx, dy)
-            if not dd < cfg.merge_distance:
-                continue
-            if math.isfinite(cfg.merge_axis_tol) and not (abs(dx) <= cfg.merge_axis_tol
-                                                          or abs(dy) <= cfg.merge_axis_tol):
-                continue
-            if dd < bd:
-                bi, bj, bd = i, j, dd
-    return bi, bj
-
-
-@njit(cache=True, inline="always")
 def merge(x, P, lm, N, arcs, cfg):  # pragma: no cover - compiled
     """Step 10: merging (c.9): repeatedly drop the later-created landmark of the closest eligible
     pair (at most ``cfg.merge_max`` a scan, 0 for no limit); the survivor pools the other's
@@ -171,11 +151,12 @@ def merge(x, P, lm, N, arcs, cfg):  # pragma: no cover - compiled
     while N >= 2 and (cfg.merge_max == 0 or n_merged < cfg.merge_max):
         if not cfg.merge_distance > 0:
             break
-        bi, bj = _closest_pair(x, N, cfg)
+        pos = np.empty((N, 2))
+        for j in range(N):
+            pos[j, 0], pos[j, 1] = x[3 + 2 * j], x[4 + 2 * j]
+        bi, bj = _closest_pair(pos, lm.created[:N], lm.ids[:N], cfg.merge_distance, cfg.merge_axis_tol)
         if bi < 0:
             break
-        if lm.created[bj] < lm.created[bi] or (lm.created[bj] == lm.created[bi] and lm.ids[bj] < lm.ids[bi]):
-            bi, bj = bj, bi
         # the survivor keeps its extent, takes the other's if it has none, or pools the buffers
         if not lm.einit[bi] and lm.einit[bj]:
             lm.einit[bi], lm.X[bi], lm.alpha[bi], lm.Xefa[bi], lm.nbuf[bi] = (
