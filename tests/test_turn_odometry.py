@@ -73,8 +73,18 @@ def test_turn_scale_correction_and_names(model, u):
     assert UnicycleModel.input_bias.with_turn("scale").names[1] == "turn_rate_scale"
 
 
-def _ackermann_config(**filter_keys):
+#: The keys of c.11.8-c.11.9 at their defaults (the Victoria Park profiles set them, c.11.10).
+PLAIN = {"turn_noise_gain": 0.0, "measurement_corr_scans": 1.0}
+
+
+def _plain_trees():
     cfg = profile_config("victoria-park-trees")
+    return replace(cfg, filter=replace(cfg.filter, **PLAIN))
+
+
+def _ackermann_config(**filter_keys):
+    cfg = _plain_trees()
+    filter_keys = {**PLAIN, **filter_keys}
     return validate(replace(cfg, filter=replace(cfg.filter, initial_pose=[0.0, 0.0, 0.0],
                                                 initial_pose_std=[1e-6, 1e-6, 1e-6], **filter_keys)))
 
@@ -130,7 +140,7 @@ def test_measurement_corr_scans_scales_r_and_the_fused_engine_declines():
     """``measurement_corr_scans`` n_c: association and update take ``n_c R`` (c.11.9), landmark
     creation keeps R; both new options are declined by the fused engine with the key named; n_c < 1
     and a negative gain are refused, and turn noise needs a model with a turning input."""
-    cfg = profile_config("victoria-park-trees")
+    cfg = _plain_trees()
     base = EkfSlam(cfg)
     assert _fused.why_not(base) is None and base.R_assoc is base.R
     corr = EkfSlam(replace(cfg, filter=replace(cfg.filter, measurement_corr_scans=4.0)))
@@ -175,7 +185,7 @@ def _controls() -> np.ndarray:
 
 
 def _config(bias: str):
-    cfg = profile_config("victoria-park-trees")
+    cfg = _plain_trees()
     f = replace(cfg.filter, motion_model="unicycle", odometry_bias=bias, bias_turn="scale", range_std_m=0.1,
                 azimuth_std_deg=1.0, speed_std_mps=INPUT_STD[0], turn_rate_std_deg_s=math.degrees(INPUT_STD[1]),
                 process_var_xy_m2=1e-9, process_var_heading_rad2=1e-10, initial_pose=[0.0, 0.0, 0.0],
