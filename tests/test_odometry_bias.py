@@ -277,13 +277,15 @@ def _controls(name: str) -> np.ndarray:
 
 def _point_config(name: str, bias: str):
     """The tree-detection profile (point landmarks, one detection per landmark and scan) with the
-    simulation's noise and no process noise to speak of."""
+    simulation's noise (white, the same for every sample and scan: the profile's turn-dependent U and
+    correlated-R equivalent of c.11.10 are switched off) and no process noise to speak of."""
     cfg = profile_config("victoria-park-trees")
     f = replace(cfg.filter, motion_model=name, odometry_bias=bias, range_std_m=0.1, azimuth_std_deg=1.0,
                 speed_std_mps=INPUT_STD[0], steering_std_deg=math.degrees(INPUT_STD[1]),
                 turn_rate_std_deg_s=math.degrees(INPUT_STD[1]), process_var_xy_m2=1e-9,
                 process_var_heading_rad2=1e-10, initial_pose=[0.0, 0.0, 0.0], initial_pose_std=[1e-3, 1e-3, 1e-4],
-                bias_turn_rate_std_deg_s=1.0)      # a prior that holds the truth's 0.75 deg/s (2 deg steering does)
+                bias_turn_rate_std_deg_s=1.0,      # a prior that holds the truth's 0.75 deg/s (2 deg steering does)
+                turn_noise_gain=0.0, measurement_corr_scans=1.0)   # the simulation's noise is white and independent (c.11.8-9)
     return validate(replace(cfg, filter=f))
 
 

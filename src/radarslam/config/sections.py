@@ -246,6 +246,19 @@ class FilterConfig:
                                             "(deg/s; c.11)", low=0.0)
     bias_turn_rate_drift_deg_s_per_rt_s: float = param(0.001, "[PROP] unicycle, body-velocity: random-walk intensity "
                                                        "of the turn-rate offset (deg/s/sqrt(s); c.11)", low=0.0)
+    bias_turn: str = param("offset", "[PROP] under odometry_bias states, the turning input's error: offset (steering or "
+                           "turn-rate offset delta), scale (kappa: u_turn -> (1 + kappa) u_turn, an error proportional "
+                           "to the turn) or both (c.11.8)", choices=("offset", "scale", "both"))
+    bias_turn_scale_std: float = param(0.05, "[PROP] prior std of the turn-scale error kappa (c.11.8)", low=0.0)
+    bias_turn_scale_drift_per_rt_s: float = param(1e-4, "[PROP] random-walk intensity of kappa (1/sqrt(s); c.11.8)",
+                                                  low=0.0)
+    turn_noise_gain: float = param(0.0, "[PROP] k: each odometry sample's turning-input variance grows by (k u_turn)^2 "
+                                   "(steering in rad, turn rate in rad/s), heteroscedastic input noise; 0: U alone "
+                                   "(c.11.8; orchestrator only)", low=0.0)
+    measurement_corr_scans: float = param(1.0, "[PROP] n_c >= 1: a landmark's measurement error is correlated over "
+                                          "consecutive scans with integrated correlation time n_c scans; association "
+                                          "and updates take the equivalent white noise n_c R (c.11.9; orchestrator "
+                                          "only)", low=1.0)
     bias_tau_s: float = param(0.0, "[PROP] 0: the bias states are random walks; > 0: first-order Gauss-Markov "
                               "processes about 0 with this time constant (s), the drift driving them (c.11)", low=0.0)
     odometry_tau_s: float = param(0.0, "[PROP] 0: U is white noise per odometry sample (the paper); > 0: the input "

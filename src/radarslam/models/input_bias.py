@@ -6,7 +6,9 @@ its measured input ``u`` before the model sees it,
 
     u_c = c(u, b):   u_c[i] = (1 + eps) u[i]  for i in ``scaled``,   u_c[k] = u[k] + delta  for k = ``offset``,
 
-every other entry unchanged. ``eps`` is a dimensionless speed-scale error (0 nominal: a wheel
+every other entry unchanged. The turning input's error may instead be a *scale* (``turn = "scale"``,
+``b = [eps, kappa]``: ``u_c[k] = (1 + kappa) u[k]``, an error proportional to the turn, c.11.8) or both
+(``turn = "both"``, ``b = [eps, delta, kappa]``: ``u_c[k] = (1 + kappa) u[k] + delta``). ``eps`` is a dimensionless speed-scale error (0 nominal: a wheel
 radius or encoder resolution that is off by ``100 eps`` percent) and ``delta`` an additive offset
 of the turning input (a steering-potentiometer offset in rad for the Ackermann model, a turn-rate
 or gyro offset in rad/s for the unicycle and the body-velocity model). The model's own ``step``
@@ -22,7 +24,7 @@ one thing a log keeps away) never occurs for a wheel.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -43,38 +45,81 @@ class InputBias:
     names: tuple[str, str]
     units: tuple[str, str]
     offset_keys: tuple[str, str]
+    #: The turning input's error: "offset" (delta), "scale" (kappa) or "both" (delta and kappa; c.11.8).
+    turn: str = "offset"
 
-    #: Number of bias states.
-    dim = 2
+    @property
+    def dim(self) -> int:
+        """Number of bias states: 2 (speed scale and the turn's offset or scale), 3 with both."""
+        return 3 if self.turn == "both" else 2
+
+    def with_turn(self, turn: str) -> "InputBias":
+        """This model's bias with the turning input's error of form ``turn`` (c.11.8), its states'
+        names and units to match (the scale's name: the offset's with ``_scale``, unit 1)."""
+        scale_name = self.names[1].replace("_offset", "") + "_scale"
+        names, units = {"offset": (self.names, self.units),
+                        "scale": ((self.names[0], scale_name), (self.units[0], "1")),
+                        "both": (self.names + (scale_name,), self.units + ("1",))}[turn]
+        return replace(self, turn=turn, names=names, units=units)
+
+    def _turn(self, b) -> tuple[float, float]:
+        """``(delta, kappa)`` of the bias states ``b``: the turning input's offset and scale."""
+        if self.turn == "offset":
+            return b[1], 0.0
+        if self.turn == "scale":
+            return 0.0, b[1]
+        return b[1], b[2]
 
     def correct(self, u: np.ndarray, b: np.ndarray) -> np.ndarray:
-        """``u_c = c(u, b)`` (m,): the input with the bias states ``b = [eps, delta]`` applied."""
+        """``u_c = c(u, b)`` (m,): the input with the bias states ``b`` applied."""
         uc = np.array(u, dtype=float)
         for i in self.scaled:
             uc[i] = (1.0 + b[0]) * uc[i]
-        uc[self.offset] = uc[self.offset] + b[1]
+        delta, kappa = self._turn(b)
+        uc[self.offset] = (1.0 + kappa) * uc[self.offset] + delta
         return uc
 
+    def uncorrect(self, u: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """``c^{-1}(u, b)``: the reading whose correction is ``u`` (the simulator's biased odometer)."""
+        um = np.array(u, dtype=float)
+        for i in self.scaled:
+            um[i] = um[i] / (1.0 + b[0])
+        delta, kappa = self._turn(b)
+        um[self.offset] = (um[self.offset] - delta) / (1.0 + kappa)
+        return um
+
     def jacobians(self, u: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(C_u (m, m), C_b (m, 2))``: ``d u_c / d u`` (diagonal: ``1 + eps`` on the scaled inputs,
-        1 elsewhere) and ``d u_c / d b`` (``u[i]`` in column 0 for the scaled inputs, 1 in column 1
-        at the offset)."""
-        m = len(u)
+        """``(C_u (m, m), C_b (m, dim))``: ``d u_c / d u`` (diagonal: ``1 + eps`` on the scaled inputs,
+        ``1 + kappa`` on the turning input, 1 elsewhere) and ``d u_c / d b`` (``u[i]`` in column 0 for
+        the scaled inputs; at the turning input 1 in the offset's column, ``u[k]`` in the scale's)."""
+        m, k = len(u), self.offset
         Cu = np.eye(m)
-        Cb = np.zeros((m, 2))
+        Cb = np.zeros((m, self.dim))
         for i in self.scaled:
             Cu[i, i] = 1.0 + b[0]
             Cb[i, 0] = u[i]
-        Cb[self.offset, 1] = 1.0
+        Cu[k, k] = 1.0 + self._turn(b)[1]
+        if self.turn == "offset":
+            Cb[k, 1] = 1.0
+        elif self.turn == "scale":
+            Cb[k, 1] = u[k]
+        else:
+            Cb[k, 1], Cb[k, 2] = 1.0, u[k]
         return Cu, Cb
 
+    def _turn_values(self, offset: float, scale: float) -> list[float]:
+        return {"offset": [offset], "scale": [scale], "both": [offset, scale]}[self.turn]
+
     def prior_std(self, f) -> np.ndarray:
-        """The prior std ``(2,)`` of ``[eps, delta]`` from the ``filter`` config section ``f``."""
-        return np.array([f.bias_scale_std, math.radians(getattr(f, self.offset_keys[0]))])
+        """The prior std ``(dim,)`` of the states from the ``filter`` config section ``f``."""
+        return np.array([f.bias_scale_std, *self._turn_values(math.radians(getattr(f, self.offset_keys[0])),
+                                                               f.bias_turn_scale_std)])
 
     def drift(self, f) -> np.ndarray:
-        """The random-walk intensity ``(2,)`` of ``[eps, delta]`` (per sqrt(s)) from ``f``."""
-        return np.array([f.bias_scale_drift_per_rt_s, math.radians(getattr(f, self.offset_keys[1]))])
+        """The random-walk intensity ``(dim,)`` of the states (per sqrt(s)) from ``f``."""
+        return np.array([f.bias_scale_drift_per_rt_s,
+                         *self._turn_values(math.radians(getattr(f, self.offset_keys[1])),
+                                            f.bias_turn_scale_drift_per_rt_s)])
 
 
 #: The unicycle's ``[v, psi]`` and the body-velocity model's ``[v_x, v_y, omega]``: a speed scale and

@@ -35,29 +35,27 @@ class PointRun:
     events: list
     scan_poses: np.ndarray   # (S, 3) true pose at each scan
     landmarks: np.ndarray    # (L, 2)
-    bias: np.ndarray         # (2,) the true [eps, delta]
+    bias: np.ndarray         # (dim,) the true bias states, e.g. [eps, delta]
 
 
 def uncorrect(spec, u: np.ndarray, b: np.ndarray) -> np.ndarray:
     """``c^{-1}(u, b)``: the reading whose bias correction (``spec.correct``) is ``u``."""
-    um = np.array(u, dtype=float)
-    for i in spec.scaled:
-        um[i] = um[i] / (1.0 + b[0])
-    um[spec.offset] = um[spec.offset] - b[1]
-    return um
+    return spec.uncorrect(u, b)
 
 
 def simulate_point_run(model, controls: np.ndarray, dt: float, landmarks: np.ndarray, bias, rng: np.random.Generator,
                        *, initial_pose=(0.0, 0.0, 0.0), input_std=(0.05, 0.01), range_std: float = 0.1,
                        bearing_std: float = math.radians(1.0), min_range: float = 1.0, max_range: float = 30.0,
-                       field_of_view: float = math.pi, scan_every: int = 4) -> PointRun:
+                       field_of_view: float = math.pi, scan_every: int = 4, spec=None) -> PointRun:
     """Drive ``model`` with ``controls (K, m)`` (true inputs, one per step of ``dt`` s) among
     ``landmarks (L, 2)`` and return the odometry and scans of the module docstring.
 
     Draws from ``rng`` in a fixed order: per step the odometer noise, then at a scan its detections'
-    noise. Raises :class:`InputError` for a model without ``input_bias`` or mismatched shapes.
+    noise. ``spec``: the bias correction the odometer errs by (default the model's ``input_bias``;
+    ``model.input_bias.with_turn("scale")`` for a turn-scale error, c.11.8). Raises :class:`InputError`
+    for a model without ``input_bias`` or mismatched shapes.
     """
-    spec = getattr(model, "input_bias", None)
+    spec = spec if spec is not None else getattr(model, "input_bias", None)
     if spec is None:
         raise InputError(f"model: expected a motion model with an input_bias, got {model!r}")
     controls = np.asarray(controls, dtype=float)

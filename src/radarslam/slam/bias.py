@@ -27,7 +27,8 @@ from radarslam.slam import ekf
 from radarslam.slam.layout import POSE_DIM
 from radarslam.slam.state import SlamState
 
-__all__ = ["BiasStates", "bias_states", "control_noise", "initial_state", "predict_terms"]
+__all__ = ["BiasStates", "bias_states", "control_noise", "initial_state", "measurement_noise", "predict_terms",
+           "turn_noise", "turn_noise_index"]
 
 
 class BiasStates:
@@ -109,6 +110,7 @@ def bias_states(model, f) -> BiasStates | None:
     if spec is None:
         raise ConfigError(f"filter.odometry_bias: expected 'none' with motion model {getattr(model, 'name', model)!r} "
                           f"(it declares no input_bias, docs/method.md c.11), got {f.odometry_bias!r}")
+    spec = spec.with_turn(f.bias_turn)                      # c.11.8: the turn's offset, scale or both
     return BiasStates(spec, spec.prior_std(f), spec.drift(f), f.bias_tau_s)
 
 
@@ -145,3 +147,39 @@ def control_noise(model, f) -> np.ndarray:
         raise ConfigError(f"filter.odometry_sample_s: expected the odometry sample interval (s, > 0) with "
                           f"filter.odometry_tau_s = {tau:g}, got {dt!r}")
     return U * (2.0 * tau / dt)
+
+
+def turn_noise_index(model, f) -> int | None:
+    """The index of the turning input whose variance grows with the turn under ``filter.turn_noise_gain``
+    (c.11.8; the model's ``input_bias.offset``), or None when the gain is 0; a one-line
+    :class:`ConfigError` for a model that declares no turning input or under Doppler odometry."""
+    if f.turn_noise_gain == 0:
+        return None
+    spec = getattr(model, "input_bias", None)
+    if spec is None or f.odometry != "odometer":
+        raise ConfigError(f"filter.turn_noise_gain: expected 0 with motion model {getattr(model, 'name', model)!r} "
+                          f"and filter.odometry {f.odometry!r} (needs an odometer and a model with an input_bias, "
+                          f"docs/method.md c.11.8), got {f.turn_noise_gain!r}")
+    return int(spec.offset)
+
+
+def turn_noise(U: np.ndarray, u: np.ndarray, index: int, gain2: float) -> np.ndarray:
+    """The heteroscedastic control covariance of one sample (c.11.8): ``U`` with
+    ``gain2 u[index]^2`` added to the turning input's variance (``gain2 = k^2``, times
+    ``2 tau / dt`` under filter.odometry_tau_s, as U's own variance, c.11.6)."""
+    Uk = U.copy()
+    Uk[index, index] += gain2 * u[index] * u[index]
+    return Uk
+
+
+def turn_noise_gain2(f) -> float:
+    """``k^2``, scaled like U by c.11.6's ``2 tau / dt`` when ``filter.odometry_tau_s > 0``."""
+    k2 = f.turn_noise_gain ** 2
+    return k2 * (2.0 * f.odometry_tau_s / f.odometry_sample_s) if f.odometry_tau_s > 0 else k2
+
+
+def measurement_noise(R: np.ndarray, f) -> np.ndarray:
+    """The measurement covariance of association and update (c.11.9): ``R`` for independent errors
+    per scan, ``n_c R`` when each landmark's error is correlated over consecutive scans with the
+    integrated correlation time ``n_c`` = ``filter.measurement_corr_scans`` (scans)."""
+    return R if f.measurement_corr_scans == 1 else R * f.measurement_corr_scans

@@ -33,7 +33,8 @@ from radarslam.models.body_velocity import BodyVelocityModel
 from radarslam.models.motion import MotionModel, motion_model_from_config
 from radarslam.slam import ekf
 from radarslam.slam.association import Associator, Spreads
-from radarslam.slam.bias import bias_states, control_noise, initial_state, predict_terms
+from radarslam.slam.bias import (bias_states, control_noise, initial_state, measurement_noise, predict_terms,
+                                 turn_noise, turn_noise_gain2, turn_noise_index)
 from radarslam.slam.doppler_gate import DopplerGate, mounting
 from radarslam.slam.odometry_source import odometry_source
 from radarslam.slam.partial_view import view_components, view_corrected_centroid, view_walk
@@ -113,6 +114,8 @@ class EkfSlam:
         self._clusters = _cluster_kernel(f.backend)
         self.R = self.measurement.noise(f)
         self.U = control_noise(self.model, f)        # c.11.6: white, or the equivalent of correlated errors
+        self._turn_k = (turn_noise_index(self.model, f), turn_noise_gain2(f))   # c.11.8: U grows with the turn
+        self.R_assoc = measurement_noise(self.R, f)  # c.11.9: R of association and update
         self.Q = f.Q
         #: The odometry-bias states (docs/method.md c.11) under filter.odometry_bias "states", else None.
         #: They belong to the model that drives the prediction: the body-velocity model under Doppler odometry.
@@ -231,7 +234,8 @@ class EkfSlam:
             raise InputError(f"odometry.dt: expected a finite value > 0, got {odo.dt!r}")
         st = self.state
         with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
-            pose, Ppp, Ppl = predict_terms(self.bias_model, st.x, st.P, u, dt, self.model, self.U, self.Q,
+            U = self.U if self._turn_k[0] is None else turn_noise(self.U, u, *self._turn_k)
+            pose, Ppp, Ppl = predict_terms(self.bias_model, st.x, st.P, u, dt, self.model, U, self.Q,
                                            self._pose_first)
         # only the pose rows change (c.2): check them, then write them in place (O(N), no copy of P)
         if not (np.isfinite(pose).all() and np.isfinite(Ppp).all() and np.isfinite(Ppl).all()):
@@ -331,7 +335,7 @@ class EkfSlam:
             covs = self.extent.view_shape_covs(states) if self.config.extent.view_shape_uncertainty else None
             spreads = Spreads(spreads.gX, spreads.has, self.extent.view_shapes(states), self.view,
                               None if covs is None else covs[0], None if covs is None else covs[1])
-        out, nis = self.associator.associate(st, polar, candidates, self.R, spreads)
+        out, nis = self.associator.associate(st, polar, candidates, self.R_assoc, spreads)
         for i, j in zip(candidates.tolist(), np.asarray(out).tolist()):
             if j >= 0:
                 assoc[j].append(i)
