@@ -120,6 +120,11 @@ OVERLAYS = {
                                       "efa_noise_correct": True, "n_init": 3}},
     "mem-ekf-no-centroid": {"extent": {"estimator": "mem-ekf", "mem_ekf_noise": "no-centroid",
                                        "use_posterior_landmark": True}},
+    # turn-dependent control noise (c.11.8) and the correlated-R equivalent (c.11.9)
+    "turn-noise-corr-r": {"filter": {"turn_noise_gain": 0.5, "measurement_corr_scans": 3.0}},
+    "turn-noise-consistent": {"filter": {"turn_noise_gain": 0.5},
+                              "landmarks": {"associator": "batch-joint", "init": "cluster"},
+                              "extent": {"use_in_slam": True, "pre_init_spread": "prior"}},
 }
 
 

@@ -112,6 +112,17 @@ def test_fej_same_as_orchestrator_on_victoria_park(vp):
     assert np.abs(r["poses"] - std["poses"]).max() > 1e3 * TOL
 
 
+def test_turn_noise_and_correlated_r_same_as_orchestrator_on_victoria_park(vp):
+    """Turn-dependent steering noise (c.11.8) and the correlated-R equivalent (c.11.9), the
+    candidate of docs/method.md c.11.10: compiled, the orchestrator's run. Negative control: the
+    keys change the run."""
+    _, cfg, data = vp
+    cand = replace(cfg, filter=replace(cfg.filter, turn_noise_gain=0.461, measurement_corr_scans=11.0))
+    r = _assert_same(cand, data.events)
+    plain, _ = _fused.run(EkfSlam(cfg), data.events)
+    assert np.abs(r["poses"] - plain["poses"]).max() > 1e3 * TOL
+
+
 def test_run_dataset_same_by_either_engine(vp, victoria_park_dir, monkeypatch):
     """``run_dataset`` takes the fused engine for the profile and gives the orchestrator's
     DatasetRun: per-scan records, every NIS, the final map and the reference hits."""

@@ -37,6 +37,7 @@ from radarslam.slam.fused.tracking import (
     predict,
     remove_unseen,
     sift,
+    turn_noise,
 )
 
 #: Status codes of :func:`run_stream`: what made the state non-finite, at which event.
@@ -99,6 +100,8 @@ def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
         if stream.kinds[ev] != SCAN:                                               # 1
             if stream.kinds[ev] == ODOMETRY:
                 u, dt, U, Q, model = stream.odo[e_odo], stream.odo_dt[e_odo], noise.U, noise.Q, cfg.motion
+                if cfg.turn_index >= 0:                                            # c.11.8
+                    U = turn_noise(noise.U, u, cfg.turn_index, cfg.turn_gain2)
                 e_odo += 1
             else:                                                                  # c.10.5
                 u, dt, U, Q, model = (stream.vel[e_vel], stream.vel_dt[e_vel], stream.vel_U[e_vel],

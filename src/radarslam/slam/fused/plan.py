@@ -79,6 +79,8 @@ class FusedParams(NamedTuple):
     gate_memory: int       #: filter.doppler_memory_scans
     gate_probation: int    #: filter.doppler_probation_scans
     gate_radius: float     #: filter.doppler_memory_radius_m
+    turn_index: int        #: the turning input whose variance grows with the turn (c.11.8), -1 for none
+    turn_gain2: float      #: its k^2 (slam.bias.turn_noise_gain2)
 
 
 class Stream(NamedTuple):
@@ -112,6 +114,7 @@ class Noise(NamedTuple):
     prior_spread: np.ndarray  #: (2, 2) the prior spread (zeros when not used)
     gates: np.ndarray         #: (K + 1,) JCBB's joint gates of k pairings (slam._jcbb_numba.joint_gates)
     Cp0: np.ndarray           #: (3, 3) MEM-EKF*'s initial shape covariance (zeros for the other estimators)
+    R_assoc: np.ndarray       #: (2, 2) measurement noise of association and update (n_c R, c.11.9)
 
 
 def why_not(slam, events=None) -> str | None:
@@ -225,6 +228,7 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
         jcbb_min_samples=int(getattr(slam.associator, "cluster_min_samples", 1)),
         doppler_gate=bool(f.doppler_gate), gate_memory=int(f.doppler_memory_scans),
         gate_probation=int(f.doppler_probation_scans), gate_radius=float(f.doppler_memory_radius_m),
+        turn_index=-1 if slam._turn_k[0] is None else int(slam._turn_k[0]), turn_gain2=float(slam._turn_k[1]),
     )
 
 
@@ -374,7 +378,8 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None):
         off = stream.scan_off
         gates = slam.associator.gates(max(1, int((off[1:] - off[:-1]).max(initial=1))))
     Cp0 = np.asarray(ext.Cp0, dtype=float) if cfg.mem else np.zeros((3, 3))
-    noise = Noise(slam.R, ext.R_extent, slam.U, slam.Q, np.ascontiguousarray(prior_spread, dtype=float), gates, Cp0)
+    noise = Noise(slam.R, ext.R_extent, slam.U, slam.Q, np.ascontiguousarray(prior_spread, dtype=float), gates, Cp0,
+                  np.ascontiguousarray(slam.R_assoc, dtype=float))
     status, n_scans, (rec, maps), arows = run_stream(stream, st.x, st.P, noise, cfg)
     if status[0] != OK:
         raise InputError(_failure(events, stream, status, n_scans))

@@ -21,6 +21,7 @@ from radarslam.models.body_velocity import body_velocity_increment, body_velocit
 from radarslam.models.motion import unicycle_jacobians, unicycle_step
 from radarslam.models.radar import polar_to_xy
 from radarslam.slam import ekf
+from radarslam.slam.bias import turn_noise as _turn_noise_kernel
 from radarslam.slam._jcbb_numba import jcbb_associate_scan
 from radarslam.slam._numba import (
     _wrap_pi,
@@ -44,6 +45,8 @@ _BV = compile_kernels(wrap_2pi_scalar, body_velocity_increment, body_velocity_st
 _body_velocity_step = _BV["body_velocity_step"]
 _body_velocity_jacobians = _BV["body_velocity_jacobians"]
 _fej_motion_jacobian = compile_kernels(ekf.fej_motion_jacobian)["fej_motion_jacobian"]
+#: The orchestrator's heteroscedastic control noise of one sample (c.11.8), compiled as it is.
+turn_noise = compile_kernels(_turn_noise_kernel)["turn_noise"]
 
 #: Motion-model codes of ``FusedParams.motion`` (BODY_VELOCITY: the Doppler odometry's predictions, c.10.5).
 UNICYCLE, ACKERMANN, BODY_VELOCITY = 0, 1, 2
@@ -217,7 +220,7 @@ def associate_and_update(x, P, polar, cidx, lm, N, pose_first, noise, cfg):  # p
             elif cfg.pre_prior:
                 gX[j] = noise.prior_spread
                 has[j] = True
-    R = noise.R
+    R = noise.R_assoc                                   # c.11.9: n_c R (R for independent errors)
     xlin = _linearisation(lm, N, pose_first) if cfg.fej else np.empty(0)
     if cfg.assoc == 0:
         x, P, out, nis = associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta, POSE_DIM, xlin)
