@@ -165,7 +165,7 @@ def test_extent_noise_defaults_to_the_filter_R_and_can_be_its_own():
     from radarslam.models.motion import motion_model_from_config
 
     np.testing.assert_allclose(motion_model_from_config(vp.filter).control_cov(vp.filter),
-                               np.diag([0.1**2, math.radians(2.0) ** 2]))
+                               np.diag([0.1**2, math.radians(0.99) ** 2]))   # the profile's s0 (c.11.10)
     np.testing.assert_allclose(motion_model_from_config(cfg.filter).control_cov(cfg.filter),
                                np.diag([0.02**2, math.radians(0.008) ** 2]))
 
