@@ -119,7 +119,8 @@ def test_turn_noise_and_correlated_r_same_as_orchestrator_on_victoria_park(vp):
     _, cfg, data = vp
     cand = replace(cfg, filter=replace(cfg.filter, turn_noise_gain=0.461, measurement_corr_scans=11.0))
     r = _assert_same(cand, data.events)
-    plain, _ = _fused.run(EkfSlam(cfg), data.events)
+    white = replace(cfg, filter=replace(cfg.filter, turn_noise_gain=0.0, measurement_corr_scans=1.0))
+    plain, _ = _fused.run(EkfSlam(white), data.events)
     assert np.abs(r["poses"] - plain["poses"]).max() > 1e3 * TOL
 
 
