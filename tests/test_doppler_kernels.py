@@ -93,12 +93,27 @@ def test_classify_stream_equals_the_per_scan_calls():
     polar = np.concatenate([p for p, _ in scans])
     dop = np.concatenate([d for _, d in scans])
     r1, r2 = np.random.default_rng(3), np.random.default_rng(3)
-    v, cov, sigma, stat, rest, valid, bad, objects, tested = C.classify_stream(
+    v, cov, inl, sigma, stat, rest, valid, bad, objects, tested = C.classify_stream(
         polar, off, dop, np.array([0.5, 0.1, 0.2]), r1, *ARGS, np.array([Q[0], Q[1], Q[3], Q[4]]), Q[2])
     for s, (p, d) in enumerate(scans):
         out = C.classify_scan(p, d, 0.5, 0.1, 0.2, r2, *ARGS, *Q)
-        assert _same((v[s], cov[s], sigma[s], stat[s], rest[s], valid[s], bad[off[s]:off[s + 1]],
-                      objects[off[s]:off[s + 1]], tested[s]), (out[0], out[1], out[3], out[4], out[5], out[6],
-                                                                out[7], out[8], out[9]))
+        rows = slice(off[s], off[s + 1])
+        assert _same((v[s], cov[s], inl[rows], sigma[s], stat[s], rest[s], valid[s], bad[rows], objects[rows],
+                      tested[s]), out)
     assert valid.tolist() == [True, False, False, True, True]
+    assert r1.bit_generator.state == r2.bit_generator.state
+
+
+def test_fit_stream_equals_the_per_scan_fits():
+    data = np.random.default_rng(12)
+    scans = [_scan(data, n=n) for n in (50, 3, 0, 40)]
+    off = np.concatenate([[0], np.cumsum([p.shape[0] for p, _ in scans])]).astype(np.int64)
+    r1, r2 = np.random.default_rng(4), np.random.default_rng(4)
+    out = C.fit_stream(np.concatenate([p for p, _ in scans]), off, np.concatenate([d for _, d in scans]),
+                       np.array([0.5, 0.1, 0.2]), r1, *ARGS, Q[0])
+    for s, (p, d) in enumerate(scans):
+        one = K.ego_fit(K.mounted_dirs(p, 0.5, 0.1, 0.2), d, r2, *ARGS, Q[0])
+        rows = slice(off[s], off[s + 1])
+        assert _same((out[0][s], out[1][s], out[2][rows], *(o[s] for o in out[3:])), one)
+    assert out[6].tolist() == [True, False, False, True]
     assert r1.bit_generator.state == r2.bit_generator.state
