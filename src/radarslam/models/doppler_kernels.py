@@ -46,6 +46,35 @@ def mounted_dirs(polar, mount_x, mount_y, mount_yaw):
     return U
 
 
+def inv_small(A):
+    """``A^-1`` of a 2 x 2 (adjugate over the determinant) or larger (LAPACK) matrix."""
+    if A.shape[0] != 2:
+        return np.linalg.inv(A)
+    det = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
+    out = np.empty((2, 2))
+    out[0, 0], out[0, 1] = A[1, 1] / det, -A[0, 1] / det
+    out[1, 0], out[1, 1] = -A[1, 0] / det, A[0, 0] / det
+    return out
+
+
+def solve_small(A, b):
+    """``A^-1 b`` of a 2 x 2 (Cramer's rule) or larger (LAPACK) system."""
+    if A.shape[0] != 2:
+        return np.linalg.solve(A, b)
+    det = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
+    x = np.empty(2)
+    x[0] = (b[0] * A[1, 1] - A[0, 1] * b[1]) / det
+    x[1] = (A[0, 0] * b[1] - b[0] * A[1, 0]) / det
+    return x
+
+
+def det_small(A):
+    """``det A`` of a 2 x 2 (closed form) or larger (LAPACK) matrix."""
+    if A.shape[0] != 2:
+        return np.linalg.det(A)
+    return A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
+
+
 def ego_fit(U, d, rng, iterations, threshold, sigma_floor, min_fraction, q_zero):
     """The sensor velocity of one scan (c.10.2-c.10.3): RANSAC with ``rng``, least squares on the
     consensus, ``cov = s^2 (U_I^T U_I)^-1`` with ``s^2 = max(RSS / (n_I - dim), sigma_floor^2)``, and
@@ -61,8 +90,8 @@ def ego_fit(U, d, rng, iterations, threshold, sigma_floor, min_fraction, q_zero)
     if not (ok and n_in >= dim + 2 and n_in >= min_fraction * n):
         return np.full(dim, np.nan), np.full((dim, dim), np.nan), mask, math.nan, math.nan, False, False
     s2 = max(rss / (n_in - dim), sigma_floor ** 2)
-    cov = s2 * np.linalg.inv(N)
-    stat = np.dot(v, np.linalg.solve(cov, v))
+    cov = s2 * inv_small(N)
+    stat = np.dot(v, solve_small(cov, v))
     return v, cov, mask, math.sqrt(s2), stat, stat <= q_zero, True
 
 
@@ -103,9 +132,9 @@ def object_stat(U, r, s2, cov):
             g[a] += U[i, a] * r[i]
             for b in range(dim):
                 N[a, b] += U[i, a] * U[i, b]
-    if m >= 2 and np.linalg.det(N) > 1e-9:
-        w = np.linalg.solve(N, g)
-        return np.dot(w, np.linalg.solve(s2 * np.linalg.inv(N) + cov, w)), dim
+    if m >= 2 and det_small(N) > 1e-9:
+        w = solve_small(N, g)
+        return np.dot(w, solve_small(s2 * inv_small(N) + cov, w)), dim
     ub = np.zeros(dim)
     rb = 0.0
     for i in range(m):
@@ -174,4 +203,4 @@ def classify_scan(polar, d, mount_x, mount_y, mount_yaw, rng, iterations, thresh
 
 
 #: The kernels, for :func:`radarslam.core.jit.compile_kernels`.
-KERNELS = (mounted_dirs, ego_fit, residuals, moving_test, object_stat, moving_groups, classify_scan)
+KERNELS = (inv_small, solve_small, det_small, mounted_dirs, ego_fit, residuals, moving_test, object_stat, moving_groups, classify_scan)

@@ -61,11 +61,14 @@ def gate_stream(events, gate):
     v, cov, inl, sigma, stat, rest, valid, bad, objects, tested = _C.classify_stream(
         polar, off, dop, np.array(gate.mounting), gate.rng, int(f.doppler_iterations), float(f.doppler_threshold_mps),
         float(f.doppler_std_floor_mps), MIN_INLIER_FRACTION, np.array([q_zero, q_gate, q_one, q_two]), radius)
+    xy = _platform_xy(polar[objects])                       # the moving objects' detections, scan by scan
+    xy_off = np.concatenate([[0], np.cumsum(objects)])[off]
+    rows = np.arange(polar.shape[0]) - np.repeat(off[:-1], np.diff(off))
     out = []
     for s, ego in enumerate(_egos(off, v, cov, inl, sigma, stat, rest, valid)):
-        b, o, p = bad[off[s]:off[s + 1]], objects[off[s]:off[s + 1]], polar[off[s]:off[s + 1]]
-        seen = _platform_xy(p[o]) if tested[s] else None
-        out.append((np.flatnonzero(~b), np.flatnonzero(b), ego, seen))
+        a, b = off[s], off[s + 1]
+        seen = xy[xy_off[s]:xy_off[s + 1]] if tested[s] else None
+        out.append((rows[a:b][~bad[a:b]], rows[a:b][bad[a:b]], ego, seen))
     return out
 
 

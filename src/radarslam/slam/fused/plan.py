@@ -298,7 +298,7 @@ def _stream_arrays_checked(events, defer_polar: bool, slam=None) -> Stream:
                 src.clear_interval()
                 kinds.append(VELOCITY)
             polar = ev.polar
-            if not (defer_polar and type(polar) is np.ndarray and polar.dtype == np.float64 and polar.ndim == 2
+            if not ((defer_polar or gated is not None) and type(polar) is np.ndarray and polar.dtype == np.float64 and polar.ndim == 2
                     and polar.shape[1] == 2):
                 polar = _scan_polar(ev)
             t = _number(ev.t, "scan.t")
