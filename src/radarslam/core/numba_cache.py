@@ -27,7 +27,8 @@ COMPILED_SOURCES = (
     "extent/ellipse_fit.py", "extent/partial_view.py", "extent/view_estimator.py", "landmarks/_compiled.py",
     "metrics/_compiled.py", "simulation/_compiled.py", "models/radar.py", "models/doppler.py",
     "models/ackermann.py", "models/motion.py", "extent/visible_arc.py", "extent/mem_ekf_kernels.py",
-    "extent/ellipse.py", "models/body_velocity.py",
+    "extent/ellipse.py", "models/body_velocity.py", "models/_ransac.py", "models/doppler_kernels.py",
+    "models/_doppler_compiled.py", "slam/fused/doppler.py",
 )
 ROOT = Path(__file__).resolve().parents[1]
 STAMP = ROOT / "__pycache__" / "numba-sources.stamp"

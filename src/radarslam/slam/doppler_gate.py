@@ -24,8 +24,12 @@ import math
 import numpy as np
 
 from radarslam.core.errors import InputError
-from radarslam.landmarks.clustering import Cluster, dbscan_labels
-from radarslam.models.doppler import fit_ego_velocity, mounted_directions, moving_mask, moving_objects
+from radarslam.landmarks.clustering import Cluster
+from radarslam.models._doppler_compiled import classify_scan
+from radarslam.models.doppler import EgoVelocity, chi2_quantile
+
+#: The least consensus fraction of a valid fit (``fit_ego_velocity``'s default, c.10.3).
+MIN_INLIER_FRACTION = 0.3
 
 __all__ = ["DopplerGate", "mounting"]
 
@@ -74,19 +78,21 @@ class DopplerGate:
         if d.shape != (polar.shape[0],):
             raise InputError(f"scan {scan.index}: channels['doppler_mps']: expected shape ({polar.shape[0]},), "
                              f"got {d.shape}")
-        U = mounted_directions(polar, *self.mounting)
-        ego = fit_ego_velocity(U, d, self.rng, threshold_mps=f.doppler_threshold_mps,
-                               iterations=f.doppler_iterations, sigma_floor_mps=f.doppler_std_floor_mps,
-                               zero_probability=f.zero_velocity_probability)
-        bad = moving_mask(U, d, ego, f.doppler_gate_probability)
-        seen = None
-        if f.doppler_object_radius_m > 0 and polar.shape[0] >= 2:
-            xy = _platform_xy(polar)
-            labels = dbscan_labels(xy, f.doppler_object_radius_m, 1)
-            objects = moving_objects(U, d, ego, labels, f.doppler_object_probability)
-            bad = bad | objects
-            seen = xy[objects]
+        polar = np.ascontiguousarray(polar, dtype=float).reshape(-1, 2)
+        v, cov, inl, sigma, stat, rest, valid, bad, objects, tested = classify_scan(
+            polar, np.ascontiguousarray(d), *self.mounting, self.rng, int(f.doppler_iterations),
+            float(f.doppler_threshold_mps), float(f.doppler_std_floor_mps), MIN_INLIER_FRACTION, *self.quantiles())
+        ego = EgoVelocity(v, cov, inl, float(sigma), float(stat), bool(rest), bool(valid))
+        seen = _platform_xy(polar[objects]) if tested else None
         return np.flatnonzero(~bad), np.flatnonzero(bad), ego, seen
+
+    def quantiles(self) -> tuple[float, float, float, float, float]:
+        """The arguments ``(q_zero, q_gate, radius, q_one, q_two)`` of
+        :func:`~radarslam.models.doppler_kernels.classify_scan` from the configuration."""
+        f = self.f
+        return (chi2_quantile(f.zero_velocity_probability, 2), chi2_quantile(f.doppler_gate_probability, 1),
+                float(f.doppler_object_radius_m), chi2_quantile(f.doppler_object_probability, 1),
+                chi2_quantile(f.doppler_object_probability, 2))
 
     def _remember(self, k: int, xy: np.ndarray, pose: np.ndarray) -> None:
         """Keep this scan's moving objects (world frame) and forget those older than the memory."""

@@ -271,6 +271,13 @@ def _stream_arrays_checked(events, defer_polar: bool, slam=None) -> Stream:
     from radarslam.slam.filter import _number, _scan_polar
 
     src, gate = (copy.deepcopy(slam._odometry), copy.deepcopy(slam._gate)) if slam is not None else (None, None)
+    # c.10.4, c.10.5: the whole stream's classification or fits in one compiled call where the scans allow it
+    gated, fits = None, None
+    if gate is not None or src is not None:
+        from radarslam.slam.fused.doppler import gate_stream, odometry_stream
+
+        gated = gate_stream(events, gate) if gate is not None else None
+        fits = odometry_stream(events, src) if src is not None and gate is None else None
     kinds, odo, odo_dt, polars, scan_k, last_t = [], [], [], [], [], None
     vel, vel_dt, vel_U, vel_Q = [], [], [], []
     moving, remember, seen, kept = [], [], [], []
@@ -295,7 +302,7 @@ def _stream_arrays_checked(events, defer_polar: bool, slam=None) -> Stream:
                 src.clear_interval()
                 kinds.append(VELOCITY)
             polar = ev.polar
-            if not (defer_polar and type(polar) is np.ndarray and polar.dtype == np.float64 and polar.ndim == 2
+            if not ((defer_polar or gated is not None) and type(polar) is np.ndarray and polar.dtype == np.float64 and polar.ndim == 2
                     and polar.shape[1] == 2):
                 polar = _scan_polar(ev)
             t = _number(ev.t, "scan.t")
@@ -305,7 +312,7 @@ def _stream_arrays_checked(events, defer_polar: bool, slam=None) -> Stream:
             last_t = t
             ego = None
             if gate is not None:                                            # c.10.4
-                keep, bad, ego, objects = gate.classify(ev, polar)
+                keep, bad, ego, objects = gate.classify(ev, polar) if gated is None else gated[len(polars)]
                 polar = polar[keep]
                 moving.append(bad.size)
                 remember.append(objects is not None)
@@ -315,7 +322,7 @@ def _stream_arrays_checked(events, defer_polar: bool, slam=None) -> Stream:
             polars.append(polar)
             scan_k.append(int(ev.index))
             if src is not None:
-                src.fit(ev, ego)
+                src.fit(ev, ego if fits is None else fits[len(polars) - 1])
         else:
             raise InputError(f"event: expected Odometry or Scan, got {type(ev).__name__}")
     return _as_stream(kinds, odo, odo_dt, (vel, vel_dt, vel_U, vel_Q), polars, scan_k, (moving, remember, seen, kept))
