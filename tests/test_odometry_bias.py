@@ -289,8 +289,8 @@ def _point_config(name: str, bias: str):
     return validate(replace(cfg, filter=f))
 
 
-def _track(cfg, run):
-    """Position errors (S,), pose NEES (S,), and the final bias and its std, of a filter on ``run``."""
+def track(cfg, run):
+    """Position errors (S,) and pose NEES (S,) of a filter on the simulated ``run``, and the filter."""
     slam = EkfSlam(cfg)
     err, nees, k = [], [], 0
     for ev in run.events:
@@ -301,8 +301,13 @@ def _track(cfg, run):
         err.append(math.hypot(e[0], e[1]))
         nees.append(float(e @ np.linalg.solve(slam.pose_cov, e)))
         k += 1
-    std = np.sqrt(np.diag(slam.state.bias_cov))
-    return np.array(err), np.array(nees), slam.bias, std
+    return np.array(err), np.array(nees), slam
+
+
+def _track(cfg, run):
+    """:func:`track`, with the final bias and its std instead of the filter."""
+    err, nees, slam = track(cfg, run)
+    return err, nees, slam.bias, np.sqrt(np.diag(slam.state.bias_cov))
 
 
 @pytest.mark.slow

@@ -22,6 +22,8 @@ from radarslam.simulation.point_run import simulate_point_run
 from radarslam.slam import EkfSlam, _fused
 from radarslam.slam.bias import BiasStates, turn_noise
 
+from test_odometry_bias import track
+
 MODELS = [(UnicycleModel(), [3.0, 0.3]), (AckermannModel(), [3.0, 0.2]), (BodyVelocityModel(), [3.0, 0.4, 0.3])]
 
 
@@ -194,18 +196,7 @@ def _config(bias: str):
     return validate(replace(cfg, filter=f))
 
 
-def _track(cfg, run):
-    slam = EkfSlam(cfg)
-    err, nees, k = [], [], 0
-    for ev in run.events:
-        if slam.process(ev) is None:
-            continue
-        e = slam.pose - run.scan_poses[k]
-        e[2] = math.remainder(e[2], 2.0 * math.pi)
-        err.append(math.hypot(e[0], e[1]))
-        nees.append(float(e @ np.linalg.solve(slam.pose_cov, e)))
-        k += 1
-    return np.array(err), np.array(nees), slam
+_track = track        # position errors, pose NEES and the filter (tests/test_odometry_bias.py)
 
 
 @pytest.mark.slow
