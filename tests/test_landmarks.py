@@ -360,3 +360,52 @@ def test_large_scans_never_build_an_m_by_m_array():
     assert np.array_equal(labels, DBSCAN(eps=0.8, min_samples=3).fit(pts).labels_)
     assert inside.shape == (5000,) and 0 < inside.sum() < 5000
     assert peak < 40e6, peak
+
+
+def test_sifting_kernels_written_once_match_an_oracle_and_their_compiled_form():
+    """Step 3 (c.3, a.7.1) is one kernel per decision: the radius-or-extent decision
+    (:func:`candidates`) and the literal contour (:func:`literal_inside`). Their Python and compiled
+    forms agree with a brute-force oracle on random scans, including landmarks with and without an
+    extent; a detection is a candidate exactly when some landmark admits it."""
+    from radarslam.extent._compiled import literal_inside as literal_compiled
+    from radarslam.extent.sifting import literal_inside
+    from radarslam.landmarks._compiled import compiled_candidates
+    from radarslam.landmarks.sifting import candidates, sift
+
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        m, n = rng.integers(1, 40), rng.integers(1, 15)
+        pts, cen = rng.uniform(-10, 10, (m, 2)), rng.uniform(-10, 10, (n, 2))
+        A = rng.normal(size=(n, 2, 2))
+        X = A @ A.transpose(0, 2, 1) + 0.5 * np.eye(2)
+        has = rng.random(n) < 0.5
+        d = pts[:, None, :] - cen[None, :, :]
+        q = np.einsum("mni,nij,mnj->mn", d, np.linalg.inv(X), d)
+        lit = literal_inside(pts, cen, X, has, 4.0)
+        assert np.array_equal(lit, (q <= 4.0) & has[None, :])
+        assert np.array_equal(literal_compiled(pts, cen, X, has, 4.0), lit)
+        near = np.einsum("mni,mni->mn", d, d) < 9.0
+        oracle = np.where(has[None, :], lit, near).any(axis=1)
+        assert np.array_equal(candidates(pts, cen, 9.0, lit, has), oracle)
+        assert np.array_equal(compiled_candidates(pts, cen, 9.0, lit, has), oracle)
+        assert np.array_equal(sift(pts, cen, 3.0), near.any(axis=1))
+    # negative control: with the extent test switched off for every landmark only the radius counts
+    assert not candidates(np.array([[100.0, 0.0]]), np.zeros((1, 2)), 9.0, np.ones((1, 1), bool),
+                          np.zeros(1, bool))[0]
+
+
+def test_associations_grouped_by_landmark_once():
+    """Step 4's grouping (:func:`by_landmark`), Python and compiled: each landmark's detections in
+    ascending candidate order, the unassociated (-1) left out, equal to a list-of-lists oracle."""
+    from radarslam.landmarks._compiled import compiled_by_landmark
+    from radarslam.slam.association import by_landmark
+
+    rng = np.random.default_rng(5)
+    for n in (0, 1, 7):
+        cidx = np.sort(rng.choice(100, size=30, replace=False)).astype(np.int64)
+        out = rng.integers(-1, n, size=30).astype(np.int64) if n else np.full(30, -1, dtype=np.int64)
+        oracle = [[int(i) for i, j in zip(cidx, out) if j == k] for k in range(n)]
+        for kernel in (by_landmark, compiled_by_landmark):
+            aoff, arow = kernel(out, cidx, n)
+            assert [arow[aoff[k]:aoff[k + 1]].tolist() for k in range(n)] == oracle
+            assert arow.size == int(np.sum(out >= 0)) and aoff.shape == (n + 1,)

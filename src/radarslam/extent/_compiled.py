@@ -16,7 +16,7 @@ import numpy as np
 from numba import njit
 
 from radarslam.core.jit import compile_kernels
-from radarslam.extent import _sym2, ellipse_fit, measurement, partial_view, random_matrix, view_estimator
+from radarslam.extent import _sym2, ellipse_fit, measurement, partial_view, random_matrix, sifting, view_estimator
 
 _K = compile_kernels(measurement._w_entries, measurement.max_trace_w_entries, random_matrix.rm_update_entries,
                      random_matrix.rm_predict_alpha, ellipse_fit.fit_entries, _sym2.spectral, _sym2.from_spectral,
@@ -26,6 +26,9 @@ _max_trace_w_entries = _K["max_trace_w_entries"]
 _rm_update_entries = _K["rm_update_entries"]
 _rm_predict_alpha = _K["rm_predict_alpha"]
 _fit_entries = _K["fit_entries"]
+
+#: The literal contour of a.7.1, compiled as it is (the orchestrator's numba backend and the fused engine).
+literal_inside = compile_kernels(sifting.literal_inside)["literal_inside"]
 
 #: The partial-view kernels (docs/method.md a.12), compiled as they are.
 _PV = compile_kernels(*partial_view.KERNELS, *view_estimator.KERNELS)

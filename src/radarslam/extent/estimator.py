@@ -25,7 +25,7 @@ from radarslam.extent.measurement import _scan_W
 from radarslam.extent.measurement import _converted_measurement_covs
 from radarslam.extent.random_matrix import _rm_predict, _rm_update
 from radarslam.extent.ellipse import trunk_diameter
-from radarslam.extent.sifting import chi2_2dof_quantile, literal_contour, measurement_contour
+from radarslam.extent.sifting import chi2_2dof_quantile, literal_contour, literal_inside, measurement_contour
 
 
 class ExtentEstimator(Protocol):
@@ -111,6 +111,7 @@ class RmaEfaEstimator:
     def __init__(self, extent_config, R_extent: np.ndarray, backend: str = "python"):
         self.c = extent_config
         self._contour = _contour_test(backend)
+        self._literal = _literal_kernel(backend)
         # The compiled scan step covers this class's own step() with the default EFA and W options;
         # a subclass that overrides step(), or other options, run step() per landmark.
         self._batched = (backend == "numba" and type(self).step is RmaEfaEstimator.step
@@ -144,7 +145,7 @@ class RmaEfaEstimator:
             return None
         X = np.array([s.X if s.initialized else np.eye(2) for s in states])
         if self.c.sifting_mode == "literal":
-            return literal_contour(points, centroids, X, self.c.kappa), has
+            return literal_contour(points, centroids, X, self.c.kappa, has, self._literal), has
         return self._contour(points, polar, pose, pose_cov, self.R_extent, centroids, self.c.spread_factor * X,
                              centroid_covs, self.gate), has
 
@@ -314,6 +315,14 @@ def _contour_test(backend: str):
     def contour(points, polar, pose, pose_cov, R, centroids, spreads, centroid_covs, gate):
         return compiled(points, polar, float(pose[2]), pose_cov, R, centroids, spreads, centroid_covs, gate)
     return contour
+
+
+def _literal_kernel(backend: str):
+    """The literal contour's kernel in ``backend``: :func:`~.sifting.literal_inside` or its compiled form."""
+    if backend != "numba":
+        return literal_inside
+    from radarslam.extent._compiled import literal_inside as compiled
+    return compiled
 
 
 EXTENT_ESTIMATORS.register("rma-efa", RmaEfaEstimator.from_config)

@@ -38,21 +38,33 @@ def _quadratic(d: np.ndarray, S: np.ndarray) -> np.ndarray:
     return (s11 * d[..., 0] ** 2 - 2.0 * s01 * d[..., 0] * d[..., 1] + s00 * d[..., 1] ** 2) / det
 
 
-def inverse_2x2(Xs: np.ndarray) -> np.ndarray:
-    """Closed-form inverses of a stack ``(N, 2, 2)`` of non-singular matrices."""
-    det = Xs[:, 0, 0] * Xs[:, 1, 1] - Xs[:, 0, 1] * Xs[:, 1, 0]
-    return np.stack([np.stack([Xs[:, 1, 1], -Xs[:, 0, 1]], -1),
-                     np.stack([-Xs[:, 1, 0], Xs[:, 0, 0]], -1)], 1) / det[:, None, None]
-
-
-def literal_contour(points: np.ndarray, centroids: np.ndarray, X: np.ndarray, kappa: float) -> np.ndarray:
-    """``(z_i - p_n)^T X_n^-1 (z_i - p_n) <= kappa^2`` as an ``(m, N)`` boolean matrix."""
-    X_inv = inverse_2x2(X)
-    out = np.empty((points.shape[0], centroids.shape[0]), dtype=bool)
-    for a in range(0, points.shape[0], CHUNK_ROWS):
-        d = points[a:a + CHUNK_ROWS, None, :] - centroids[None, :, :]
-        out[a:a + CHUNK_ROWS] = np.einsum("mni,nij,mnj->mn", d, X_inv, d) <= kappa * kappa
+def literal_inside(points: np.ndarray, centroids: np.ndarray, X: np.ndarray, has: np.ndarray,
+                   kk: float) -> np.ndarray:
+    """The literal contour of a.7.1 (seed), a kernel: ``(m, N)`` with ``(z_i - p_n)^T X_n^-1 (z_i -
+    p_n) <= kk`` (``kk = kappa^2``) for the landmarks with ``has[n]``, False for the others. The
+    orchestrator calls it (compiled under the numba backend, :mod:`._compiled`) and the fused engine
+    links the same compiled function."""
+    m, n = points.shape[0], centroids.shape[0]
+    out = np.zeros((m, n), dtype=np.bool_)
+    for j in range(n):
+        if not has[j]:
+            continue
+        det = X[j, 0, 0] * X[j, 1, 1] - X[j, 0, 1] * X[j, 1, 0]
+        i00, i01, i10, i11 = X[j, 1, 1] / det, -X[j, 0, 1] / det, -X[j, 1, 0] / det, X[j, 0, 0] / det
+        for i in range(m):
+            d0 = points[i, 0] - centroids[j, 0]
+            d1 = points[i, 1] - centroids[j, 1]
+            out[i, j] = d0 * (i00 * d0 + i01 * d1) + d1 * (i10 * d0 + i11 * d1) <= kk
     return out
+
+
+def literal_contour(points: np.ndarray, centroids: np.ndarray, X: np.ndarray, kappa: float,
+                    has: np.ndarray | None = None, kernel=literal_inside) -> np.ndarray:
+    """``(z_i - p_n)^T X_n^-1 (z_i - p_n) <= kappa^2`` as an ``(m, N)`` boolean matrix (every
+    landmark, or those with ``has``), through :func:`literal_inside` or its compiled ``kernel``."""
+    has = np.ones(centroids.shape[0], dtype=bool) if has is None else np.asarray(has, dtype=bool)
+    return kernel(np.ascontiguousarray(points, dtype=float), np.ascontiguousarray(centroids, dtype=float),
+                  np.ascontiguousarray(X, dtype=float), has, float(kappa) * float(kappa))
 
 
 def measurement_contour(points: np.ndarray, W: np.ndarray, centroids: np.ndarray, spreads: np.ndarray,

@@ -15,11 +15,15 @@ from numba import njit
 from radarslam.core.jit import compile_kernels
 from radarslam.landmarks.confirmation import mn_windows, popcount, push_bit, rule12, should_remove
 from radarslam.landmarks.merging import closest_pair
+from radarslam.landmarks.sifting import candidates
+from radarslam.slam.association import by_landmark
 
-# Rule 1 / Rule 2, the M/N windows and the merge pair (c.7, c.5, c.9): the kernels of
+# Sifting's decision, the associations by landmark, Rule 1 / Rule 2, the M/N windows and the merge pair (c.3, c.4, c.7, c.5, c.9): the kernels of
 # landmarks.confirmation and landmarks.merging compiled as they are, for the orchestrator's numba
 # backend and the fused engine alike.
-_K = compile_kernels(popcount, push_bit, should_remove, mn_windows, rule12, closest_pair)
+_K = compile_kernels(popcount, push_bit, should_remove, mn_windows, rule12, closest_pair, candidates, by_landmark)
+compiled_by_landmark = _K["by_landmark"]
+compiled_candidates = _K["candidates"]
 compiled_mn_windows = _K["mn_windows"]
 compiled_rule12 = _K["rule12"]
 compiled_closest_pair = _K["closest_pair"]

@@ -4,12 +4,32 @@ from __future__ import annotations
 
 import numpy as np
 
-#: Detections per chunk: bounds the (rows, N, 2) temporaries for large scans and maps.
-CHUNK_ROWS = 2048
+
+def candidates(points: np.ndarray, centroids: np.ndarray, r2: float, inside: np.ndarray,
+               has: np.ndarray) -> np.ndarray:
+    """Step 3's decision, a kernel (docs/method.md c.3, a.7.1): ``(m,)`` True for a detection
+    ``points[i]`` inside the extent-aware test ``inside[i, j]`` of a landmark with ``has[j]``, or
+    within ``sqrt(r2)`` of a centroid ``centroids[j]`` of one without. The orchestrator calls it
+    (compiled under ``filter.backend = "numba"``, :mod:`._compiled`), the fused engine links the
+    same compiled function."""
+    m, n = points.shape[0], centroids.shape[0]
+    out = np.zeros(m, dtype=np.bool_)
+    for i in range(m):
+        for j in range(n):
+            if has[j]:
+                hit = inside[i, j]
+            else:
+                d0 = points[i, 0] - centroids[j, 0]
+                d1 = points[i, 1] - centroids[j, 1]
+                hit = d0 * d0 + d1 * d1 < r2
+            if hit:
+                out[i] = True
+                break
+    return out
 
 
 def sift(points: np.ndarray, landmarks: np.ndarray, radius: float, extent_inside: np.ndarray | None = None,
-         has_extent: np.ndarray | None = None) -> np.ndarray:
+         has_extent: np.ndarray | None = None, kernel=candidates) -> np.ndarray:
     """Boolean mask ``(m,)`` of the detections that are candidates for some landmark.
 
     Parameters
@@ -24,17 +44,14 @@ def sift(points: np.ndarray, landmarks: np.ndarray, radius: float, extent_inside
         The extent-aware test (:mod:`radarslam.extent.sifting`); it replaces the radius test for
         the landmarks where ``has_extent`` is True.
     has_extent : ndarray of bool, shape (N,), optional
+    kernel : callable
+        :func:`candidates` or its compiled form (:data:`._compiled.compiled_candidates`).
     """
     m, n = points.shape[0], landmarks.shape[0]
     if m == 0 or n == 0:
         return np.zeros(m, dtype=bool)
-    use_extent = extent_inside is not None and has_extent is not None and bool(np.any(has_extent))
-    out = np.empty(m, dtype=bool)
-    r2 = radius * radius
-    for a in range(0, m, CHUNK_ROWS):
-        d = points[a:a + CHUNK_ROWS, None, :] - landmarks[None, :, :]               # (rows, N, 2)
-        inside = np.einsum("mni,mni->mn", d, d) < r2
-        if use_extent:
-            inside = np.where(has_extent[None, :], extent_inside[a:a + CHUNK_ROWS], inside)
-        out[a:a + CHUNK_ROWS] = inside.any(axis=1)
-    return out
+    if extent_inside is None or has_extent is None:
+        extent_inside, has_extent = np.zeros((1, 1), dtype=bool), np.zeros(n, dtype=bool)
+    return kernel(np.ascontiguousarray(points, dtype=float), np.ascontiguousarray(landmarks, dtype=float),
+                  float(radius) * float(radius), np.asarray(extent_inside, dtype=bool),
+                  np.asarray(has_extent, dtype=bool))

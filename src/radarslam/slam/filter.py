@@ -28,11 +28,11 @@ from radarslam.core.validation import as_array
 from radarslam.landmarks.clustering import DENSE_MAX, Cluster, clusters_of, dbscan_labels
 from radarslam.landmarks.confirmation import in_sensor_view, removal_step, rule2_step
 from radarslam.landmarks.merging import next_merge
-from radarslam.landmarks.sifting import sift
+from radarslam.landmarks.sifting import candidates, sift
 from radarslam.models.body_velocity import BodyVelocityModel
 from radarslam.models.motion import MotionModel, motion_model_from_config
 from radarslam.slam import ekf
-from radarslam.slam.association import Associator, Spreads
+from radarslam.slam.association import Associator, Spreads, by_landmark
 from radarslam.slam.bias import (bias_states, control_noise, initial_state, measurement_noise, predict_terms,
                                  turn_noise, turn_noise_gain2, turn_noise_index)
 from radarslam.slam.doppler_gate import DopplerGate, mounting
@@ -112,6 +112,7 @@ class EkfSlam:
         self.view, self.extent, self.associator = view_components(config, self.extent, self.associator,
                                                                   extent_estimator is None, associator is None)
         self._clusters = _cluster_kernel(f.backend)
+        self._candidates, self._group = _step_kernels(f.backend)
         self.R = self.measurement.noise(f)
         self.U = control_noise(self.model, f)        # c.11.6: white, or the equivalent of correlated errors
         self._turn_k = (turn_noise_index(self.model, f), turn_noise_gain2(f))   # c.11.8: U grows with the turn
@@ -319,7 +320,7 @@ class EkfSlam:
             test = self.extent.sift([r.extent for r in st.landmarks], xy, polar, positions, blocks_prior,
                                     st.pose, st.pose_cov)
         inside, has = test if test is not None else (None, None)
-        return sift(xy, positions, self.config.landmarks.sift_radius_m, inside, has)
+        return sift(xy, positions, self.config.landmarks.sift_radius_m, inside, has, self._candidates)
 
     def _associate_and_update(self, polar: np.ndarray, cand: np.ndarray) -> tuple[list[list[int]], np.ndarray]:
         """Step 4: the associator scores the candidates and updates the state (c.4; a.7.2); the
@@ -336,10 +337,8 @@ class EkfSlam:
             spreads = Spreads(spreads.gX, spreads.has, self.extent.view_shapes(states), self.view,
                               None if covs is None else covs[0], None if covs is None else covs[1])
         out, nis = self.associator.associate(st, polar, candidates, self.R_assoc, spreads)
-        for i, j in zip(candidates.tolist(), np.asarray(out).tolist()):
-            if j >= 0:
-                assoc[j].append(i)
-        return assoc, np.asarray(nis, dtype=float)
+        aoff, arow = self._group(np.asarray(out, dtype=np.int64), candidates, len(assoc))
+        return [arow[aoff[j]:aoff[j + 1]].tolist() for j in range(len(assoc))], np.asarray(nis, dtype=float)
 
     def _remove_unseen(self, assoc: list[list[int]], k: int) -> tuple[list[int], list[list[int]]]:
         """Step 5: M/N windows of every landmark and removal (c.5, Decision 8); under the Doppler
@@ -436,6 +435,16 @@ def _reference_clusters(polar: np.ndarray, xy: np.ndarray, index: np.ndarray, ep
                         min_samples: int) -> list[Cluster]:
     """DBSCAN of ``xy`` (c.6) and the clusters with their centres (h.13); ``index`` maps rows to the scan."""
     return clusters_of(polar, xy, dbscan_labels(xy, eps, min_samples), index)
+
+
+def _step_kernels(backend: str):
+    """Steps 3 and 4's kernels in ``backend``: sifting's decision
+    (:func:`~radarslam.landmarks.sifting.candidates`) and the grouping by landmark
+    (:func:`~radarslam.slam.association.by_landmark`), or their compiled forms."""
+    if backend != "numba":
+        return candidates, by_landmark
+    from radarslam.landmarks._compiled import compiled_by_landmark, compiled_candidates
+    return compiled_candidates, compiled_by_landmark
 
 
 def _cluster_kernel(backend: str):

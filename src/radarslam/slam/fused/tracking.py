@@ -14,8 +14,8 @@ from numba import njit
 
 from radarslam.core.angles import wrap_2pi_scalar
 from radarslam.core.jit import compile_kernels
-from radarslam.extent._compiled import measurement_contour
-from radarslam.landmarks._compiled import compiled_mn_windows as _mn_windows
+from radarslam.extent._compiled import literal_inside, measurement_contour
+from radarslam.landmarks._compiled import compiled_by_landmark, compiled_candidates, compiled_mn_windows as _mn_windows
 from radarslam.models.ackermann import ackermann_jacobians, ackermann_step, centre_speed
 from radarslam.models.body_velocity import body_velocity_increment, body_velocity_jacobians, body_velocity_step
 from radarslam.models.motion import unicycle_jacobians, unicycle_step
@@ -142,49 +142,21 @@ def sift(x, P, polar, lm, N, prior, noise, cfg):  # pragma: no cover - compiled
     pos_prior, cov_prior = prior
     m = polar.shape[0]
     xy = _to_world(x, polar)
-    cand = np.zeros(m, dtype=np.bool_)
     if N == 0 or m == 0:
-        return cand
-    use_contour = False
+        return np.zeros(m, dtype=np.bool_)
+    has = np.zeros(N, dtype=np.bool_)
     if cfg.contour:
-        for j in range(N):
-            if lm.einit[j]:
-                use_contour = True
-    inside = np.zeros((m, N), dtype=np.bool_)
-    if use_contour and cfg.literal:
-        kk = cfg.kappa * cfg.kappa
-        for j in range(N):
-            if not lm.einit[j]:
-                continue
-            X = lm.X
-            det = X[j, 0, 0] * X[j, 1, 1] - X[j, 0, 1] * X[j, 1, 0]
-            i00, i01, i10, i11 = X[j, 1, 1] / det, -X[j, 0, 1] / det, -X[j, 1, 0] / det, X[j, 0, 0] / det
-            for i in range(m):
-                d0 = xy[i, 0] - pos_prior[j, 0]
-                d1 = xy[i, 1] - pos_prior[j, 1]
-                inside[i, j] = d0 * (i00 * d0 + i01 * d1) + d1 * (i10 * d0 + i11 * d1) <= kk
-    elif use_contour:
+        has[:] = lm.einit[:N]
+    inside = np.zeros((1, 1), dtype=np.bool_)
+    if has.any() and cfg.literal:
+        inside = literal_inside(xy, pos_prior, lm.X[:N], has, cfg.kappa * cfg.kappa)
+    elif has.any():
         spreads = np.empty((N, 2, 2))
         for j in range(N):
-            if lm.einit[j]:
-                spreads[j] = cfg.gamma * lm.X[j]
-            else:
-                spreads[j] = cfg.gamma * np.eye(2)
+            spreads[j] = cfg.gamma * (lm.X[j] if lm.einit[j] else np.eye(2))
         inside = measurement_contour(xy, polar, x[2], P[:3, :3].copy(), noise.R_ext, pos_prior, spreads,
                                      cov_prior, cfg.gate)
-    r2 = cfg.sift_radius * cfg.sift_radius
-    for i in range(m):
-        for j in range(N):
-            if use_contour and lm.einit[j]:
-                hit = inside[i, j]
-            else:
-                d0 = xy[i, 0] - pos_prior[j, 0]
-                d1 = xy[i, 1] - pos_prior[j, 1]
-                hit = d0 * d0 + d1 * d1 < r2
-            if hit:
-                cand[i] = True
-                break
-    return cand
+    return compiled_candidates(xy, pos_prior, cfg.sift_radius * cfg.sift_radius, inside, has)
 
 
 @njit(cache=True, inline="always")
@@ -239,28 +211,19 @@ def associate_and_update(x, P, polar, cidx, lm, N, pose_first, noise, cfg):  # p
 
 @njit(cache=True, inline="always")
 def group_associations(out, cidx, N, ids, s, a_rows, n_arows):  # pragma: no cover - compiled
-    """The associations of step 4 by landmark: ``assoc[j] = arow[aoff[j]:aoff[j + 1]]`` (ascending
-    detections), and the ``(scan, detection, landmark id)`` rows appended to ``a_rows``. Returns
+    """The associations of step 4 by landmark, ``assoc[j] = arow[aoff[j]:aoff[j + 1]]``, by the
+    orchestrator's own kernel (slam.association.by_landmark) compiled as it is, and the ``(scan,
+    detection, landmark id)`` rows appended to ``a_rows``. Returns
     ``(n_assoc, aoff, arow, a_rows, n_arows)``."""
-    n_assoc = 0
-    cnt = np.zeros(N + 1, dtype=np.int64)
+    aoff, arow = compiled_by_landmark(out, cidx, N)
     for c in range(out.shape[0]):
         if out[c] >= 0:
-            n_assoc += 1
-            cnt[out[c] + 1] += 1
             a_rows = _grow_rows(a_rows, n_arows + 1)
             a_rows[n_arows, 0] = s
             a_rows[n_arows, 1] = cidx[c]
             a_rows[n_arows, 2] = ids[out[c]]
             n_arows += 1
-    aoff = np.cumsum(cnt)
-    arow = np.empty(n_assoc, dtype=np.int64)
-    fill = aoff[:-1].copy()
-    for c in range(out.shape[0]):
-        j = out[c]
-        if j >= 0:
-            arow[fill[j]] = cidx[c]
-            fill[j] += 1
+    n_assoc = arow.shape[0]
     return n_assoc, aoff, arow, a_rows, n_arows
 
 
