@@ -398,7 +398,7 @@ def test_associations_grouped_by_landmark_once():
     """Step 4's grouping (:func:`by_landmark`), Python and compiled: each landmark's detections in
     ascending candidate order, the unassociated (-1) left out, equal to a list-of-lists oracle."""
     from radarslam.landmarks._compiled import compiled_by_landmark
-    from radarslam.slam.association import by_landmark
+    from radarslam.landmarks.grouping import by_landmark
 
     rng = np.random.default_rng(5)
     for n in (0, 1, 7):

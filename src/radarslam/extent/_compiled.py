@@ -27,8 +27,10 @@ _rm_update_entries = _K["rm_update_entries"]
 _rm_predict_alpha = _K["rm_predict_alpha"]
 _fit_entries = _K["fit_entries"]
 
-#: The literal contour of a.7.1, compiled as it is (the orchestrator's numba backend and the fused engine).
-literal_inside = compile_kernels(sifting.literal_inside)["literal_inside"]
+#: The literal and measurement contours of a.7.1, compiled as they are (the orchestrator's numba backend and the fused engine).
+_S = compile_kernels(sifting.literal_inside, sifting.contour_inside)
+literal_inside = _S["literal_inside"]
+contour_inside = _S["contour_inside"]
 
 #: The partial-view kernels (docs/method.md a.12), compiled as they are.
 _PV = compile_kernels(*partial_view.KERNELS, *view_estimator.KERNELS)
@@ -40,29 +42,20 @@ tangent_points = _PV["tangent_points"]
 
 @njit(cache=True)
 def measurement_contour(points, polar, theta, pose_cov, R, centroids, spreads, centroid_covs, gate):  # pragma: no cover
-    """:func:`radarslam.extent.sifting.measurement_contour` with the detections' ``W`` of seed eq. (5)
-    (:func:`radarslam.extent.measurement._w_entries`, compiled as it is) formed on the fly: the
-    ``(m, N)`` gate test ``(z_i - p_n)^T (gamma_z X_n + P_n + W_i)^-1 (z_i - p_n) <= gate``, summed
-    in the reference's order."""
-    m, N = points.shape[0], centroids.shape[0]
+    """The measurement contour of a.7.1 from the detections ``polar`` seen at heading ``theta``:
+    their ``W`` of seed eq. (5) (:func:`radarslam.extent.measurement._w_entries`), then
+    :func:`radarslam.extent.sifting.contour_inside`, both compiled as they are."""
+    m = points.shape[0]
     p00, p01, p02 = pose_cov[0, 0], pose_cov[0, 1], pose_cov[0, 2]
     p11, p12, p22 = pose_cov[1, 1], pose_cov[1, 2], pose_cov[2, 2]
-    r00, r01, r11 = R[0, 0], R[0, 1], R[1, 1]
-    q22 = p22 + r11
-    out = np.empty((m, N), dtype=np.bool_)
+    q22 = p22 + R[1, 1]
+    W = np.empty((m, 2, 2))
     for i in range(m):
         ang = theta + polar[i, 1]
         w00, w01, w11 = _w_entries(math.cos(ang), math.sin(ang), polar[i, 0], p00, p01, p02, p11, p12, q22,
-                                   r00, r01)
-        for n in range(N):
-            s00 = (spreads[n, 0, 0] + centroid_covs[n, 0, 0]) + w00
-            s01 = (spreads[n, 0, 1] + centroid_covs[n, 0, 1]) + w01
-            s11 = (spreads[n, 1, 1] + centroid_covs[n, 1, 1]) + w11
-            d0 = points[i, 0] - centroids[n, 0]
-            d1 = points[i, 1] - centroids[n, 1]
-            det = s00 * s11 - s01 * s01
-            out[i, n] = (s11 * (d0 * d0) - 2.0 * s01 * d0 * d1 + s00 * (d1 * d1)) / det <= gate
-    return out
+                                   R[0, 0], R[0, 1])
+        W[i, 0, 0], W[i, 0, 1], W[i, 1, 0], W[i, 1, 1] = w00, w01, w01, w11
+    return contour_inside(points, W, centroids, spreads, centroid_covs, gate)
 
 
 @njit(cache=True)

@@ -10,8 +10,9 @@ landmark whose extent is initialised:
 - the *literal* contour of the paper, ``(z - p)^T X^-1 (z - p) <= kappa^2``, kept for ablations: it
   has no term for noise or uncertainty and rejects the corners and the noise spill of a car.
 
-Both return an ``(m, N)`` boolean matrix; rows are detections, columns landmarks. They work in
-chunks of rows so that memory stays bounded for large scans.
+Both return an ``(m, N)`` boolean matrix; rows are detections, columns landmarks. Each is one
+kernel of plain loops (no ``(m, N, 2, 2)`` temporaries), run as it is by the orchestrator's python
+backend and compiled for its numba backend and the fused engine.
 """
 
 from __future__ import annotations
@@ -20,22 +21,12 @@ import math
 
 import numpy as np
 
-#: Rows per chunk: bounds the (rows, N, 2) temporaries at a few megabytes for hundreds of landmarks.
-CHUNK_ROWS = 2048
-
 
 def chi2_2dof_quantile(probability: float) -> float:
     """The chi-square(2) quantile of ``probability``: ``-2 log(1 - p)`` (closed form for 2 dof)."""
     if not 0.0 < probability < 1.0:
         raise ValueError(f"probability: expected a value in (0, 1), got {probability!r}")
     return -2.0 * math.log1p(-probability)
-
-
-def _quadratic(d: np.ndarray, S: np.ndarray) -> np.ndarray:
-    """``d^T S^-1 d`` over the leading axes of ``d (..., 2)`` and ``S (..., 2, 2)`` (closed-form 2 x 2)."""
-    s00, s01, s11 = S[..., 0, 0], S[..., 0, 1], S[..., 1, 1]
-    det = s00 * s11 - s01 * s01
-    return (s11 * d[..., 0] ** 2 - 2.0 * s01 * d[..., 0] * d[..., 1] + s00 * d[..., 1] ** 2) / det
 
 
 def literal_inside(points: np.ndarray, centroids: np.ndarray, X: np.ndarray, has: np.ndarray,
@@ -67,9 +58,11 @@ def literal_contour(points: np.ndarray, centroids: np.ndarray, X: np.ndarray, ka
                   np.ascontiguousarray(X, dtype=float), has, float(kappa) * float(kappa))
 
 
-def measurement_contour(points: np.ndarray, W: np.ndarray, centroids: np.ndarray, spreads: np.ndarray,
-                        centroid_covs: np.ndarray, gate: float) -> np.ndarray:
-    """``(z_i - p_n)^T (S_n + W_i + P_n)^-1 (z_i - p_n) <= gate`` as an ``(m, N)`` boolean matrix.
+def contour_inside(points: np.ndarray, W: np.ndarray, centroids: np.ndarray, spreads: np.ndarray,
+                   centroid_covs: np.ndarray, gate: float) -> np.ndarray:
+    """The measurement contour of a.7.1, a kernel: ``(m, N)`` with ``(z_i - p_n)^T (S_n + P_n +
+    W_i)^-1 (z_i - p_n) <= gate``. The orchestrator calls it (compiled under the numba backend,
+    :mod:`._compiled`), and the fused engine links the same compiled function.
 
     Parameters
     ----------
@@ -82,10 +75,23 @@ def measurement_contour(points: np.ndarray, W: np.ndarray, centroids: np.ndarray
     gate : float
         The chi-square(2) quantile (:func:`chi2_2dof_quantile`).
     """
-    out = np.empty((points.shape[0], centroids.shape[0]), dtype=bool)
-    base = spreads + centroid_covs
-    for a in range(0, points.shape[0], CHUNK_ROWS):
-        d = points[a:a + CHUNK_ROWS, None, :] - centroids[None, :, :]
-        S = base[None] + W[a:a + CHUNK_ROWS, None]
-        out[a:a + CHUNK_ROWS] = _quadratic(d, S) <= gate
+    m, n_lm = points.shape[0], centroids.shape[0]
+    out = np.empty((m, n_lm), dtype=np.bool_)
+    for i in range(m):
+        for n in range(n_lm):
+            s00 = (spreads[n, 0, 0] + centroid_covs[n, 0, 0]) + W[i, 0, 0]
+            s01 = (spreads[n, 0, 1] + centroid_covs[n, 0, 1]) + W[i, 0, 1]
+            s11 = (spreads[n, 1, 1] + centroid_covs[n, 1, 1]) + W[i, 1, 1]
+            d0 = points[i, 0] - centroids[n, 0]
+            d1 = points[i, 1] - centroids[n, 1]
+            det = s00 * s11 - s01 * s01
+            out[i, n] = (s11 * (d0 * d0) - 2.0 * s01 * d0 * d1 + s00 * (d1 * d1)) / det <= gate
     return out
+
+
+def measurement_contour(points: np.ndarray, W: np.ndarray, centroids: np.ndarray, spreads: np.ndarray,
+                        centroid_covs: np.ndarray, gate: float, kernel=contour_inside) -> np.ndarray:
+    """``(z_i - p_n)^T (S_n + W_i + P_n)^-1 (z_i - p_n) <= gate`` as an ``(m, N)`` boolean matrix,
+    through :func:`contour_inside` or its compiled ``kernel`` (arguments as there)."""
+    f = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
+    return kernel(f(points), f(W), f(centroids), f(spreads), f(centroid_covs), float(gate))

@@ -16,7 +16,7 @@ from radarslam.core.jit import compile_kernels
 from radarslam.landmarks.confirmation import mn_windows, popcount, push_bit, rule12, should_remove
 from radarslam.landmarks.merging import closest_pair
 from radarslam.landmarks.sifting import candidates
-from radarslam.slam.association import by_landmark
+from radarslam.landmarks.grouping import by_landmark
 
 # Sifting's decision, the associations by landmark, Rule 1 / Rule 2, the M/N windows and the merge pair (c.3, c.4, c.7, c.5, c.9): the kernels of
 # landmarks.confirmation and landmarks.merging compiled as they are, for the orchestrator's numba

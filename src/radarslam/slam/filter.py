@@ -28,11 +28,12 @@ from radarslam.core.validation import as_array
 from radarslam.landmarks.clustering import DENSE_MAX, Cluster, clusters_of, dbscan_labels
 from radarslam.landmarks.confirmation import in_sensor_view, removal_step, rule2_step
 from radarslam.landmarks.merging import next_merge
+from radarslam.landmarks.grouping import by_landmark
 from radarslam.landmarks.sifting import candidates, sift
 from radarslam.models.body_velocity import BodyVelocityModel
 from radarslam.models.motion import MotionModel, motion_model_from_config
 from radarslam.slam import ekf
-from radarslam.slam.association import Associator, Spreads, by_landmark
+from radarslam.slam.association import Associator, Spreads
 from radarslam.slam.bias import (bias_states, control_noise, initial_state, measurement_noise, predict_terms,
                                  turn_noise, turn_noise_gain2, turn_noise_index)
 from radarslam.slam.doppler_gate import DopplerGate, mounting
@@ -440,7 +441,7 @@ def _reference_clusters(polar: np.ndarray, xy: np.ndarray, index: np.ndarray, ep
 def _step_kernels(backend: str):
     """Steps 3 and 4's kernels in ``backend``: sifting's decision
     (:func:`~radarslam.landmarks.sifting.candidates`) and the grouping by landmark
-    (:func:`~radarslam.slam.association.by_landmark`), or their compiled forms."""
+    (:func:`~radarslam.landmarks.grouping.by_landmark`), or their compiled forms."""
     if backend != "numba":
         return candidates, by_landmark
     from radarslam.landmarks._compiled import compiled_by_landmark, compiled_candidates

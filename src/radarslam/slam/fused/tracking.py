@@ -212,7 +212,7 @@ def associate_and_update(x, P, polar, cidx, lm, N, pose_first, noise, cfg):  # p
 @njit(cache=True, inline="always")
 def group_associations(out, cidx, N, ids, s, a_rows, n_arows):  # pragma: no cover - compiled
     """The associations of step 4 by landmark, ``assoc[j] = arow[aoff[j]:aoff[j + 1]]``, by the
-    orchestrator's own kernel (slam.association.by_landmark) compiled as it is, and the ``(scan,
+    orchestrator's own kernel (landmarks.grouping.by_landmark) compiled as it is, and the ``(scan,
     detection, landmark id)`` rows appended to ``a_rows``. Returns
     ``(n_assoc, aoff, arow, a_rows, n_arows)``."""
     aoff, arow = compiled_by_landmark(out, cidx, N)
