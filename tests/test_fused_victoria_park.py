@@ -40,9 +40,9 @@ def _orchestrator(cfg):
 
 def _orchestrated(cfg, events):
     """Event by event: sorted ``(scan position, detection, id)`` rows, poses, pose covariances, every
-    NIS, and the map after every scan."""
+    NIS, the map after every scan, and the bias states and their covariances after every scan."""
     slam = _orchestrator(cfg)
-    rows, poses, covs, nis, snaps = [], [], [], [], []
+    rows, poses, covs, nis, snaps, bias, bias_covs = [], [], [], [], [], [], []
     for ev in events:
         rep = slam.process(ev)
         if rep is None:
@@ -53,13 +53,15 @@ def _orchestrated(cfg, events):
         covs.append(slam.pose_cov)
         nis.append(rep.nis)
         snaps.append(slam.snapshot())
-    return sorted(rows), np.array(poses), np.array(covs), np.concatenate(nis), snaps
+        bias.append(slam.bias)                              # the odometry-bias states (c.11), if any
+        bias_covs.append(slam.state.bias_cov)
+    return sorted(rows), np.array(poses), np.array(covs), np.concatenate(nis), snaps, (np.array(bias), np.array(bias_covs))
 
 
 def _assert_same(cfg, events):
     """The fused engine's run of ``events`` equals the orchestrator's; returns the fused record."""
     assert _fused.why_not(EkfSlam(cfg), events) is None
-    rows, poses, covs, nis, snaps = _orchestrated(cfg, events)
+    rows, poses, covs, nis, snaps, bias = _orchestrated(cfg, events)
     r, arows = _fused.run(EkfSlam(cfg), events)
     assert sorted(map(tuple, arows.tolist())) == rows                      # every association
     assert len(rows) > 1000
@@ -73,6 +75,9 @@ def _assert_same(cfg, events):
     np.testing.assert_allclose(r["poses"], poses, rtol=TOL, atol=TOL)
     np.testing.assert_allclose(r["pose_covs"], covs, rtol=TOL, atol=TOL)
     np.testing.assert_allclose(r["nis"], nis, rtol=TOL, atol=TOL)            # every update's NIS
+    for key, want in zip(("bias", "bias_covs"), bias):                    # the bias states (c.11), if any
+        assert r[key].shape == want.shape
+        np.testing.assert_allclose(r[key], want, rtol=TOL, atol=TOL, err_msg=key)
     return r
 
 
