@@ -68,7 +68,7 @@ def test_bias_states_same_as_orchestrator(name, trial):
     cfg = _biased_carpark()
     events = _scenario(cfg, trial).events
     run = _overlay(cfg, merge_tables(STATES, CASES[name]))
-    assert _assert_same_run(run, events) > 1500
+    assert _assert_same_run(run, events) > 1000                  # a real run: a thousand associations or more
     r, _ = _fused.run(EkfSlam(run), events)
     m = EkfSlam(run).bias_model.dim
     assert r["bias"].shape == (r["poses"].shape[0], m) and r["bias_covs"].shape == (r["poses"].shape[0], m, m)
@@ -79,8 +79,10 @@ def test_bias_states_same_as_orchestrator(name, trial):
 
 
 def test_speed_scale_is_learnt_by_the_fused_engine():
-    """The estimated speed scale after a run with an odometer reading 4 % high is near 0.04 (the
-    states' purpose, c.11.4), within 4 of its own std (its prior std is 0.05: the scans taught it)."""
+    """The estimated speed scale after a run with an odometer reading 4 % high is near the correction
+    ``1 / 1.04 - 1`` (``u_c = (1 + eps) u``; the states' purpose, c.11.4), within 4 of its own std
+    (its prior std is 0.05: the scans taught it); and not near 0, which the filter without the
+    states implicitly assumes (negative control)."""
     cfg = _biased_carpark()
     run = _overlay(cfg, merge_tables(STATES, CONSISTENT.overlay))
     est, std = [], []
@@ -90,7 +92,8 @@ def test_speed_scale_is_learnt_by_the_fused_engine():
         std.append(math.sqrt(r["bias_covs"][-1, 0, 0]))
     assert max(std) < 0.02
     for e, s in zip(est, std):
-        assert abs(e - 0.04) < 4 * s, (est, std)
+        assert abs(e - (1.0 / 1.04 - 1.0)) < 4 * s, (est, std)
+        assert abs(e) > 4 * s, (est, std)
 
 
 @pytest.mark.parametrize("mode", ["doppler", "both"])
