@@ -55,7 +55,8 @@ def _orchestrated(cfg, events):
         snaps.append(slam.snapshot())
         bias.append(slam.bias)                              # the odometry-bias states (c.11), if any
         bias_covs.append(slam.state.bias_cov)
-    return sorted(rows), np.array(poses), np.array(covs), np.concatenate(nis), snaps, (np.array(bias), np.array(bias_covs))
+    bias = (np.array(bias), np.array(bias_covs))
+    return sorted(rows), np.array(poses), np.array(covs), np.concatenate(nis), snaps, bias
 
 
 def _assert_same(cfg, events):

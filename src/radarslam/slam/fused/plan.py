@@ -244,9 +244,9 @@ def _bias_parameters(bias) -> dict:
     if bias is None:
         return dict(platform=3, bias_scaled=np.zeros(0, dtype=np.int64), bias_offset=0, bias_turn=0,
                     bias_drift=np.zeros(0), bias_tau=0.0)
-    return dict(platform=int(bias.platform_dim), bias_scaled=bias.spec.scaled_index, bias_offset=int(bias.spec.offset),
-                bias_turn=int(bias.spec.turn_code), bias_drift=np.ascontiguousarray(bias.drift, dtype=float),
-                bias_tau=float(bias.tau))
+    return dict(platform=int(bias.platform_dim), bias_scaled=bias.spec.scaled_index,
+                bias_offset=int(bias.spec.offset), bias_turn=int(bias.spec.turn_code),
+                bias_drift=np.ascontiguousarray(bias.drift, dtype=float), bias_tau=float(bias.tau))
 
 
 def _stream_arrays(events, fast: bool = True, slam=None) -> Stream:
@@ -378,8 +378,9 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None):
     ``map_offsets[-2]:map_offsets[-1]``; a long recording's maps need not be kept); ``trace``, a
     boolean per scan, records the landmarks' ids and centroids after the scans it marks
     (``trace_offsets``, ``trace_ids``, ``trace_positions``). ``nis`` holds the NIS of every update,
-    those of scan ``s`` at ``nis_offsets[s]:nis_offsets[s + 1]``. ``bias`` (S, m) and ``bias_covs`` (S, m, m) are the
-    odometry-bias states and their covariance after each scan (docs/method.md c.11; m = 0 without them).
+    those of scan ``s`` at ``nis_offsets[s]:nis_offsets[s + 1]``. ``bias`` (S, m) and ``bias_covs``
+    (S, m, m) are the odometry-bias states and their covariance after each scan (docs/method.md
+    c.11; m = 0 without them).
 
     Raises
     ------
@@ -414,7 +415,8 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None):
            "n_landmarks": rec.n_lm, "nis_sum": rec.nis_sum, "nis_count": rec.nis_cnt, "map_offsets": rec.map_off,
            "ids": maps.ids, "positions": maps.pos, "covs": maps.cov, "rma": maps.rma, "efa": maps.efa,
            "created": maps.created, "nis": rec.nis, "nis_offsets": rec.nis_off, "trace_offsets": rec.trace_off,
-           "trace_ids": rec.trace_ids, "trace_positions": rec.trace_pos, "bias": rec.bias, "bias_covs": rec.bias_covs}
+           "trace_ids": rec.trace_ids, "trace_positions": rec.trace_pos, "bias": rec.bias,
+           "bias_covs": rec.bias_covs}
     if timing:
         out["seconds"] = rec.seconds
     return out, arows
