@@ -39,9 +39,9 @@ def _scenario(cfg, trial: int):
 
 def _orchestrated(cfg, events):
     """Scan by scan: associations ``(scan position, detection, id)``, and per scan the pose, its
-    covariance, the NIS sum and every snapshot."""
+    covariance, the NIS sum and every snapshot; and the bias states and their covariances per scan."""
     slam = EkfSlam(replace(cfg, filter=replace(cfg.filter, fused=False)))
-    rows, poses, covs, nis, snaps = [], [], [], [], []
+    rows, poses, covs, nis, snaps, bias, bias_covs = [], [], [], [], [], [], []
     for ev in events:
         rep = slam.process(ev)
         if rep is None:
@@ -53,12 +53,15 @@ def _orchestrated(cfg, events):
         covs.append(slam.pose_cov)
         nis.append(rep.nis.sum())
         snaps.append(slam.snapshot())
-    return sorted(rows), np.array(poses), np.array(covs), np.array(nis), snaps
+        bias.append(slam.bias)                              # the odometry-bias states (c.11), if any
+        bias_covs.append(slam.state.bias_cov)
+    bias = (np.array(bias), np.array(bias_covs))
+    return sorted(rows), np.array(poses), np.array(covs), np.array(nis), snaps, bias
 
 
 def _assert_same_run(cfg, events, tol=1e-9):
     assert _fused.why_not(EkfSlam(cfg)) is None
-    rows, poses, covs, nis, snaps = _orchestrated(cfg, events)
+    rows, poses, covs, nis, snaps, bias = _orchestrated(cfg, events)
     r, arows = _fused.run(EkfSlam(cfg), events)
     assert sorted(map(tuple, arows.tolist())) == rows                      # every association
     off = r["map_offsets"]
@@ -72,6 +75,9 @@ def _assert_same_run(cfg, events, tol=1e-9):
     np.testing.assert_allclose(r["poses"], poses, rtol=tol, atol=tol)
     np.testing.assert_allclose(r["pose_covs"], covs, rtol=tol, atol=tol)
     np.testing.assert_allclose(r["nis_sum"], nis, rtol=tol, atol=tol)
+    for key, want in zip(("bias", "bias_covs"), bias):                    # the bias states (c.11), if any
+        assert r[key].shape == want.shape
+        np.testing.assert_allclose(r[key], want, rtol=tol, atol=tol, err_msg=key)
     return len(rows)
 
 

@@ -40,9 +40,9 @@ def _orchestrator(cfg):
 
 def _orchestrated(cfg, events):
     """Event by event: sorted ``(scan position, detection, id)`` rows, poses, pose covariances, every
-    NIS, and the map after every scan."""
+    NIS, the map after every scan, and the bias states and their covariances after every scan."""
     slam = _orchestrator(cfg)
-    rows, poses, covs, nis, snaps = [], [], [], [], []
+    rows, poses, covs, nis, snaps, bias, bias_covs = [], [], [], [], [], [], []
     for ev in events:
         rep = slam.process(ev)
         if rep is None:
@@ -53,13 +53,16 @@ def _orchestrated(cfg, events):
         covs.append(slam.pose_cov)
         nis.append(rep.nis)
         snaps.append(slam.snapshot())
-    return sorted(rows), np.array(poses), np.array(covs), np.concatenate(nis), snaps
+        bias.append(slam.bias)                              # the odometry-bias states (c.11), if any
+        bias_covs.append(slam.state.bias_cov)
+    bias = (np.array(bias), np.array(bias_covs))
+    return sorted(rows), np.array(poses), np.array(covs), np.concatenate(nis), snaps, bias
 
 
 def _assert_same(cfg, events):
     """The fused engine's run of ``events`` equals the orchestrator's; returns the fused record."""
     assert _fused.why_not(EkfSlam(cfg), events) is None
-    rows, poses, covs, nis, snaps = _orchestrated(cfg, events)
+    rows, poses, covs, nis, snaps, bias = _orchestrated(cfg, events)
     r, arows = _fused.run(EkfSlam(cfg), events)
     assert sorted(map(tuple, arows.tolist())) == rows                      # every association
     assert len(rows) > 1000
@@ -73,6 +76,9 @@ def _assert_same(cfg, events):
     np.testing.assert_allclose(r["poses"], poses, rtol=TOL, atol=TOL)
     np.testing.assert_allclose(r["pose_covs"], covs, rtol=TOL, atol=TOL)
     np.testing.assert_allclose(r["nis"], nis, rtol=TOL, atol=TOL)            # every update's NIS
+    for key, want in zip(("bias", "bias_covs"), bias):                    # the bias states (c.11), if any
+        assert r[key].shape == want.shape
+        np.testing.assert_allclose(r[key], want, rtol=TOL, atol=TOL, err_msg=key)
     return r
 
 
@@ -122,6 +128,42 @@ def test_turn_noise_and_correlated_r_same_as_orchestrator_on_victoria_park(vp):
     white = replace(cfg, filter=replace(cfg.filter, turn_noise_gain=0.0, measurement_corr_scans=1.0))
     plain, _ = _fused.run(EkfSlam(white), data.events)
     assert np.abs(r["poses"] - plain["poses"]).max() > 1e3 * TOL
+
+
+@pytest.mark.parametrize("overlay", [{}, {"bias_turn": "both", "jacobians": "fej", "bias_tau_s": 20.0}],
+                         ids=["offset", "both-fej-gauss-markov"])
+def test_bias_states_same_as_orchestrator_on_victoria_park(vp, overlay):
+    """Odometry-bias states (c.11) with the Ackermann model, [speed scale, steering offset] and with
+    the steering scale too, under first-estimates Jacobians (c.11.7): the fused engine makes the
+    orchestrator's run, the bias states after every scan included. Negative control: the states
+    moved and changed the run."""
+    _, cfg, data = vp
+    on = replace(cfg, filter=replace(cfg.filter, odometry_bias="states", **overlay))
+    r = _assert_same(on, data.events)
+    assert r["bias"].shape == (N_SCANS, 3 if overlay else 2) and np.abs(r["bias"][-1]).max() > 1e-4
+    plain, _ = _fused.run(EkfSlam(replace(cfg, filter=replace(cfg.filter, **overlay))), data.events)
+    assert np.abs(r["poses"] - plain["poses"]).max() > 1e3 * TOL
+
+
+def test_run_dataset_bias_states_same_by_either_engine(vp, victoria_park_dir, monkeypatch):
+    """``run_dataset`` with odometry-bias states takes the fused engine and gives the orchestrator's
+    bias trajectory (values and stds after every scan, names and units: bias.csv and bias.png)."""
+    mode, cfg, _ = vp
+    opts = victoria_park_options(cfg, mode)
+    on = replace(cfg, filter=replace(cfg.filter, odometry_bias="states"))
+    calls = []
+    real = _fused.run
+    monkeypatch.setattr(_fused, "run", lambda *a, **k: calls.append(1) or real(*a, **k))
+    fused = run_dataset("victoria-park", victoria_park_dir, on, n_scans=150, progress=False, loader_options=opts)
+    slow = run_dataset("victoria-park", victoria_park_dir, replace(on, filter=replace(on.filter, fused=False)),
+                       n_scans=150, progress=False, loader_options=opts)
+    assert calls == [1]                                    # the fused engine ran the first, not the second
+    assert fused.bias_names == slow.bias_names == ("speed_scale", "steering_offset")
+    assert fused.bias_units == slow.bias_units
+    assert fused.bias.shape == slow.bias.shape == (150, 2)
+    for key in ("bias", "bias_std", "poses"):
+        np.testing.assert_allclose(getattr(fused, key), getattr(slow, key), rtol=TOL, atol=TOL, err_msg=key)
+    assert np.abs(fused.bias_std[-1] - fused.bias_std[0]).max() > 1e-6     # the stds moved
 
 
 def test_run_dataset_same_by_either_engine(vp, victoria_park_dir, monkeypatch):

@@ -96,7 +96,7 @@ def run_dataset(name: str, path, config: Config, *, first_scan: int | None = Non
         out = _run_orchestrated(slam, data.events, reference, bar)
     times, poses, covs, nlm, nas, final_map, hits, nis, b = out
     ref = (np.concatenate(hits) if hits else np.empty((0, 3))) if trees is not None else None
-    m = 0 if slam.bias_model is None else slam.bias_model.dim     # c.11: only the orchestrator runs them
+    m = 0 if slam.bias_model is None else slam.bias_model.dim     # c.11: the bias states, if any
     return DatasetRun(name, config, data, times, poses, covs, nlm, nas, final_map, time.perf_counter() - t0, load_s,
                       ref, nis, None if b is None else b[:, :m], None if b is None else b[:, m:],
                       slam.bias_model.names if m else (), slam.bias_model.units if m else ())
@@ -193,8 +193,11 @@ def _run_fused(slam: EkfSlam, events, reference: _Reference):
     else:
         final = slam.snapshot()
     nis = np.column_stack([np.repeat(np.arange(len(scans), dtype=float), r["nis_count"]), r["nis"]])
+    bias = None
+    if r["bias"].shape[1]:                                  # c.11: the values and stds, as _run_orchestrated
+        bias = np.concatenate([r["bias"], np.sqrt(np.diagonal(r["bias_covs"], axis1=1, axis2=2))], axis=1)
     return (np.array([ev.t for ev in scans], dtype=float), poses, r["pose_covs"], r["n_landmarks"],
-            r["n_associated"], final, hits, nis, None)
+            r["n_associated"], final, hits, nis, bias)
 
 
 def dead_reckoning(data, config: Config) -> tuple[np.ndarray, np.ndarray]:

@@ -28,7 +28,59 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-__all__ = ["InputBias"]
+__all__ = ["InputBias", "TURN_BOTH", "TURN_CODES", "TURN_OFFSET", "TURN_SCALE", "correct_input",
+           "input_jacobians", "turn_terms"]
+
+
+#: The turning input's error (``InputBias.turn``) as the kernels take it: an offset, a scale or both.
+TURN_OFFSET, TURN_SCALE, TURN_BOTH = 0, 1, 2
+TURN_CODES = {"offset": TURN_OFFSET, "scale": TURN_SCALE, "both": TURN_BOTH}
+
+
+def turn_terms(b, turn):
+    """``(delta, kappa)``: the turning input's offset and scale among the bias states ``b`` of the
+    turn form ``turn`` (TURN_OFFSET ``b = [eps, delta]``, TURN_SCALE ``[eps, kappa]``, TURN_BOTH
+    ``[eps, delta, kappa]``). A kernel (the fused engine compiles it as it is)."""
+    if turn == TURN_OFFSET:
+        return b[1], 0.0
+    if turn == TURN_SCALE:
+        return 0.0, b[1]
+    return b[1], b[2]
+
+
+def correct_input(u, b, scaled, offset, turn):
+    """``u_c = c(u, b)`` (m,), a new array: ``(1 + eps) u[i]`` for ``i`` in ``scaled`` (int64 indices),
+    ``(1 + kappa) u[k] + delta`` at ``k = offset`` (:func:`turn_terms`), every other entry as it is.
+    A kernel (the fused engine compiles it as it is)."""
+    uc = u.copy()
+    for a in range(scaled.shape[0]):
+        i = scaled[a]
+        uc[i] = (1.0 + b[0]) * uc[i]
+    delta, kappa = turn_terms(b, turn)
+    uc[offset] = (1.0 + kappa) * uc[offset] + delta
+    return uc
+
+
+def input_jacobians(u, b, scaled, offset, turn):
+    """``(C_u (m, m), C_b (m, dim))``: ``d u_c / d u`` (diagonal: ``1 + eps`` on the scaled inputs,
+    ``1 + kappa`` on the turning input, 1 elsewhere) and ``d u_c / d b`` (``u[i]`` in column 0 for
+    the scaled inputs; at the turning input 1 in the offset's column, ``u[k]`` in the scale's) of
+    :func:`correct_input`. A kernel (the fused engine compiles it as it is)."""
+    m, k = u.shape[0], offset
+    Cu = np.eye(m)
+    Cb = np.zeros((m, 3 if turn == TURN_BOTH else 2))
+    for a in range(scaled.shape[0]):
+        i = scaled[a]
+        Cu[i, i] = 1.0 + b[0]
+        Cb[i, 0] = u[i]
+    Cu[k, k] = 1.0 + turn_terms(b, turn)[1]
+    if turn == TURN_OFFSET:
+        Cb[k, 1] = 1.0
+    elif turn == TURN_SCALE:
+        Cb[k, 1] = u[k]
+    else:
+        Cb[k, 1], Cb[k, 2] = 1.0, u[k]
+    return Cu, Cb
 
 
 @dataclass(frozen=True)
@@ -62,22 +114,24 @@ class InputBias:
                         "both": (self.names + (scale_name,), self.units + ("1",))}[turn]
         return replace(self, turn=turn, names=names, units=units)
 
+    @property
+    def turn_code(self) -> int:
+        """The turning input's error as the kernels take it: TURN_OFFSET, TURN_SCALE or TURN_BOTH."""
+        return TURN_CODES[self.turn]
+
+    @property
+    def scaled_index(self) -> np.ndarray:
+        """The scaled inputs as the kernels take them: an int64 array."""
+        return np.array(self.scaled, dtype=np.int64)
+
     def _turn(self, b) -> tuple[float, float]:
         """``(delta, kappa)`` of the bias states ``b``: the turning input's offset and scale."""
-        if self.turn == "offset":
-            return b[1], 0.0
-        if self.turn == "scale":
-            return 0.0, b[1]
-        return b[1], b[2]
+        return turn_terms(b, self.turn_code)
 
     def correct(self, u: np.ndarray, b: np.ndarray) -> np.ndarray:
-        """``u_c = c(u, b)`` (m,): the input with the bias states ``b`` applied."""
-        uc = np.array(u, dtype=float)
-        for i in self.scaled:
-            uc[i] = (1.0 + b[0]) * uc[i]
-        delta, kappa = self._turn(b)
-        uc[self.offset] = (1.0 + kappa) * uc[self.offset] + delta
-        return uc
+        """``u_c = c(u, b)`` (m,): the input with the bias states ``b`` applied (:func:`correct_input`)."""
+        return correct_input(np.asarray(u, dtype=float), np.asarray(b, dtype=float), self.scaled_index,
+                             self.offset, self.turn_code)
 
     def uncorrect(self, u: np.ndarray, b: np.ndarray) -> np.ndarray:
         """``c^{-1}(u, b)``: the reading whose correction is ``u`` (the simulator's biased odometer)."""
@@ -89,23 +143,9 @@ class InputBias:
         return um
 
     def jacobians(self, u: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(C_u (m, m), C_b (m, dim))``: ``d u_c / d u`` (diagonal: ``1 + eps`` on the scaled inputs,
-        ``1 + kappa`` on the turning input, 1 elsewhere) and ``d u_c / d b`` (``u[i]`` in column 0 for
-        the scaled inputs; at the turning input 1 in the offset's column, ``u[k]`` in the scale's)."""
-        m, k = len(u), self.offset
-        Cu = np.eye(m)
-        Cb = np.zeros((m, self.dim))
-        for i in self.scaled:
-            Cu[i, i] = 1.0 + b[0]
-            Cb[i, 0] = u[i]
-        Cu[k, k] = 1.0 + self._turn(b)[1]
-        if self.turn == "offset":
-            Cb[k, 1] = 1.0
-        elif self.turn == "scale":
-            Cb[k, 1] = u[k]
-        else:
-            Cb[k, 1], Cb[k, 2] = 1.0, u[k]
-        return Cu, Cb
+        """``(C_u (m, m), C_b (m, dim))`` of :func:`input_jacobians`."""
+        return input_jacobians(np.asarray(u, dtype=float), np.asarray(b, dtype=float), self.scaled_index,
+                               self.offset, self.turn_code)
 
     def _turn_values(self, offset: float, scale: float) -> list[float]:
         return {"offset": [offset], "scale": [scale], "both": [offset, scale]}[self.turn]

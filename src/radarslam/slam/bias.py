@@ -27,8 +27,8 @@ from radarslam.slam import ekf
 from radarslam.slam.layout import POSE_DIM
 from radarslam.slam.state import SlamState
 
-__all__ = ["BiasStates", "bias_states", "control_noise", "initial_state", "measurement_noise", "predict_terms",
-           "turn_noise", "turn_noise_index"]
+__all__ = ["BiasStates", "bias_states", "bias_transition", "control_noise", "initial_state", "measurement_noise",
+           "platform_jacobian", "platform_prediction", "predict_terms", "turn_noise", "turn_noise_index"]
 
 
 class BiasStates:
@@ -51,53 +51,87 @@ class BiasStates:
         return POSE_DIM + self.dim
 
     def transition(self, dt: float) -> tuple[float, np.ndarray]:
-        """``(phi, Q_b (m,))``: the decay of the bias over ``dt`` and the variance its drift adds
-        (c.11.2): a random walk ``(1, q^2 dt)``, a Gauss-Markov process
-        ``(exp(-dt / tau), q^2 tau / 2 (1 - phi^2))``."""
-        q2 = self.drift * self.drift
-        if self.tau <= 0.0:
-            return 1.0, q2 * dt
-        phi = math.exp(-dt / self.tau)
-        return phi, q2 * (0.5 * self.tau) * (1.0 - phi * phi)
+        """``(phi, Q_b (m,))`` of :func:`bias_transition` over ``dt``."""
+        return bias_transition(dt, self.drift, self.tau)
 
     def jacobians(self, pose: np.ndarray, b: np.ndarray, u: np.ndarray, dt: float, model):
         """``(F_s (p, p), G (3, len(u)), u_c)``: the platform block's transition Jacobian
-        ``[[F_x, F_u C_b], [0, Phi]]``, the Jacobian of the new pose in the measured input
-        ``F_u C_u``, and the corrected input (c.11.2)."""
+        ``[[F_x, F_u C_b], [0, Phi]]`` (:func:`platform_jacobian`), the Jacobian of the new pose in
+        the measured input ``F_u C_u``, and the corrected input (c.11.2)."""
         uc = self.spec.correct(u, b)
         Cu, Cb = self.spec.jacobians(u, b)
         Fx, Fu = model.jacobians(pose, uc, dt)
         phi, _ = self.transition(dt)
-        p = self.platform_dim
-        F = np.zeros((p, p))
-        F[:POSE_DIM, :POSE_DIM] = Fx
-        F[:POSE_DIM, POSE_DIM:] = Fu @ Cb
-        F[POSE_DIM:, POSE_DIM:] = phi * np.eye(self.dim)
-        return F, Fu @ Cu, uc
+        return platform_jacobian(Fx, Fu, Cb, phi), Fu @ Cu, uc
 
     def predict_terms(self, x: np.ndarray, P: np.ndarray, u: np.ndarray, dt: float, model, U: np.ndarray,
                       Q: np.ndarray, pose_first: np.ndarray | None = None
                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """:func:`radarslam.slam.ekf.predict_terms` for the platform block with bias states: the new
         block ``(p,)``, its covariance ``(p, p)`` and its cross-covariance with the landmarks
-        ``(p, n - p)``, without touching ``x`` or ``P`` (c.11.2); :func:`~radarslam.slam.ekf.apply_prediction`
-        writes them. With ``pose_first`` (3,), the first estimate of the current pose, the pose
-        block's heading column is the first-estimates one (c.2.1, c.11.7); ``F_u C_b`` and ``Phi``
-        stay at the estimate (the global rotation and translation leave the biases unchanged, so
-        these columns do not enter the nullspace condition)."""
+        ``(p, n - p)``, without touching ``x`` or ``P`` (c.11.2; :func:`platform_prediction`);
+        :func:`~radarslam.slam.ekf.apply_prediction` writes them. With ``pose_first`` (3,), the first
+        estimate of the current pose, the pose block's heading column is the first-estimates one
+        (c.2.1, c.11.7); ``F_u C_b`` and ``Phi`` stay at the estimate (the global rotation and
+        translation leave the biases unchanged, so these columns do not enter the nullspace
+        condition). The fused engine runs the same kernels (:mod:`radarslam.slam.fused.bias`)."""
         p = self.platform_dim
         pose, b = x[:POSE_DIM], x[POSE_DIM:p]
-        F, G, uc = self.jacobians(pose, b, u, dt, model)
-        phi, qb = self.transition(dt)
+        uc = self.spec.correct(u, b)
+        Cu, Cb = self.spec.jacobians(u, b)
+        Fx, Fu = model.jacobians(pose, uc, dt)
         new_pose = model.step(pose, uc, dt)
         if pose_first is not None:
-            F[:POSE_DIM, :POSE_DIM] = ekf.fej_motion_jacobian(F[:POSE_DIM, :POSE_DIM], new_pose, pose_first)
-        Pss = F @ P[:p, :p] @ F.T
-        Pss[:POSE_DIM, :POSE_DIM] += G @ U @ G.T + Q
-        Pss[POSE_DIM:, POSE_DIM:] += np.diag(qb)
-        Pss = 0.5 * (Pss + Pss.T)
-        s = np.concatenate([new_pose, phi * b])
-        return s, Pss, F @ P[:p, p:]
+            Fx = ekf.fej_motion_jacobian(Fx, new_pose, pose_first)
+        phi, qb = self.transition(dt)
+        return platform_prediction(new_pose, b, P, Fx, Fu, Cu, Cb, phi, qb, U, Q)
+
+
+def bias_transition(dt, drift, tau):
+    """``(phi, Q_b (m,))``: the decay of the bias states over ``dt`` and the variance their drift
+    ``drift`` (m,) adds (c.11.2): for a random walk (``tau <= 0``) ``(1, q^2 dt)``, for a
+    Gauss-Markov process of time constant ``tau`` ``(exp(-dt / tau), q^2 tau / 2 (1 - phi^2))``.
+    A kernel (the fused engine compiles it as it is)."""
+    q2 = drift * drift
+    if tau <= 0.0:
+        return 1.0, q2 * dt
+    phi = math.exp(-dt / tau)
+    return phi, q2 * (0.5 * tau) * (1.0 - phi * phi)
+
+
+def platform_jacobian(Fx, Fu, Cb, phi):
+    """``F_s = [[F_x, F_u C_b], [0, phi I]]`` (p, p), ``p = 3 + m`` with ``m`` the columns of ``C_b``
+    (c.11.2). A kernel (the fused engine compiles it as it is)."""
+    m = Cb.shape[1]
+    p = POSE_DIM + m
+    F = np.zeros((p, p))
+    F[:POSE_DIM, :POSE_DIM] = Fx
+    F[:POSE_DIM, POSE_DIM:] = Fu @ Cb
+    for i in range(m):
+        F[POSE_DIM + i, POSE_DIM + i] = phi
+    return F
+
+
+def platform_prediction(pose_new, b, P, Fx, Fu, Cu, Cb, phi, qb, U, Q):
+    """The prediction of the platform block with bias states (c.11.2): the new block
+    ``s = [pose_new, phi b]`` (p,), ``P_ss = F_s P_ss F_s^T + blockdiag(G U G^T + Q, diag(qb))``
+    (symmetrised, (p, p)) and ``F_s P_sl`` (p, n - p), with ``F_s`` of :func:`platform_jacobian` and
+    ``G = F_u C_u``; ``F_x``, ``F_u`` the model's Jacobians at the corrected input (``F_x`` the
+    first-estimates one under FEJ), ``C_u``, ``C_b`` the correction's. ``P`` is left as it is. A
+    kernel (the fused engine compiles it as it is)."""
+    m = b.shape[0]
+    p = POSE_DIM + m
+    F = platform_jacobian(Fx, Fu, Cb, phi)
+    G = Fu @ Cu
+    Pss = F @ np.ascontiguousarray(P[:p, :p]) @ np.ascontiguousarray(F.T)
+    Pss[:POSE_DIM, :POSE_DIM] += G @ U @ np.ascontiguousarray(G.T) + Q
+    for i in range(m):
+        Pss[POSE_DIM + i, POSE_DIM + i] += qb[i]
+    Pss = 0.5 * (Pss + Pss.T)
+    s = np.empty(p)
+    s[:POSE_DIM] = pose_new
+    s[POSE_DIM:] = phi * b
+    return s, Pss, F @ np.ascontiguousarray(P[:p, p:])
 
 
 def bias_states(model, f) -> BiasStates | None:

@@ -15,6 +15,7 @@ import numpy as np
 from numba import njit, objmode
 
 from radarslam.landmarks.confirmation import Tentatives
+from radarslam.slam.fused.bias import predict_platform
 from radarslam.slam.fused.extent import extent_step
 from radarslam.slam.fused.gate import moving_young, remember, veto
 from radarslam.slam.fused.mapping import alpha_test, augment, cluster, confirm, merge
@@ -34,7 +35,6 @@ from radarslam.slam.fused.tracking import (
     _to_world,
     associate_and_update,
     group_associations,
-    predict,
     remove_unseen,
     sift,
     turn_noise,
@@ -85,7 +85,7 @@ def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
     N, next_id = 0, 0
     tent = Tentatives(np.empty((0, 2)), np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64),
                       np.empty(0, dtype=np.int64))      # tentatives (Rule 2)
-    rec, maps = new_records(S, 64)
+    rec, maps = new_records(S, 64, cfg.platform - 3)     # the odometry-bias states (c.11) after the pose
     arcs, n_arcs = new_arcs(64), 0                         # visible-arc widths (a.9)
     mem, n_mem, n_now = new_memory(16), 0, 0               # the Doppler gate's memory (c.10.4)
     a_rows = np.empty((64, 3), dtype=np.int64)
@@ -107,7 +107,7 @@ def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
                 u, dt, U, Q, model = (stream.vel[e_vel], stream.vel_dt[e_vel], stream.vel_U[e_vel],
                                       stream.vel_Q[e_vel], BODY_VELOCITY)
                 e_vel += 1
-            if not predict(x, P, u, dt, U, Q, pose_first, model, cfg):
+            if not predict_platform(x, P, u, dt, U, Q, pose_first, model, cfg):      # c.2, c.11.2
                 status[0], status[1] = BAD_PREDICTION, ev
                 break
             dt_since += dt
@@ -120,7 +120,7 @@ def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
             mem, n_mem, n_now = remember(mem, n_mem, seen, x, k, cfg)
         dt = dt_since if s > 0 else 0.0
         dt_since = 0.0
-        prior = _blocks(x, P)                                                      # Decision 3
+        prior = _blocks(x, P, cfg.platform)                                        # Decision 3
         cand = sift(x, P, polar, lm, N, prior, noise, cfg)                         # 3
         cidx = np.flatnonzero(cand)
         x, P, out, nis = associate_and_update(x, P, polar, cidx, lm, N, pose_first, noise, cfg)  # 4

@@ -182,7 +182,7 @@ def extent_step(x, P, polar, xy, lm, N, old, aoff, arow, prior, dt, arcs, n_arcs
         return lm, arcs, n_arcs
     pos_prior, cov_prior = prior
     if cfg.posterior:
-        cents, ccovs = _blocks(x, P)
+        cents, ccovs = _blocks(x, P, cfg.platform)
     else:
         cents = np.empty((N, 2))
         ccovs = np.empty((N, 2, 2))

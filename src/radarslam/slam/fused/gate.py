@@ -71,7 +71,7 @@ def moving_young(x, lm, N, k, mem, n_now, cfg):  # pragma: no cover - compiled
     r2 = cfg.gate_radius * cfg.gate_radius
     for j in range(N):
         if k - lm.created[j] < cfg.gate_probation:
-            out[j] = _near(x[3 + 2 * j], x[4 + 2 * j], mem.now, n_now, r2)
+            out[j] = _near(x[cfg.platform + 2 * j], x[cfg.platform + 1 + 2 * j], mem.now, n_now, r2)
     return out
 
 

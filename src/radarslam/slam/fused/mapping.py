@@ -19,7 +19,6 @@ from radarslam.landmarks.confirmation import Tentatives
 from radarslam.models.radar import inverse_jacobians, polar_to_xy
 from radarslam.slam import ekf
 from radarslam.slam._numba import _polar_to_sensor_xy, min_log_distance
-from radarslam.slam.layout import POSE_DIM
 from radarslam.slam.fused.storage import (
     Clusters,
     _drop_state_rows,
@@ -70,7 +69,7 @@ def alpha_test(x, P, polar, clusters, noise, cfg):  # pragma: no cover - compile
     nf = 0
     for c in range(nc):
         i = cl_centre[c]
-        if min_log_distance(x, P, polar[i, 0], polar[i, 1], cfg.n_new, noise.R, POSE_DIM) > cfg.alpha:
+        if min_log_distance(x, P, polar[i, 0], polar[i, 1], cfg.n_new, noise.R, cfg.platform) > cfg.alpha:
             fresh[nf] = c
             nf += 1
     return fresh[:nf]
@@ -153,7 +152,7 @@ def merge(x, P, lm, N, arcs, cfg):  # pragma: no cover - compiled
             break
         pos = np.empty((N, 2))
         for j in range(N):
-            pos[j, 0], pos[j, 1] = x[3 + 2 * j], x[4 + 2 * j]
+            pos[j, 0], pos[j, 1] = x[cfg.platform + 2 * j], x[cfg.platform + 1 + 2 * j]
         bi, bj = _closest_pair(pos, lm.created[:N], lm.ids[:N], cfg.merge_distance, cfg.merge_axis_tol)
         if bi < 0:
             break

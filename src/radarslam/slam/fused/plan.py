@@ -81,6 +81,12 @@ class FusedParams(NamedTuple):
     gate_radius: float     #: filter.doppler_memory_radius_m
     turn_index: int        #: the turning input whose variance grows with the turn (c.11.8), -1 for none
     turn_gain2: float      #: its k^2 (slam.bias.turn_noise_gain2)
+    platform: int          #: the platform block's size: 3, or 3 + m with m odometry-bias states (c.11)
+    bias_scaled: np.ndarray  #: (k,) int64, the inputs the speed-scale bias scales (InputBias.scaled; empty: none)
+    bias_offset: int       #: the turning input (InputBias.offset)
+    bias_turn: int         #: its error: models.input_bias.TURN_OFFSET, TURN_SCALE or TURN_BOTH (c.11.8)
+    bias_drift: np.ndarray   #: (m,) the bias states' drift per sqrt(s) (BiasStates.drift)
+    bias_tau: float        #: their time constant, 0 for a random walk (filter.bias_tau_s)
 
 
 class Stream(NamedTuple):
@@ -141,7 +147,6 @@ def why_not(slam, events=None) -> str | None:
         (f.backend == "numba", f"filter.backend is {f.backend!r}"),
         (getattr(slam, "view", None) is None, "the partial-view model (docs/method.md a.12)"),
         (not f.doppler_gate or type(slam._gate) is DopplerGate, f"Doppler gate {type(slam._gate).__name__}"),
-        (f.odometry_bias == "none", "filter.odometry_bias 'states' (odometry-bias states, docs/method.md c.11)"),
         # under Doppler odometry (c.10.5) the body-velocity model drives every prediction, not slam.model
         (f.odometry != "odometer" or type(slam.model) in (UnicycleModel, AckermannModel),
          f"motion model {type(slam.model).__name__}"),
@@ -229,7 +234,19 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
         doppler_gate=bool(f.doppler_gate), gate_memory=int(f.doppler_memory_scans),
         gate_probation=int(f.doppler_probation_scans), gate_radius=float(f.doppler_memory_radius_m),
         turn_index=-1 if slam._turn_k[0] is None else int(slam._turn_k[0]), turn_gain2=float(slam._turn_k[1]),
+        **_bias_parameters(slam.bias_model),
     )
+
+
+def _bias_parameters(bias) -> dict:
+    """The :class:`FusedParams` fields of the odometry-bias states ``bias`` (a
+    :class:`~radarslam.slam.bias.BiasStates`, or None without them; c.11)."""
+    if bias is None:
+        return dict(platform=3, bias_scaled=np.zeros(0, dtype=np.int64), bias_offset=0, bias_turn=0,
+                    bias_drift=np.zeros(0), bias_tau=0.0)
+    return dict(platform=int(bias.platform_dim), bias_scaled=bias.spec.scaled_index,
+                bias_offset=int(bias.spec.offset), bias_turn=int(bias.spec.turn_code),
+                bias_drift=np.ascontiguousarray(bias.drift, dtype=float), bias_tau=float(bias.tau))
 
 
 def _stream_arrays(events, fast: bool = True, slam=None) -> Stream:
@@ -361,7 +378,9 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None):
     ``map_offsets[-2]:map_offsets[-1]``; a long recording's maps need not be kept); ``trace``, a
     boolean per scan, records the landmarks' ids and centroids after the scans it marks
     (``trace_offsets``, ``trace_ids``, ``trace_positions``). ``nis`` holds the NIS of every update,
-    those of scan ``s`` at ``nis_offsets[s]:nis_offsets[s + 1]``.
+    those of scan ``s`` at ``nis_offsets[s]:nis_offsets[s + 1]``. ``bias`` (S, m) and ``bias_covs``
+    (S, m, m) are the odometry-bias states and their covariance after each scan (docs/method.md
+    c.11; m = 0 without them).
 
     Raises
     ------
@@ -396,7 +415,8 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None):
            "n_landmarks": rec.n_lm, "nis_sum": rec.nis_sum, "nis_count": rec.nis_cnt, "map_offsets": rec.map_off,
            "ids": maps.ids, "positions": maps.pos, "covs": maps.cov, "rma": maps.rma, "efa": maps.efa,
            "created": maps.created, "nis": rec.nis, "nis_offsets": rec.nis_off, "trace_offsets": rec.trace_off,
-           "trace_ids": rec.trace_ids, "trace_positions": rec.trace_pos}
+           "trace_ids": rec.trace_ids, "trace_positions": rec.trace_pos, "bias": rec.bias,
+           "bias_covs": rec.bias_covs}
     if timing:
         out["seconds"] = rec.seconds
     return out, arows

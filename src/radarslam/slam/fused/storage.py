@@ -90,6 +90,8 @@ class ScanRecord(NamedTuple):
     trace_off: np.ndarray  #: (S + 1,) int64, the landmarks after scan s are trace rows trace_off[s]:trace_off[s + 1]
     trace_ids: np.ndarray  #: (t,) int64 their ids (only after the scans ``Stream.trace`` marks)
     trace_pos: np.ndarray  #: (t, 2) their centroids
+    bias: np.ndarray       #: (S, m) the odometry-bias states (docs/method.md c.11; m = 0 without them)
+    bias_covs: np.ndarray  #: (S, m, m) their covariance
 
 
 class MapRows(NamedTuple):
@@ -128,17 +130,19 @@ def _grow_buffer(buf, n):  # pragma: no cover - compiled
 
 @njit(cache=True, inline="always")
 def _drop_state_rows(x, P, keep):  # pragma: no cover - compiled
-    """``x`` and ``P`` without the landmarks whose ``keep`` is False (ekf.remove_landmarks)."""
+    """``x`` and ``P`` without the landmarks whose ``keep`` is False (ekf.remove_landmarks); the
+    platform block is what precedes the ``keep.shape[0]`` landmarks."""
     N = keep.shape[0]
-    rows = np.empty(3 + 2 * N, dtype=np.int64)
+    p = x.shape[0] - 2 * N
+    rows = np.empty(p + 2 * N, dtype=np.int64)
     n = 0
-    for i in range(3):
+    for i in range(p):
         rows[n] = i
         n += 1
     for j in range(N):
         if keep[j]:
-            rows[n] = 3 + 2 * j
-            rows[n + 1] = 4 + 2 * j
+            rows[n] = p + 2 * j
+            rows[n + 1] = p + 1 + 2 * j
             n += 2
     x_new = np.empty(n)
     P_new = np.empty((n, n))
@@ -150,13 +154,14 @@ def _drop_state_rows(x, P, keep):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def _blocks(x, P):  # pragma: no cover - compiled
-    """Landmark centroids ``(N, 2)`` and their 2 x 2 covariance blocks ``(N, 2, 2)``."""
-    N = (x.shape[0] - 3) // 2
+def _blocks(x, P, platform):  # pragma: no cover - compiled
+    """Landmark centroids ``(N, 2)`` and their 2 x 2 covariance blocks ``(N, 2, 2)`` after a
+    platform block of ``platform`` entries."""
+    N = (x.shape[0] - platform) // 2
     pos = np.empty((N, 2))
     cov = np.empty((N, 2, 2))
     for j in range(N):
-        i = 3 + 2 * j
+        i = platform + 2 * j
         pos[j, 0] = x[i]
         pos[j, 1] = x[i + 1]
         cov[j, 0, 0] = P[i, i]
@@ -291,12 +296,14 @@ def arc_values(arcs, lm, j):  # pragma: no cover - compiled
 
 # ---------------------------------------------------------------------------------------- outputs
 @njit(cache=True, inline="always")
-def new_records(S, cap):  # pragma: no cover - compiled
-    """The per-scan record of ``S`` scans and map rows with room for ``cap`` landmarks."""
+def new_records(S, cap, m):  # pragma: no cover - compiled
+    """The per-scan record of ``S`` scans with ``m`` odometry-bias states and map rows with room for
+    ``cap`` landmarks."""
     rec = ScanRecord(np.empty((S, 3)), np.empty((S, 3, 3)), np.zeros(S, dtype=np.int64), np.zeros(S, dtype=np.int64),
                      np.zeros(S, dtype=np.int64), np.zeros(S), np.zeros(S, dtype=np.int64),
                      np.zeros(S + 1, dtype=np.int64), np.zeros(S), np.empty(cap), np.zeros(S + 1, dtype=np.int64),
-                     np.zeros(S + 1, dtype=np.int64), np.empty(cap, dtype=np.int64), np.empty((cap, 2)))
+                     np.zeros(S + 1, dtype=np.int64), np.empty(cap, dtype=np.int64), np.empty((cap, 2)),
+                     np.empty((S, m)), np.empty((S, m, m)))
     maps = MapRows(np.empty(cap, dtype=np.int64), np.empty((cap, 2)), np.empty((cap, 2, 2)), np.empty((cap, 2, 2)),
                    np.empty((cap, 2, 2)), np.empty(cap, dtype=np.int64))
     return rec, maps
@@ -305,9 +312,13 @@ def new_records(S, cap):  # pragma: no cover - compiled
 @njit(cache=True, inline="always")
 def record_scan(rec, s, x, P, lm, N, m, n_assoc, nis, trace):  # pragma: no cover - compiled
     """The record after scan ``s`` (run_filter): pose, counts, the NIS of every update and, with
-    ``trace``, the landmarks' ids and centroids. Returns ``rec`` (its logs may grow)."""
+    ``trace``, the landmarks' ids and centroids; the odometry-bias states and their covariance (c.11).
+    Returns ``rec`` (its logs may grow)."""
+    p = x.shape[0] - 2 * N                                  # the platform block
     rec.poses[s] = x[:3]
     rec.pose_covs[s] = P[:3, :3]
+    rec.bias[s] = x[3:p]
+    rec.bias_covs[s] = P[3:p, 3:p]
     rec.n_det[s] = m
     rec.n_ass[s] = n_assoc
     rec.n_lm[s] = N
@@ -326,10 +337,10 @@ def record_scan(rec, s, x, P, lm, N, m, n_assoc, nis, trace):  # pragma: no cove
         ids, pos = _grow_rows(ids, t0 + N), _grow_rows(pos, t0 + N)
         for j in range(N):
             ids[t0 + j] = lm.ids[j]
-            pos[t0 + j, 0], pos[t0 + j, 1] = x[3 + 2 * j], x[4 + 2 * j]
+            pos[t0 + j, 0], pos[t0 + j, 1] = x[p + 2 * j], x[p + 1 + 2 * j]
     rec.trace_off[s + 1] = t0 + (N if trace else 0)
     return ScanRecord(rec.poses, rec.pose_covs, rec.n_det, rec.n_ass, rec.n_lm, rec.nis_sum, rec.nis_cnt,
-                      rec.map_off, rec.seconds, n_log, rec.nis_off, rec.trace_off, ids, pos)
+                      rec.map_off, rec.seconds, n_log, rec.nis_off, rec.trace_off, ids, pos, rec.bias, rec.bias_covs)
 
 
 @njit(cache=True, inline="always")
@@ -344,7 +355,7 @@ def record_map(rec, maps, s, x, P, lm, N, arcs, cfg):  # pragma: no cover - comp
         maps = MapRows(_grow_rows(maps.ids, n), _grow_rows(maps.pos, n), _grow_rows(maps.cov, n),
                        _grow_rows(maps.rma, n), _grow_rows(maps.efa, n), _grow_rows(maps.created, n))
     for j in range(N):
-        i = 3 + 2 * j
+        i = cfg.platform + 2 * j
         r = base + j
         maps.ids[r] = lm.ids[j]
         maps.created[r] = lm.created[j]
@@ -376,6 +387,6 @@ def cut_records(rec, maps, s):  # pragma: no cover - compiled
     rec = ScanRecord(rec.poses[:s], rec.pose_covs[:s], rec.n_det[:s], rec.n_ass[:s], rec.n_lm[:s], rec.nis_sum[:s],
                      rec.nis_cnt[:s], rec.map_off[:s + 1], rec.seconds[:s], rec.nis[:u], rec.nis_off[:s + 1],
                      rec.trace_off[:s + 1],
-                     rec.trace_ids[:t], rec.trace_pos[:t])
+                     rec.trace_ids[:t], rec.trace_pos[:t], rec.bias[:s], rec.bias_covs[:s])
     maps = MapRows(maps.ids[:n], maps.pos[:n], maps.cov[:n], maps.rma[:n], maps.efa[:n], maps.created[:n])
     return rec, maps

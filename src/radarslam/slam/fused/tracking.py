@@ -160,14 +160,14 @@ def sift(x, P, polar, lm, N, prior, noise, cfg):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def _linearisation(lm, N, pose_first):  # pragma: no cover - compiled
+def _linearisation(x, lm, N, pose_first, platform):  # pragma: no cover - compiled
     """The first estimates (c.2.1) as the compiled associators take them (``xlin``,
-    SlamState.linearisation_all): the pose ``pose_first`` (the prediction), every landmark at its
-    centroid at birth."""
-    xlin = np.empty(POSE_DIM + 2 * N)
+    SlamState.linearisation_all): ``x`` with the pose ``pose_first`` (the prediction) and every
+    landmark at its centroid at birth (the bias states of c.11, which no measurement reads, as they are)."""
+    xlin = x.copy()
     xlin[:POSE_DIM] = pose_first
     for j in range(N):
-        xlin[POSE_DIM + 2 * j], xlin[POSE_DIM + 2 * j + 1] = lm.first[j, 0], lm.first[j, 1]
+        xlin[platform + 2 * j], xlin[platform + 2 * j + 1] = lm.first[j, 0], lm.first[j, 1]
     return xlin
 
 
@@ -193,19 +193,19 @@ def associate_and_update(x, P, polar, cidx, lm, N, pose_first, noise, cfg):  # p
                 gX[j] = noise.prior_spread
                 has[j] = True
     R = noise.R_assoc                                   # c.11.9: n_c R (R for independent errors)
-    xlin = _linearisation(lm, N, pose_first) if cfg.fej else np.empty(0)
+    xlin = _linearisation(x, lm, N, pose_first, cfg.platform) if cfg.fej else np.empty(0)
     if cfg.assoc == 0:
-        x, P, out, nis = associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta, POSE_DIM, xlin)
+        x, P, out, nis = associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta, cfg.platform, xlin)
     elif cfg.assoc == 3:
-        x, P, out, nis, _ = jcbb_associate_scan(x, P, polar, cidx, R, gX, has, POSE_DIM, cfg.jcbb_eps,
+        x, P, out, nis, _ = jcbb_associate_scan(x, P, polar, cidx, R, gX, has, cfg.platform, cfg.jcbb_eps,
                                                 cfg.jcbb_min_samples, cfg.jcbb_prefilter, noise.gates,
                                                 cfg.jcbb_max_nodes)
     elif cfg.assoc == 1:
-        x, P, out, nis = batch_associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta, POSE_DIM,
-                                              xlin)
+        x, P, out, nis = batch_associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta,
+                                              cfg.platform, xlin)
     else:
         x, P, out, nis = joint_batch_associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta,
-                                                    POSE_DIM, xlin)
+                                                    cfg.platform, xlin)
     return x, P, out, nis
 
 
@@ -236,7 +236,7 @@ def remove_unseen(x, P, lm, N, aoff, k, young, cfg):  # pragma: no cover - compi
     hit = np.empty(N, dtype=np.bool_)
     view = np.empty(N, dtype=np.bool_)
     for j in range(N):
-        i = 3 + 2 * j
+        i = cfg.platform + 2 * j
         dx = x[i] - x[0]
         dy = x[i + 1] - x[1]
         v = math.hypot(dx, dy) <= cfg.max_range
