@@ -28,7 +28,8 @@ COMPILED_SOURCES = (
     "metrics/_compiled.py", "simulation/_compiled.py", "models/radar.py", "models/doppler.py",
     "models/ackermann.py", "models/motion.py", "extent/visible_arc.py", "extent/mem_ekf_kernels.py",
     "extent/ellipse.py", "models/body_velocity.py", "models/_ransac.py", "models/doppler_kernels.py",
-    "models/_doppler_compiled.py", "slam/fused/doppler.py",
+    "models/_doppler_compiled.py", "slam/fused/doppler.py", "slam/view_kernels.py", "slam/_view_compiled.py",
+    "slam/fused/view.py",
 )
 ROOT = Path(__file__).resolve().parents[1]
 STAMP = ROOT / "__pycache__" / "numba-sources.stamp"
