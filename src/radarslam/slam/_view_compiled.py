@@ -14,6 +14,7 @@ from radarslam.slam import ekf, view_kernels
 
 _K = compile_kernels(*partial_view.KERNELS, view_estimator.exp_sym2, view_estimator.arc_rows,
                      ekf.rotate_to_sensor, ekf.batch_noise, *view_kernels.KERNELS)
+exp_sym2 = _K["exp_sym2"]
 view_rows = _K["view_rows"]
 exp_sym2_rows = _K["exp_sym2_rows"]
 shape_error_rows = _K["shape_error_rows"]

@@ -35,7 +35,7 @@ from radarslam.slam.association import (BatchAssociator, JointBatchAssociator, N
                                         Spreads)
 from radarslam.slam.layout import POSE_DIM, landmark_index, n_landmarks
 from radarslam.slam.state import SlamState
-from radarslam.slam.view_kernels import view_batch_noise
+from radarslam.slam.view_kernels import SHAPE_STEP, view_batch_noise
 
 def _kernels():
     """The compiled kernels of :mod:`radarslam.slam.view_kernels` (:mod:`radarslam.slam._view_compiled`)."""
@@ -62,7 +62,7 @@ def _exp_sym2_many(xi: np.ndarray) -> np.ndarray:
     return _kernels().exp_sym2_rows(_rows(xi, np.shape(xi)))
 
 
-def model_errors(x: np.ndarray, spreads: Spreads, js: np.ndarray, step: float = 1e-4,
+def model_errors(x: np.ndarray, spreads: Spreads, js: np.ndarray, step: float = SHAPE_STEP,
                  platform: int = POSE_DIM) -> np.ndarray:
     """``(N, 2, 2)``: the model error of each landmark's predicted mean (a.12.5), ``Q_v``, plus,
     when the shapes come with their covariances, ``J P_xi J^T`` with ``J = dg/dxi`` of the mean

@@ -20,6 +20,8 @@ from radarslam.slam.ekf import batch_noise, rotate_to_sensor
 
 #: ``log((2 pi)^2)`` of the log distance (APSIPA eq. 9).
 LOG_2PI2 = math.log((2.0 * math.pi) ** 2)
+#: Central-difference step on the log-matrix shape of the model error's ``J = dg/dxi`` (a.12.5).
+SHAPE_STEP = 1e-4
 
 
 def view_rows(x: np.ndarray, shapes: np.ndarray, js: np.ndarray, platform: int):

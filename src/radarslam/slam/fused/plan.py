@@ -16,6 +16,7 @@ from typing import NamedTuple
 import numpy as np
 
 from radarslam.slam.fused.engine import BAD_PREDICTION, ODOMETRY, OK, SCAN, VELOCITY, run_stream
+from radarslam.slam.fused.view import ViewParams, view_parameters
 
 
 class FusedParams(NamedTuple):
@@ -81,6 +82,7 @@ class FusedParams(NamedTuple):
     gate_radius: float     #: filter.doppler_memory_radius_m
     turn_index: int        #: the turning input whose variance grows with the turn (c.11.8), -1 for none
     turn_gain2: float      #: its k^2 (slam.bias.turn_noise_gain2)
+    pv: ViewParams         #: the partial-view model's parameters (docs/method.md a.12; fused.view)
 
 
 class Stream(NamedTuple):
@@ -125,9 +127,11 @@ def why_not(slam, events=None) -> str | None:
     neighbourhood; the orchestrator hands such scans to scikit-learn's)."""
     from radarslam.extent.estimator import RmaEfaEstimator
     from radarslam.extent.mem_ekf import MemEkfEstimator
+    from radarslam.extent.view_estimator import PartialViewEstimator
     from radarslam.extent.visible_arc import VisibleArcEstimator
     from radarslam.models.ackermann import AckermannModel
     from radarslam.models.motion import UnicycleModel
+    from radarslam.slam.partial_view import PARTIAL_VIEW_ASSOCIATORS
     from radarslam.models.radar import RangeAzimuthModel
     from radarslam.slam._jcbb_numba import CompiledJcbbAssociator
     from radarslam.slam._numba import (CompiledBatchAssociator, CompiledJointBatchAssociator,
@@ -139,7 +143,8 @@ def why_not(slam, events=None) -> str | None:
     checks = (
         (f.fused, "filter.fused is false"),
         (f.backend == "numba", f"filter.backend is {f.backend!r}"),
-        (getattr(slam, "view", None) is None, "the partial-view model (docs/method.md a.12)"),
+        ((getattr(slam, "view", None) is None) == (type(slam.extent) is not PartialViewEstimator),
+         "the partial-view estimator with the full view, or the partial view with another estimator"),
         (not f.doppler_gate or type(slam._gate) is DopplerGate, f"Doppler gate {type(slam._gate).__name__}"),
         (f.odometry_bias == "none", "filter.odometry_bias 'states' (odometry-bias states, docs/method.md c.11)"),
         # under Doppler odometry (c.10.5) the body-velocity model drives every prediction, not slam.model
@@ -149,9 +154,9 @@ def why_not(slam, events=None) -> str | None:
          f"odometry source {type(slam._odometry).__name__}"),
         (type(slam.measurement) is RangeAzimuthModel, f"measurement model {type(slam.measurement).__name__}"),
         (type(slam.associator) in (CompiledNearestNeighbourAssociator, CompiledBatchAssociator,
-                                   CompiledJointBatchAssociator, CompiledJcbbAssociator),
+                                   CompiledJointBatchAssociator, CompiledJcbbAssociator, *PARTIAL_VIEW_ASSOCIATORS.values()),
          f"associator {type(slam.associator).__name__}"),
-        (type(slam.extent) in (RmaEfaEstimator, VisibleArcEstimator, MemEkfEstimator),
+        (type(slam.extent) in (RmaEfaEstimator, VisibleArcEstimator, MemEkfEstimator, PartialViewEstimator),
          f"extent estimator {type(slam.extent).__name__}"),
         (ec.efa_mode == "per_scan", f"extent.efa_mode {ec.efa_mode!r}"),
         (ec.w_mode == "max_trace", f"extent.w_mode {ec.w_mode!r}"),
@@ -181,6 +186,7 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
     from radarslam.slam.fused.extent import MEM_FULL, MEM_NO_CENTROID, MEM_SENSOR
     from radarslam.slam._numba import CompiledBatchAssociator, CompiledJointBatchAssociator
     from radarslam.slam.fused.tracking import ACKERMANN, UNICYCLE
+    from radarslam.slam.partial_view import PartialViewBatch, PartialViewJointBatch
 
     model = slam.model
     ackermann = type(model) is AckermannModel
@@ -189,8 +195,8 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
 
     in_slam = bool(ec.use_in_slam)
     return FusedParams(
-        assoc={CompiledBatchAssociator: 1, CompiledJointBatchAssociator: 2,
-               CompiledJcbbAssociator: 3}.get(type(slam.associator), 0),
+        assoc={CompiledBatchAssociator: 1, CompiledJointBatchAssociator: 2, CompiledJcbbAssociator: 3,
+               PartialViewBatch: 1, PartialViewJointBatch: 2}.get(type(slam.associator), 0),
         n_near=int(slam.associator.n_nearest), n_new=int(slam.associator.n_nearest_new),
         min_samples=int(lc.cluster_min_samples),
         confirm_points=int(lc.confirm_points), confirm_window=int(lc.confirm_window),
@@ -229,6 +235,7 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
         doppler_gate=bool(f.doppler_gate), gate_memory=int(f.doppler_memory_scans),
         gate_probation=int(f.doppler_probation_scans), gate_radius=float(f.doppler_memory_radius_m),
         turn_index=-1 if slam._turn_k[0] is None else int(slam._turn_k[0]), turn_gain2=float(slam._turn_k[1]),
+        pv=view_parameters(slam),
     )
 
 
