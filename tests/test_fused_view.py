@@ -51,3 +51,11 @@ def test_partial_view_same_as_orchestrator(name, trial):
     assert slam.view is not None and _fused.why_not(slam) is None
     n = _assert_same_run(cfg, _scenario(cfg, trial).events)
     assert n > 500                                    # a real run: hundreds of associations compared
+
+
+def test_partial_view_estimator_under_the_full_view_is_refused():
+    """The partial-view estimator without the partial-view model (its sifting about the arcs'
+    means, the full view's association) is left to the orchestrator, as is the converse."""
+    cfg = _config({"extent": {"estimator": "partial-view", "view_model": "full"}})
+    slam = EkfSlam(cfg)
+    assert slam.view is None and "partial-view estimator" in _fused.why_not(slam)

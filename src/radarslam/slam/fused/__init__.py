@@ -4,8 +4,9 @@
 each cheap, together ~0.4 ms a scan: the orchestration, not the arithmetic, is the cost of a
 car-park trial. For the built-in components (unicycle or Ackermann motion, or Doppler and gyro
 odometry, the Doppler gate, range-azimuth radar or laser, the nearest-neighbour, batch, batch-joint or JCBB
-associator, the RMA/EFA, visible-arc or MEM-EKF* estimator, DBSCAN, the standard or
-first-estimates Jacobians: every shipped profile, the car parks and both Victoria Park modes) this
+associator, the RMA/EFA, visible-arc or MEM-EKF* estimator, the partial-view model with its
+estimator and associators, DBSCAN, the standard or first-estimates Jacobians: every shipped
+profile, the car parks and both Victoria Park modes) this
 package runs the same
 steps over the whole stream inside numba, with the landmark records held in arrays (ids, creation
 scans, M/N windows, extent states and their buffers) instead of Python objects, and records what
@@ -24,7 +25,7 @@ rounding) on whole runs.
 
 Modules: :mod:`.storage` (the records as arrays: growth, removal, the record after a scan),
 :mod:`.tracking` (steps 1-5), :mod:`.extent` (step 6), :mod:`.mapping` (steps 7-10), :mod:`.gate`
-(the Doppler gate), :mod:`.engine` (:func:`run_stream`,
+(the Doppler gate), :mod:`.view` (the partial view, docs/method.md a.12), :mod:`.engine` (:func:`run_stream`,
 the loop of named steps), :mod:`.plan` (the Python side: :func:`why_not`, the parameters by name,
 the stream as arrays, :func:`run`).
 """
