@@ -159,14 +159,14 @@ def test_shape_estimator_converges_on_a_static_ellipse_and_the_rma_stays_biased(
 
 
 def test_components_are_selected_by_the_view_model():
-    """visible-faces with use_in_slam: the partial-view estimator and associator, and the fused
-    engine declines with its reason; the surface model keeps the full view and the fused engine."""
+    """visible-faces with use_in_slam: the partial-view estimator and associator, which the fused
+    engine covers (tests/test_fused_view.py); the surface model keeps the full view."""
     d = to_dict(profile_config())
     d["extent"].update(spread_model="visible-faces", use_in_slam=True)
     d["landmarks"]["associator"] = "batch"
     slam = EkfSlam(from_dict(d))
     assert isinstance(slam.extent, PartialViewEstimator) and isinstance(slam.associator, PartialViewBatch)
-    assert _fused.why_not(slam) == "the partial-view model (docs/method.md a.12)"
+    assert _fused.why_not(slam) is None
     d["extent"]["view_model"] = "full"
     assert EkfSlam(from_dict(d)).view is None
     d["extent"].update(view_model="auto", spread_model="surface")

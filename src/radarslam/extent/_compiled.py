@@ -38,6 +38,9 @@ view_update = _PV["view_update"]
 arc_moments = _PV["arc_moments"]
 arc_mean_shape_jacobian = _PV["arc_mean_shape_jacobian"]
 tangent_points = _PV["tangent_points"]
+arc_rows = _PV["arc_rows"]
+sift_spreads = _PV["sift_spreads"]
+view_scan_data = _PV["view_scan_data"]
 
 
 @njit(cache=True)

@@ -186,18 +186,107 @@ def view_update(xi: np.ndarray, P: np.ndarray, dx: float, dy: float, y: np.ndarr
     return x, 0.5 * (P_new + P_new.T), 0
 
 
+def arc_rows(s0: float, s1: float, centroids: np.ndarray, shapes: np.ndarray):
+    """The visible arcs of the landmarks with ``centroids (N, 2)`` and shapes ``shapes (N, 2, 2)``
+    seen from ``s = (s0, s1)`` (a.12.4): the predicted detection means ``mu = p + g`` ``(N, 2)``,
+    ``B = I - G`` ``(N, 2, 2)`` and the arcs' spreads ``S`` ``(N, 2, 2)``. A kernel."""
+    n = centroids.shape[0]
+    mu = np.empty((n, 2))
+    B = np.empty((n, 2, 2))
+    S = np.empty((n, 2, 2))
+    for a in range(n):
+        px = centroids[a, 0]
+        py = centroids[a, 1]
+        r = arc_moments(s0 - px, s1 - py, shapes[a, 0, 0], shapes[a, 0, 1], shapes[a, 1, 1])
+        mu[a, 0] = px + r[0]
+        mu[a, 1] = py + r[1]
+        B[a, 0, 0] = 1.0 - r[2]
+        B[a, 0, 1] = -r[3]
+        B[a, 1, 0] = -r[4]
+        B[a, 1, 1] = 1.0 - r[5]
+        S[a, 0, 0] = r[6]
+        S[a, 0, 1] = r[7]
+        S[a, 1, 0] = r[7]
+        S[a, 1, 1] = r[8]
+    return mu, B, S
+
+
+def sift_spreads(B: np.ndarray, S: np.ndarray, centroid_covs: np.ndarray, Qv: np.ndarray):
+    """The sifting test's spreads ``S + Q_v`` and the means' covariances ``B P_pp B^T`` (a.12.5),
+    ``(N, 2, 2)`` each, of :func:`arc_rows`' ``B`` and ``S``. A kernel."""
+    n = B.shape[0]
+    spread = np.empty((n, 2, 2))
+    cov = np.empty((n, 2, 2))
+    for a in range(n):
+        C = centroid_covs[a]
+        for i in range(2):
+            t0 = B[a, i, 0] * C[0, 0] + B[a, i, 1] * C[1, 0]
+            t1 = B[a, i, 0] * C[0, 1] + B[a, i, 1] * C[1, 1]
+            for j in range(2):
+                spread[a, i, j] = S[a, i, j] + Qv[i, j]
+                cov[a, i, j] = t0 * B[a, j, 0] + t1 * B[a, j, 1]
+    return spread, cov
+
+
+def view_scan_data(polar: np.ndarray, pts: np.ndarray, theta: float, c0: float, c1: float, R: np.ndarray):
+    """What one scan's ``m >= 1`` detections of a landmark tell its shape (a.12.7): the
+    measurement ``y (5,)`` (the sample mean minus the centroid ``(c0, c1)``, then the entries 00,
+    01, 11 of the sample covariance when ``m >= 3``, else zeros) and the detections' mean sensor
+    noise in the world frame ``Ws (2, 2)`` (seed eq. 5 without the pose's part: ``J R J^T``, ``J``
+    the Jacobian of the detection at heading ``theta``), averaged. A kernel."""
+    m = pts.shape[0]
+    y = np.zeros(5)
+    Ws = np.zeros((2, 2))
+    r00, r01, r10, r11 = R[0, 0], R[0, 1], R[1, 0], R[1, 1]
+    for k in range(m):
+        a = theta + polar[k, 1]
+        c = math.cos(a)
+        s = math.sin(a)
+        r = polar[k, 0]
+        j00, j01, j10, j11 = c, -r * s, s, r * c
+        t00 = j00 * r00 + j01 * r10
+        t01 = j00 * r01 + j01 * r11
+        t10 = j10 * r00 + j11 * r10
+        t11 = j10 * r01 + j11 * r11
+        Ws[0, 0] += t00 * j00 + t01 * j01
+        Ws[0, 1] += t00 * j10 + t01 * j11
+        Ws[1, 0] += t10 * j00 + t11 * j01
+        Ws[1, 1] += t10 * j10 + t11 * j11
+    for i in range(2):
+        for j in range(2):
+            Ws[i, j] = Ws[i, j] / m
+    s0 = 0.0
+    s1 = 0.0
+    for k in range(m):
+        s0 += pts[k, 0]
+        s1 += pts[k, 1]
+    m0 = s0 / m
+    m1 = s1 / m
+    y[0] = m0 - c0
+    y[1] = m1 - c1
+    if m >= 3:
+        a00 = a01 = a11 = 0.0
+        for k in range(m):
+            u = pts[k, 0] - m0
+            v = pts[k, 1] - m1
+            a00 += u * u
+            a01 += u * v
+            a11 += v * v
+        f = 1.0 / (m - 1)
+        y[2] = a00 * f
+        y[3] = a01 * f
+        y[4] = a11 * f
+    return y, Ws
+
+
 #: The kernels of this module, compiled with the arc kernels (extent/_compiled.py).
-KERNELS = (exp_sym2, predicted_rows, solve_spd, view_update)
+KERNELS = (exp_sym2, predicted_rows, solve_spd, view_update, arc_rows, sift_spreads, view_scan_data)
 
 
 def log_matrix_to_X(xi: np.ndarray) -> np.ndarray:
-    """``X = expm(A)`` of the symmetric ``A = [[xi0, xi1], [xi1, xi2]]``, ``(2, 2)``."""
-    a, b, c = float(xi[0]), float(xi[1]), float(xi[2])
-    m, d = 0.5 * (a + c), math.hypot(0.5 * (a - c), b)
-    # expm of a 2 x 2 symmetric matrix: exp(m) (cosh d I + sinh(d)/d (A - m I))
-    sh = math.sinh(d) / d if d > 1e-12 else 1.0
-    e, ch = math.exp(m), math.cosh(d)
-    return e * np.array([[ch + sh * (a - m), sh * b], [sh * b, ch + sh * (c - m)]])
+    """``X = expm(A)`` of the symmetric ``A = [[xi0, xi1], [xi1, xi2]]``, ``(2, 2)`` (:func:`exp_sym2`)."""
+    X11, X12, X22 = exp_sym2(float(xi[0]), float(xi[1]), float(xi[2]))
+    return np.array([[X11, X12], [X12, X22]])
 
 
 def X_to_log_matrix(X: np.ndarray) -> np.ndarray:
@@ -246,10 +335,10 @@ class PartialViewEstimator(RmaEfaEstimator):
         self.spread_only = ec.view_shape_data == "spread"
         self.qv2 = ec.view_model_error_m ** 2
         if backend == "numba":
-            from radarslam.extent._compiled import view_update as compiled
-            self._update = compiled
+            from radarslam.extent._compiled import view_scan_data as data, view_update as compiled
+            self._update, self._data = compiled, data
         else:
-            self._update = view_update
+            self._update, self._data = view_update, view_scan_data
 
     def new(self) -> PartialViewState:
         return PartialViewState(xi=self.xi0.copy(), P_xi=self.P0.copy())
@@ -285,13 +374,11 @@ class PartialViewEstimator(RmaEfaEstimator):
         means' covariances ``B P_pp B^T`` (a.12.5), for every landmark (each has a shape)."""
         if not (self.in_slam and self.c.contour_sifting and states) or points.shape[0] == 0:
             return None
-        from radarslam.extent._compiled import arc_moments_many
-        X = self.view_shapes(states)
-        g, G, S = arc_moments_many(np.ascontiguousarray(pose[:2] - centroids), X)
-        B = np.eye(2) - G
-        covs = B @ centroid_covs @ np.swapaxes(B, 1, 2)
-        inside = self._contour(points, polar, pose, pose_cov, self.R_extent, np.ascontiguousarray(centroids + g),
-                               np.ascontiguousarray(S + self.Qv), np.ascontiguousarray(covs), self.gate)
+        from radarslam.extent._compiled import arc_rows as rows, sift_spreads as spreads
+        mu, B, S = rows(float(pose[0]), float(pose[1]), np.ascontiguousarray(centroids, dtype=float),
+                        self.view_shapes(states))
+        spread, covs = spreads(B, S, np.ascontiguousarray(centroid_covs, dtype=float), self.Qv)
+        inside = self._contour(points, polar, pose, pose_cov, self.R_extent, mu, spread, covs, self.gate)
         return inside, np.ones(len(states), dtype=np.bool_)
 
     def matrix(self, st: PartialViewState) -> np.ndarray | None:
@@ -327,16 +414,8 @@ class PartialViewEstimator(RmaEfaEstimator):
         if m == 0 or not self.c.track:
             return
         d = pose[:2] - centroid
-        # the sensor's noise of each detection in the world frame, averaged (seed eq. 5 without P^m)
-        a = pose[2] + polar[:, 1]
-        c, s, r = np.cos(a), np.sin(a), polar[:, 0]
-        J = np.stack([np.stack([c, -r * s], 1), np.stack([s, r * c], 1)], 1)        # (m, 2, 2)
-        Ws = (J @ self.R_extent @ np.swapaxes(J, 1, 2)).mean(axis=0)
-        y = np.zeros(5)
-        y[:2] = pts.mean(axis=0) - centroid
-        if m >= 3:
-            C = np.cov(pts.T)
-            y[2:] = C[0, 0], C[0, 1], C[1, 1]
+        y, Ws = self._data(np.ascontiguousarray(polar, dtype=float), np.ascontiguousarray(pts, dtype=float),
+                           float(pose[2]), float(centroid[0]), float(centroid[1]), self.R_extent)
         xi, P, status = self._update(st.xi, st.P_xi, float(d[0]), float(d[1]), y, m, Ws,
                                      np.ascontiguousarray(centroid_cov), self.qv2, self.rel, self.spread_only)
         if status == 0:

@@ -35,60 +35,45 @@ from radarslam.slam.association import (BatchAssociator, JointBatchAssociator, N
                                         Spreads)
 from radarslam.slam.layout import POSE_DIM, landmark_index, n_landmarks
 from radarslam.slam.state import SlamState
+from radarslam.slam.view_kernels import SHAPE_STEP, view_batch_noise
 
-_LOG_2PI2 = math.log((2.0 * math.pi) ** 2)
+def _kernels():
+    """The compiled kernels of :mod:`radarslam.slam.view_kernels` (:mod:`radarslam.slam._view_compiled`)."""
+    from radarslam.slam import _view_compiled
+    return _view_compiled
 
 
-def _arc_moments_many():
-    from radarslam.extent._compiled import arc_moments_many
-    return arc_moments_many
+def _rows(a: np.ndarray, shape) -> np.ndarray:
+    """``a`` as a contiguous float array of ``shape`` (a ``(2, 2)`` one repeated for every row)."""
+    return np.ascontiguousarray(np.broadcast_to(np.asarray(a, dtype=float), shape))
 
 
 def view_terms(x: np.ndarray, shapes: np.ndarray, js: np.ndarray | None = None, platform: int = POSE_DIM):
     """``mu (N, 2)``, ``B (N, 2, 2)`` and ``S (N, 2, 2)`` of the landmarks ``js`` (all by default)
     of state ``x`` (its platform block of ``platform`` entries, :mod:`.layout`) seen from its pose,
-    with the shapes ``shapes (N_all, 2, 2)`` (a.12.4)."""
+    with the shapes ``shapes (N_all, 2, 2)`` (a.12.4; :func:`~radarslam.slam.view_kernels.view_rows`)."""
     n = n_landmarks(x.shape[0], platform)
-    js = np.arange(n) if js is None else np.asarray(js, dtype=np.int64)
-    p = x[platform:].reshape(-1, 2)[js]
-    g, G, S = _arc_moments_many()(np.ascontiguousarray(x[:2] - p), np.ascontiguousarray(shapes[js]))
-    B = np.eye(2) - G
-    return p + g, B, S
+    js = np.arange(n, dtype=np.int64) if js is None else np.asarray(js, dtype=np.int64)
+    return _kernels().view_rows(_rows(x, x.shape), _rows(shapes, np.shape(shapes)), js, int(platform))
 
 
 def _exp_sym2_many(xi: np.ndarray) -> np.ndarray:
     """``expm`` of the symmetric log-matrices ``xi (N, 3)`` (entries 11, 12, 22): ``(N, 2, 2)``."""
-    a, b, c = xi[:, 0], xi[:, 1], xi[:, 2]
-    m, d = 0.5 * (a + c), np.hypot(0.5 * (a - c), b)
-    sh = np.where(d > 1e-12, np.sinh(d) / np.where(d > 1e-12, d, 1.0), 1.0)
-    e, ch = np.exp(m), np.cosh(d)
-    X = np.empty((xi.shape[0], 2, 2))
-    X[:, 0, 0] = e * (ch + sh * (a - m))
-    X[:, 0, 1] = X[:, 1, 0] = e * sh * b
-    X[:, 1, 1] = e * (ch + sh * (c - m))
-    return X
+    return _kernels().exp_sym2_rows(_rows(xi, np.shape(xi)))
 
 
-def model_errors(x: np.ndarray, spreads: Spreads, js: np.ndarray, step: float = 1e-4,
+def model_errors(x: np.ndarray, spreads: Spreads, js: np.ndarray, step: float = SHAPE_STEP,
                  platform: int = POSE_DIM) -> np.ndarray:
     """``(N, 2, 2)``: the model error of each landmark's predicted mean (a.12.5), ``Q_v``, plus,
     when the shapes come with their covariances, ``J P_xi J^T`` with ``J = dg/dxi`` of the mean
-    offset over the log-matrix shape (central differences): what the shape's uncertainty adds."""
+    offset over the log-matrix shape (central differences): what the shape's uncertainty adds
+    (:func:`~radarslam.slam.view_kernels.shape_error_rows`)."""
     js = np.asarray(js, dtype=np.int64)
-    out = np.repeat(spreads.model_error[None], js.size, axis=0)
     if spreads.shape_covs is None or js.size == 0:
-        return out
-    d = np.ascontiguousarray(x[:2] - x[platform:].reshape(-1, 2)[js])
-    xi = spreads.log_shapes[js]
-    f = _arc_moments_many()
-    J = np.empty((js.size, 2, 3))
-    for i in range(3):
-        dxi = np.zeros(3)
-        dxi[i] = step
-        gp = f(d, _exp_sym2_many(xi + dxi))[0]
-        gm = f(d, _exp_sym2_many(xi - dxi))[0]
-        J[:, :, i] = (gp - gm) / (2.0 * step)
-    return out + J @ spreads.shape_covs[js] @ np.swapaxes(J, 1, 2)
+        return np.repeat(spreads.model_error[None], js.size, axis=0)
+    return _kernels().shape_error_rows(_rows(x, x.shape), _rows(spreads.log_shapes, np.shape(spreads.log_shapes)),
+                                       _rows(spreads.shape_covs, np.shape(spreads.shape_covs)), js,
+                                       _rows(spreads.model_error, (2, 2)), float(step), int(platform))
 
 
 def _pose_landmark_blocks(P: np.ndarray, js: np.ndarray, platform: int = POSE_DIM) -> np.ndarray:
@@ -102,54 +87,29 @@ def _pose_landmark_blocks(P: np.ndarray, js: np.ndarray, platform: int = POSE_DI
 
 def polar_terms(x: np.ndarray, mu: np.ndarray, B: np.ndarray, S: np.ndarray, R: np.ndarray, Qv: np.ndarray):
     """Per landmark, the polar measurement of one detection (a.12.5): ``h (N, 2)``, ``Hs (N, 2, 5)``
-    over ``(x, y, theta, p_x, p_y)`` and ``R_j (N, 2, 2)``; ``ok (N,)`` False where ``mu`` sits on
-    the sensor (no bearing: such a landmark cannot be scored)."""
-    d = mu - x[:2]
-    r2 = np.einsum("ni,ni->n", d, d)
-    ok = r2 > 1e-12
-    r2 = np.where(ok, r2, 1.0)
-    r = np.sqrt(r2)
-    Hp = np.empty((mu.shape[0], 2, 2))
-    Hp[:, 0, 0], Hp[:, 0, 1] = d[:, 0] / r, d[:, 1] / r
-    Hp[:, 1, 0], Hp[:, 1, 1] = -d[:, 1] / r2, d[:, 0] / r2
-    HB = Hp @ B
-    Hs = np.zeros((mu.shape[0], 2, 5))
-    Hs[:, :, :2] = -HB
-    Hs[:, 1, 2] = -1.0
-    Hs[:, :, 3:] = HB
-    h = np.column_stack([r, np.arctan2(d[:, 1], d[:, 0]) - x[2]])
-    Rj = R + Hp @ (S + Qv) @ np.swapaxes(Hp, 1, 2)
-    return h, Hs, Rj, ok
+    over ``(x, y, theta, p_x, p_y)`` and ``R_j (N, 2, 2)`` (``Qv`` per landmark or one for all);
+    ``ok (N,)`` False where ``mu`` sits on the sensor (no bearing: such a landmark cannot be
+    scored). :func:`~radarslam.slam.view_kernels.polar_rows`."""
+    n = mu.shape[0]
+    return _kernels().polar_rows(_rows(x, x.shape), _rows(mu, (n, 2)), _rows(B, (n, 2, 2)), _rows(S, (n, 2, 2)),
+                                 _rows(R, (2, 2)), _rows(Qv, (n, 2, 2)))
 
 
 def sensor_xy_terms(x: np.ndarray, mu: np.ndarray, B: np.ndarray):
     """Per landmark, the sensor-frame Cartesian measurement of the batch update (a.12.5):
-    ``h = Rot(-theta)(mu - t)`` ``(N, 2)`` and ``Hs (N, 2, 5)`` over ``(x, y, theta, p_x, p_y)``."""
-    c, s = math.cos(x[2]), math.sin(x[2])
-    Rt = np.array([[c, s], [-s, c]])
-    d = mu - x[:2]
-    h = d @ Rt.T
-    RB = Rt @ B
-    Hs = np.zeros((mu.shape[0], 2, 5))
-    Hs[:, :, :2] = -RB
-    Hs[:, 0, 2], Hs[:, 1, 2] = h[:, 1], -h[:, 0]
-    Hs[:, :, 3:] = RB
-    return h, Hs
+    ``h = Rot(-theta)(mu - t)`` ``(N, 2)`` and ``Hs (N, 2, 5)`` over ``(x, y, theta, p_x, p_y)``
+    (:func:`~radarslam.slam.view_kernels.sensor_xy_rows`)."""
+    n = mu.shape[0]
+    return _kernels().sensor_xy_rows(_rows(x, x.shape), _rows(mu, (n, 2)), _rows(B, (n, 2, 2)))
 
 
 def log_distances(z: np.ndarray, h: np.ndarray, Hs: np.ndarray, Pb: np.ndarray, Rj: np.ndarray) -> np.ndarray:
     """APSIPA eq. (9) of detections ``z (C, 2)`` against landmarks with ``h, Hs, Rj`` and covariance
     blocks ``Pb (N, 5, 5)``: ``D (C, N)``, ``inf`` where the innovation covariance is not positive
-    definite (c.4)."""
-    Sn = Hs @ Pb @ np.swapaxes(Hs, 1, 2) + Rj                         # (N, 2, 2)
-    det = Sn[:, 0, 0] * Sn[:, 1, 1] - Sn[:, 0, 1] * Sn[:, 1, 0]
-    good = (det > 0.0) & (Sn[:, 0, 0] > 0.0)
-    det = np.where(good, det, 1.0)
-    e0 = z[:, None, 0] - h[None, :, 0]
-    e1 = np.mod(z[:, None, 1] - h[None, :, 1] + math.pi, 2.0 * math.pi) - math.pi
-    q = (Sn[None, :, 1, 1] * e0 * e0 - 2.0 * Sn[None, :, 0, 1] * e0 * e1 + Sn[None, :, 0, 0] * e1 * e1) / det[None]
-    D = 0.5 * q + 0.5 * (_LOG_2PI2 + np.log(det))[None]
-    return np.where(good[None], D, np.inf)
+    definite (c.4; :func:`~radarslam.slam.view_kernels.log_distance_rows`)."""
+    n = h.shape[0]
+    return _kernels().log_distance_rows(_rows(z, np.shape(z)), _rows(h, (n, 2)), _rows(Hs, (n, 2, 5)),
+                                        _rows(Pb, (n, 5, 5)), _rows(Rj, (n, 2, 2)))
 
 
 class _PartialView:
@@ -237,7 +197,7 @@ def _batch_measurements(state, polar, candidates, out, R, spreads, seen):
     for a, j in enumerate(seen):
         dets = candidates[out == j]
         pts, R_xy = ekf.polar_to_sensor_xy(polar[dets], R)
-        noise = ekf.batch_noise(state.x[2], S[a], True, R_xy, dets.size) + ekf.rotate_to_sensor(state.x[2], Q[a])
+        noise = view_batch_noise(state.x[2], S[a], Q[a], R_xy, dets.size)
         i0 = landmark_index(j, p)
         rows.append((j, pts.mean(axis=0) - h[a], Hs[a], np.array([0, 1, 2, i0, i0 + 1]), noise))
     return rows
@@ -301,12 +261,9 @@ def view_corrected_centroid(mean: np.ndarray, t: np.ndarray, X: np.ndarray, iter
     """The centroid ``p`` whose predicted detection mean seen from ``t`` is ``mean`` under the shape
     ``X``: the fixed point of ``p = mean - g(t - p, X)`` (a.12.6), a few iterations from
     ``p = mean`` (``g`` changes slowly with ``p`` far from the outline)."""
-    p = np.array(mean, dtype=float)
-    f = _arc_moments_many()
-    for _ in range(iterations):
-        g, _, _ = f(np.ascontiguousarray((t - p)[None]), np.ascontiguousarray(X[None]))
-        p = mean - g[0]
-    return p
+    p = _kernels().corrected_centroid(float(mean[0]), float(mean[1]), float(t[0]), float(t[1]), _rows(X, (2, 2)),
+                                      int(iterations))
+    return np.array(p)
 
 
 def view_components(config, extent, associator, default_extent: bool, default_associator: bool):
@@ -335,13 +292,6 @@ def view_walk(state: SlamState, last_angle: dict[int, float], q: float) -> dict[
     sensor since the previous scan (``last_angle`` by landmark id); returns this scan's bearings."""
     if q <= 0.0 or not state.landmarks:
         return last_angle
-    d = state.x[:2] - state.positions
-    phi = np.arctan2(d[:, 1], d[:, 0])
-    last = np.array([last_angle.get(r.id, np.nan) for r in state.landmarks])
-    step = np.abs(np.remainder(phi - last + math.pi, 2.0 * math.pi) - math.pi)
-    step = np.where(np.isfinite(step), step, 0.0)
-    for j in np.flatnonzero(step > 0.0).tolist():
-        i = state.index(j)
-        state.P[i, i] += q * step[j]
-        state.P[i + 1, i + 1] += q * step[j]
+    last = np.array([last_angle.get(r.id, np.nan) for r in state.landmarks], dtype=float)
+    phi = _kernels().view_walk_rows(state.x, state.P, last, float(q), state.platform_dim)   # P in place
     return {r.id: float(a) for r, a in zip(state.landmarks, phi)}

@@ -4,11 +4,11 @@
 each cheap, together ~0.4 ms a scan: the orchestration, not the arithmetic, is the cost of a
 car-park trial. For the built-in components (unicycle or Ackermann motion, or Doppler and gyro
 odometry, the Doppler gate, range-azimuth radar or laser, the nearest-neighbour, batch, batch-joint
-or JCBB associator, the RMA/EFA, visible-arc or MEM-EKF* estimator, DBSCAN, the standard or
-first-estimates Jacobians, the odometry-bias states: every shipped profile, the car parks and both
-Victoria Park modes) this package runs the same steps over the whole stream inside numba, with the
-landmark records held in arrays (ids, creation scans, M/N windows, extent states and their buffers)
-instead of Python objects, and records what
+or JCBB associator, the RMA/EFA, visible-arc or MEM-EKF* estimator, the partial-view model with its
+estimator and associators, DBSCAN, the standard or first-estimates Jacobians, the odometry-bias
+states: every shipped profile, the car parks and both Victoria Park modes) this package runs the
+same steps over the whole stream inside numba, with the landmark records held in arrays (ids,
+creation scans, M/N windows, extent states and their buffers) instead of Python objects, and records what
 :func:`radarslam.experiments.single.run_filter` records after every scan.
 
 It has no maths of its own. Every step calls the compiled kernels the numba backend uses
@@ -24,7 +24,8 @@ rounding) on whole runs.
 
 Modules: :mod:`.storage` (the records as arrays: growth, removal, the record after a scan),
 :mod:`.tracking` (steps 1-5), :mod:`.extent` (step 6), :mod:`.mapping` (steps 7-10), :mod:`.gate`
-(the Doppler gate), :mod:`.bias` (the prediction with odometry-bias states), :mod:`.engine` (:func:`run_stream`,
+(the Doppler gate), :mod:`.bias` (the prediction with odometry-bias states), :mod:`.view` (the partial view,
+docs/method.md a.12), :mod:`.engine` (:func:`run_stream`,
 the loop of named steps), :mod:`.plan` (the Python side: :func:`why_not`, the parameters by name,
 the stream as arrays, :func:`run`).
 """

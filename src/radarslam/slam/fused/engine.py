@@ -3,7 +3,8 @@
 :func:`run_stream` reads like :meth:`radarslam.slam.filter.EkfSlam.update`: per odometry event the
 prediction, per scan the steps of docs/method.md a.8 in the orchestrator's order, each a compiled
 function of :mod:`~radarslam.slam.fused.tracking` (steps 1-5), :mod:`~radarslam.slam.fused.extent` (6) or
-:mod:`~radarslam.slam.fused.mapping` (steps 7-10), then the record after the scan
+:mod:`~radarslam.slam.fused.mapping` (steps 7-10), under the partial view those of
+:mod:`~radarslam.slam.fused.view` (a.12), then the record after the scan
 (:mod:`~radarslam.slam.fused.storage`).
 """
 
@@ -33,12 +34,11 @@ from radarslam.slam.fused.storage import (
 from radarslam.slam.fused.tracking import (
     BODY_VELOCITY,
     _to_world,
-    associate_and_update,
     group_associations,
     remove_unseen,
-    sift,
     turn_noise,
 )
+from radarslam.slam.fused.view import associate_step, sift_step, view_walk
 
 #: Status codes of :func:`run_stream`: what made the state non-finite, at which event.
 OK, BAD_PREDICTION, BAD_SCAN = 0, 1, 2
@@ -120,10 +120,11 @@ def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
             mem, n_mem, n_now = remember(mem, n_mem, seen, x, k, cfg)
         dt = dt_since if s > 0 else 0.0
         dt_since = 0.0
+        view_walk(x, P, lm, N, cfg)                                                # a.12.5 (partial view)
         prior = _blocks(x, P, cfg.platform)                                        # Decision 3
-        cand = sift(x, P, polar, lm, N, prior, noise, cfg)                         # 3
+        cand, shapes, terms = sift_step(x, P, polar, lm, N, prior, noise, cfg)     # 3
         cidx = np.flatnonzero(cand)
-        x, P, out, nis = associate_and_update(x, P, polar, cidx, lm, N, pose_first, noise, cfg)  # 4
+        x, P, out, nis = associate_step(x, P, polar, cidx, lm, N, pose_first, shapes, terms, noise, cfg)  # 4
         n_assoc, aoff, arow, a_rows, n_arows = group_associations(out, cidx, N, lm.ids, s, a_rows, n_arows)
         young = moving_young(x, lm, N, k, mem, n_now, cfg)                        # c.10.4.4
         x, P, N, old = remove_unseen(x, P, lm, N, aoff, k, young, cfg)              # 5

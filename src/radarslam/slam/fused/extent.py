@@ -17,6 +17,7 @@ from radarslam.extent import mem_ekf_kernels
 from radarslam.extent._compiled import _fit_entries, _max_trace_w_entries, rma_efa_step
 from radarslam.extent.ellipse import _ellipse_to_matrix
 from radarslam.slam.fused.storage import _arc_width_diameter, _blocks, add_arc, with_buffer
+from radarslam.slam.fused.view import view_shape_step
 
 # MEM-EKF*'s kernels (docs/method.md a.10), compiled as they are.
 _MEM = compile_kernels(*mem_ekf_kernels.KERNELS, _ellipse_to_matrix)
@@ -176,7 +177,8 @@ def extent_step(x, P, polar, xy, lm, N, old, aoff, arow, prior, dt, arcs, n_arcs
     """Step 6: the extent step (a.3-a.5) with the detections ``xy`` in the world frame of the
     updated pose, about the posterior centroids (``cfg.posterior``) or the prior ones (``prior``,
     by the rows before the removal, ``old``); with ``cfg.arc`` the visible-arc widths (a.9), with
-    ``cfg.mem`` MEM-EKF* (a.10) instead of the random-matrix step.
+    ``cfg.mem`` MEM-EKF* (a.10) instead of the random-matrix step; under the partial view
+    (``cfg.pv.on``) the shapes of a.12.7 after it.
     Returns ``(lm, arcs, n_arcs)`` (buffers may grow)."""
     if not cfg.track or N == 0:
         return lm, arcs, n_arcs
@@ -207,4 +209,6 @@ def extent_step(x, P, polar, xy, lm, N, old, aoff, arow, prior, dt, arcs, n_arcs
         _rma_efa_ready(x, P, polar, xy, lm, ready, old, aoff, arow, cents, ccovs, noise.R_ext, dt, cfg)
     if cfg.arc:
         arcs, n_arcs = _arc_widths(polar, lm, N, old, aoff, arow, arcs, n_arcs, cfg)
+    if cfg.pv.on:                                      # the partial-view shapes (a.12.7)
+        view_shape_step(x, polar, xy, lm, N, old, aoff, arow, cents, ccovs, noise, cfg)
     return lm, arcs, n_arcs

@@ -19,6 +19,8 @@ from radarslam.landmarks.confirmation import Tentatives
 from radarslam.models.radar import inverse_jacobians, polar_to_xy
 from radarslam.slam import ekf
 from radarslam.slam._numba import _polar_to_sensor_xy, min_log_distance
+from radarslam.slam.fused.view import view_merge, view_newborn
+from radarslam.slam.layout import POSE_DIM
 from radarslam.slam.fused.storage import (
     Clusters,
     _drop_state_rows,
@@ -136,6 +138,7 @@ def augment(x, P, lm, N, next_id, confirmed, clusters, polar, k, noise, cfg):  #
         lm.first[N, 0], lm.first[N, 1] = x[-2], x[-1]          # its first estimate (c.2.1)
         lm.einit[N], lm.alpha[N], lm.nbuf[N] = False, 0.0, 0
         lm.narc[N], lm.arc_head[N], lm.arc_tail[N] = 0, -1, -1
+        view_newborn(x, lm, N, cfg)                          # the partial view's shape (a.12.6)
         next_id += 1
         N += 1
     return x, P, lm, N, next_id
@@ -167,6 +170,8 @@ def merge(x, P, lm, N, arcs, cfg):  # pragma: no cover - compiled
             lm = with_buffer(lm, lm.nbuf[bi] + lm.nbuf[bj])
             lm.buf[bi, lm.nbuf[bi]:lm.nbuf[bi] + lm.nbuf[bj]] = lm.buf[bj, :lm.nbuf[bj]]
             lm.nbuf[bi] += lm.nbuf[bj]
+        if cfg.pv.on:
+            view_merge(lm, bi, bj)
         pool_arcs(arcs, lm, bi, bj)
         keepm = np.ones(N, dtype=np.bool_)
         keepm[bj] = False

@@ -16,6 +16,7 @@ from typing import NamedTuple
 import numpy as np
 
 from radarslam.slam.fused.engine import BAD_PREDICTION, ODOMETRY, OK, SCAN, VELOCITY, run_stream
+from radarslam.slam.fused.view import ViewParams, view_parameters
 
 
 class FusedParams(NamedTuple):
@@ -87,6 +88,7 @@ class FusedParams(NamedTuple):
     bias_turn: int         #: its error: models.input_bias.TURN_OFFSET, TURN_SCALE or TURN_BOTH (c.11.8)
     bias_drift: np.ndarray   #: (m,) the bias states' drift per sqrt(s) (BiasStates.drift)
     bias_tau: float        #: their time constant, 0 for a random walk (filter.bias_tau_s)
+    pv: ViewParams         #: the partial-view model's parameters (docs/method.md a.12; fused.view)
 
 
 class Stream(NamedTuple):
@@ -131,9 +133,11 @@ def why_not(slam, events=None) -> str | None:
     neighbourhood; the orchestrator hands such scans to scikit-learn's)."""
     from radarslam.extent.estimator import RmaEfaEstimator
     from radarslam.extent.mem_ekf import MemEkfEstimator
+    from radarslam.extent.view_estimator import PartialViewEstimator
     from radarslam.extent.visible_arc import VisibleArcEstimator
     from radarslam.models.ackermann import AckermannModel
     from radarslam.models.motion import UnicycleModel
+    from radarslam.slam.partial_view import PARTIAL_VIEW_ASSOCIATORS
     from radarslam.models.radar import RangeAzimuthModel
     from radarslam.slam._jcbb_numba import CompiledJcbbAssociator
     from radarslam.slam._numba import (CompiledBatchAssociator, CompiledJointBatchAssociator,
@@ -145,7 +149,11 @@ def why_not(slam, events=None) -> str | None:
     checks = (
         (f.fused, "filter.fused is false"),
         (f.backend == "numba", f"filter.backend is {f.backend!r}"),
-        (getattr(slam, "view", None) is None, "the partial-view model (docs/method.md a.12)"),
+        ((getattr(slam, "view", None) is None) == (type(slam.extent) is not PartialViewEstimator),
+         "the partial-view estimator with the full view, or the partial view with another estimator"),
+        # the compiled partial view indexes landmarks after a 3-state platform block
+        (getattr(slam, "view", None) is None or f.odometry_bias == "none",
+         "the partial view (docs/method.md a.12) with filter.odometry_bias 'states'"),
         (not f.doppler_gate or type(slam._gate) is DopplerGate, f"Doppler gate {type(slam._gate).__name__}"),
         # under Doppler odometry (c.10.5) the body-velocity model drives every prediction, not slam.model
         (f.odometry != "odometer" or type(slam.model) in (UnicycleModel, AckermannModel),
@@ -154,9 +162,9 @@ def why_not(slam, events=None) -> str | None:
          f"odometry source {type(slam._odometry).__name__}"),
         (type(slam.measurement) is RangeAzimuthModel, f"measurement model {type(slam.measurement).__name__}"),
         (type(slam.associator) in (CompiledNearestNeighbourAssociator, CompiledBatchAssociator,
-                                   CompiledJointBatchAssociator, CompiledJcbbAssociator),
+                                   CompiledJointBatchAssociator, CompiledJcbbAssociator, *PARTIAL_VIEW_ASSOCIATORS.values()),
          f"associator {type(slam.associator).__name__}"),
-        (type(slam.extent) in (RmaEfaEstimator, VisibleArcEstimator, MemEkfEstimator),
+        (type(slam.extent) in (RmaEfaEstimator, VisibleArcEstimator, MemEkfEstimator, PartialViewEstimator),
          f"extent estimator {type(slam.extent).__name__}"),
         (ec.efa_mode == "per_scan", f"extent.efa_mode {ec.efa_mode!r}"),
         (ec.w_mode == "max_trace", f"extent.w_mode {ec.w_mode!r}"),
@@ -186,6 +194,7 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
     from radarslam.slam.fused.extent import MEM_FULL, MEM_NO_CENTROID, MEM_SENSOR
     from radarslam.slam._numba import CompiledBatchAssociator, CompiledJointBatchAssociator
     from radarslam.slam.fused.tracking import ACKERMANN, UNICYCLE
+    from radarslam.slam.partial_view import PartialViewBatch, PartialViewJointBatch
 
     model = slam.model
     ackermann = type(model) is AckermannModel
@@ -194,8 +203,8 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
 
     in_slam = bool(ec.use_in_slam)
     return FusedParams(
-        assoc={CompiledBatchAssociator: 1, CompiledJointBatchAssociator: 2,
-               CompiledJcbbAssociator: 3}.get(type(slam.associator), 0),
+        assoc={CompiledBatchAssociator: 1, CompiledJointBatchAssociator: 2, CompiledJcbbAssociator: 3,
+               PartialViewBatch: 1, PartialViewJointBatch: 2}.get(type(slam.associator), 0),
         n_near=int(slam.associator.n_nearest), n_new=int(slam.associator.n_nearest_new),
         min_samples=int(lc.cluster_min_samples),
         confirm_points=int(lc.confirm_points), confirm_window=int(lc.confirm_window),
@@ -235,6 +244,7 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
         gate_probation=int(f.doppler_probation_scans), gate_radius=float(f.doppler_memory_radius_m),
         turn_index=-1 if slam._turn_k[0] is None else int(slam._turn_k[0]), turn_gain2=float(slam._turn_k[1]),
         **_bias_parameters(slam.bias_model),
+        pv=view_parameters(slam),
     )
 
 

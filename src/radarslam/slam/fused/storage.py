@@ -17,11 +17,13 @@ from numba import njit
 
 from radarslam.core.jit import compile_kernels
 from radarslam.extent.visible_arc import arc_width_diameter, gated_diameter
+from radarslam.slam import _view_compiled
 
 # The visible-arc estimator's own kernels, compiled as they are (docs/method.md a.9).
 _ARC = compile_kernels(arc_width_diameter, gated_diameter)
 _arc_width_diameter = _ARC["arc_width_diameter"]
 _gated_diameter = _ARC["gated_diameter"]
+_exp_sym2 = _view_compiled.exp_sym2
 
 
 class Landmarks(NamedTuple):
@@ -43,6 +45,10 @@ class Landmarks(NamedTuple):
     first: np.ndarray      #: (L, 2) first estimates: the centroids at birth (FEJ, docs/method.md c.2.1)
     shape: np.ndarray      #: (L, 3) MEM-EKF* shapes [theta, l1, l2] (a.10; ``X`` holds their matrices)
     Cs: np.ndarray         #: (L, 3, 3) their covariances
+    xi: np.ndarray         #: (L, 3) partial-view log-matrix shapes (a.12.7; ``Pxi`` their covariances)
+    Pxi: np.ndarray        #: (L, 3, 3)
+    nview: np.ndarray      #: (L,) int64, scans that updated the partial-view shape
+    vangle: np.ndarray     #: (L,) the bearing landmark -> sensor at the last scan (a.12.5 view walk; NaN: none)
 
 
 class Arcs(NamedTuple):
@@ -191,7 +197,8 @@ def new_landmarks(cap, buf_len):  # pragma: no cover - compiled
                      np.empty(cap, dtype=np.int64), np.zeros(cap, dtype=np.bool_), np.zeros((cap, 2, 2)),
                      np.zeros(cap), np.zeros((cap, 2, 2)), np.zeros(cap, dtype=np.int64),
                      np.zeros((cap, buf_len, 2)), np.zeros(cap, dtype=np.int64), np.full(cap, -1, dtype=np.int64),
-                     np.full(cap, -1, dtype=np.int64), np.zeros((cap, 2)), np.zeros((cap, 3)), np.zeros((cap, 3, 3)))
+                     np.full(cap, -1, dtype=np.int64), np.zeros((cap, 2)), np.zeros((cap, 3)), np.zeros((cap, 3, 3)),
+                     np.zeros((cap, 3)), np.zeros((cap, 3, 3)), np.zeros(cap, dtype=np.int64), np.full(cap, np.nan))
 
 
 @njit(cache=True, inline="always")
@@ -203,7 +210,8 @@ def grow_landmarks(lm, n):  # pragma: no cover - compiled
                      _grow_rows(lm.rbits, n), _grow_rows(lm.einit, n), _grow_rows(lm.X, n), _grow_rows(lm.alpha, n),
                      _grow_rows(lm.Xefa, n), _grow_rows(lm.nbuf, n), _grow_rows(lm.buf, n), _grow_rows(lm.narc, n),
                      _grow_rows(lm.arc_head, n), _grow_rows(lm.arc_tail, n), _grow_rows(lm.first, n),
-                     _grow_rows(lm.shape, n), _grow_rows(lm.Cs, n))
+                     _grow_rows(lm.shape, n), _grow_rows(lm.Cs, n), _grow_rows(lm.xi, n), _grow_rows(lm.Pxi, n),
+                     _grow_rows(lm.nview, n), _grow_rows(lm.vangle, n))
 
 
 @njit(cache=True, inline="always")
@@ -212,7 +220,8 @@ def with_buffer(lm, n):  # pragma: no cover - compiled
     if lm.buf.shape[1] >= n:
         return lm
     return Landmarks(lm.ids, lm.created, lm.mbits, lm.rbits, lm.einit, lm.X, lm.alpha, lm.Xefa, lm.nbuf,
-                     _grow_buffer(lm.buf, n), lm.narc, lm.arc_head, lm.arc_tail, lm.first, lm.shape, lm.Cs)
+                     _grow_buffer(lm.buf, n), lm.narc, lm.arc_head, lm.arc_tail, lm.first, lm.shape, lm.Cs, lm.xi,
+                     lm.Pxi, lm.nview, lm.vangle)
 
 
 @njit(cache=True, inline="always")
@@ -234,6 +243,7 @@ def compact_landmarks(lm, keep):  # pragma: no cover - compiled
                 lm.first[q] = lm.first[j]
                 lm.shape[q] = lm.shape[j]
                 lm.Cs[q] = lm.Cs[j]
+                lm.xi[q], lm.Pxi[q], lm.nview[q], lm.vangle[q] = lm.xi[j], lm.Pxi[j], lm.nview[j], lm.vangle[j]
             q += 1
     return old[:q]
 
@@ -346,7 +356,8 @@ def record_scan(rec, s, x, P, lm, N, m, n_assoc, nis, trace):  # pragma: no cove
 @njit(cache=True, inline="always")
 def record_map(rec, maps, s, x, P, lm, N, arcs, cfg):  # pragma: no cover - compiled
     """The map after scan ``s``, appended to ``maps`` (grown if needed, returned). Extents as the
-    estimator's ``matrix`` and ``baseline`` read them: RMA and EFA; with ``cfg.arc`` (visible-arc,
+    estimator's ``matrix`` and ``baseline`` read them: RMA and EFA; under the partial view
+    (``cfg.pv.on``) its shape and RMA; with ``cfg.arc`` (visible-arc,
     a.9) the circle of the gated mean width (once ``cfg.arc_min_scans`` are held) and RMA."""
     base = rec.map_off[s]
     rec.map_off[s + 1] = base + N
@@ -364,7 +375,12 @@ def record_map(rec, maps, s, x, P, lm, N, arcs, cfg):  # pragma: no cover - comp
         maps.cov[r, 1, 0], maps.cov[r, 1, 1] = P[i, i + 1], P[i + 1, i + 1]
         maps.rma[r] = np.nan
         maps.efa[r] = np.nan
-        if cfg.arc:
+        if cfg.pv.on:                    # partial view (a.12.7): its shape, the RMA as baseline
+            X11, X12, X22 = _exp_sym2(lm.xi[j, 0], lm.xi[j, 1], lm.xi[j, 2])
+            maps.rma[r, 0, 0], maps.rma[r, 0, 1], maps.rma[r, 1, 0], maps.rma[r, 1, 1] = X11, X12, X12, X22
+            if lm.einit[j]:
+                maps.efa[r] = lm.X[j]
+        elif cfg.arc:
             if lm.einit[j]:
                 maps.efa[r] = lm.X[j]
             if lm.narc[j] >= cfg.arc_min_scans:

@@ -1,0 +1,391 @@
+"""The fused engine under the partial view (docs/method.md a.12): its parameters (:class:`ViewParams`,
+``FusedParams.pv``, from :func:`view_parameters`) and its steps, each the bookkeeping of the
+orchestrator's partial-view parts around the kernels they call (:mod:`radarslam.slam.view_kernels`,
+compiled in :mod:`radarslam.slam._view_compiled`; the shape update of
+:mod:`radarslam.extent.view_estimator`):
+
+- :func:`view_walk`: the centroids' random walk with the viewing angle (a.12.5), before the prior;
+- :func:`view_shapes` and :func:`view_terms`: every landmark's arc-model shape and its ``mu``,
+  ``B``, ``S`` at the predicted state, computed once for sifting and scoring (both read the same state);
+- :func:`view_sift`: a.7.1 about the predicted detection means (``PartialViewEstimator.sift``);
+- :func:`view_associate`: the partial-view nearest-neighbour, batch and batch-joint associators
+  (``slam.partial_view``), with each landmark's model error and polar terms computed when a
+  detection first needs them (the same values, not every landmark's);
+- :func:`view_shape_step`: the shape's iterated update per scan (``PartialViewEstimator.view_step``);
+- :func:`view_newborn` and :func:`view_merge`: a new landmark's shape and view-corrected
+  centroid (a.12.6), and the shape a merge keeps.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from radarslam.extent._compiled import measurement_contour, sift_spreads, view_scan_data, view_update
+from radarslam.landmarks._compiled import compiled_candidates
+from radarslam.slam._numba import _joseph_update_inplace, _polar_to_sensor_xy, _smallest, _wrap_pi, joint_update_loops
+from radarslam.slam._view_compiled import (corrected_centroid, exp_sym2, innovation_cov, polar_rows, sensor_xy_rows,
+                                           shape_error_rows, view_batch_noise, view_log_distance, view_rows,
+                                           view_walk_rows)
+from radarslam.slam.fused.tracking import _to_world, associate_and_update, sift
+from radarslam.slam.layout import POSE_DIM
+from radarslam.slam.view_kernels import SHAPE_STEP
+
+#: ``ViewParams.shape_mode``: the arc model's shape (extent.view_shape).
+SHAPE_ESTIMATED, SHAPE_RMA, SHAPE_PRIOR = 0, 1, 2
+#: Iterations of the view-corrected centroid (slam.partial_view.view_corrected_centroid's default).
+CORRECTION_ITERATIONS = 5
+
+
+class ViewParams(NamedTuple):
+    """The partial view's part of :class:`~radarslam.slam.fused.plan.FusedParams` (``cfg.pv``)."""
+
+    on: bool               #: the partial-view model (extent.view_model)
+    walk: float            #: extent.view_walk_m2_per_rad
+    with_cov: bool         #: extent.view_shape_uncertainty with the estimated shape (J P_xi J^T)
+    init_correct: bool     #: extent.view_init_correct with landmarks.init = "cluster" (a.12.6)
+    shape_mode: int        #: extent.view_shape: SHAPE_ESTIMATED, SHAPE_RMA, SHAPE_PRIOR
+    spread_only: bool      #: extent.view_shape_data == "spread"
+    qv2: float             #: extent.view_model_error_m ** 2
+    rel: float             #: extent.view_spread_rel_error
+    Qv: np.ndarray         #: (2, 2) the model-error covariance
+    xi0: np.ndarray        #: (3,) the newborn shape's log matrix
+    P0: np.ndarray         #: (3, 3) its covariance
+    Q: np.ndarray          #: (3, 3) the shape's random walk per scan
+    X0: np.ndarray         #: (2, 2) the prior shape
+
+
+def view_parameters(slam) -> ViewParams:
+    """The :class:`ViewParams` of ``slam`` (off, with zeros, under the full view)."""
+    from radarslam.extent.view_estimator import log_matrix_to_X
+
+    ec = slam.config.extent
+    if getattr(slam, "view", None) is None:
+        z3 = np.zeros(3)
+        return ViewParams(False, 0.0, False, False, SHAPE_ESTIMATED, False, 0.0, 0.0, np.zeros((2, 2)), z3,
+                          np.zeros((3, 3)), np.zeros((3, 3)), np.zeros((2, 2)))
+    ext = slam.extent
+    mode = {"estimated": SHAPE_ESTIMATED, "rma": SHAPE_RMA, "prior": SHAPE_PRIOR}[ec.view_shape]
+    return ViewParams(True, float(ec.view_walk_m2_per_rad), bool(ec.view_shape_uncertainty) and mode == SHAPE_ESTIMATED,
+                      bool(ec.view_init_correct) and slam.config.landmarks.init == "cluster", mode,
+                      bool(ext.spread_only), float(ext.qv2), float(ext.rel),
+                      np.ascontiguousarray(slam.view, dtype=float), np.ascontiguousarray(ext.xi0, dtype=float),
+                      np.ascontiguousarray(ext.P0, dtype=float), np.ascontiguousarray(ext.Q, dtype=float),
+                      np.ascontiguousarray(log_matrix_to_X(ext.xi0), dtype=float))
+
+
+@njit(cache=True)
+def view_walk(x, P, lm, N, cfg):  # pragma: no cover - compiled
+    """a.12.5's walk of the centroids with the viewing angle, in place on ``P``, and each
+    landmark's bearing kept for the next scan (none under a zero walk, as the orchestrator)."""
+    if cfg.pv.walk > 0.0 and N > 0:
+        lm.vangle[:N] = view_walk_rows(x, P, lm.vangle[:N].copy(), cfg.pv.walk, POSE_DIM)
+
+
+@njit(cache=True)
+def view_shapes(lm, N, cfg):  # pragma: no cover - compiled
+    """``(N, 2, 2)``: the arc model's shape of every landmark (``PartialViewEstimator.view_shapes``):
+    its estimate ``expm(xi)``, its RMA (the prior before it has one) or the prior."""
+    v = cfg.pv
+    X = np.empty((N, 2, 2))
+    for j in range(N):
+        if v.shape_mode == SHAPE_ESTIMATED:
+            X11, X12, X22 = exp_sym2(lm.xi[j, 0], lm.xi[j, 1], lm.xi[j, 2])
+            X[j, 0, 0], X[j, 0, 1], X[j, 1, 0], X[j, 1, 1] = X11, X12, X12, X22
+        elif v.shape_mode == SHAPE_RMA and lm.einit[j]:
+            X[j] = lm.X[j]
+        else:
+            X[j] = v.X0
+    return X
+
+
+@njit(cache=True)
+def view_terms(x, shapes, N):  # pragma: no cover - compiled
+    """``(mu, B, S)`` of every landmark at the state ``x`` (a.12.4)."""
+    return view_rows(x, shapes, np.arange(N), POSE_DIM)
+
+
+@njit(cache=True)
+def view_sift(x, P, polar, N, prior, terms, noise, cfg):  # pragma: no cover - compiled
+    """Step 3 under the partial view (a.7.1, a.12.5): with ``cfg.contour`` the measurement contour
+    of every landmark about its predicted detection mean, with the arc's spread plus ``Q_v`` and
+    the mean's covariance ``B P_pp B^T``; else within ``cfg.sift_radius`` of a centroid."""
+    pos_prior, cov_prior = prior
+    xy = _to_world(x, polar)
+    m = polar.shape[0]
+    if N == 0 or m == 0:
+        return np.zeros(m, dtype=np.bool_)
+    has = np.full(N, cfg.contour)
+    inside = np.zeros((1, 1), dtype=np.bool_)
+    if cfg.contour:
+        mu, B, S = terms
+        spread, cov = sift_spreads(B, S, cov_prior, cfg.pv.Qv)
+        inside = measurement_contour(xy, polar, x[2], P[:3, :3].copy(), noise.R_ext, mu, spread, cov, cfg.gate)
+    return compiled_candidates(xy, pos_prior, cfg.sift_radius * cfg.sift_radius, inside, has)   # c.3's decision
+
+
+@njit(cache=True)
+def sift_step(x, P, polar, lm, N, prior, noise, cfg):  # pragma: no cover - compiled
+    """Step 3 (:func:`~radarslam.slam.fused.tracking.sift`, or :func:`view_sift` under the partial
+    view). Returns ``(cand, shapes, terms)``: the shapes and ``(mu, B, S)`` of every landmark at
+    the predicted state under the partial view (empty otherwise), which association reads too."""
+    if cfg.pv.on:
+        shapes = view_shapes(lm, N, cfg)
+        terms = view_terms(x, shapes, N)
+        return view_sift(x, P, polar, N, prior, terms, noise, cfg), shapes, terms
+    e2 = np.empty((0, 2, 2))
+    return sift(x, P, polar, lm, N, prior, noise, cfg), e2, (np.empty((0, 2)), e2, e2)
+
+
+@njit(cache=True)
+def associate_step(x, P, polar, cidx, lm, N, pose_first, shapes, terms, noise, cfg):  # pragma: no cover - compiled
+    """Step 4 (:func:`~radarslam.slam.fused.tracking.associate_and_update`, or :func:`view_associate`
+    under the partial view). Returns ``(x, P, landmark per candidate or -1, NIS values)``."""
+    if cfg.pv.on:
+        return view_associate(x, P, polar, cidx, lm, N, shapes, terms, noise, cfg)
+    return associate_and_update(x, P, polar, cidx, lm, N, pose_first, noise, cfg)
+
+
+class _Scores(NamedTuple):
+    """Per landmark at one state: the polar terms (``Rj`` with the model error ``Q`` once ``have``),
+    the innovation covariance ``Sn`` (once ``have``)."""
+
+    h: np.ndarray          #: (N, 2)
+    Hs: np.ndarray         #: (N, 2, 5)
+    Rj: np.ndarray         #: (N, 2, 2)
+    ok: np.ndarray         #: (N,) bool
+    Q: np.ndarray          #: (N, 2, 2)
+    Sn: np.ndarray         #: (N, 2, 2)
+    have: np.ndarray       #: (N,) bool
+
+
+@njit(cache=True)
+def _scores(x, terms, N, R, cfg):  # pragma: no cover - compiled
+    """The polar terms of every landmark with the model error ``Q_v`` (``h``, ``Hs`` and ``ok``
+    do not depend on it; :func:`_complete` adds the shape's part to ``Rj`` where it is needed)."""
+    mu, B, S = terms
+    Q = np.empty((N, 2, 2))
+    for j in range(N):
+        Q[j] = cfg.pv.Qv
+    h, Hs, Rj, ok = polar_rows(x, mu, B, S, R, Q)
+    return _Scores(h, Hs, Rj, ok, Q, np.empty((N, 2, 2)), np.zeros(N, dtype=np.bool_))
+
+
+@njit(cache=True)
+def _block_index(j):  # pragma: no cover - compiled
+    """The rows ``(x, y, theta, p_j)`` of landmark ``j`` in the state."""
+    i = POSE_DIM + 2 * j
+    return np.array([0, 1, 2, i, i + 1], dtype=np.int64)
+
+
+@njit(cache=True)
+def _complete(x, P, lm, js, terms, R, sc, cfg):  # pragma: no cover - compiled
+    """The model error (with the shape's uncertainty, ``cfg.pv.with_cov``), ``Rj`` and ``Sn``
+    of the landmarks ``js`` not yet done, in ``sc`` (the orchestrator's ``model_errors``,
+    ``polar_terms`` and ``log_distances`` of them: the same kernels on the same state)."""
+    todo = np.empty(js.shape[0], dtype=np.int64)
+    n = 0
+    for a in range(js.shape[0]):
+        j = js[a]
+        if not sc.have[j]:
+            sc.have[j] = True
+            todo[n] = j
+            n += 1
+    todo = todo[:n]
+    if n == 0:
+        return
+    if cfg.pv.with_cov:
+        mu, B, S = terms
+        Q = shape_error_rows(x, lm.xi, lm.Pxi, todo, cfg.pv.Qv, SHAPE_STEP, POSE_DIM)
+        Rj = polar_rows(x, mu[todo], B[todo], S[todo], R, Q)[2]
+        for a in range(n):
+            sc.Q[todo[a]] = Q[a]
+            sc.Rj[todo[a]] = Rj[a]
+    for a in range(n):
+        j = todo[a]
+        idx = _block_index(j)
+        Pb = np.empty((5, 5))
+        for r in range(5):
+            for c in range(5):
+                Pb[r, c] = P[idx[r], idx[c]]
+        sc.Sn[j] = innovation_cov(sc.Hs[j], Pb, sc.Rj[j])
+
+
+@njit(cache=True)
+def _nearest_best(x, P, lm, z0, z1, d2, N, count, terms, R, sc, cfg):  # pragma: no cover - compiled
+    """The landmark of smallest log distance among the ``count`` nearest by ``d2`` (ties by
+    position, the first minimum; ``inf`` where ``d2`` or ``Sn`` rule it out): ``(j, D)``."""
+    near = _smallest(d2, N, count)
+    _complete(x, P, lm, near, terms, R, sc, cfg)
+    best_j = near[0]
+    best_D = math.inf
+    for k in range(count):
+        j = near[k]
+        D = math.inf
+        if d2[j] < math.inf and sc.ok[j]:
+            D = view_log_distance(z0, z1, sc.h[j, 0], sc.h[j, 1], sc.Sn[j])
+        if k == 0 or D < best_D:
+            best_j, best_D = j, D
+    return best_j, best_D
+
+
+@njit(cache=True)
+def _view_nn(x, P, polar, cidx, lm, N, shapes, terms, R, cfg):  # pragma: no cover - compiled
+    """``PartialViewNearestNeighbour``: each candidate against its ``cfg.n_near`` landmarks nearest
+    by their predicted means, updated at once when below ``cfg.beta`` (the terms recomputed then)."""
+    out = np.full(cidx.shape[0], -1, dtype=np.int64)
+    nis = np.empty(cidx.shape[0])
+    n_up = 0
+    sc = _scores(x, terms, N, R, cfg)
+    d2 = np.empty(N)
+    count = min(cfg.n_near, N)
+    for c in range(cidx.shape[0]):
+        i = cidx[c]
+        mu = terms[0]
+        a = x[2] + polar[i, 1]
+        zw0 = x[0] + polar[i, 0] * math.cos(a)
+        zw1 = x[1] + polar[i, 0] * math.sin(a)
+        for j in range(N):
+            d2[j] = (mu[j, 0] - zw0) ** 2 + (mu[j, 1] - zw1) ** 2
+        j, D = _nearest_best(x, P, lm, polar[i, 0], polar[i, 1], d2.copy(), N, count, terms, R, sc, cfg)
+        if D < cfg.beta:
+            e = np.array([polar[i, 0] - sc.h[j, 0], _wrap_pi(polar[i, 1] - sc.h[j, 1])])
+            nis[n_up] = _joseph_update_inplace(x, P, e, sc.Hs[j].copy(), _block_index(j), sc.Rj[j].copy())
+            n_up += 1
+            out[c] = j
+            terms = view_terms(x, shapes, N)
+            sc = _scores(x, terms, N, R, cfg)
+    return x, P, out, nis[:n_up]
+
+
+@njit(cache=True)
+def _view_scores(x, P, polar, cidx, lm, N, terms, R, sc, cfg):  # pragma: no cover - compiled
+    """``PartialViewBatch.scores``: the landmark of each candidate (-1 for none), all scored at
+    the state ``x``, ``P`` against their ``cfg.n_near`` landmarks nearest by the predicted means
+    (landmarks whose mean sits on the sensor excluded)."""
+    out = np.full(cidx.shape[0], -1, dtype=np.int64)
+    mu = terms[0]
+    d2 = np.empty(N)
+    count = min(cfg.n_near, N)
+    for c in range(cidx.shape[0]):
+        i = cidx[c]
+        th = x[2] + polar[i, 1]
+        zw0 = x[0] + polar[i, 0] * math.cos(th)
+        zw1 = x[1] + polar[i, 0] * math.sin(th)
+        for j in range(N):
+            d2[j] = (zw0 - mu[j, 0]) ** 2 + (zw1 - mu[j, 1]) ** 2 if sc.ok[j] else math.inf
+        j, D = _nearest_best(x, P, lm, polar[i, 0], polar[i, 1], d2, N, count, terms, R, sc, cfg)
+        if D < cfg.beta:
+            out[c] = j
+    return out
+
+
+@njit(cache=True)
+def _batch_rows(x, polar, rows, R, mu, B, S, Q):  # pragma: no cover - compiled
+    """One landmark's batch measurement (``_batch_measurements``, a.12.5) from its ``mu``, ``B``,
+    ``S`` ``(1, ...)`` and model error ``Q (2, 2)`` at ``x``: ``(e (2,), Hs (2, 5), noise (2, 2))``."""
+    h, Hs = sensor_xy_rows(x, mu, B)
+    pts, R_xy = _polar_to_sensor_xy(polar[rows], R)
+    e = np.empty(2)
+    e[0] = pts[:, 0].mean() - h[0, 0]
+    e[1] = pts[:, 1].mean() - h[0, 1]
+    return e, Hs[0].copy(), view_batch_noise(x[2], S[0].copy(), Q, R_xy, rows.shape[0])
+
+
+@njit(cache=True)
+def _model_error(x, lm, j, cfg):  # pragma: no cover - compiled
+    """Landmark ``j``'s model error at ``x`` (``model_errors`` of one landmark)."""
+    if cfg.pv.with_cov:
+        return shape_error_rows(x, lm.xi, lm.Pxi, np.array([j]), cfg.pv.Qv, SHAPE_STEP, POSE_DIM)[0]
+    return cfg.pv.Qv.copy()
+
+
+@njit(cache=True)
+def view_associate(x, P, polar, cidx, lm, N, shapes, terms, noise, cfg):  # pragma: no cover - compiled
+    """Step 4 under the partial view (a.12.5) with the nearest-neighbour (``cfg.assoc`` 0), batch
+    (1) or batch-joint (2) associator of ``slam.partial_view``: the batch forms score every candidate
+    at the predicted state, then update each landmark in turn, relinearised (batch), or all at once
+    (batch-joint, whose measurements are the scoring state's). Returns ``(x, P, out, nis)``."""
+    R = noise.R_assoc
+    if N == 0 or cidx.shape[0] == 0:
+        return x, P, np.full(cidx.shape[0], -1, dtype=np.int64), np.empty(0)
+    if cfg.assoc == 0:
+        return _view_nn(x, P, polar, cidx, lm, N, shapes, terms, R, cfg)
+    sc = _scores(x, terms, N, R, cfg)
+    out = _view_scores(x, P, polar, cidx, lm, N, terms, R, sc, cfg)
+    seen = np.zeros(N, dtype=np.bool_)
+    for c in range(cidx.shape[0]):
+        if out[c] >= 0:
+            seen[out[c]] = True
+    js = np.flatnonzero(seen)
+    L = js.shape[0]
+    if L == 0:
+        return x, P, out, np.empty(0)
+    if cfg.assoc == 1:
+        nis = np.empty(L)
+        for a in range(L):
+            j = js[a]
+            mu, B, S = view_rows(x, shapes, js[a:a + 1], POSE_DIM)
+            e, Hs, Rb = _batch_rows(x, polar, cidx[out == j], R, mu, B, S, _model_error(x, lm, j, cfg))
+            nis[a] = _joseph_update_inplace(x, P, e, Hs, _block_index(j), Rb)
+        return x, P, out, nis
+    mu_all, B_all, S_all = terms
+    e = np.empty(2 * L)
+    Hs_all = np.empty((L, 2, 5))
+    idx_all = np.empty((L, 5), dtype=np.int64)
+    Rb = np.empty((L, 2, 2))
+    for a in range(L):
+        j = js[a]
+        ea, Hs_all[a], Rb[a] = _batch_rows(x, polar, cidx[out == j], R, mu_all[j:j + 1], B_all[j:j + 1],
+                                           S_all[j:j + 1], sc.Q[j].copy())
+        e[2 * a], e[2 * a + 1] = ea[0], ea[1]
+        idx_all[a] = _block_index(j)
+    return x, P, out, joint_update_loops(x, P, e, Hs_all, idx_all, Rb)
+
+
+@njit(cache=True)
+def view_shape_step(x, polar, xy, lm, N, old, aoff, arow, cents, ccovs, noise, cfg):  # pragma: no cover - compiled
+    """Step 6's partial-view part (``PartialViewEstimator.view_step``, a.12.7) for every landmark:
+    the shape's random walk, then with this scan's detections the iterated update about the
+    centroid ``cents[j]`` (covariance ``ccovs[j]``) seen from the updated pose, in place."""
+    v = cfg.pv
+    for j in range(N):
+        Pn = lm.Pxi[j] + v.Q
+        lm.Pxi[j] = Pn
+        o = old[j]
+        na = aoff[o + 1] - aoff[o]
+        if na == 0:
+            continue
+        rows = arow[aoff[o]:aoff[o + 1]]
+        y, Ws = view_scan_data(polar[rows], xy[rows], x[2], cents[j, 0], cents[j, 1], noise.R_ext)
+        xi, Pu, status = view_update(lm.xi[j].copy(), Pn, x[0] - cents[j, 0], x[1] - cents[j, 1], y, na, Ws,
+                                     ccovs[j].copy(), v.qv2, v.rel, v.spread_only)
+        if status == 0:
+            lm.xi[j] = xi
+            lm.Pxi[j] = Pu
+            lm.nview[j] += 1
+
+
+@njit(cache=True)
+def view_newborn(x, lm, n, cfg):  # pragma: no cover - compiled
+    """Landmark ``n``, just added as the last of ``x``: the prior shape, no view yet and, with
+    ``cfg.pv.init_correct``, its centroid moved so that the prior shape's arc mean seen from the
+    sensor is where it was put (a.12.6)."""
+    v = cfg.pv
+    lm.xi[n] = v.xi0
+    lm.Pxi[n] = v.P0
+    lm.nview[n] = 0
+    lm.vangle[n] = np.nan
+    if v.on and v.init_correct:
+        x[-2], x[-1] = corrected_centroid(x[-2], x[-1], x[0], x[1], v.X0, CORRECTION_ITERATIONS)
+
+
+@njit(cache=True)
+def view_merge(lm, keep, drop):  # pragma: no cover - compiled
+    """A merge's survivor ``keep`` takes the partial-view shape of ``drop`` when that one was
+    updated by more scans (``PartialViewEstimator.merge``)."""
+    if lm.nview[drop] > lm.nview[keep]:
+        lm.xi[keep], lm.Pxi[keep], lm.nview[keep] = lm.xi[drop], lm.Pxi[drop], lm.nview[drop]
