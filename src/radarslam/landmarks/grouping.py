@@ -25,3 +25,13 @@ def by_landmark(out: np.ndarray, cidx: np.ndarray, n: int):
             arow[fill[j]] = cidx[c]
             fill[j] += 1
     return aoff, arow
+
+
+def seen_landmarks(out: np.ndarray, n: int) -> np.ndarray:
+    """The landmarks (ascending) that some candidate of ``out`` (landmark or -1) is associated
+    with, of ``n``: the stacked updates' rows (a.7.4). A kernel, compiled in :mod:`._compiled`."""
+    seen = np.zeros(n, dtype=np.bool_)
+    for c in range(out.shape[0]):
+        if out[c] >= 0:
+            seen[out[c]] = True
+    return np.flatnonzero(seen)

@@ -19,6 +19,7 @@ from numba import njit
 from radarslam.core import angles
 from radarslam.core.jit import compile_kernels
 from radarslam.core.registry import ASSOCIATORS
+from radarslam.landmarks._compiled import compiled_seen_landmarks
 from radarslam.slam import ekf, layout
 from radarslam.slam.association import Spreads
 from radarslam.slam.state import SlamState
@@ -405,11 +406,7 @@ def joint_batch_associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta
     if N == 0:
         return x, P, np.full(cand.shape[0], -1), np.empty(0)
     out = _batch_scores(x, P, polar, cand, R, gX, has_gX, n_nearest, beta, platform)
-    seen = np.zeros(N, dtype=np.bool_)
-    for c in range(cand.shape[0]):
-        if out[c] >= 0:
-            seen[out[c]] = True
-    js = np.flatnonzero(seen)
+    js = compiled_seen_landmarks(out, N)
     L = js.shape[0]
     if L == 0:
         return x, P, out, np.empty(0)

@@ -25,7 +25,7 @@ import numpy as np
 from numba import njit
 
 from radarslam.extent._compiled import measurement_contour, sift_spreads, view_scan_data, view_update
-from radarslam.landmarks._compiled import compiled_candidates
+from radarslam.landmarks._compiled import compiled_candidates, compiled_seen_landmarks
 from radarslam.slam._numba import _joseph_update_inplace, _polar_to_sensor_xy, _smallest, _wrap_pi, joint_update_loops
 from radarslam.slam._view_compiled import (corrected_centroid, exp_sym2, innovation_cov, polar_rows, sensor_xy_rows,
                                            shape_error_rows, view_batch_noise, view_log_distance, view_rows,
@@ -316,11 +316,7 @@ def view_associate(x, P, polar, cidx, lm, N, shapes, terms, noise, cfg):  # prag
         return _view_nn(x, P, polar, cidx, lm, N, shapes, terms, R, cfg)
     sc = _scores(x, terms, N, R, cfg)
     out = _view_scores(x, P, polar, cidx, lm, N, terms, R, sc, cfg)
-    seen = np.zeros(N, dtype=np.bool_)
-    for c in range(cidx.shape[0]):
-        if out[c] >= 0:
-            seen[out[c]] = True
-    js = np.flatnonzero(seen)
+    js = compiled_seen_landmarks(out, N)
     L = js.shape[0]
     if L == 0:
         return x, P, out, np.empty(0)
