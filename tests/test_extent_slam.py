@@ -107,7 +107,7 @@ def test_extent_dropped_with_its_landmark():
     assert slam.landmarks[0].extent.initialized
     for k in range(7, 17):
         slam.update(scan(k))
-    assert slam.landmarks == []
+    assert slam.landmarks == [] and slam.state.n_landmarks == 0
     snap = slam.snapshot()
     assert snap.rma.shape == (0, 2, 2) and snap.efa.shape == (0, 2, 2)
 

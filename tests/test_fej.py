@@ -14,7 +14,8 @@ from radarslam.models.ackermann import AckermannModel
 from radarslam.models.body_velocity import BodyVelocityModel
 from radarslam.models.motion import UnicycleModel
 from radarslam.slam import EkfSlam, _fused, ekf
-from radarslam.slam.state import LandmarkRecord, SlamState
+from radarslam.landmarks.records import add_record
+from radarslam.slam.state import SlamState
 
 N_STATE = 7          # pose and two landmarks
 SVD_TOL = 1e-8       # relative to the largest singular value
@@ -42,7 +43,10 @@ def _trajectory(rng: np.random.Generator, steps: int = 5, model_name: str = "uni
 
 def _state(pose, lms, first) -> SlamState:
     st = SlamState(np.concatenate([pose, lms.ravel()]), np.eye(N_STATE))
-    st.landmarks = [LandmarkRecord(j, 1, first=first[j].copy()) for j in range(len(first))]
+    for j in range(len(first)):
+        st.records = add_record(st.records, j, j, 1, first[j, 0], first[j, 1])
+        st.extents.append(None)
+    st.n_landmarks = len(first)
     return st
 
 

@@ -23,7 +23,7 @@ COMPILED_SOURCES = (
     "slam/fused/storage.py", "slam/fused/tracking.py", "slam/fused/mapping.py", "slam/fused/engine.py",
     "slam/fused/plan.py", "slam/fused/extent.py", "slam/fused/gate.py",
     "landmarks/confirmation.py", "landmarks/merging.py", "landmarks/sifting.py", "landmarks/grouping.py",
-    "extent/sifting.py", "slam/bias.py",
+    "landmarks/records.py", "extent/sifting.py", "slam/bias.py",
     "extent/_compiled.py", "extent/_sym2.py", "extent/measurement.py", "extent/random_matrix.py",
     "extent/ellipse_fit.py", "extent/partial_view.py", "extent/view_estimator.py", "landmarks/_compiled.py",
     "metrics/_compiled.py", "simulation/_compiled.py", "models/radar.py", "models/doppler.py",

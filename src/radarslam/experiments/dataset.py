@@ -133,13 +133,13 @@ def _run_orchestrated(slam: EkfSlam, events, reference: _Reference, bar):
         times.append(ev.t)
         poses.append(slam.x[:3].copy())
         covs.append(slam.P[:3, :3].copy())
-        nlm.append(len(slam.landmarks))
+        nlm.append(slam.state.n_landmarks)
         nas.append(rep.n_associated)
         if m:
             bias.append(np.concatenate([slam.state.bias, np.sqrt(np.diag(slam.state.bias_cov))]))
         if rep.nis.size:
             nis.append(np.column_stack([np.full(rep.nis.size, len(times) - 1.0), rep.nis]))
-        lm = slam.x[slam.x.shape[0] - 2 * len(slam.landmarks):].reshape(-1, 2)   # the last 2N entries (c.11)
+        lm = slam.x[slam.x.shape[0] - 2 * slam.state.n_landmarks:].reshape(-1, 2)   # the last 2N entries (c.11)
         h = reference.hits(int(ev.index), slam.x[:3], lm, slam.state.ids())
         if h is not None:
             hits.append(h)

@@ -81,7 +81,7 @@ def run_filter(config: Config, events: list[Odometry | Scan], slam: EkfSlam | No
         maps.append(slam.snapshot())
         ndet.append(rep.n_detections)
         nass.append(rep.n_associated)
-        nlm.append(len(slam.landmarks))
+        nlm.append(slam.state.n_landmarks)
         nis_sum.append(float(rep.nis.sum()))
         nis_n.append(rep.nis.size)
         if on_scan is not None:

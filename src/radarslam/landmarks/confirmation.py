@@ -173,20 +173,15 @@ def in_sensor_view(positions: np.ndarray, pose: np.ndarray, max_range: float, fi
     return out
 
 
-def removal_step(records: list, hit: np.ndarray, in_view: np.ndarray, k: int, *, window: int,
+def removal_step(records, hit: np.ndarray, in_view: np.ndarray, k: int, *, window: int,
                  max_hits: int, compiled: bool = False) -> list[int]:
-    """:func:`mn_windows` (compiled with ``compiled``: the numba backend) on the records
-    (``.assoc``, ``.in_range``, ``.created``), their windows updated; returns the positions of the
-    records to remove, ascending."""
+    """:func:`mn_windows` (compiled with ``compiled``: the numba backend) on the landmark records
+    (:class:`~radarslam.landmarks.records.Records`, rows ``0 .. hit.size - 1``), their windows
+    updated in place; returns the positions of the records to remove, ascending."""
     kernel = mn_windows
     if compiled:
         from radarslam.landmarks._compiled import compiled_mn_windows as kernel
-    n = len(records)
-    assoc = np.array([r.assoc for r in records], dtype=np.int64).reshape(n)
-    in_range = np.array([r.in_range for r in records], dtype=np.int64).reshape(n)
-    created = np.array([r.created for r in records], dtype=np.int64).reshape(n)
-    keep = kernel(assoc, in_range, created, np.asarray(hit, dtype=bool), np.asarray(in_view, dtype=bool),
-                      int(k), int(window), int(max_hits))
-    for r, a, v in zip(records, assoc.tolist(), in_range.tolist()):
-        r.assoc, r.in_range = a, v
+    n = hit.shape[0]
+    keep = kernel(records.mbits[:n], records.rbits[:n], records.created[:n], np.asarray(hit, dtype=bool),
+                  np.asarray(in_view, dtype=bool), int(k), int(window), int(max_hits))
     return np.flatnonzero(~keep).tolist()

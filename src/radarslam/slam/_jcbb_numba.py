@@ -378,7 +378,7 @@ class CompiledJcbbAssociator(JcbbAssociator):
     def associate(self, state, polar, candidates, R, spreads):
         from radarslam.landmarks.clustering import DENSE_MAX
 
-        if not state.landmarks or candidates.size == 0 or candidates.size > DENSE_MAX:
+        if not state.n_landmarks or candidates.size == 0 or candidates.size > DENSE_MAX:
             return super().associate(state, polar, candidates, R, spreads)
         x, P, out, nis, (rows, obs, lm, d2, nodes, exhausted) = jcbb_associate_scan(
             state.x, state.P, polar, candidates.astype(np.int64), R, spreads.gX, spreads.has, state.platform_dim,

@@ -450,7 +450,7 @@ class _CompiledAssociator:
 
     def associate(self, state: SlamState, polar: np.ndarray, candidates: np.ndarray, R: np.ndarray,
                   spreads: Spreads) -> tuple[np.ndarray, np.ndarray]:
-        if not state.landmarks:
+        if not state.n_landmarks:
             return np.full(candidates.shape[0], -1, dtype=int), np.empty(0)
         x, P, out, nis = self.scan(state.x, state.P, polar, candidates.astype(np.int64), R, spreads.gX,
                                    spreads.has, self.n_nearest, self.beta, state.platform_dim,

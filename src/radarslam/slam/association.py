@@ -106,7 +106,7 @@ class NearestNeighbourAssociator:
 
         Returns ``(j, D, e, Hs, idx, R_j)``; ``j = -1`` and ``D = inf`` without landmarks.
         """
-        if not state.landmarks:
+        if not state.n_landmarks:
             return (-1, math.inf, None, None, None, None)
         xs, p = state.x.tolist(), state.platform_dim
         js = nearest_landmarks(xs, s, count, p)

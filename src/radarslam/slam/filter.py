@@ -39,9 +39,9 @@ from radarslam.slam.bias import (bias_states, control_noise, initial_state, meas
 from radarslam.slam.doppler_gate import DopplerGate, mounting
 from radarslam.slam.odometry_source import odometry_source
 from radarslam.slam.partial_view import view_components, view_corrected_centroid, view_walk
-from radarslam.slam.state import LandmarkRecord
+from radarslam.slam.state import Landmark
 
-__all__ = ["EkfSlam", "LandmarkRecord", "MapSnapshot", "ScanReport"]
+__all__ = ["EkfSlam", "Landmark", "MapSnapshot", "ScanReport"]
 
 
 @dataclass(frozen=True)
@@ -165,7 +165,7 @@ class EkfSlam:
         return _readonly(self.state.P)
 
     @property
-    def landmarks(self) -> list[LandmarkRecord]:
+    def landmarks(self) -> list[Landmark]:
         return self.state.landmarks
 
     @property
@@ -194,8 +194,8 @@ class EkfSlam:
         st, ext = self.state, self.extent
         nan = np.full((2, 2), np.nan)
         n = st.n_landmarks
-        rma = [ext.matrix(r.extent) for r in st.landmarks]
-        efa = [ext.baseline(r.extent) for r in st.landmarks]
+        rma = [ext.matrix(e) for e in st.extents]
+        efa = [ext.baseline(e) for e in st.extents]
         return MapSnapshot(
             ids=st.ids(), positions=st.positions, covs=st.position_covs(),
             rma=np.array([nan if X is None else X for X in rma]).reshape(n, 2, 2),
@@ -278,8 +278,8 @@ class EkfSlam:
             self.state.lin_pose = self._pose_first.copy()
         cand = self._sift(polar, prior)                                   # 3
         assoc, nis = self._associate_and_update(polar, cand)              # 4
-        associations = {r.id: (np.array(a, dtype=int) if keep is None else keep[a])
-                        for r, a in zip(self.state.landmarks, assoc) if a}
+        associations = {lid: (np.array(a, dtype=int) if keep is None else keep[a])
+                        for lid, a in zip(self.state.ids().tolist(), assoc) if a}
         removed, assoc = self._remove_unseen(assoc, k)                    # 5
         xy = self.measurement.to_world(self.state.pose, polar)            # seed eq. (3), updated pose
         self._extent_step(polar, xy, assoc, prior, dt, k)                 # 6
@@ -317,8 +317,8 @@ class EkfSlam:
         xy = self.measurement.to_world(st.pose, polar)
         positions = x_prior[st.platform_dim:].reshape(-1, 2)
         test = None
-        if st.landmarks:
-            test = self.extent.sift([r.extent for r in st.landmarks], xy, polar, positions, blocks_prior,
+        if st.n_landmarks:
+            test = self.extent.sift(st.extents, xy, polar, positions, blocks_prior,
                                     st.pose, st.pose_cov)
         inside, has = test if test is not None else (None, None)
         return sift(xy, positions, self.config.landmarks.sift_radius_m, inside, has, self._candidates)
@@ -327,11 +327,11 @@ class EkfSlam:
         """Step 4: the associator scores the candidates and updates the state (c.4; a.7.2); the
         association of each landmark and the NIS of every update."""
         st = self.state
-        assoc: list[list[int]] = [[] for _ in st.landmarks]
-        if not st.landmarks:
+        assoc: list[list[int]] = [[] for _ in range(st.n_landmarks)]
+        if not st.n_landmarks:
             return assoc, np.empty(0)
         candidates = np.flatnonzero(cand)
-        states = [r.extent for r in st.landmarks]
+        states = st.extents
         spreads = Spreads(*self.extent.spreads(states))
         if self.view is not None:
             covs = self.extent.view_shape_covs(states) if self.config.extent.view_shape_uncertainty else None
@@ -347,11 +347,11 @@ class EkfSlam:
         st, f, lc = self.state, self.config.filter, self.config.landmarks
         in_view = in_sensor_view(st.positions, st.pose, f.max_range_m, f.field_of_view_deg)
         hit = np.array([bool(a) for a in assoc], dtype=bool)
-        drop = removal_step(st.landmarks, hit, in_view, k, window=lc.removal_window, max_hits=lc.removal_max_hits,
+        drop = removal_step(st.records, hit, in_view, k, window=lc.removal_window, max_hits=lc.removal_max_hits,
                             compiled=self.config.filter.backend == "numba")
         if self._gate is not None:                                        # c.10.4.4
             drop = sorted(set(drop) | set(self._gate.moving_landmarks(st.positions, st.created(), k)))
-        removed = [r.id for r in st.remove(drop)]
+        removed = [lid for lid, _ in st.remove(drop)]
         gone = set(drop)
         return removed, [a for j, a in enumerate(assoc) if j not in gone]
 
@@ -359,15 +359,15 @@ class EkfSlam:
                      k: int) -> None:
         """Step 6: each landmark's extent with this scan's associated detections (a.3-a.5)."""
         st, ext = self.state, self.extent
-        if not getattr(ext, "active", True) or not st.landmarks:
+        if not getattr(ext, "active", True) or not st.n_landmarks:
             return
         if ext.posterior_centroid:
             centroids, covs = st.positions, st.position_covs()
         else:
             x_prior, blocks_prior, rows_prior = prior
-            rows = [rows_prior[r.id] for r in st.landmarks]
+            rows = [rows_prior[i] for i in st.ids().tolist()]
             centroids, covs = x_prior[st.platform_dim:].reshape(-1, 2)[rows], blocks_prior[rows]
-        states = [r.extent for r in st.landmarks]
+        states = st.extents
         pose, pose_cov = st.pose, st.pose_cov
         step_all = getattr(ext, "step_all", None)
         if step_all is not None:
@@ -425,10 +425,11 @@ class EkfSlam:
             if pair is None:
                 break
             keep, drop = pair
-            survivor = st.landmarks[keep]
-            (gone,) = st.remove([drop])
-            survivor.extent = self.extent.merge(survivor.extent, gone.extent)
-            merged.append((survivor.id, gone.id))
+            survivor = int(st.records.ids[keep])
+            ((gone, gone_extent),) = st.remove([drop])
+            j = keep - (drop < keep)                                      # the survivor's row now
+            st.extents[j] = self.extent.merge(st.extents[j], gone_extent)
+            merged.append((survivor, gone))
         return merged
 
 

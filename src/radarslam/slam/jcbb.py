@@ -419,7 +419,7 @@ class JcbbAssociator(NearestNeighbourAssociator):
                   spreads: Spreads) -> tuple[np.ndarray, np.ndarray]:
         out = np.full(candidates.shape[0], -1, dtype=int)
         self.last = None
-        if not state.landmarks or candidates.size == 0:
+        if not state.n_landmarks or candidates.size == 0:
             return out, np.empty(0)
         observations = cluster_observations(polar[candidates], R, self.cluster_eps, self.cluster_min_samples)
         cands = self.candidate_pairs(state, observations, spreads)

@@ -160,7 +160,7 @@ class PartialViewNearestNeighbour(_PartialView, NearestNeighbourAssociator):
 
     def associate(self, state, polar, candidates, R, spreads):
         out = np.full(candidates.shape[0], -1, dtype=int)
-        if not state.landmarks or candidates.size == 0:
+        if not state.n_landmarks or candidates.size == 0:
             return out, np.empty(0)
         if spreads.shapes is None:
             self._terms(state, R, spreads)                 # the one-line error
@@ -210,7 +210,7 @@ class PartialViewBatch(_PartialView, BatchAssociator):
     name = "batch"
 
     def scores(self, state, polar, candidates, R, spreads):
-        if not state.landmarks or candidates.size == 0:
+        if not state.n_landmarks or candidates.size == 0:
             return np.full(candidates.shape[0], -1, dtype=int)
         j, D = self._score(state, polar, candidates, R, spreads, self.n_nearest)
         return np.where(D < self.beta, j, -1)
@@ -290,8 +290,8 @@ def view_walk(state: SlamState, last_angle: dict[int, float], q: float) -> dict[
     """The centroid's random walk with the viewing angle (a.12.5, ``extent.view_walk_m2_per_rad`` =
     ``q``): ``P_pp += q |delta phi| I`` for the change of the bearing from each landmark to the
     sensor since the previous scan (``last_angle`` by landmark id); returns this scan's bearings."""
-    if q <= 0.0 or not state.landmarks:
+    if q <= 0.0 or not state.n_landmarks:
         return last_angle
-    last = np.array([last_angle.get(r.id, np.nan) for r in state.landmarks], dtype=float)
+    last = np.array([last_angle.get(i, np.nan) for i in state.ids().tolist()], dtype=float)
     phi = _kernels().view_walk_rows(state.x, state.P, last, float(q), state.platform_dim)   # P in place
-    return {r.id: float(a) for r, a in zip(state.landmarks, phi)}
+    return {i: float(a) for i, a in zip(state.ids().tolist(), phi)}

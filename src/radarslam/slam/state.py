@@ -14,39 +14,69 @@ from typing import Any
 import numpy as np
 
 from radarslam.landmarks.confirmation import Tentatives, no_tentatives
+from radarslam.landmarks.records import Records, add_record, compact_records, new_records
 from radarslam.slam import ekf
 from radarslam.slam.layout import LANDMARK_DIM, POSE_DIM, landmark_index
 
 
-@dataclass
-class LandmarkRecord:
-    """Bookkeeping of one confirmed landmark (its centroid lives in the EKF state).
+class Landmark:
+    """Landmark ``j`` of a :class:`SlamState`, read through to its arrays (a view: valid until the
+    next removal). ``extent`` is the extent estimator's per-landmark state (its own type, see
+    :mod:`radarslam.extent.estimator`)."""
 
-    ``extent`` is the per-landmark state of the extent estimator (its own type, see
-    :mod:`radarslam.extent.estimator`).
-    """
+    __slots__ = ("_state", "_j")
 
-    id: int
-    created: int
-    assoc: int = 1  # M/N windows, newest-first bits; [1, 0, ..., 0] at creation (docs/method.md c.5)
-    in_range: int = 1
-    extent: Any = None
-    #: The landmark's first estimate [px, py] (m), its centroid when it entered the state: where
-    #: its measurement Jacobian is evaluated under first-estimates Jacobians (docs/method.md c.2.1).
-    first: np.ndarray | None = None
+    def __init__(self, state: "SlamState", j: int):
+        self._state, self._j = state, j
+
+    @property
+    def id(self) -> int:
+        return int(self._state.records.ids[self._j])
+
+    @property
+    def created(self) -> int:
+        return int(self._state.records.created[self._j])
+
+    @property
+    def assoc(self) -> int:
+        """The M/N window of associations, newest-first bits (docs/method.md c.5)."""
+        return int(self._state.records.mbits[self._j])
+
+    @property
+    def in_range(self) -> int:
+        """The M/N window of scans in view or associated."""
+        return int(self._state.records.rbits[self._j])
+
+    @property
+    def first(self) -> np.ndarray:
+        """The first estimate [px, py] (m), the centroid when it entered the state: where its
+        measurement Jacobian is evaluated under first-estimates Jacobians (docs/method.md c.2.1)."""
+        return self._state.records.first[self._j].copy()
+
+    @property
+    def extent(self) -> Any:
+        return self._state.extents[self._j]
+
+    @extent.setter
+    def extent(self, value: Any) -> None:
+        self._state.extents[self._j] = value
 
 
 @dataclass
 class SlamState:
-    """``x = [x, y, theta, p_1, ..., p_N]`` and ``P``, with one :class:`LandmarkRecord` per landmark
-    in state order, the unconfirmed landmarks of Rule 2, and the next landmark id.
+    """``x = [x, y, theta, p_1, ..., p_N]`` and ``P``; the landmarks' bookkeeping in state order as
+    arrays (:class:`~radarslam.landmarks.records.Records`, rows ``0 .. n_landmarks - 1``, the
+    fused engine's own form) with the extent estimator's per-landmark states beside them
+    (``extents``); the unconfirmed landmarks of Rule 2, and the next landmark id.
 
     With odometry-bias states (docs/method.md c.11) the platform block is
     ``[x, y, theta, b_1, ..., b_m]`` and ``platform_dim = 3 + m``; the landmarks follow it."""
 
     x: np.ndarray
     P: np.ndarray
-    landmarks: list[LandmarkRecord] = field(default_factory=list)
+    records: Records = field(default_factory=lambda: new_records(16))
+    n_landmarks: int = 0
+    extents: list = field(default_factory=list)
     tentatives: Tentatives = field(default_factory=no_tentatives)
     next_id: int = 0
     #: Under first-estimates Jacobians (docs/method.md c.2.1): the pose [x_m, y_m, theta_rad] at
@@ -71,8 +101,9 @@ class SlamState:
         return landmark_index(j, self.platform_dim)
 
     @property
-    def n_landmarks(self) -> int:
-        return len(self.landmarks)
+    def landmarks(self) -> list[Landmark]:
+        """The landmarks in state order, as :class:`Landmark` views."""
+        return [Landmark(self, j) for j in range(self.n_landmarks)]
 
     # ---------------------------------------------------------------- views (copies)
     @property
@@ -117,14 +148,14 @@ class SlamState:
         return covs
 
     def ids(self) -> np.ndarray:
-        return np.array([r.id for r in self.landmarks], dtype=int)
+        return self.records.ids[:self.n_landmarks].copy()
 
     def created(self) -> np.ndarray:
-        return np.array([r.created for r in self.landmarks], dtype=int)
+        return self.records.created[:self.n_landmarks].copy()
 
     def rows_by_id(self) -> dict[int, int]:
         """Landmark id -> its position ``j`` in the state."""
-        return {r.id: j for j, r in enumerate(self.landmarks)}
+        return dict(zip(self.records.ids[:self.n_landmarks].tolist(), range(self.n_landmarks)))
 
     def linearisation(self, j: int) -> np.ndarray:
         """The state at which landmark ``j``'s measurement Jacobian is evaluated: ``x`` itself, or
@@ -134,10 +165,8 @@ class SlamState:
             return self.x
         x = self.x.copy()
         x[:POSE_DIM] = self.lin_pose
-        first = self.landmarks[j].first
-        if first is not None:
-            i = self.index(j)
-            x[i:i + 2] = first
+        i = self.index(j)
+        x[i:i + 2] = self.records.first[j]
         return x
 
     def linearisation_all(self) -> np.ndarray:
@@ -149,10 +178,7 @@ class SlamState:
             return np.empty(0)
         x = self.x.copy()
         x[:POSE_DIM] = self.lin_pose
-        for j, r in enumerate(self.landmarks):
-            if r.first is not None:
-                i = self.index(j)
-                x[i:i + 2] = r.first
+        x[self.platform_dim:] = self.records.first[:self.n_landmarks].ravel()
         return x
 
     # ---------------------------------------------------------------- changes
@@ -175,16 +201,22 @@ class SlamState:
             raise ValueError(f"x: expected {self.x.shape[0] + 2} entries, got {x.shape[0]}")
         self.x, self.P = x, P
         lid = self.next_id
-        self.landmarks.append(LandmarkRecord(lid, created, extent=extent, first=x[-2:].copy()))
+        self.records = add_record(self.records, self.n_landmarks, lid, created, float(x[-2]), float(x[-1]))
+        self.extents.append(extent)
+        self.n_landmarks += 1
         self.next_id += 1
         return lid
 
-    def remove(self, js: list[int]) -> list[LandmarkRecord]:
-        """Delete landmarks ``js`` (state positions) from ``x``, ``P`` and the records; the removed records."""
+    def remove(self, js: list[int]) -> list[tuple[int, Any]]:
+        """Delete landmarks ``js`` (state positions) from ``x``, ``P`` and the records; the removed
+        landmarks' ``(id, extent)`` in state order."""
         if not js:
             return []
-        gone = set(js)
+        keep = np.ones(self.n_landmarks, dtype=bool)
+        keep[list(js)] = False
+        removed = [(int(self.records.ids[j]), self.extents[j]) for j in np.flatnonzero(~keep).tolist()]
         self.x, self.P = ekf.remove_landmarks(self.x, self.P, list(js), self.platform_dim)
-        removed = [r for j, r in enumerate(self.landmarks) if j in gone]
-        self.landmarks = [r for j, r in enumerate(self.landmarks) if j not in gone]
+        old = compact_records(self.records, keep)
+        self.extents = [self.extents[j] for j in old.tolist()]
+        self.n_landmarks = old.shape[0]
         return removed
