@@ -176,3 +176,36 @@ def test_fit_of_exact_ellipse_matrix_round_trip():
     _, X = fit_ellipse(Z)
     ax, o = matrix_to_ellipse(X)
     np.testing.assert_allclose(ellipse_to_matrix(ax, o), X, rtol=1e-12)
+
+
+def test_buffering_and_initialisation_written_once():
+    """a.3's buffer (:func:`radarslam.extent.buffering.buffer_and_fit`), Python and compiled:
+    waits while at most ``n_init`` detections are held; then the EFA upper bound of all of them
+    (``X = C / gamma``, the sample covariance oracle); a collinear buffer fails the fit and keeps
+    the newest ``n_init`` in order (the negative control of the fit)."""
+    from radarslam.extent._compiled import buffer_and_fit as compiled
+    from radarslam.extent.buffering import READY, RETRY, WAIT, buffer_and_fit
+
+    rng = np.random.default_rng(2)
+    pts = rng.normal([3.0, -1.0], [1.0, 0.4], size=(9, 2))
+    line = np.column_stack([np.arange(9.0), 2.0 * np.arange(9.0)])
+    for kernel in (buffer_and_fit, compiled):
+        buf = np.zeros((16, 2))
+        assert kernel(buf, 0, pts[:3], 5, 0.25)[:2] == (WAIT, 3)
+        out, n, a, b, c = kernel(buf, 3, pts[3:], 5, 0.25)
+        assert (out, n) == (READY, 9)
+        np.testing.assert_allclose([[a, b], [b, c]], np.cov(pts.T) / 0.25, rtol=1e-12)
+        np.testing.assert_array_equal(buf[:9], pts)
+        buf = np.zeros((16, 2))
+        out, n, *_ = kernel(buf, 0, line, 5, 0.25)
+        assert (out, n) == (RETRY, 5)
+        np.testing.assert_array_equal(buf[:5], line[4:])
+
+
+def test_merge_outcome_truth_table():
+    from radarslam.extent._compiled import merge_outcome as compiled
+    from radarslam.extent.buffering import KEEP, POOL, TAKE, merge_outcome
+
+    for kernel in (merge_outcome, compiled):
+        assert [kernel(s, g) for s, g in ((True, True), (True, False), (False, True), (False, False))] == \
+            [KEEP, KEEP, TAKE, POOL]

@@ -409,3 +409,56 @@ def test_associations_grouped_by_landmark_once():
             aoff, arow = kernel(out, cidx, n)
             assert [arow[aoff[k]:aoff[k + 1]].tolist() for k in range(n)] == oracle
             assert arow.size == int(np.sum(out >= 0)) and aoff.shape == (n + 1,)
+
+
+def test_landmark_records_written_once_match_a_list_oracle():
+    """The records' birth, growth and removal (:mod:`radarslam.landmarks.records`), Python and
+    compiled: 40 births from a capacity of 4 (growth by doubling keeps every row), then three
+    rounds of removal by random masks, each equal to a list-of-rows oracle; the returned rows
+    before the move index the oracle's survivors."""
+    from radarslam.landmarks._compiled import compiled_add_record, compiled_compact_records
+    from radarslam.landmarks.records import add_record, compact_records, new_records
+
+    rng = np.random.default_rng(11)
+    for add, compact in ((add_record, compact_records), (compiled_add_record, compiled_compact_records)):
+        rec, rows = new_records(4), []
+        for n in range(40):
+            fx, fy = rng.normal(size=2)
+            rec = add(rec, n, 100 + n, 3 * n, fx, fy)
+            rows.append((100 + n, 3 * n, 1, 1, fx, fy))
+        assert rec.ids.shape[0] == 64                          # 4 -> 8 -> 16 -> 32 -> 64
+        n = 40
+        for _ in range(3):
+            rec.mbits[:n] = rng.integers(0, 1 << 10, n)        # windows move with their rows
+            rows = [r[:2] + (int(m),) + r[3:] for r, m in zip(rows, rec.mbits[:n])]
+            keep = rng.random(n) < 0.7
+            old = compact(rec, keep)
+            assert old.tolist() == np.flatnonzero(keep).tolist()
+            rows = [r for r, k in zip(rows, keep) if k]
+            n = len(rows)
+            got = list(zip(rec.ids[:n].tolist(), rec.created[:n].tolist(), rec.mbits[:n].tolist(),
+                           rec.rbits[:n].tolist(), rec.first[:n, 0].tolist(), rec.first[:n, 1].tolist()))
+            assert got == rows
+    # negative control: a mask that keeps nothing leaves no rows
+    assert compact_records(new_records(3), np.zeros(3, dtype=bool)).size == 0
+
+
+def test_slam_state_records_follow_removals_and_merges():
+    """The orchestrator's state holds its landmarks' bookkeeping in the records' arrays: ids,
+    creation scans and first estimates stay with their rows of ``x`` through a removal, and the
+    extents list moves with them."""
+    from radarslam.slam.state import SlamState
+
+    st = SlamState.initial([0.0, 0.0, 0.0], [0.1, 0.1, 0.01])
+    for j in range(20):
+        st.add_landmark(np.array([5.0 + j, 0.1 * j]), np.diag([0.01, 1e-4]), created=j, extent=f"e{j}")
+    firsts = {int(i): st.records.first[j].copy() for j, i in enumerate(st.ids())}
+    xs = {int(i): st.position(j) for j, i in enumerate(st.ids())}
+    removed = st.remove([0, 7, 19])
+    assert [lid for lid, _ in removed] == [0, 7, 19] and [e for _, e in removed] == ["e0", "e7", "e19"]
+    assert st.n_landmarks == 17 and st.x.shape == (3 + 34,)
+    for j, lm in enumerate(st.landmarks):
+        assert lm.extent == f"e{lm.id}" and lm.created == lm.id
+        np.testing.assert_array_equal(lm.first, firsts[lm.id])
+        np.testing.assert_array_equal(st.position(j), xs[lm.id])
+    assert st.rows_by_id()[8] == 6

@@ -24,7 +24,7 @@ COMPILED_SOURCES = (
     "slam/fused/plan.py", "slam/fused/extent.py", "slam/fused/gate.py",
     "landmarks/confirmation.py", "landmarks/merging.py", "landmarks/sifting.py", "landmarks/grouping.py",
     "landmarks/records.py", "extent/sifting.py", "slam/bias.py",
-    "extent/_compiled.py", "extent/_sym2.py", "extent/measurement.py", "extent/random_matrix.py",
+    "extent/_compiled.py", "extent/_sym2.py", "extent/buffering.py", "extent/measurement.py", "extent/random_matrix.py",
     "extent/ellipse_fit.py", "extent/partial_view.py", "extent/view_estimator.py", "landmarks/_compiled.py",
     "metrics/_compiled.py", "simulation/_compiled.py", "models/radar.py", "models/doppler.py",
     "models/ackermann.py", "models/motion.py", "extent/visible_arc.py", "extent/mem_ekf_kernels.py",

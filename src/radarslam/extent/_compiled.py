@@ -16,16 +16,19 @@ import numpy as np
 from numba import njit
 
 from radarslam.core.jit import compile_kernels
-from radarslam.extent import _sym2, ellipse_fit, measurement, partial_view, random_matrix, sifting, view_estimator
+from radarslam.extent import _sym2, buffering, ellipse_fit, measurement, partial_view, random_matrix, sifting, view_estimator
 
 _K = compile_kernels(measurement._w_entries, measurement.max_trace_w_entries, random_matrix.rm_update_entries,
                      random_matrix.rm_predict_alpha, ellipse_fit.fit_entries, _sym2.spectral, _sym2.from_spectral,
-                     _sym2.sqrt2, _sym2.inv_sqrt2, _sym2.floor2, _sym2.mean_and_scatter)
+                     _sym2.sqrt2, _sym2.inv_sqrt2, _sym2.floor2, _sym2.mean_and_scatter, *buffering.KERNELS)
 _w_entries = _K["_w_entries"]
 _max_trace_w_entries = _K["max_trace_w_entries"]
 _rm_update_entries = _K["rm_update_entries"]
 _rm_predict_alpha = _K["rm_predict_alpha"]
 _fit_entries = _K["fit_entries"]
+#: The extent's buffering and initialisation (a.3) and the merge's outcome (c.9), for the fused engine.
+buffer_and_fit = _K["buffer_and_fit"]
+merge_outcome = _K["merge_outcome"]
 
 #: The literal and measurement contours of a.7.1, compiled as they are (the orchestrator's numba backend and the fused engine).
 _S = compile_kernels(sifting.literal_inside, sifting.contour_inside)

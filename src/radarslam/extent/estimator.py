@@ -20,6 +20,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from radarslam.core.registry import EXTENT_ESTIMATORS
+from radarslam.extent.buffering import POOL, READY, TAKE, buffer_and_fit, merge_outcome
 from radarslam.extent.ellipse_fit import _fit_ellipse
 from radarslam.extent.measurement import _scan_W
 from radarslam.extent.measurement import _converted_measurement_covs
@@ -80,7 +81,8 @@ class RmaEfaState:
     """Extent of one landmark: the buffer before initialisation; afterwards ``X``/``alpha`` (RMA)
     and ``X_efa`` (the EFA baseline)."""
 
-    buffer: list[np.ndarray] = field(default_factory=list)
+    #: The detections held before the extent is initialised (a.3): rows ``0 .. n_buffered - 1``.
+    buffer: np.ndarray = field(default_factory=lambda: np.empty((0, 2)))
     n_buffered: int = 0
     X: np.ndarray | None = None
     alpha: float = 0.0
@@ -156,8 +158,7 @@ class RmaEfaEstimator:
             return self.prior_spread
         if mode == "scatter":
             if st.n_buffered >= 3:
-                pts = np.concatenate(st.buffer)
-                return np.cov(pts.T)
+                return np.cov(st.buffer[:st.n_buffered].T)
             return self.prior_spread
         return None
 
@@ -267,36 +268,44 @@ class RmaEfaEstimator:
                 st.X_efa = efa[l]
 
     def _buffer(self, st: RmaEfaState, pts: np.ndarray, k: int) -> None:
-        """a.3: buffer detections; once more than ``n_init`` are held, initialise X by EFA (upper
-        bound) with ``alpha_0``; a degenerate fit keeps only the newest ``n_init`` and waits."""
+        """a.3 (:func:`~radarslam.extent.buffering.buffer_and_fit`): buffer detections; once more
+        than ``n_init`` are held, initialise X by EFA (upper bound) with ``alpha_0``; a degenerate
+        fit keeps only the newest ``n_init`` and waits."""
         ec = self.c
-        if pts.shape[0]:
-            st.buffer.append(pts)
-            st.n_buffered += pts.shape[0]
-        if st.n_buffered <= ec.n_init:
+        st.buffer = _with_room(st.buffer, st.n_buffered + pts.shape[0])
+        outcome, n, e11, e12, e22 = buffer_and_fit(st.buffer, st.n_buffered, pts, ec.n_init, ec.spread_factor)
+        if outcome != READY:
+            st.n_buffered = n
             return
-        data = np.concatenate(st.buffer)
-        fit = _fit_ellipse(data, True, None, ec.spread_factor)
-        if fit:
-            st.X = fit[1]
-            st.alpha = ec.alpha0
-            st.X_efa = fit[1].copy()
-            st.initialized_at = k
-            st.efa_buffer = [data[-ec.efa_window:]]
-            st.buffer = []
-        else:
-            st.buffer = [data[-ec.n_init:]]
-            st.n_buffered = st.buffer[0].shape[0]
+        st.X = np.array(((e11, e12), (e12, e22)))
+        st.alpha = ec.alpha0
+        st.X_efa = st.X.copy()
+        st.initialized_at = k
+        st.efa_buffer = [st.buffer[:n][-ec.efa_window:].copy()]
+        st.buffer, st.n_buffered = np.empty((0, 2)), 0
 
     def merge(self, survivor: RmaEfaState, gone: RmaEfaState) -> RmaEfaState:
-        """c.9 [PROP]: the surviving landmark keeps its own extent; it takes the other's when it has
-        none yet, and two uninitialised landmarks pool their buffered detections."""
-        if not survivor.initialized and gone.initialized:
+        """c.9 [PROP] (:func:`~radarslam.extent.buffering.merge_outcome`): the surviving landmark
+        keeps its own extent; it takes the other's when it has none yet, and two uninitialised
+        landmarks pool their buffered detections."""
+        outcome = merge_outcome(survivor.initialized, gone.initialized)
+        if outcome == TAKE:
             return gone
-        if not survivor.initialized and not gone.initialized:
-            survivor.buffer += gone.buffer
-            survivor.n_buffered += gone.n_buffered
+        if outcome == POOL:
+            n = survivor.n_buffered + gone.n_buffered
+            survivor.buffer = _with_room(survivor.buffer, n)
+            survivor.buffer[survivor.n_buffered:n] = gone.buffer[:gone.n_buffered]
+            survivor.n_buffered = n
         return survivor
+
+
+def _with_room(buf: np.ndarray, n: int) -> np.ndarray:
+    """The buffer ``(B, 2)`` with room for ``n`` rows (doubling), its rows kept."""
+    if buf.shape[0] >= n:
+        return buf
+    out = np.empty((max(n, 2 * buf.shape[0]), 2))
+    out[:buf.shape[0]] = buf
+    return out
 
 
 def _reference_contour(points, polar, pose, pose_cov, R, centroids, spreads, centroid_covs, gate):

@@ -425,8 +425,7 @@ class EkfSlam:
             if pair is None:
                 break
             keep, drop = pair
-            survivor = int(st.records.ids[keep])
-            ((gone, gone_extent),) = st.remove([drop])
+            survivor, ((gone, gone_extent),) = int(st.records.ids[keep]), st.remove([drop])
             j = keep - (drop < keep)                                      # the survivor's row now
             st.extents[j] = self.extent.merge(st.extents[j], gone_extent)
             merged.append((survivor, gone))

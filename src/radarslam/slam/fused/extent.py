@@ -14,7 +14,8 @@ from numba import njit
 
 from radarslam.core.jit import compile_kernels
 from radarslam.extent import mem_ekf_kernels
-from radarslam.extent._compiled import _fit_entries, _max_trace_w_entries, rma_efa_step
+from radarslam.extent._compiled import _fit_entries, _max_trace_w_entries, buffer_and_fit, rma_efa_step
+from radarslam.extent.buffering import READY
 from radarslam.extent.ellipse import _ellipse_to_matrix
 from radarslam.slam.fused.storage import _arc_width_diameter, _blocks, add_arc, with_buffer
 from radarslam.slam.fused.view import view_shape_step
@@ -35,35 +36,28 @@ MEM_SENSOR, MEM_NO_CENTROID, MEM_FULL = 0, 1, 2
 @njit(cache=True, inline="always")
 def _buffer_and_initialise(lm, j, o, xy, aoff, arow, Cp0, cfg):  # pragma: no cover - compiled
     """a.3 for landmark ``j`` (row ``o`` of the associations) whose extent is not initialised:
-    buffer its detections, then the EFA (upper bound) once more than ``cfg.n_init`` are held; with
-    ``cfg.mem`` the MEM-EKF* shape from it, of covariance ``Cp0`` (a.10), and ``X`` its matrix.
-    Returns ``lm`` (its buffers may grow)."""
+    extent.buffering.buffer_and_fit on its detections; once fitted, ``alpha_0``, and with
+    ``cfg.mem`` the MEM-EKF* shape from the fit, of covariance ``Cp0`` (a.10), and ``X`` its
+    matrix. Returns ``lm`` (its buffers may grow)."""
     na = aoff[o + 1] - aoff[o]
     lm = with_buffer(lm, lm.nbuf[j] + na)
-    buf = lm.buf
+    pts = np.empty((na, 2))
     for a in range(na):
-        buf[j, lm.nbuf[j] + a, 0] = xy[arow[aoff[o] + a], 0]
-        buf[j, lm.nbuf[j] + a, 1] = xy[arow[aoff[o] + a], 1]
-    lm.nbuf[j] += na
-    if lm.nbuf[j] <= cfg.n_init:
+        pts[a] = xy[arow[aoff[o] + a]]
+    outcome, n, e11, e12, e22 = buffer_and_fit(lm.buf[j], lm.nbuf[j], pts, cfg.n_init, cfg.gamma)
+    if outcome != READY:
+        lm.nbuf[j] = n
         return lm
-    data = buf[j, :lm.nbuf[j]].copy()
-    ok, _, _, e11, e12, e22 = _fit_entries(data, True, 0.0, 0.0, 0.0, cfg.gamma)
-    if ok:
-        lm.einit[j] = True
-        lm.X[j, 0, 0], lm.X[j, 0, 1], lm.X[j, 1, 0], lm.X[j, 1, 1] = e11, e12, e12, e22
-        lm.alpha[j] = cfg.alpha0
-        lm.Xefa[j] = lm.X[j]
-        lm.nbuf[j] = 0
-        if cfg.mem:
-            th, l1, l2 = _initial_shape(e11, e12, e22)
-            lm.shape[j, 0], lm.shape[j, 1], lm.shape[j, 2] = th, l1, l2
-            lm.Cs[j] = Cp0
-            lm.X[j] = _shape_matrix(l1, l2, th)
-    else:
-        keep_n = cfg.n_init
-        buf[j, :keep_n] = data[lm.nbuf[j] - keep_n:]
-        lm.nbuf[j] = keep_n
+    lm.einit[j] = True
+    lm.X[j, 0, 0], lm.X[j, 0, 1], lm.X[j, 1, 0], lm.X[j, 1, 1] = e11, e12, e12, e22
+    lm.alpha[j] = cfg.alpha0
+    lm.Xefa[j] = lm.X[j]
+    lm.nbuf[j] = 0
+    if cfg.mem:
+        th, l1, l2 = _initial_shape(e11, e12, e22)
+        lm.shape[j, 0], lm.shape[j, 1], lm.shape[j, 2] = th, l1, l2
+        lm.Cs[j] = Cp0
+        lm.X[j] = _shape_matrix(l1, l2, th)
     return lm
 
 

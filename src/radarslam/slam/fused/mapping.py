@@ -12,6 +12,9 @@ import numpy as np
 from numba import njit
 
 from radarslam.core.jit import compile_kernels
+from radarslam.extent._compiled import merge_outcome
+from radarslam.extent.buffering import POOL, TAKE
+from radarslam.landmarks._compiled import compiled_add_record
 from radarslam.landmarks._compiled import compiled_closest_pair as _closest_pair
 from radarslam.landmarks._compiled import compiled_rule12 as _rule12
 from radarslam.landmarks._compiled import dbscan_centres, dbscan_labels
@@ -26,6 +29,7 @@ from radarslam.slam.fused.storage import (
     _drop_state_rows,
     compact_landmarks,
     grow_landmarks,
+    records,
     pool_arcs,
     with_buffer,
 )
@@ -134,8 +138,8 @@ def augment(x, P, lm, N, next_id, confirmed, clusters, polar, k, noise, cfg):  #
             i = cl_centre[c]
             x, P = _augment(x, P, polar[i].copy(), noise.R)
         lm = grow_landmarks(lm, N + 1)
-        lm.ids[N], lm.created[N], lm.mbits[N], lm.rbits[N] = next_id, k, 1, 1
-        lm.first[N, 0], lm.first[N, 1] = x[-2], x[-1]          # its first estimate (c.2.1)
+        # in place (the rows were grown above), with its first estimate (c.2.1)
+        compiled_add_record(records(lm), N, next_id, k, x[-2], x[-1])
         lm.einit[N], lm.alpha[N], lm.nbuf[N] = False, 0.0, 0
         lm.narc[N], lm.arc_head[N], lm.arc_tail[N] = 0, -1, -1
         view_newborn(x, lm, N, cfg)                          # the partial view's shape (a.12.6)
@@ -160,13 +164,14 @@ def merge(x, P, lm, N, arcs, cfg):  # pragma: no cover - compiled
         if bi < 0:
             break
         # the survivor keeps its extent, takes the other's if it has none, or pools the buffers
-        if not lm.einit[bi] and lm.einit[bj]:
+        outcome = merge_outcome(lm.einit[bi], lm.einit[bj])
+        if outcome == TAKE:
             lm.einit[bi], lm.X[bi], lm.alpha[bi], lm.Xefa[bi], lm.nbuf[bi] = (
                 True, lm.X[bj], lm.alpha[bj], lm.Xefa[bj], lm.nbuf[bj])
             lm.buf[bi] = lm.buf[bj]
             lm.shape[bi] = lm.shape[bj]
             lm.Cs[bi] = lm.Cs[bj]
-        elif not lm.einit[bi] and not lm.einit[bj]:
+        elif outcome == POOL:
             lm = with_buffer(lm, lm.nbuf[bi] + lm.nbuf[bj])
             lm.buf[bi, lm.nbuf[bi]:lm.nbuf[bi] + lm.nbuf[bj]] = lm.buf[bj, :lm.nbuf[bj]]
             lm.nbuf[bi] += lm.nbuf[bj]

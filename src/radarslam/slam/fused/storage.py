@@ -17,6 +17,8 @@ from numba import njit
 
 from radarslam.core.jit import compile_kernels
 from radarslam.extent.visible_arc import arc_width_diameter, gated_diameter
+from radarslam.landmarks._compiled import compiled_compact_records, compiled_with_room
+from radarslam.landmarks.records import Records
 from radarslam.slam import _view_compiled
 
 # The visible-arc estimator's own kernels, compiled as they are (docs/method.md a.9).
@@ -27,7 +29,9 @@ _exp_sym2 = _view_compiled.exp_sym2
 
 
 class Landmarks(NamedTuple):
-    """The landmark records in state order (rows ``0 .. N - 1`` in use; capacity along axis 0)."""
+    """The landmark records in state order (rows ``0 .. N - 1`` in use; capacity along axis 0): the
+    bookkeeping of :class:`~radarslam.landmarks.records.Records` (its first five fields, grown,
+    added and moved by its kernels, :func:`records`), then the extent estimators' states."""
 
     ids: np.ndarray        #: (L,) int64, landmark ids
     created: np.ndarray    #: (L,) int64, creation scans
@@ -202,16 +206,24 @@ def new_landmarks(cap, buf_len):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
+def records(lm):  # pragma: no cover - compiled
+    """The bookkeeping of ``lm`` as :class:`~radarslam.landmarks.records.Records` (the same arrays)."""
+    return Records(lm.ids, lm.created, lm.mbits, lm.rbits, lm.first)
+
+
+@njit(cache=True, inline="always")
 def grow_landmarks(lm, n):  # pragma: no cover - compiled
-    """``lm`` with room for at least ``n`` landmarks."""
+    """``lm`` with room for at least ``n`` landmarks (landmarks.records.with_room, the estimators'
+    states alike)."""
     if n <= lm.ids.shape[0]:
         return lm
-    return Landmarks(_grow_rows(lm.ids, n), _grow_rows(lm.created, n), _grow_rows(lm.mbits, n),
-                     _grow_rows(lm.rbits, n), _grow_rows(lm.einit, n), _grow_rows(lm.X, n), _grow_rows(lm.alpha, n),
-                     _grow_rows(lm.Xefa, n), _grow_rows(lm.nbuf, n), _grow_rows(lm.buf, n), _grow_rows(lm.narc, n),
-                     _grow_rows(lm.arc_head, n), _grow_rows(lm.arc_tail, n), _grow_rows(lm.first, n),
-                     _grow_rows(lm.shape, n), _grow_rows(lm.Cs, n), _grow_rows(lm.xi, n), _grow_rows(lm.Pxi, n),
-                     _grow_rows(lm.nview, n), _grow_rows(lm.vangle, n))
+    rec = compiled_with_room(records(lm), n)
+    c = rec.ids.shape[0]
+    return Landmarks(rec.ids, rec.created, rec.mbits, rec.rbits, _grow_rows(lm.einit, c), _grow_rows(lm.X, c),
+                     _grow_rows(lm.alpha, c), _grow_rows(lm.Xefa, c), _grow_rows(lm.nbuf, c), _grow_rows(lm.buf, c),
+                     _grow_rows(lm.narc, c), _grow_rows(lm.arc_head, c), _grow_rows(lm.arc_tail, c), rec.first,
+                     _grow_rows(lm.shape, c), _grow_rows(lm.Cs, c), _grow_rows(lm.xi, c), _grow_rows(lm.Pxi, c),
+                     _grow_rows(lm.nview, c), _grow_rows(lm.vangle, c))
 
 
 @njit(cache=True, inline="always")
@@ -226,26 +238,21 @@ def with_buffer(lm, n):  # pragma: no cover - compiled
 
 @njit(cache=True, inline="always")
 def compact_landmarks(lm, keep):  # pragma: no cover - compiled
-    """Move the records whose ``keep`` is True to the front, in order, in place. Returns each
-    survivor's position before (``(n_keep,)``)."""
-    N = keep.shape[0]
-    old = np.empty(N, dtype=np.int64)
-    q = 0
-    for j in range(N):
-        if keep[j]:
-            old[q] = j
-            if q != j:
-                lm.ids[q], lm.created[q], lm.mbits[q], lm.rbits[q] = lm.ids[j], lm.created[j], lm.mbits[j], lm.rbits[j]
-                lm.einit[q], lm.X[q], lm.alpha[q], lm.Xefa[q] = lm.einit[j], lm.X[j], lm.alpha[j], lm.Xefa[j]
-                lm.nbuf[q] = lm.nbuf[j]
-                lm.buf[q] = lm.buf[j]
-                lm.narc[q], lm.arc_head[q], lm.arc_tail[q] = lm.narc[j], lm.arc_head[j], lm.arc_tail[j]
-                lm.first[q] = lm.first[j]
-                lm.shape[q] = lm.shape[j]
-                lm.Cs[q] = lm.Cs[j]
-                lm.xi[q], lm.Pxi[q], lm.nview[q], lm.vangle[q] = lm.xi[j], lm.Pxi[j], lm.nview[j], lm.vangle[j]
-            q += 1
-    return old[:q]
+    """Move the records whose ``keep`` is True to the front, in order, in place: the bookkeeping by
+    landmarks.records.compact_records, the estimators' states alike. Returns each survivor's
+    position before (``(n_keep,)``)."""
+    old = compiled_compact_records(records(lm), keep)
+    for q in range(old.shape[0]):
+        j = old[q]
+        if q != j:
+            lm.einit[q], lm.X[q], lm.alpha[q], lm.Xefa[q] = lm.einit[j], lm.X[j], lm.alpha[j], lm.Xefa[j]
+            lm.nbuf[q] = lm.nbuf[j]
+            lm.buf[q] = lm.buf[j]
+            lm.narc[q], lm.arc_head[q], lm.arc_tail[q] = lm.narc[j], lm.arc_head[j], lm.arc_tail[j]
+            lm.shape[q] = lm.shape[j]
+            lm.Cs[q] = lm.Cs[j]
+            lm.xi[q], lm.Pxi[q], lm.nview[q], lm.vangle[q] = lm.xi[j], lm.Pxi[j], lm.nview[j], lm.vangle[j]
+    return old
 
 
 # ---------------------------------------------------------------------------------------- Doppler gate
