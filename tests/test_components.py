@@ -187,7 +187,7 @@ def _random_state(rng, n_lm: int) -> SlamState:
     n = 3 + 2 * n_lm
     A = rng.normal(size=(n, n)) * 0.05
     P = A @ A.T + np.diag(np.r_[[0.05, 0.05, 1e-3], np.full(2 * n_lm, 0.2)])
-    return SlamState(np.r_[pose, L.ravel()], P, [None] * n_lm)
+    return SlamState.from_mean(np.r_[pose, L.ravel()], P)
 
 
 def _scan_near(rng, st: SlamState, m: int) -> np.ndarray:
@@ -209,7 +209,7 @@ def test_compiled_associator_matches_python_on_random_states(seed, kind):
     rng = np.random.default_rng(seed)
     n_lm = int(rng.integers(1, 25))
     st_py = _random_state(rng, n_lm)
-    st_nb = SlamState(st_py.x.copy(), st_py.P.copy(), [None] * n_lm)
+    st_nb = SlamState.from_mean(st_py.x.copy(), st_py.P.copy())
     polar = _scan_near(rng, st_py, int(rng.integers(1, 40)))
     cand = np.flatnonzero(rng.random(polar.shape[0]) < 0.8)
     R = np.diag([rng.uniform(0.05, 0.5) ** 2, math.radians(rng.uniform(0.5, 2)) ** 2])

@@ -128,10 +128,10 @@ def test_batch_associator_assigns_as_the_sequential_scheme_scores_first_and_upda
     R = np.diag([0.25, math.radians(1.0) ** 2])
     spreads = Spreads(np.repeat(0.25 * np.eye(2)[None], n_lm, 0), np.ones(n_lm, dtype=bool))
     batch = BatchAssociator(20.0, 3, 5)
-    st = SlamState(x.copy(), P.copy(), [None] * n_lm)
+    st = SlamState.from_mean(x.copy(), P.copy())
     out, nis = batch.associate(st, polar, cand, R, spreads)
     # the assignment is the sequential scheme's first choice for each detection at the prior state
-    first = [NearestNeighbourAssociator(20.0, 3, 5).best_match(SlamState(x, P, [None] * n_lm), s, 3, R, spreads)
+    first = [NearestNeighbourAssociator(20.0, 3, 5).best_match(SlamState.from_mean(x, P), s, 3, R, spreads)
              for s in polar]
     assert out.tolist() == [j if D < 20.0 else -1 for j, D, *_ in first]
     assert nis.size == np.unique(out[out >= 0]).size          # one update per landmark

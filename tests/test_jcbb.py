@@ -233,7 +233,7 @@ def test_one_landmark_one_cluster_is_exactly_the_batch_update():
     R = np.diag([0.2**2, math.radians(1.0) ** 2])
     X = np.array([[1.0, 0.3], [0.3, 0.5]])
     for spreads in (Spreads.none(1), Spreads(0.25 * X[None], np.array([True]))):
-        st_b, st_j = SlamState(x.copy(), P.copy(), [None]), SlamState(x.copy(), P.copy(), [None])
+        st_b, st_j = SlamState.from_mean(x.copy(), P.copy()), SlamState.from_mean(x.copy(), P.copy())
         out_b, nis_b = BatchAssociator(1e6, 3, 5).associate(st_b, polar, cand, R, spreads)
         out_j, nis_j = JcbbAssociator(1e6, 3, 5, cluster_eps=2.5).associate(st_j, polar, cand, R, spreads)
         assert out_b.tolist() == out_j.tolist() == [0] * cand.size
@@ -251,7 +251,7 @@ def _offset_state():
     T[3:5, 0:2] = T[5:7, 0:2] = np.eye(2)
     P = T @ P0 @ T.T
     P[0, 0] += 1.0
-    return SlamState(np.array([0.0, 0.0, 0.0, 10.0, 0.0, 11.5, 0.0]), P, [None, None])
+    return SlamState.from_mean(np.array([0.0, 0.0, 0.0, 10.0, 0.0, 11.5, 0.0]), P)
 
 
 def test_jcbb_associator_resolves_the_offset_that_nearest_neighbour_gets_wrong():

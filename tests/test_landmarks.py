@@ -462,3 +462,25 @@ def test_slam_state_records_follow_removals_and_merges():
         np.testing.assert_array_equal(lm.first, firsts[lm.id])
         np.testing.assert_array_equal(st.position(j), xs[lm.id])
     assert st.rows_by_id()[8] == 6
+
+
+def test_sensor_view_kernel_matches_geometry_and_its_compiled_form():
+    """Step 5's "in range" (:func:`in_view`, c.5), Python and compiled: a brute-force oracle on
+    random landmarks, all around (360 deg) and for a 90 deg field of view centred on the heading;
+    a landmark straight behind is out of a forward view but in an all-round one."""
+    from radarslam.landmarks._compiled import compiled_in_view
+    from radarslam.landmarks.confirmation import in_view
+
+    rng = np.random.default_rng(4)
+    pose = np.array([1.0, -2.0, 0.7])
+    L = pose[:2] + rng.uniform(-40, 40, (60, 2))
+    x = np.r_[pose, L.ravel()]
+    d = L - pose[:2]
+    rng_ok = np.hypot(d[:, 0], d[:, 1]) <= 30.0
+    bearing = np.angle(np.exp(1j * (np.arctan2(d[:, 1], d[:, 0]) - pose[2])))
+    for kernel in (in_view, compiled_in_view):
+        np.testing.assert_array_equal(kernel(x, 3, 60, 30.0, math.pi), rng_ok)
+        np.testing.assert_array_equal(kernel(x, 3, 60, 30.0, math.pi / 4), rng_ok & (np.abs(bearing) <= math.pi / 4))
+        behind = np.r_[pose, pose[:2] - 5.0 * np.array([math.cos(0.7), math.sin(0.7)])]
+        assert kernel(behind, 3, 1, 30.0, math.pi).tolist() == [True]
+        assert kernel(behind, 3, 1, 30.0, math.pi / 4).tolist() == [False]

@@ -13,7 +13,8 @@ import numpy as np
 from numba import njit
 
 from radarslam.core.jit import compile_kernels
-from radarslam.landmarks.confirmation import mn_windows, popcount, push_bit, rule12, should_remove
+from radarslam.core.angles import wrap_pi_scalar
+from radarslam.landmarks.confirmation import in_view, mn_windows, popcount, push_bit, rule12, should_remove
 from radarslam.landmarks.merging import closest_pair
 from radarslam.landmarks.sifting import candidates
 from radarslam.landmarks.grouping import by_landmark, seen_landmarks
@@ -23,7 +24,7 @@ from radarslam.landmarks import records
 # landmarks.confirmation and landmarks.merging compiled as they are, for the orchestrator's numba
 # backend and the fused engine alike.
 _K = compile_kernels(popcount, push_bit, should_remove, mn_windows, rule12, closest_pair, candidates, by_landmark,
-                     seen_landmarks, *records.KERNELS)
+                     seen_landmarks, wrap_pi_scalar, in_view, *records.KERNELS)
 # The landmark records' growth, birth and removal (landmarks.records), for the fused engine.
 compiled_with_room = _K["with_room"]
 compiled_add_record = _K["add_record"]
@@ -32,6 +33,7 @@ compiled_seen_landmarks = _K["seen_landmarks"]
 compiled_by_landmark = _K["by_landmark"]
 compiled_candidates = _K["candidates"]
 compiled_mn_windows = _K["mn_windows"]
+compiled_in_view = _K["in_view"]
 compiled_rule12 = _K["rule12"]
 compiled_closest_pair = _K["closest_pair"]
 

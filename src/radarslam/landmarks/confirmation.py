@@ -7,7 +7,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from radarslam.core.angles import wrap_pi
+from radarslam.core.angles import wrap_pi_scalar
 from radarslam.landmarks.clustering import Cluster
 
 
@@ -158,18 +158,21 @@ def mn_windows(assoc, in_range, created, hit, in_view, k, window, max_hits):
     return keep
 
 
-def in_sensor_view(positions: np.ndarray, pose: np.ndarray, max_range: float, field_of_view_deg: float) -> np.ndarray:
-    """Which landmarks ``(N, 2)`` the sensor at ``pose`` covers: within ``max_range`` and, for a
-    sensor that does not see all around, within the field of view centred on the heading (the
-    "in range" of the M/N removal, c.5). Boolean ``(N,)``."""
-    half_fov = math.radians(field_of_view_deg) / 2.0
-    x0, y0, th = float(pose[0]), float(pose[1]), float(pose[2])
-    if positions.shape[0] == 0:
-        return np.zeros(0, dtype=bool)
-    dx, dy = positions[:, 0] - x0, positions[:, 1] - y0
-    out = np.hypot(dx, dy) <= max_range
-    if half_fov < math.pi:
-        out &= np.abs(wrap_pi(np.arctan2(dy, dx) - th)) <= half_fov
+def in_view(x, platform, n, max_range, half_fov):
+    """Which of the ``n`` landmarks of the state ``x`` (centroids after the ``platform`` block) the
+    sensor at ``x``'s pose covers: within ``max_range`` and, for a sensor that does not see all
+    around (``half_fov < pi``, rad), within the field of view centred on the heading (the "in
+    range" of the M/N removal, c.5). Boolean ``(n,)``; a kernel that the orchestrator calls as
+    Python (or compiled, numba backend) and the fused engine compiles as it is."""
+    out = np.empty(n, dtype=np.bool_)
+    for j in range(n):
+        i = platform + 2 * j
+        dx = x[i] - x[0]
+        dy = x[i + 1] - x[1]
+        v = math.hypot(dx, dy) <= max_range
+        if half_fov < math.pi:
+            v = v and abs(wrap_pi_scalar(math.atan2(dy, dx) - x[2])) <= half_fov
+        out[j] = v
     return out
 
 

@@ -26,7 +26,7 @@ from radarslam.core.registry import ASSOCIATORS, EXTENT_ESTIMATORS, MEASUREMENT_
 from radarslam.core.types import Odometry, Scan
 from radarslam.core.validation import as_array
 from radarslam.landmarks.clustering import DENSE_MAX, Cluster, clusters_of, dbscan_labels
-from radarslam.landmarks.confirmation import in_sensor_view, removal_step, rule2_step
+from radarslam.landmarks.confirmation import in_view, removal_step, rule2_step
 from radarslam.landmarks.merging import next_merge
 from radarslam.landmarks.grouping import by_landmark
 from radarslam.landmarks.sifting import candidates, sift
@@ -113,7 +113,7 @@ class EkfSlam:
         self.view, self.extent, self.associator = view_components(config, self.extent, self.associator,
                                                                   extent_estimator is None, associator is None)
         self._clusters = _cluster_kernel(f.backend)
-        self._candidates, self._group = _step_kernels(f.backend)
+        self._candidates, self._group, self._in_view = _step_kernels(f.backend)
         self.R = self.measurement.noise(f)
         self.U = control_noise(self.model, f)        # c.11.6: white, or the equivalent of correlated errors
         self._turn_k = (turn_noise_index(self.model, f), turn_noise_gain2(f))   # c.11.8: U grows with the turn
@@ -192,8 +192,7 @@ class EkfSlam:
     def snapshot(self) -> MapSnapshot:
         """The current map (copies)."""
         st, ext = self.state, self.extent
-        nan = np.full((2, 2), np.nan)
-        n = st.n_landmarks
+        nan, n = np.full((2, 2), np.nan), st.n_landmarks
         rma = [ext.matrix(e) for e in st.extents]
         efa = [ext.baseline(e) for e in st.extents]
         return MapSnapshot(
@@ -345,15 +344,15 @@ class EkfSlam:
         """Step 5: M/N windows of every landmark and removal (c.5, Decision 8); under the Doppler
         gate also the young landmarks a moving object was seen on (c.10.4.4)."""
         st, f, lc = self.state, self.config.filter, self.config.landmarks
-        in_view = in_sensor_view(st.positions, st.pose, f.max_range_m, f.field_of_view_deg)
+        view = self._in_view(st.x, st.platform_dim, st.n_landmarks, f.max_range_m,
+                             math.radians(f.field_of_view_deg) / 2)
         hit = np.array([bool(a) for a in assoc], dtype=bool)
-        drop = removal_step(st.records, hit, in_view, k, window=lc.removal_window, max_hits=lc.removal_max_hits,
+        drop = removal_step(st.records, hit, view, k, window=lc.removal_window, max_hits=lc.removal_max_hits,
                             compiled=self.config.filter.backend == "numba")
         if self._gate is not None:                                        # c.10.4.4
             drop = sorted(set(drop) | set(self._gate.moving_landmarks(st.positions, st.created(), k)))
-        removed = [lid for lid, _ in st.remove(drop)]
         gone = set(drop)
-        return removed, [a for j, a in enumerate(assoc) if j not in gone]
+        return [lid for lid, _ in st.remove(drop)], [a for j, a in enumerate(assoc) if j not in gone]
 
     def _extent_step(self, polar: np.ndarray, xy: np.ndarray, assoc: list[list[int]], prior, dt: float,
                      k: int) -> None:
@@ -439,13 +438,14 @@ def _reference_clusters(polar: np.ndarray, xy: np.ndarray, index: np.ndarray, ep
 
 
 def _step_kernels(backend: str):
-    """Steps 3 and 4's kernels in ``backend``: sifting's decision
-    (:func:`~radarslam.landmarks.sifting.candidates`) and the grouping by landmark
-    (:func:`~radarslam.landmarks.grouping.by_landmark`), or their compiled forms."""
+    """Steps 3-5's kernels in ``backend``: sifting's decision
+    (:func:`~radarslam.landmarks.sifting.candidates`), the grouping by landmark
+    (:func:`~radarslam.landmarks.grouping.by_landmark`) and the sensor's view
+    (:func:`~radarslam.landmarks.confirmation.in_view`), or their compiled forms."""
     if backend != "numba":
-        return candidates, by_landmark
-    from radarslam.landmarks._compiled import compiled_by_landmark, compiled_candidates
-    return compiled_candidates, compiled_by_landmark
+        return candidates, by_landmark, in_view
+    from radarslam.landmarks._compiled import compiled_by_landmark, compiled_candidates, compiled_in_view
+    return compiled_candidates, compiled_by_landmark, compiled_in_view
 
 
 def _cluster_kernel(backend: str):

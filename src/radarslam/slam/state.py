@@ -95,6 +95,23 @@ class SlamState:
         var = np.square(np.concatenate([np.asarray(pose_std, dtype=float), np.asarray(bias_std, dtype=float)]))
         return cls(x, np.diag(var), platform_dim=x.shape[0])
 
+    @classmethod
+    def from_mean(cls, x, P, extents=None, platform_dim: int = POSE_DIM) -> "SlamState":
+        """A state whose landmarks are all of ``x`` after the platform block: ids ``0 .. N - 1``,
+        born at scan 0, first estimates their centroids; ``extents`` (N,) or None for each."""
+        x = np.asarray(x, dtype=float)
+        n = (x.shape[0] - platform_dim) // 2
+        st = cls(x, np.asarray(P, dtype=float), platform_dim=platform_dim, next_id=n)
+        for j in range(n):
+            i = landmark_index(j, platform_dim)
+            st.records = add_record(st.records, j, j, 0, float(x[i]), float(x[i + 1]))
+        st.extents, st.n_landmarks = list(extents) if extents is not None else [None] * n, n
+        return st
+
+    def __post_init__(self):
+        if not isinstance(self.records, Records):
+            raise TypeError(f"records: expected landmarks.records.Records, got {type(self.records).__name__}")
+
     # ---------------------------------------------------------------- index arithmetic
     def index(self, j: int) -> int:
         """First row of landmark ``j`` in ``x`` and ``P``."""

@@ -15,7 +15,8 @@ from numba import njit
 from radarslam.core.angles import wrap_2pi_scalar
 from radarslam.core.jit import compile_kernels
 from radarslam.extent._compiled import literal_inside, measurement_contour
-from radarslam.landmarks._compiled import compiled_by_landmark, compiled_candidates, compiled_mn_windows as _mn_windows
+from radarslam.landmarks._compiled import compiled_by_landmark, compiled_candidates, compiled_in_view as _in_view
+from radarslam.landmarks._compiled import compiled_mn_windows as _mn_windows
 from radarslam.models.ackermann import ackermann_jacobians, ackermann_step, centre_speed
 from radarslam.models.body_velocity import body_velocity_increment, body_velocity_jacobians, body_velocity_step
 from radarslam.models.motion import unicycle_jacobians, unicycle_step
@@ -24,7 +25,6 @@ from radarslam.slam import ekf
 from radarslam.slam.bias import turn_noise as _turn_noise_kernel
 from radarslam.slam._jcbb_numba import jcbb_associate_scan
 from radarslam.slam._numba import (
-    _wrap_pi,
     associate_scan,
     batch_associate_scan,
     joint_batch_associate_scan,
@@ -233,16 +233,9 @@ def remove_unseen(x, P, lm, N, aoff, k, young, cfg):  # pragma: no cover - compi
     last ``cfg.removal_window`` scans they were in view (c.5), by the orchestrator's own kernel
     (landmarks.confirmation.mn_windows) compiled as it is, and those ``young`` marks (the Doppler
     gate's, c.10.4.4). Returns ``(x, P, N, old)``: each survivor's position before the removal."""
+    view = _in_view(x, cfg.platform, N, cfg.max_range, cfg.half_fov)
     hit = np.empty(N, dtype=np.bool_)
-    view = np.empty(N, dtype=np.bool_)
     for j in range(N):
-        i = cfg.platform + 2 * j
-        dx = x[i] - x[0]
-        dy = x[i + 1] - x[1]
-        v = math.hypot(dx, dy) <= cfg.max_range
-        if cfg.half_fov < math.pi:
-            v = v and abs(_wrap_pi(math.atan2(dy, dx) - x[2])) <= cfg.half_fov
-        view[j] = v
         hit[j] = aoff[j + 1] > aoff[j]
     keep = _mn_windows(lm.mbits[:N], lm.rbits[:N], lm.created[:N], hit, view, k, cfg.removal_window,
                        cfg.removal_max)
