@@ -162,13 +162,15 @@ def _worst(cases, nodes):
 
 
 def test_quadrature_error_bound_on_the_car_parks_shapes():
-    """N_NODES per piece: the mean, spread and their shape derivatives within 1e-7 of the
-    longer semi-axis (its square) of the 512-node reference on car-park shapes (aspect <= 5), and
-    within 1e-5 on 10:1 ellipses at near-tangent and vertex-split views; 8 nodes fail the first."""
+    """N_NODES per piece: the mean and spread within 1e-7 of the longer semi-axis (its square) of
+    the 512-node reference, their shape derivatives (a.12.9) within 1e-6, on car-park shapes
+    (aspect <= 5) and on 10:1 ellipses at near-tangent and vertex-split views; 12 and 16 nodes
+    fail the first bound (negative controls: 20 is the smallest count that meets it)."""
     rng = np.random.default_rng(7)
     shipped = (pv.GL_NODES, pv.GL_WEIGHTS)
+    bound = np.array([1e-7, 1e-6])
     park = _views_like_the_car_park(rng, 40)
-    assert np.all(_worst(park, shipped) < 1e-7)
+    assert np.all(_worst(park, shipped) < bound)
     hard = []
     for _ in range(30):
         xi = _xi(math.log(2.5), math.log(0.25), rng.uniform(0, math.pi))
@@ -176,8 +178,9 @@ def test_quadrature_error_bound_on_the_car_parks_shapes():
             b = math.acos(1.0 / qn)
             hard.append((xi, _view(xi, qn, rng.uniform(-math.pi, math.pi))))
             hard.append((xi, _view(xi, qn, b + rng.choice([-1e-4, 1e-4]))))     # vertex at an end of the arc
-    assert np.all(_worst(hard, shipped) < 1e-5)
-    assert _worst(park, np.polynomial.legendre.leggauss(8))[0] > 1e-7            # negative control
+    assert np.all(_worst(hard, shipped) < bound)
+    for n in (12, 16):                                                            # negative controls
+        assert _worst(park, np.polynomial.legendre.leggauss(n))[0] > bound[0]
 
 
 def test_compiled_kernels_equal_the_python_ones():

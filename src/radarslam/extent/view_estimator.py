@@ -27,8 +27,9 @@ measurement ``y = [zbar - p; vech C]`` with the noise
   ``S + W_s``, plus a relative model error ``(extent.view_spread_rel_error * entry)^2`` (the outline
   is a rectangle's, not an ellipse's);
 
-and the Jacobian by central differences on ``xi`` (the kernels are smooth in ``X``). Scans with
-fewer than 3 detections update with the mean alone.
+and the Jacobian analytic (a.12.9, :mod:`.partial_view_jac`) or, with ``extent.view_jacobian =
+"central-difference"``, by central differences on ``xi`` (the kernels are smooth in ``X``). Scans
+with fewer than 3 detections update with the mean alone.
 
 The random-matrix and EFA estimates are kept underneath (this class extends
 :class:`~.estimator.RmaEfaEstimator`): the RMA is the :meth:`baseline` the report compares with.
@@ -48,7 +49,7 @@ from radarslam.extent.partial_view_jac import arc_xi_rows
 
 #: Gauss-Newton steps of the iterated update.
 VIEW_ITERATIONS = 3
-#: Central-difference step on the log-matrix entries.
+#: Central-difference step on the log-matrix entries (``extent.view_jacobian = "central-difference"``).
 FD_STEP = 1e-4
 #: Chi-square 99% quantiles (2 and 5 dof): a scan whose innovation lies beyond has its noise
 #: scaled up by ``d^2 / gate`` (a Huber-type weight), so that one scan of another object's returns,
