@@ -57,8 +57,9 @@ def compare(old: str, new: str) -> None:
         d = B[:, i] - A[:, i]
         half = q * d.std(ddof=1) / math.sqrt(n)
         same = int(np.sum(np.abs(d) < 1e-9))
-        print(f"  {name:12s} old {A[:, i].mean():8.4f}  new {B[:, i].mean():8.4f}  new - old {d.mean():+8.4f} "
-              f"[{d.mean() - half:+.4f}, {d.mean() + half:+.4f}]  ({same} trials equal to 1e-9)")
+        print(f"  {name:12s} old {A[:, i].mean():8.4f}  new {B[:, i].mean():8.4f}  new - old {d.mean():+.2e} "
+              f"[{d.mean() - half:+.2e}, {d.mean() + half:+.2e}], largest |new - old| {np.abs(d).max():.1e} "
+              f"({same} trials equal to 1e-9)")
 
 
 def main() -> None:
