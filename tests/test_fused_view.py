@@ -3,7 +3,7 @@ the orchestrator it stands in for: the same associations, landmark ids, poses, m
 (the partial-view estimator's in the map's ``rma`` slot, the RMA beneath it in ``efa``) to 1e-9 on
 simulated car-park trials under the visible-faces spread model, with each associator the partial
 view has, with and without the view-init correction and the shape's uncertainty, with the view
-walk, and with the ablation shapes."""
+walk, with the ablation shapes, and with the shape's Jacobians by central differences (a.12.9)."""
 
 from __future__ import annotations
 
@@ -40,6 +40,7 @@ CASES = {
     "rma-shape-spread-data": {"extent": {"view_shape": "rma", "view_shape_data": "spread"}},
     "prior-shape-radius-sifting": {"extent": {"view_shape": "prior", "contour_sifting": False}},
     "point-init": {"landmarks": {"init": "nearest"}, "extent": {"pre_init_spread": "none"}},
+    "central-difference-jacobians": {"extent": {"view_jacobian": "central-difference"}},
 }
 
 

@@ -227,9 +227,11 @@ def test_reproduce_partial_view_study_writes_the_models_side_by_side(tmp_path):
                  "--out", str(tmp_path / "bad")]) == 1
 
 
-def test_compiled_shape_update_equals_the_python_kernel():
+@pytest.mark.parametrize("step", [0.0, 1e-4])
+def test_compiled_shape_update_equals_the_python_kernel(step):
     """extent/_compiled.py compiles view_estimator.view_update as it is: the same update to 1e-10
-    on random shapes, views and scans (5 rows and 2 rows)."""
+    on random shapes, views and scans (5 rows and 2 rows), with the analytic Jacobian (step 0,
+    a.12.9) and with central differences."""
     require("numba")
     from radarslam.extent._compiled import view_update as compiled
     from radarslam.extent.view_estimator import view_update
@@ -242,16 +244,17 @@ def test_compiled_shape_update_equals_the_python_kernel():
         y = np.concatenate([rng.normal(0, 1, 2), [rng.uniform(0.5, 3), rng.normal(0, 0.3), rng.uniform(0.2, 2)]])
         for m in (2, 8):
             Ws, Pc = 0.01 * np.eye(2), 0.1 * np.eye(2)
-            a = view_update(xi, P, d[0], d[1], y, m, Ws, Pc, 0.09, 0.3, False)
-            b = compiled(xi, P, d[0], d[1], y, m, Ws, Pc, 0.09, 0.3, False)
+            a = view_update(xi, P, d[0], d[1], y, m, Ws, Pc, 0.09, 0.3, False, step)
+            b = compiled(xi, P, d[0], d[1], y, m, Ws, Pc, 0.09, 0.3, False, step)
             assert a[2] == b[2]
             assert np.allclose(a[0], b[0], rtol=1e-10, atol=1e-10) and np.allclose(a[1], b[1], rtol=1e-10, atol=1e-12)
 
 
-def test_model_errors_add_the_shape_uncertainty():
+@pytest.mark.parametrize("step", [0.0, 1e-4])
+def test_model_errors_add_the_shape_uncertainty(step):
     """model_errors: Q_v alone without shape covariances; with them, Q_v + J P_xi J^T, where J
-    (central differences) matches a finite-difference check of the mean offset along one
-    direction of xi, and the added term is PSD and grows with P_xi."""
+    (analytic for step 0, a.12.9, else central differences) matches a finite-difference check of
+    the mean offset along one direction of xi, and the added term is PSD and grows with P_xi."""
     from radarslam.slam.association import Spreads
     from radarslam.slam.partial_view import _exp_sym2_many, model_errors
 
@@ -260,10 +263,10 @@ def test_model_errors_add_the_shape_uncertainty():
     shapes = _exp_sym2_many(xi)
     Qv = 0.09 * np.eye(2)
     base = Spreads(np.zeros((2, 2, 2)), np.zeros(2, bool), shapes, Qv)
-    assert np.allclose(model_errors(x, base, np.arange(2)), Qv)
+    assert np.allclose(model_errors(x, base, np.arange(2), step), Qv)
     P = np.stack([0.2 * np.eye(3), 0.05 * np.eye(3)])
     full = Spreads(np.zeros((2, 2, 2)), np.zeros(2, bool), shapes, Qv, xi, P)
-    Q = model_errors(x, full, np.arange(2))
+    Q = model_errors(x, full, np.arange(2), step)
     extra = Q - Qv
     assert np.all(np.linalg.eigvalsh(extra) >= -1e-12) and np.trace(extra[0]) > 1e-3
     # J along u: (g(xi + h u) - g(xi - h u)) / 2h, independently of model_errors' loop
@@ -275,6 +278,6 @@ def test_model_errors_add_the_shape_uncertainty():
     Ju = (gp - gm) / (2 * h)
     one = Spreads(np.zeros((2, 2, 2)), np.zeros(2, bool), shapes, np.zeros((2, 2)), xi,
                   np.stack([np.outer(u, u), np.zeros((3, 3))]))
-    assert np.allclose(model_errors(x, one, np.array([0]))[0], np.outer(Ju, Ju), rtol=1e-5, atol=1e-9)
+    assert np.allclose(model_errors(x, one, np.array([0]), step)[0], np.outer(Ju, Ju), rtol=1e-5, atol=1e-9)
     bigger = Spreads(np.zeros((2, 2, 2)), np.zeros(2, bool), shapes, Qv, xi, 4 * P)
-    assert np.all(np.linalg.eigvalsh(model_errors(x, bigger, np.arange(2)) - Q) >= -1e-12)
+    assert np.all(np.linalg.eigvalsh(model_errors(x, bigger, np.arange(2), step) - Q) >= -1e-12)

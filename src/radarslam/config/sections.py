@@ -395,6 +395,8 @@ class ExtentConfig:
                                  "depend on the centroid's estimate; a.12.7)", choices=("mean-spread", "spread"))
     view_spread_rel_error: float = param(0.3, "[PROP] partial-view estimator: relative model error of the "
                                          "detections' spread (a.12.7)", low=0.0)
+    view_jacobian: str = param("analytic", "[PROP] partial view: the arc's shape derivatives, analytic (a.12.9) "
+                               "or central-difference (step 1e-4)", choices=("analytic", "central-difference"))
 
     @property
     def partial_view(self) -> bool:

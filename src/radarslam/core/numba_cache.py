@@ -30,7 +30,7 @@ COMPILED_SOURCES = (
     "models/ackermann.py", "models/motion.py", "extent/visible_arc.py", "extent/mem_ekf_kernels.py",
     "extent/ellipse.py", "models/body_velocity.py", "models/_ransac.py", "models/doppler_kernels.py",
     "models/_doppler_compiled.py", "slam/fused/doppler.py", "models/input_bias.py", "slam/fused/bias.py",
-    "slam/view_kernels.py", "slam/_view_compiled.py", "slam/fused/view.py",
+    "slam/view_kernels.py", "slam/_view_compiled.py", "slam/fused/view.py", "extent/partial_view_jac.py",
 )
 ROOT = Path(__file__).resolve().parents[1]
 STAMP = ROOT / "__pycache__" / "numba-sources.stamp"

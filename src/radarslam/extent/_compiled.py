@@ -16,7 +16,8 @@ import numpy as np
 from numba import njit
 
 from radarslam.core.jit import compile_kernels
-from radarslam.extent import _sym2, buffering, ellipse_fit, measurement, partial_view, random_matrix, sifting, view_estimator
+from radarslam.extent import (_sym2, buffering, ellipse_fit, measurement, partial_view, partial_view_jac, random_matrix,
+                              sifting, view_estimator)
 
 _K = compile_kernels(measurement._w_entries, measurement.max_trace_w_entries, random_matrix.rm_update_entries,
                      random_matrix.rm_predict_alpha, ellipse_fit.fit_entries, _sym2.spectral, _sym2.from_spectral,
@@ -36,7 +37,7 @@ literal_inside = _S["literal_inside"]
 contour_inside = _S["contour_inside"]
 
 #: The partial-view kernels (docs/method.md a.12), compiled as they are.
-_PV = compile_kernels(*partial_view.KERNELS, *view_estimator.KERNELS)
+_PV = compile_kernels(*partial_view.KERNELS, *partial_view_jac.KERNELS, *view_estimator.KERNELS)
 view_update = _PV["view_update"]
 arc_moments = _PV["arc_moments"]
 arc_mean_shape_jacobian = _PV["arc_mean_shape_jacobian"]

@@ -30,8 +30,10 @@ from radarslam.core.errors import InputError
 from radarslam.core.validation import as_array, as_scalar
 from radarslam.extent._sym2 import spectral
 
-#: Gauss-Legendre nodes per piece of the visible arc (two pieces); docs/method.md a.12 "Quadrature".
-N_NODES = 32
+#: Gauss-Legendre nodes per piece of the visible arc (two pieces); docs/method.md a.12.2 "Quadrature":
+#: the smallest count within 1e-7 of the longer semi-axis (values) and 1e-6 (shape derivatives, a.12.9)
+#: of a 512-node reference on shapes of aspect ratio up to 5 (tests/test_partial_view_jac.py).
+N_NODES = 20
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(N_NODES)
 #: Nodes and weights on [-1, 1], module constants (numba freezes them at compilation).
 GL_NODES = np.ascontiguousarray(_GL_X)
@@ -96,17 +98,12 @@ def arc_geometry(e1: float, e2: float, scale: float, l1: float,
     return phi, b, qn0, qn1, -h1 * inv, h0 * inv, dbdr * h0, dbdr * h1, False
 
 
-def arc_sums(phi: float, b: float, l1: float, l2: float) -> tuple[float, float, float, float, float, float,
-                                                                   float, float, float]:
-    """Quadrature of the arc integrals of docs/method.md a.12 eqs. (5)-(6) and (12).
-
-    Returns ``(D, N0, N1, M00, M01, M11, A1, B10, B11)``: ``D = int w``, ``N = int v w``,
-    ``M = int v v^T w``, ``A1 = int w_1`` and ``B1 = int v w_1`` with ``w_1 = l1^2 sin^2 / w``, over
-    ``tau in (phi - b, phi + b)``. Two Gauss-Legendre pieces with nodes graded (``tau = f + (e - f)
-    x^2``) towards the point ``f`` of the arc nearest the vertex of the longer axis, where the weight
-    is sharpest (eq. (7)): split at ``f`` when the vertex is in view, else ``f`` is an end of the arc
-    and the arc is split at ``phi`` with only the piece at ``f`` graded.
-    """
+def arc_pieces(phi: float, b: float, l1: float, l2: float):
+    """The two quadrature pieces of the arc ``(phi - b, phi + b)`` (docs/method.md a.12.2 eq. (7)):
+    ``(f0, e0, g0, f1, e1, g1)``, piece ``k`` from ``fk`` to ``ek``, graded towards ``fk`` when
+    ``gk``. Split at the point ``f`` of the arc nearest the vertex of the longer axis, where the
+    weight is sharpest: at the vertex when it is in view (both pieces graded towards it), else at
+    ``phi`` with only the piece ending at ``f`` (an end of the arc) graded. A kernel."""
     vert = 0.0 if l1 >= l2 else 0.5 * math.pi
     dv = vert - phi
     dv = math.atan2(math.sin(dv), math.cos(dv))          # to (-pi, pi]
@@ -115,12 +112,24 @@ def arc_sums(phi: float, b: float, l1: float, l2: float) -> tuple[float, float, 
     elif dv < -0.5 * math.pi:
         dv += math.pi
     if abs(dv) < b:
-        f0, e0, g0 = phi + dv, phi - b, True
-        f1, e1, g1 = phi + dv, phi + b, True
-    else:
-        sg = 1.0 if dv > 0.0 else -1.0
-        f0, e0, g0 = phi + sg * b, phi, True
-        f1, e1, g1 = phi, phi - sg * b, False
+        return phi + dv, phi - b, True, phi + dv, phi + b, True
+    sg = 1.0 if dv > 0.0 else -1.0
+    return phi + sg * b, phi, True, phi, phi - sg * b, False
+
+
+def arc_node(f: float, span: float, graded: bool, x: float, wt: float) -> tuple[float, float]:
+    """``(tau, weight)`` of the Gauss-Legendre node ``x in [-1, 1]`` with weight ``wt`` on the piece
+    from ``f`` over ``span`` (eq. (7): ``tau = f + span u^2`` when graded, ``u = (1 + x) / 2``). A kernel."""
+    u = 0.5 * (1.0 + x)
+    if graded:
+        return f + span * u * u, abs(span) * u * wt          # dtau = 2 |span| u du, du = dx / 2
+    return f + span * u, 0.5 * abs(span) * wt
+
+
+def arc_sums_on(phi: float, b: float, l1: float, l2: float, nodes: np.ndarray, weights: np.ndarray):
+    """:func:`arc_sums` with the Gauss-Legendre ``nodes`` and ``weights`` on [-1, 1] per piece
+    (the accuracy tests and scripts/partial_view_quadrature.py pass other orders). A kernel."""
+    f0, e0, g0, f1, e1, g1 = arc_pieces(phi, b, l1, l2)
     D = N0 = N1 = M00 = M01 = M11 = A1 = B10 = B11 = 0.0
     a1 = l1 * l1
     a2 = l2 * l2
@@ -128,14 +137,8 @@ def arc_sums(phi: float, b: float, l1: float, l2: float) -> tuple[float, float, 
         f = f0 if piece == 0 else f1
         span = (e0 if piece == 0 else e1) - f
         graded = g0 if piece == 0 else g1
-        for k in range(GL_NODES.shape[0]):
-            x = 0.5 * (1.0 + GL_NODES[k])
-            if graded:
-                t = f + span * x * x
-                hw = abs(span) * x * GL_WEIGHTS[k]       # dtau = 2 |span| x dx, dx = dxi / 2
-            else:
-                t = f + span * x
-                hw = 0.5 * abs(span) * GL_WEIGHTS[k]
+        for k in range(nodes.shape[0]):
+            t, hw = arc_node(f, span, graded, nodes[k], weights[k])
             c = math.cos(t)
             s = math.sin(t)
             w = math.sqrt(a1 * s * s + a2 * c * c)
@@ -151,6 +154,18 @@ def arc_sums(phi: float, b: float, l1: float, l2: float) -> tuple[float, float, 
             B10 += w1 * c
             B11 += w1 * s
     return D, N0, N1, M00, M01, M11, A1, B10, B11
+
+
+def arc_sums(phi: float, b: float, l1: float, l2: float) -> tuple[float, float, float, float, float, float,
+                                                                   float, float, float]:
+    """Quadrature of the arc integrals of docs/method.md a.12 eqs. (5)-(6) and (12).
+
+    Returns ``(D, N0, N1, M00, M01, M11, A1, B10, B11)``: ``D = int w``, ``N = int v w``,
+    ``M = int v v^T w``, ``A1 = int w_1`` and ``B1 = int v w_1`` with ``w_1 = l1^2 sin^2 / w``, over
+    ``tau in (phi - b, phi + b)``, on the two pieces of :func:`arc_pieces` with :data:`N_NODES`
+    Gauss-Legendre nodes each.
+    """
+    return arc_sums_on(phi, b, l1, l2, GL_NODES, GL_WEIGHTS)
 
 
 def arc_frame_moments(e1: float, e2: float, scale: float, l1: float, l2: float):
@@ -388,5 +403,6 @@ def visible_arc_shape_jacobian(p, semi_axes, orientation: float, s) -> tuple[np.
     return np.array(cols).reshape(3, 2).T, bool(clamped)
 
 
-KERNELS = (_rotate2, principal_frame, arc_geometry, arc_sums, arc_frame_moments, _scaled_frame, arc_moments,
+KERNELS = (_rotate2, principal_frame, arc_geometry, arc_pieces, arc_node, arc_sums_on, arc_sums, arc_frame_moments,
+           _scaled_frame, arc_moments,
            tangent_points, arc_mean_shape_jacobian, _shape_columns, spectral)

@@ -27,8 +27,9 @@ measurement ``y = [zbar - p; vech C]`` with the noise
   ``S + W_s``, plus a relative model error ``(extent.view_spread_rel_error * entry)^2`` (the outline
   is a rectangle's, not an ellipse's);
 
-and the Jacobian by central differences on ``xi`` (the kernels are smooth in ``X``). Scans with
-fewer than 3 detections update with the mean alone.
+and the Jacobian analytic (a.12.9, :mod:`.partial_view_jac`) or, with ``extent.view_jacobian =
+"central-difference"``, by central differences on ``xi`` (the kernels are smooth in ``X``). Scans
+with fewer than 3 detections update with the mean alone.
 
 The random-matrix and EFA estimates are kept underneath (this class extends
 :class:`~.estimator.RmaEfaEstimator`): the RMA is the :meth:`baseline` the report compares with.
@@ -44,10 +45,11 @@ import numpy as np
 from radarslam.core.registry import EXTENT_ESTIMATORS
 from radarslam.extent.estimator import RmaEfaEstimator, RmaEfaState
 from radarslam.extent.partial_view import arc_moments
+from radarslam.extent.partial_view_jac import arc_xi_rows
 
 #: Gauss-Newton steps of the iterated update.
 VIEW_ITERATIONS = 3
-#: Central-difference step on the log-matrix entries.
+#: Central-difference step on the log-matrix entries (``extent.view_jacobian = "central-difference"``).
 FD_STEP = 1e-4
 #: Chi-square 99% quantiles (2 and 5 dof): a scan whose innovation lies beyond has its noise
 #: scaled up by ``d^2 / gate`` (a Huber-type weight), so that one scan of another object's returns,
@@ -110,33 +112,57 @@ def solve_spd(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     return Y
 
 
+def rows_and_jacobian(x: np.ndarray, dx: float, dy: float, Ws: np.ndarray, step: float, h: np.ndarray,
+                      H: np.ndarray, Hf: np.ndarray) -> bool:
+    """``E[y]`` of a.12.7 at the shape ``x (3,)`` in ``h (5,)`` (:func:`predicted_rows`) and its
+    Jacobian over ``x`` in the ``nr`` rows of ``H (nr, 3)``: by central differences of ``step``, or
+    analytic (a.12.9, :func:`~radarslam.extent.partial_view_jac.arc_xi_rows`; ``Hf (5, 3)`` its
+    scratch) for ``step = 0``. Returns the clamp flag at ``x`` (the sensor inside the outline). A kernel."""
+    nr = H.shape[0]
+    if step == 0.0:
+        X11, X12, X22 = exp_sym2(x[0], x[1], x[2])
+        clamped = arc_xi_rows(dx, dy, X11, X12, X22, h, Hf)
+        h[2] += Ws[0, 0]
+        h[3] += Ws[0, 1]
+        h[4] += Ws[1, 1]
+        for r in range(nr):
+            for i in range(3):
+                H[r, i] = Hf[r, i]
+        return clamped
+    if predicted_rows(x[0], x[1], x[2], dx, dy, Ws[0, 0], Ws[0, 1], Ws[1, 1], h):
+        return True
+    hp = np.empty(5)
+    hm = np.empty(5)
+    for i in range(3):
+        x[i] += step
+        predicted_rows(x[0], x[1], x[2], dx, dy, Ws[0, 0], Ws[0, 1], Ws[1, 1], hp)
+        x[i] -= 2.0 * step
+        predicted_rows(x[0], x[1], x[2], dx, dy, Ws[0, 0], Ws[0, 1], Ws[1, 1], hm)
+        x[i] += step
+        for r in range(nr):
+            H[r, i] = (hp[r] - hm[r]) / (2.0 * step)
+    return False
+
+
 def view_update(xi: np.ndarray, P: np.ndarray, dx: float, dy: float, y: np.ndarray, m: int, Ws: np.ndarray,
-                Pc: np.ndarray, qv2: float, rel: float, spread_only: bool):
+                Pc: np.ndarray, qv2: float, rel: float, spread_only: bool, fd_step: float):
     """One scan's iterated EKF update of a landmark's shape (a.12.7): ``xi (3,)`` and its covariance
     ``P (3, 3)`` (process noise already added), the view ``d = t - p``, the measurement ``y (5,)``
     (``zbar - p`` and the entries 00, 01, 11 of the sample covariance; only the first two when
-    ``m < 3``), the mean sensor noise ``Ws (2, 2)``, the centroid's covariance ``Pc (2, 2)``.
+    ``m < 3``), the mean sensor noise ``Ws (2, 2)``, the centroid's covariance ``Pc (2, 2)``; the
+    Jacobian by central differences of ``fd_step`` on ``xi``, or analytic (a.12.9) for ``fd_step = 0``.
     Returns ``(xi, P, status)``: status 0 updated, 1 seen from inside the outline (unchanged), 2
     not finite (unchanged). A kernel."""
     nr = 5 if m >= 3 else 2
     h = np.empty(5)
-    hp = np.empty(5)
-    hm = np.empty(5)
     H = np.empty((nr, 3))
+    Hf = np.empty((5, 3))
     Rn = np.zeros((nr, nr))
     x = xi.copy()
     K = np.zeros((3, nr))
     for _ in range(VIEW_ITERATIONS):
-        if predicted_rows(x[0], x[1], x[2], dx, dy, Ws[0, 0], Ws[0, 1], Ws[1, 1], h):
+        if rows_and_jacobian(x, dx, dy, Ws, fd_step, h, H, Hf):
             return xi, P, 1
-        for i in range(3):
-            x[i] += FD_STEP
-            predicted_rows(x[0], x[1], x[2], dx, dy, Ws[0, 0], Ws[0, 1], Ws[1, 1], hp)
-            x[i] -= 2.0 * FD_STEP
-            predicted_rows(x[0], x[1], x[2], dx, dy, Ws[0, 0], Ws[0, 1], Ws[1, 1], hm)
-            x[i] += FD_STEP
-            for r in range(nr):
-                H[r, i] = (hp[r] - hm[r]) / (2.0 * FD_STEP)
         # noise: the mean rows (S + Ws) / m + P_c + Q_v; the spread rows Wishart(m - 1) + relative error
         S00, S01, S11 = h[2], h[3], h[4]                      # S + W_s
         Rn[:, :] = 0.0
@@ -280,7 +306,7 @@ def view_scan_data(polar: np.ndarray, pts: np.ndarray, theta: float, c0: float, 
 
 
 #: The kernels of this module, compiled with the arc kernels (extent/_compiled.py).
-KERNELS = (exp_sym2, predicted_rows, solve_spd, view_update, arc_rows, sift_spreads, view_scan_data)
+KERNELS = (exp_sym2, predicted_rows, solve_spd, rows_and_jacobian, view_update, arc_rows, sift_spreads, view_scan_data)
 
 
 def log_matrix_to_X(xi: np.ndarray) -> np.ndarray:
@@ -334,6 +360,8 @@ class PartialViewEstimator(RmaEfaEstimator):
         self.shape_mode = ec.view_shape
         self.spread_only = ec.view_shape_data == "spread"
         self.qv2 = ec.view_model_error_m ** 2
+        #: Central-difference step of the shape's Jacobians, 0 for the analytic ones (a.12.9).
+        self.shape_step = 0.0 if ec.view_jacobian == "analytic" else FD_STEP
         if backend == "numba":
             from radarslam.extent._compiled import view_scan_data as data, view_update as compiled
             self._update, self._data = compiled, data
@@ -417,7 +445,8 @@ class PartialViewEstimator(RmaEfaEstimator):
         y, Ws = self._data(np.ascontiguousarray(polar, dtype=float), np.ascontiguousarray(pts, dtype=float),
                            float(pose[2]), float(centroid[0]), float(centroid[1]), self.R_extent)
         xi, P, status = self._update(st.xi, st.P_xi, float(d[0]), float(d[1]), y, m, Ws,
-                                     np.ascontiguousarray(centroid_cov), self.qv2, self.rel, self.spread_only)
+                                     np.ascontiguousarray(centroid_cov), self.qv2, self.rel, self.spread_only,
+                                     self.shape_step)
         if status == 0:
             st.xi, st.P_xi = xi, P
             st.n_view += 1

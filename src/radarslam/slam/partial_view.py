@@ -66,8 +66,8 @@ def model_errors(x: np.ndarray, spreads: Spreads, js: np.ndarray, step: float = 
                  platform: int = POSE_DIM) -> np.ndarray:
     """``(N, 2, 2)``: the model error of each landmark's predicted mean (a.12.5), ``Q_v``, plus,
     when the shapes come with their covariances, ``J P_xi J^T`` with ``J = dg/dxi`` of the mean
-    offset over the log-matrix shape (central differences): what the shape's uncertainty adds
-    (:func:`~radarslam.slam.view_kernels.shape_error_rows`)."""
+    offset over the log-matrix shape (central differences of ``step``, analytic for 0, a.12.9):
+    what the shape's uncertainty adds (:func:`~radarslam.slam.view_kernels.shape_error_rows`)."""
     js = np.asarray(js, dtype=np.int64)
     if spreads.shape_covs is None or js.size == 0:
         return np.repeat(spreads.model_error[None], js.size, axis=0)
@@ -117,6 +117,8 @@ class _PartialView:
     landmarks nearest to it by their predicted detection means ``mu`` (not their centroids)."""
 
     fej = False   # no first-estimates Jacobians for the partial view (docs/method.md c.2.1)
+    #: The model error's ``dg/dxi``: central differences of this step, or analytic for 0 (extent.view_jacobian).
+    shape_step = 0.0
 
     def _terms(self, state: SlamState, R: np.ndarray, spreads: Spreads):
         if spreads.shapes is None:
@@ -124,8 +126,8 @@ class _PartialView:
                              "(extent.estimator = 'partial-view'), got none")
         p = state.platform_dim
         mu, B, S = view_terms(state.x, spreads.shapes, platform=p)
-        h, Hs, Rj, ok = polar_terms(state.x, mu, B, S, R,
-                                    model_errors(state.x, spreads, np.arange(mu.shape[0]), platform=p))
+        h, Hs, Rj, ok = polar_terms(state.x, mu, B, S, R, model_errors(state.x, spreads, np.arange(mu.shape[0]),
+                                                                       self.shape_step, p))
         return mu, B, S, h, Hs, Rj, ok
 
     def _score(self, state, polar, rows, R, spreads, count, terms=None):
@@ -174,7 +176,7 @@ class PartialViewNearestNeighbour(_PartialView, NearestNeighbourAssociator):
             d2 = ((mu_all - zw) ** 2).sum(axis=1)
             js = np.argsort(d2, kind="stable")[:self.n_nearest]
             mu, B, S = view_terms(x, spreads.shapes, js, p)
-            h, Hs, Rj, ok = polar_terms(x, mu, B, S, R, model_errors(x, spreads, js, platform=p))
+            h, Hs, Rj, ok = polar_terms(x, mu, B, S, R, model_errors(x, spreads, js, self.shape_step, p))
             Pb, idx = _pose_landmark_blocks(state.P, js, p)
             D = np.where(ok, log_distances(polar[i:i + 1], h, Hs, Pb, Rj)[0], np.inf)
             k = int(np.argmin(D))
@@ -186,13 +188,13 @@ class PartialViewNearestNeighbour(_PartialView, NearestNeighbourAssociator):
         return out, np.array(nis)
 
 
-def _batch_measurements(state, polar, candidates, out, R, spreads, seen):
+def _batch_measurements(state, polar, candidates, out, R, spreads, seen, step):
     """The mean detection, its measurement and noise of every landmark of ``seen`` (a.12.5), at
-    the current state: ``[(j, e (2,), Hs (2, 5), idx (5,), noise (2, 2))]``."""
+    the current state: ``[(j, e (2,), Hs (2, 5), idx (5,), noise (2, 2))]`` (``step``: :func:`model_errors`')."""
     js, p = np.array(seen, dtype=np.int64), state.platform_dim
     mu, B, S = view_terms(state.x, spreads.shapes, js, p)
     h, Hs = sensor_xy_terms(state.x, mu, B)
-    Q = model_errors(state.x, spreads, js, platform=p)
+    Q = model_errors(state.x, spreads, js, step, p)
     rows = []
     for a, j in enumerate(seen):
         dets = candidates[out == j]
@@ -219,7 +221,8 @@ class PartialViewBatch(_PartialView, BatchAssociator):
         out = self.scores(state, polar, candidates, R, spreads)
         nis = []
         for j in np.unique(out[out >= 0]).tolist():
-            (_, e, Hs, idx, noise), = _batch_measurements(state, polar, candidates, out, R, spreads, [j])
+            (_, e, Hs, idx, noise), = _batch_measurements(state, polar, candidates, out, R, spreads, [j],
+                                                                     self.shape_step)
             nis.append(ekf.joseph_update_inplace(state.x, state.P, e, Hs, idx, noise))
         return out, np.array(nis)
 
@@ -236,7 +239,8 @@ class PartialViewJointBatch(PartialViewBatch, JointBatchAssociator):
             return out, np.empty(0)
         n, L = state.x.shape[0], len(seen)
         e, H, Rb = np.empty(2 * L), np.zeros((2 * L, n)), np.zeros((2 * L, 2 * L))
-        for a, (_, ea, Hs, idx, noise) in enumerate(_batch_measurements(state, polar, candidates, out, R, spreads, seen)):
+        rows = _batch_measurements(state, polar, candidates, out, R, spreads, seen, self.shape_step)
+        for a, (_, ea, Hs, idx, noise) in enumerate(rows):
             e[2 * a:2 * a + 2] = ea
             H[2 * a:2 * a + 2, idx] = Hs
             Rb[2 * a:2 * a + 2, 2 * a:2 * a + 2] = noise
@@ -254,7 +258,9 @@ def partial_view_associator(config):
     if cls is None:
         raise InputError(f"landmarks.associator: expected one of {sorted(PARTIAL_VIEW_ASSOCIATORS)} with "
                          f"extent.view_model = 'partial', got {lc.associator!r}")
-    return cls(lc.beta, lc.n_nearest_assoc, lc.n_nearest_new)
+    associator = cls(lc.beta, lc.n_nearest_assoc, lc.n_nearest_new)
+    associator.shape_step = 0.0 if config.extent.view_jacobian == "analytic" else SHAPE_STEP
+    return associator
 
 
 def view_corrected_centroid(mean: np.ndarray, t: np.ndarray, X: np.ndarray, iterations: int = 5) -> np.ndarray:

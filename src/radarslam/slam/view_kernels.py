@@ -15,12 +15,14 @@ import math
 import numpy as np
 
 from radarslam.extent.partial_view import arc_moments
+from radarslam.extent.partial_view_jac import arc_xi_rows
 from radarslam.extent.view_estimator import arc_rows, exp_sym2
 from radarslam.slam.ekf import batch_noise, rotate_to_sensor
 
 #: ``log((2 pi)^2)`` of the log distance (APSIPA eq. 9).
 LOG_2PI2 = math.log((2.0 * math.pi) ** 2)
-#: Central-difference step on the log-matrix shape of the model error's ``J = dg/dxi`` (a.12.5).
+#: Central-difference step on the log-matrix shape of the model error's ``J = dg/dxi`` (a.12.5) under
+#: ``extent.view_jacobian = "central-difference"``; 0 selects the analytic ``J`` (a.12.9).
 SHAPE_STEP = 1e-4
 
 
@@ -56,29 +58,26 @@ def shape_error_rows(x: np.ndarray, xi: np.ndarray, P_xi: np.ndarray, js: np.nda
                      step: float, platform: int) -> np.ndarray:
     """``(n, 2, 2)``: the model error ``Q_v + J P_xi J^T`` of each landmark of ``js`` (a.12.5), with
     ``J = dg/dxi`` of the mean offset over the log-matrix shape ``xi (N_all, 3)`` by central
-    differences of ``step``, ``P_xi (N_all, 3, 3)`` the shapes' covariances. A kernel."""
+    differences of ``step``, or analytic (a.12.9) for ``step = 0``; ``P_xi (N_all, 3, 3)`` the
+    shapes' covariances. A kernel."""
     n = js.shape[0]
     out = np.empty((n, 2, 2))
     J = np.empty((2, 3))
-    up = np.empty(3)
-    dn = np.empty(3)
+    h = np.empty(5)
+    Hf = np.empty((5, 3))
     for a in range(n):
         j = js[a]
         i = platform + 2 * j
         d0 = x[0] - x[i]
         d1 = x[1] - x[i + 1]
-        for c in range(3):
-            for b in range(3):
-                up[b] = xi[j, b]
-                dn[b] = xi[j, b]
-            up[c] = xi[j, c] + step
-            dn[c] = xi[j, c] - step
-            p11, p12, p22 = exp_sym2(up[0], up[1], up[2])
-            gp = arc_moments(d0, d1, p11, p12, p22)
-            m11, m12, m22 = exp_sym2(dn[0], dn[1], dn[2])
-            gm = arc_moments(d0, d1, m11, m12, m22)
-            J[0, c] = (gp[0] - gm[0]) / (2.0 * step)
-            J[1, c] = (gp[1] - gm[1]) / (2.0 * step)
+        if step == 0.0:
+            X11, X12, X22 = exp_sym2(xi[j, 0], xi[j, 1], xi[j, 2])
+            arc_xi_rows(d0, d1, X11, X12, X22, h, Hf)
+            for c in range(3):
+                J[0, c] = Hf[0, c]
+                J[1, c] = Hf[1, c]
+        else:
+            _central_shape_jacobian(d0, d1, xi[j], step, J)
         P = P_xi[j]
         for r in range(2):
             t0 = J[r, 0] * P[0, 0] + J[r, 1] * P[1, 0] + J[r, 2] * P[2, 0]
@@ -87,6 +86,25 @@ def shape_error_rows(x: np.ndarray, xi: np.ndarray, P_xi: np.ndarray, js: np.nda
             for s in range(2):
                 out[a, r, s] = Qv[r, s] + (t0 * J[s, 0] + t1 * J[s, 1] + t2 * J[s, 2])
     return out
+
+
+def _central_shape_jacobian(d0: float, d1: float, xi: np.ndarray, step: float, J: np.ndarray) -> None:
+    """``J (2, 3) = dg/dxi`` of the mean offset seen along ``d`` by central differences of ``step``
+    on the log-matrix shape ``xi (3,)``, in place. A kernel."""
+    up = np.empty(3)
+    dn = np.empty(3)
+    for c in range(3):
+        for b in range(3):
+            up[b] = xi[b]
+            dn[b] = xi[b]
+        up[c] = xi[c] + step
+        dn[c] = xi[c] - step
+        p11, p12, p22 = exp_sym2(up[0], up[1], up[2])
+        gp = arc_moments(d0, d1, p11, p12, p22)
+        m11, m12, m22 = exp_sym2(dn[0], dn[1], dn[2])
+        gm = arc_moments(d0, d1, m11, m12, m22)
+        J[0, c] = (gp[0] - gm[0]) / (2.0 * step)
+        J[1, c] = (gp[1] - gm[1]) / (2.0 * step)
 
 
 def polar_rows(x: np.ndarray, mu: np.ndarray, B: np.ndarray, S: np.ndarray, R: np.ndarray, Q: np.ndarray):
@@ -239,5 +257,5 @@ def view_walk_rows(x: np.ndarray, P: np.ndarray, last: np.ndarray, q: float, pla
 
 
 #: The kernels of this module (compiled by :mod:`radarslam.slam._view_compiled`).
-KERNELS = (view_rows, exp_sym2_rows, shape_error_rows, polar_rows, sensor_xy_rows, innovation_cov,
-           view_log_distance, log_distance_rows, view_batch_noise, corrected_centroid, view_walk_rows)
+KERNELS = (view_rows, exp_sym2_rows, shape_error_rows, _central_shape_jacobian, polar_rows, sensor_xy_rows,
+           innovation_cov, view_log_distance, log_distance_rows, view_batch_noise, corrected_centroid, view_walk_rows)

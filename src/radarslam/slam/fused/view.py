@@ -32,7 +32,6 @@ from radarslam.slam._view_compiled import (corrected_centroid, exp_sym2, innovat
                                            view_walk_rows)
 from radarslam.slam.fused.tracking import _to_world, associate_and_update, sift
 from radarslam.slam.layout import POSE_DIM
-from radarslam.slam.view_kernels import SHAPE_STEP
 
 #: ``ViewParams.shape_mode``: the arc model's shape (extent.view_shape).
 SHAPE_ESTIMATED, SHAPE_RMA, SHAPE_PRIOR = 0, 1, 2
@@ -56,6 +55,7 @@ class ViewParams(NamedTuple):
     P0: np.ndarray         #: (3, 3) its covariance
     Q: np.ndarray          #: (3, 3) the shape's random walk per scan
     X0: np.ndarray         #: (2, 2) the prior shape
+    shape_step: float      #: central-difference step of the shape's Jacobians, 0 for analytic (extent.view_jacobian)
 
 
 def view_parameters(slam) -> ViewParams:
@@ -66,7 +66,7 @@ def view_parameters(slam) -> ViewParams:
     if getattr(slam, "view", None) is None:
         z3 = np.zeros(3)
         return ViewParams(False, 0.0, False, False, SHAPE_ESTIMATED, False, 0.0, 0.0, np.zeros((2, 2)), z3,
-                          np.zeros((3, 3)), np.zeros((3, 3)), np.zeros((2, 2)))
+                          np.zeros((3, 3)), np.zeros((3, 3)), np.zeros((2, 2)), 0.0)
     ext = slam.extent
     mode = {"estimated": SHAPE_ESTIMATED, "rma": SHAPE_RMA, "prior": SHAPE_PRIOR}[ec.view_shape]
     return ViewParams(True, float(ec.view_walk_m2_per_rad), bool(ec.view_shape_uncertainty) and mode == SHAPE_ESTIMATED,
@@ -74,7 +74,7 @@ def view_parameters(slam) -> ViewParams:
                       bool(ext.spread_only), float(ext.qv2), float(ext.rel),
                       np.ascontiguousarray(slam.view, dtype=float), np.ascontiguousarray(ext.xi0, dtype=float),
                       np.ascontiguousarray(ext.P0, dtype=float), np.ascontiguousarray(ext.Q, dtype=float),
-                      np.ascontiguousarray(log_matrix_to_X(ext.xi0), dtype=float))
+                      np.ascontiguousarray(log_matrix_to_X(ext.xi0), dtype=float), float(ext.shape_step))
 
 
 @njit(cache=True)
@@ -199,7 +199,7 @@ def _complete(x, P, lm, js, terms, R, sc, cfg):  # pragma: no cover - compiled
         return
     if cfg.pv.with_cov:
         mu, B, S = terms
-        Q = shape_error_rows(x, lm.xi, lm.Pxi, todo, cfg.pv.Qv, SHAPE_STEP, POSE_DIM)
+        Q = shape_error_rows(x, lm.xi, lm.Pxi, todo, cfg.pv.Qv, cfg.pv.shape_step, POSE_DIM)
         Rj = polar_rows(x, mu[todo], B[todo], S[todo], R, Q)[2]
         for a in range(n):
             sc.Q[todo[a]] = Q[a]
@@ -299,7 +299,7 @@ def _batch_rows(x, polar, rows, R, mu, B, S, Q):  # pragma: no cover - compiled
 def _model_error(x, lm, j, cfg):  # pragma: no cover - compiled
     """Landmark ``j``'s model error at ``x`` (``model_errors`` of one landmark)."""
     if cfg.pv.with_cov:
-        return shape_error_rows(x, lm.xi, lm.Pxi, np.array([j]), cfg.pv.Qv, SHAPE_STEP, POSE_DIM)[0]
+        return shape_error_rows(x, lm.xi, lm.Pxi, np.array([j]), cfg.pv.Qv, cfg.pv.shape_step, POSE_DIM)[0]
     return cfg.pv.Qv.copy()
 
 
@@ -358,7 +358,7 @@ def view_shape_step(x, polar, xy, lm, N, old, aoff, arow, cents, ccovs, noise, c
         rows = arow[aoff[o]:aoff[o + 1]]
         y, Ws = view_scan_data(polar[rows], xy[rows], x[2], cents[j, 0], cents[j, 1], noise.R_ext)
         xi, Pu, status = view_update(lm.xi[j].copy(), Pn, x[0] - cents[j, 0], x[1] - cents[j, 1], y, na, Ws,
-                                     ccovs[j].copy(), v.qv2, v.rel, v.spread_only)
+                                     ccovs[j].copy(), v.qv2, v.rel, v.spread_only, v.shape_step)
         if status == 0:
             lm.xi[j] = xi
             lm.Pxi[j] = Pu
