@@ -198,3 +198,29 @@ def test_compiled_kernels_equal_the_python_ones():
         hc, Hc = np.empty(5), np.empty((5, 3))
         clc = _compiled._PV["arc_xi_rows"](d[0], d[1], *exp_sym2(*xi), hc, Hc)
         assert cl == clc and np.allclose(h, hc, rtol=1e-12, atol=1e-14) and np.allclose(H, Hc, rtol=1e-11, atol=1e-13)
+
+
+def test_one_pass_mean_jacobian_equals_the_value_path():
+    """With 9 entries of h, arc_xi_rows adds G = dg/dd (a.12.3 eq. (13)) from its end terms: the
+    same G as arc_moments (and the same g and S) to rounding, in view, clamped (sensor inside the
+    outline) and at a circle; a 5-entry h is left as it was (G is not written past it)."""
+    rng = np.random.default_rng(11)
+    cases = [(_xi(0.7, -0.4, 0.3), (0.05, -0.02)), (_xi(0.3, 0.3, 0.0), (4.0, 1.0))]      # clamped, circle
+    for _ in range(60):
+        xi = _xi(rng.uniform(-0.5, 1.0), rng.uniform(-1.0, 1.0), rng.uniform(0, math.pi))
+        cases.append((xi, _view(xi, rng.uniform(1.01, 30.0), rng.uniform(-math.pi, math.pi))))
+    worst = 0.0
+    for xi, d in cases:
+        h, H = np.empty(9), np.empty((5, 3))
+        arc_xi_rows(d[0], d[1], *exp_sym2(*xi), h, H)
+        r = pv.arc_moments(d[0], d[1], *exp_sym2(*xi))
+        ref = np.array([r[0], r[1], r[6], r[7], r[8], r[2], r[3], r[4], r[5]])
+        worst = max(worst, float(np.max(np.abs(h - ref))))
+        h5, H5 = _rows(xi, d)[:2]
+        assert np.array_equal(h5, h[:5]) and np.array_equal(H5, H)
+    assert worst < 1e-12
+    # negative control: the G of another view direction differs
+    h, H = np.empty(9), np.empty((5, 3))
+    arc_xi_rows(3.0, 1.0, *exp_sym2(*_xi(0.7, -0.4, 0.3)), h, H)
+    r = pv.arc_moments(1.0, 3.0, *exp_sym2(*_xi(0.7, -0.4, 0.3)))
+    assert np.max(np.abs(h[5:] - np.array(r[2:6]))) > 1e-3

@@ -281,3 +281,27 @@ def test_model_errors_add_the_shape_uncertainty(step):
     assert np.allclose(model_errors(x, one, np.array([0]), step)[0], np.outer(Ju, Ju), rtol=1e-5, atol=1e-9)
     bigger = Spreads(np.zeros((2, 2, 2)), np.zeros(2, bool), shapes, Qv, xi, 4 * P)
     assert np.all(np.linalg.eigvalsh(model_errors(x, bigger, np.arange(2), step) - Q) >= -1e-12)
+
+
+def test_one_pass_terms_equal_the_two_passes():
+    """view_model_terms with the analytic J (one quadrature pass per landmark, a.12.9) gives the
+    mu, B, S of view_terms and the model errors of model_errors (shape_error_rows' own pass) to
+    rounding; with central differences it is those two calls."""
+    from radarslam.slam.association import Spreads
+    from radarslam.slam.partial_view import _exp_sym2_many, model_errors, view_model_terms
+
+    rng = np.random.default_rng(4)
+    N = 6
+    x = np.concatenate([[0.5, -1.0, 0.3], rng.uniform(-15, 15, 2 * N)])
+    xi = np.column_stack([rng.uniform(-0.5, 1.5, N), rng.uniform(-0.5, 0.5, N), rng.uniform(-0.5, 1.5, N)])
+    A = rng.normal(size=(N, 3, 3)) * 0.2
+    covs = A @ A.transpose(0, 2, 1)
+    sp = Spreads(None, None, _exp_sym2_many(xi), 0.04 * np.eye(2), xi, covs)
+    js = np.array([4, 0, 2])
+    for step in (0.0, 1e-4):
+        mu, B, S, Q = view_model_terms(x, sp, js, step)
+        mu2, B2, S2 = view_terms(x, sp.shapes, js)
+        Q2 = model_errors(x, sp, js, step)
+        for a, b in ((mu, mu2), (B, B2), (S, S2), (Q, Q2)):
+            assert np.allclose(a, b, rtol=1e-12, atol=1e-12)
+    assert np.max(np.abs(Q2 - 0.04 * np.eye(2))) > 1e-3          # the shape's part is there

@@ -74,11 +74,34 @@ def _direction(k: int, co: float, so: float, l1: float, l2: float, gam: float):
     return 0.5 * l1 * P00, 0.5 * gam * P01 / l2, 0.5 * gam * P01 / l1, 0.5 * l2 * P11
 
 
+def _mean_jacobian(co: float, so: float, l1: float, l2: float, pa0: float, pa1: float, pe0: float, pe1: float,
+                   fx: float, fy: float, rx: float, ry: float, h: np.ndarray) -> None:
+    """``h[5:9] = G = dg/dd`` (a.12.3 eqs. (8)-(13)) from the end terms ``pa = w_a (v_a - c)`` and
+    ``pe = w_e (v_e - c)`` of Leibniz' rule and the gradients ``dphi/dq = (fx, fy)``,
+    ``db/dq = (rx, ry)`` of :func:`~radarslam.extent.partial_view.arc_geometry`, as
+    :func:`~radarslam.extent.partial_view.arc_moments` forms it. A kernel."""
+    dphi0 = pa0 - pe0
+    dphi1 = pa1 - pe1
+    db0 = pa0 + pe0
+    db1 = pa1 + pe1
+    C00 = dphi0 * fx + db0 * rx                          # eq. (11): C = dc/dq
+    C01 = dphi0 * fy + db0 * ry
+    C10 = dphi1 * fx + db1 * rx
+    C11 = dphi1 * fy + db1 * ry
+    G00, G01, G10, G11 = _rotate2(co, so, C00, C01 * l1 / l2, C10 * l2 / l1, C11)   # eq. (13): R Lam C Lam^-1 R^T
+    h[5] = G00
+    h[6] = G01
+    h[7] = G10
+    h[8] = G11
+
+
 def arc_xi_rows(dx: float, dy: float, X11: float, X12: float, X22: float, h: np.ndarray, H: np.ndarray) -> bool:
     """The visible arc's mean offset ``g`` and spread ``S`` (a.12.2 eq. (6)) of the shape ``X``
     (entries ``X11, X12, X22``) seen along ``d = (dx, dy)``, and their derivatives over the
     log-matrix shape ``xi`` of ``X = expm(A)`` (a.12.9): ``h[:5] = (g0, g1, S00, S01, S11)`` and
-    ``H[:5, :3] = dh/dxi``, in place. Returns the clamp flag of a.12.3 eq. (14) (the derivatives
+    ``H[:5, :3] = dh/dxi``, in place; when ``h`` has 9 entries, also the mean's Jacobian
+    ``G = dg/dd`` (a.12.3 eq. (13)) in ``h[5:9] = (G00, G01, G10, G11)``, from the arc's end terms
+    the pass has (a.12.9 "One pass"). Returns the clamp flag of a.12.3 eq. (14) (the derivatives
     are then the clamped model's). A kernel."""
     return arc_xi_rows_on(dx, dy, X11, X12, X22, h, H, GL_NODES, GL_WEIGHTS)
 
@@ -89,7 +112,7 @@ def arc_xi_rows_on(dx: float, dy: float, X11: float, X12: float, X22: float, h: 
     accuracy tests pass other orders). A kernel."""
     co, so, l1, l2 = principal_frame(X11, X12, X22)
     e1, e2, m = _scaled_frame(dx, dy, co, so)
-    phi, b, qn0, qn1, _, _, rx, ry, clamped = arc_geometry(e1, e2, m, l1, l2)
+    phi, b, qn0, qn1, fx, fy, rx, ry, clamped = arc_geometry(e1, e2, m, l1, l2)
     T20, T11, T02, T30, T21, T12, T03, T40, T31, T22, T13, T04 = arc_inverse_sums(phi, b, l1, l2, nodes, weights)
     a1 = l1 * l1
     a2 = l2 * l2
@@ -110,6 +133,8 @@ def arc_xi_rows_on(dx: float, dy: float, X11: float, X12: float, X22: float, h: 
     wa = math.sqrt(a1 * sa * sa + a2 * ca * ca) / D
     we = math.sqrt(a1 * se * se + a2 * ce * ce) / D
     ua0, ua1, ue0, ue1 = ca - c0, sa - c1, ce - c0, se - c1
+    if h.shape[0] >= 9:
+        _mean_jacobian(co, so, l1, l2, wa * ua0, wa * ua1, we * ue0, we * ue1, fx, fy, rx, ry, h)
     rn = math.hypot(qn0, qn1)
     hq0 = qn0 / rn
     hq1 = qn1 / rn
@@ -161,4 +186,4 @@ def arc_xi_rows_on(dx: float, dy: float, X11: float, X12: float, X22: float, h: 
 
 
 #: The kernels of this module (compiled with the arc kernels).
-KERNELS = (arc_inverse_sums, _direction, arc_xi_rows_on, arc_xi_rows)
+KERNELS = (arc_inverse_sums, _direction, _mean_jacobian, arc_xi_rows_on, arc_xi_rows)

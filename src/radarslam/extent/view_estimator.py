@@ -386,11 +386,12 @@ class PartialViewEstimator(RmaEfaEstimator):
         return np.array([self.view_shape(s) for s in states]).reshape(-1, 2, 2)
 
     def view_shape_covs(self, states: list[PartialViewState]):
-        """``(xi (N, 3), P_xi (N, 3, 3))`` of the shapes the arc model uses; zero covariances for
-        the RMA's and the prior's (ablations), which are taken as given."""
-        n = len(states)
+        """``(xi (N, 3), P_xi (N, 3, 3))`` of the shapes the arc model uses; None for the RMA's and
+        the prior's (ablations), which are taken as given (the model error is then ``Q_v`` alone,
+        as with zero covariances)."""
         if self.shape_mode != "estimated":
-            return np.array([X_to_log_matrix(self.view_shape(s)) for s in states]).reshape(n, 3), np.zeros((n, 3, 3))
+            return None
+        n = len(states)
         return (np.array([s.xi for s in states]).reshape(n, 3), np.array([s.P_xi for s in states]).reshape(n, 3, 3))
 
     def prior_shape(self) -> np.ndarray:

@@ -16,6 +16,8 @@ _K = compile_kernels(*partial_view.KERNELS, *partial_view_jac.KERNELS, view_esti
                      ekf.rotate_to_sensor, ekf.batch_noise, *view_kernels.KERNELS)
 exp_sym2 = _K["exp_sym2"]
 view_rows = _K["view_rows"]
+view_xi_rows = _K["view_xi_rows"]
+model_error_rows = _K["model_error_rows"]
 exp_sym2_rows = _K["exp_sym2_rows"]
 shape_error_rows = _K["shape_error_rows"]
 polar_rows = _K["polar_rows"]

@@ -76,6 +76,22 @@ def model_errors(x: np.ndarray, spreads: Spreads, js: np.ndarray, step: float = 
                                        _rows(spreads.model_error, (2, 2)), float(step), int(platform))
 
 
+def view_model_terms(x: np.ndarray, spreads: Spreads, js: np.ndarray, step: float = SHAPE_STEP,
+                     platform: int = POSE_DIM):
+    """``mu``, ``B``, ``S`` (:func:`view_terms`) and the model errors ``Q (n, 2, 2)``
+    (:func:`model_errors`) of the landmarks ``js``: with the shapes' covariances and the analytic
+    ``J`` (``step`` 0), from one quadrature pass per landmark (a.12.9 "One pass",
+    :func:`~radarslam.slam.view_kernels.view_xi_rows`)."""
+    js = np.asarray(js, dtype=np.int64)
+    if spreads.shape_covs is None or step != 0.0 or js.size == 0:
+        mu, B, S = view_terms(x, spreads.shapes, js, platform)
+        return mu, B, S, model_errors(x, spreads, js, step, platform)
+    k = _kernels()
+    mu, B, S, J = k.view_xi_rows(_rows(x, x.shape), _rows(spreads.shapes, np.shape(spreads.shapes)), js, int(platform))
+    return mu, B, S, k.model_error_rows(J, _rows(spreads.shape_covs, np.shape(spreads.shape_covs)), js,
+                                        _rows(spreads.model_error, (2, 2)))
+
+
 def _pose_landmark_blocks(P: np.ndarray, js: np.ndarray, platform: int = POSE_DIM) -> np.ndarray:
     """``P`` restricted to ``(x, y, theta, p_j)`` for every ``j`` of ``js``: ``(N, 5, 5)``."""
     idx = np.empty((js.size, 5), dtype=np.int64)
@@ -125,9 +141,9 @@ class _PartialView:
             raise InputError("extent.view_model: 'partial' needs the extent estimator's shapes "
                              "(extent.estimator = 'partial-view'), got none")
         p = state.platform_dim
-        mu, B, S = view_terms(state.x, spreads.shapes, platform=p)
-        h, Hs, Rj, ok = polar_terms(state.x, mu, B, S, R, model_errors(state.x, spreads, np.arange(mu.shape[0]),
-                                                                       self.shape_step, p))
+        mu, B, S, Q = view_model_terms(state.x, spreads, np.arange(n_landmarks(state.x.shape[0], p)),
+                                       self.shape_step, p)
+        h, Hs, Rj, ok = polar_terms(state.x, mu, B, S, R, Q)
         return mu, B, S, h, Hs, Rj, ok
 
     def _score(self, state, polar, rows, R, spreads, count, terms=None):
@@ -175,8 +191,8 @@ class PartialViewNearestNeighbour(_PartialView, NearestNeighbourAssociator):
             zw = x[:2] + polar[i, 0] * np.array([math.cos(a), math.sin(a)])
             d2 = ((mu_all - zw) ** 2).sum(axis=1)
             js = np.argsort(d2, kind="stable")[:self.n_nearest]
-            mu, B, S = view_terms(x, spreads.shapes, js, p)
-            h, Hs, Rj, ok = polar_terms(x, mu, B, S, R, model_errors(x, spreads, js, self.shape_step, p))
+            mu, B, S, Q = view_model_terms(x, spreads, js, self.shape_step, p)
+            h, Hs, Rj, ok = polar_terms(x, mu, B, S, R, Q)
             Pb, idx = _pose_landmark_blocks(state.P, js, p)
             D = np.where(ok, log_distances(polar[i:i + 1], h, Hs, Pb, Rj)[0], np.inf)
             k = int(np.argmin(D))
@@ -192,9 +208,8 @@ def _batch_measurements(state, polar, candidates, out, R, spreads, seen, step):
     """The mean detection, its measurement and noise of every landmark of ``seen`` (a.12.5), at
     the current state: ``[(j, e (2,), Hs (2, 5), idx (5,), noise (2, 2))]`` (``step``: :func:`model_errors`')."""
     js, p = np.array(seen, dtype=np.int64), state.platform_dim
-    mu, B, S = view_terms(state.x, spreads.shapes, js, p)
+    mu, B, S, Q = view_model_terms(state.x, spreads, js, step, p)
     h, Hs = sensor_xy_terms(state.x, mu, B)
-    Q = model_errors(state.x, spreads, js, step, p)
     rows = []
     for a, j in enumerate(seen):
         dets = candidates[out == j]

@@ -41,6 +41,40 @@ def view_rows(x: np.ndarray, shapes: np.ndarray, js: np.ndarray, platform: int):
     return arc_rows(x[0], x[1], cents, sh)
 
 
+def view_xi_rows(x: np.ndarray, shapes: np.ndarray, js: np.ndarray, platform: int):
+    """:func:`view_rows` with the mean offset's derivatives over the log-matrix shape: ``mu (n, 2)``,
+    ``B (n, 2, 2)``, ``S (n, 2, 2)`` and ``J = dg/dxi (n, 2, 3)`` of the landmarks ``js``, each
+    from one quadrature pass over its arc (:func:`~radarslam.extent.partial_view_jac.arc_xi_rows`,
+    a.12.9 "One pass"), for :func:`model_error_rows`. A kernel."""
+    n = js.shape[0]
+    mu = np.empty((n, 2))
+    B = np.empty((n, 2, 2))
+    S = np.empty((n, 2, 2))
+    J = np.empty((n, 2, 3))
+    h = np.empty(9)
+    Hf = np.empty((5, 3))
+    for a in range(n):
+        j = js[a]
+        i = platform + 2 * j
+        px = x[i]
+        py = x[i + 1]
+        arc_xi_rows(x[0] - px, x[1] - py, shapes[j, 0, 0], shapes[j, 0, 1], shapes[j, 1, 1], h, Hf)
+        mu[a, 0] = px + h[0]
+        mu[a, 1] = py + h[1]
+        B[a, 0, 0] = 1.0 - h[5]
+        B[a, 0, 1] = -h[6]
+        B[a, 1, 0] = -h[7]
+        B[a, 1, 1] = 1.0 - h[8]
+        S[a, 0, 0] = h[2]
+        S[a, 0, 1] = h[3]
+        S[a, 1, 0] = h[3]
+        S[a, 1, 1] = h[4]
+        for c in range(3):
+            J[a, 0, c] = Hf[0, c]
+            J[a, 1, c] = Hf[1, c]
+    return mu, B, S, J
+
+
 def exp_sym2_rows(xi: np.ndarray) -> np.ndarray:
     """``expm`` of the symmetric log-matrices ``xi (N, 3)`` (entries 11, 12, 22): ``(N, 2, 2)``. A kernel."""
     n = xi.shape[0]
@@ -78,14 +112,28 @@ def shape_error_rows(x: np.ndarray, xi: np.ndarray, P_xi: np.ndarray, js: np.nda
                 J[1, c] = Hf[1, c]
         else:
             _central_shape_jacobian(d0, d1, xi[j], step, J)
-        P = P_xi[j]
-        for r in range(2):
-            t0 = J[r, 0] * P[0, 0] + J[r, 1] * P[1, 0] + J[r, 2] * P[2, 0]
-            t1 = J[r, 0] * P[0, 1] + J[r, 1] * P[1, 1] + J[r, 2] * P[2, 1]
-            t2 = J[r, 0] * P[0, 2] + J[r, 1] * P[1, 2] + J[r, 2] * P[2, 2]
-            for s in range(2):
-                out[a, r, s] = Qv[r, s] + (t0 * J[s, 0] + t1 * J[s, 1] + t2 * J[s, 2])
+        _shape_error(J, P_xi[j], Qv, out[a])
     return out
+
+
+def model_error_rows(J: np.ndarray, P_xi: np.ndarray, js: np.ndarray, Qv: np.ndarray) -> np.ndarray:
+    """``(n, 2, 2)``: :func:`shape_error_rows` of the landmarks ``js`` with their analytic
+    ``J = dg/dxi (n, 2, 3)`` already at hand (:func:`view_xi_rows`). A kernel."""
+    n = js.shape[0]
+    out = np.empty((n, 2, 2))
+    for a in range(n):
+        _shape_error(J[a], P_xi[js[a]], Qv, out[a])
+    return out
+
+
+def _shape_error(J: np.ndarray, P: np.ndarray, Qv: np.ndarray, out: np.ndarray) -> None:
+    """``out (2, 2) = Q_v + J P J^T`` of one landmark, in place (a.12.5). A kernel."""
+    for r in range(2):
+        t0 = J[r, 0] * P[0, 0] + J[r, 1] * P[1, 0] + J[r, 2] * P[2, 0]
+        t1 = J[r, 0] * P[0, 1] + J[r, 1] * P[1, 1] + J[r, 2] * P[2, 1]
+        t2 = J[r, 0] * P[0, 2] + J[r, 1] * P[1, 2] + J[r, 2] * P[2, 2]
+        for s in range(2):
+            out[r, s] = Qv[r, s] + (t0 * J[s, 0] + t1 * J[s, 1] + t2 * J[s, 2])
 
 
 def _central_shape_jacobian(d0: float, d1: float, xi: np.ndarray, step: float, J: np.ndarray) -> None:
@@ -257,5 +305,6 @@ def view_walk_rows(x: np.ndarray, P: np.ndarray, last: np.ndarray, q: float, pla
 
 
 #: The kernels of this module (compiled by :mod:`radarslam.slam._view_compiled`).
-KERNELS = (view_rows, exp_sym2_rows, shape_error_rows, _central_shape_jacobian, polar_rows, sensor_xy_rows,
+KERNELS = (view_rows, view_xi_rows, exp_sym2_rows, shape_error_rows, model_error_rows, _shape_error,
+           _central_shape_jacobian, polar_rows, sensor_xy_rows,
            innovation_cov, view_log_distance, log_distance_rows, view_batch_noise, corrected_centroid, view_walk_rows)

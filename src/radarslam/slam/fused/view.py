@@ -6,7 +6,8 @@ compiled in :mod:`radarslam.slam._view_compiled`; the shape update of
 
 - :func:`view_walk`: the centroids' random walk with the viewing angle (a.12.5), before the prior;
 - :func:`view_shapes` and :func:`view_terms`: every landmark's arc-model shape and its ``mu``,
-  ``B``, ``S`` at the predicted state, computed once for sifting and scoring (both read the same state);
+  ``B``, ``S`` (with the model error's ``J = dg/dxi`` from the same pass, a.12.9) at the predicted
+  state, computed once for sifting and scoring (both read the same state);
 - :func:`view_sift`: a.7.1 about the predicted detection means (``PartialViewEstimator.sift``);
 - :func:`view_associate`: the partial-view nearest-neighbour, batch and batch-joint associators
   (``slam.partial_view``), with each landmark's model error and polar terms computed when a
@@ -27,9 +28,9 @@ from numba import njit
 from radarslam.extent._compiled import measurement_contour, sift_spreads, view_scan_data, view_update
 from radarslam.landmarks._compiled import compiled_candidates, compiled_seen_landmarks
 from radarslam.slam._numba import _joseph_update_inplace, _polar_to_sensor_xy, _smallest, _wrap_pi, joint_update_loops
-from radarslam.slam._view_compiled import (corrected_centroid, exp_sym2, innovation_cov, polar_rows, sensor_xy_rows,
-                                           shape_error_rows, view_batch_noise, view_log_distance, view_rows,
-                                           view_walk_rows)
+from radarslam.slam._view_compiled import (corrected_centroid, exp_sym2, innovation_cov, model_error_rows, polar_rows,
+                                           sensor_xy_rows, shape_error_rows, view_batch_noise, view_log_distance,
+                                           view_rows, view_walk_rows, view_xi_rows)
 from radarslam.slam.fused.tracking import _to_world, associate_and_update, sift
 from radarslam.slam.layout import POSE_DIM
 
@@ -103,9 +104,19 @@ def view_shapes(lm, N, cfg):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def view_terms(x, shapes, N):  # pragma: no cover - compiled
-    """``(mu, B, S)`` of every landmark at the state ``x`` (a.12.4)."""
-    return view_rows(x, shapes, np.arange(N), POSE_DIM)
+def _analytic_cov(cfg):  # pragma: no cover - compiled
+    """True when the model error takes the shape's uncertainty with the analytic ``J`` (a.12.9)."""
+    return cfg.pv.with_cov and cfg.pv.shape_step == 0.0
+
+
+@njit(cache=True)
+def view_terms(x, shapes, N, cfg):  # pragma: no cover - compiled
+    """``(mu, B, S, J)`` of every landmark at the state ``x`` (a.12.4), with the model error's
+    ``J = dg/dxi (N, 2, 3)`` from the same pass under :func:`_analytic_cov` (else ``(0, 2, 3)``)."""
+    if _analytic_cov(cfg):
+        return view_xi_rows(x, shapes, np.arange(N), POSE_DIM)
+    mu, B, S = view_rows(x, shapes, np.arange(N), POSE_DIM)
+    return mu, B, S, np.empty((0, 2, 3))
 
 
 @njit(cache=True)
@@ -121,7 +132,7 @@ def view_sift(x, P, polar, N, prior, terms, noise, cfg):  # pragma: no cover - c
     has = np.full(N, cfg.contour)
     inside = np.zeros((1, 1), dtype=np.bool_)
     if cfg.contour:
-        mu, B, S = terms
+        mu, B, S, _ = terms
         spread, cov = sift_spreads(B, S, cov_prior, cfg.pv.Qv)
         inside = measurement_contour(xy, polar, x[2], P[:3, :3].copy(), noise.R_ext, mu, spread, cov, cfg.gate)
     return compiled_candidates(xy, pos_prior, cfg.sift_radius * cfg.sift_radius, inside, has)   # c.3's decision
@@ -134,10 +145,10 @@ def sift_step(x, P, polar, lm, N, prior, noise, cfg):  # pragma: no cover - comp
     the predicted state under the partial view (empty otherwise), which association reads too."""
     if cfg.pv.on:
         shapes = view_shapes(lm, N, cfg)
-        terms = view_terms(x, shapes, N)
+        terms = view_terms(x, shapes, N, cfg)
         return view_sift(x, P, polar, N, prior, terms, noise, cfg), shapes, terms
     e2 = np.empty((0, 2, 2))
-    return sift(x, P, polar, lm, N, prior, noise, cfg), e2, (np.empty((0, 2)), e2, e2)
+    return sift(x, P, polar, lm, N, prior, noise, cfg), e2, (np.empty((0, 2)), e2, e2, np.empty((0, 2, 3)))
 
 
 @njit(cache=True)
@@ -166,7 +177,7 @@ class _Scores(NamedTuple):
 def _scores(x, terms, N, R, cfg):  # pragma: no cover - compiled
     """The polar terms of every landmark with the model error ``Q_v`` (``h``, ``Hs`` and ``ok``
     do not depend on it; :func:`_complete` adds the shape's part to ``Rj`` where it is needed)."""
-    mu, B, S = terms
+    mu, B, S, _ = terms
     Q = np.empty((N, 2, 2))
     for j in range(N):
         Q[j] = cfg.pv.Qv
@@ -198,8 +209,11 @@ def _complete(x, P, lm, js, terms, R, sc, cfg):  # pragma: no cover - compiled
     if n == 0:
         return
     if cfg.pv.with_cov:
-        mu, B, S = terms
-        Q = shape_error_rows(x, lm.xi, lm.Pxi, todo, cfg.pv.Qv, cfg.pv.shape_step, POSE_DIM)
+        mu, B, S, J = terms
+        if _analytic_cov(cfg):
+            Q = model_error_rows(J[todo], lm.Pxi, todo, cfg.pv.Qv)
+        else:
+            Q = shape_error_rows(x, lm.xi, lm.Pxi, todo, cfg.pv.Qv, cfg.pv.shape_step, POSE_DIM)
         Rj = polar_rows(x, mu[todo], B[todo], S[todo], R, Q)[2]
         for a in range(n):
             sc.Q[todo[a]] = Q[a]
@@ -256,7 +270,7 @@ def _view_nn(x, P, polar, cidx, lm, N, shapes, terms, R, cfg):  # pragma: no cov
             nis[n_up] = _joseph_update_inplace(x, P, e, sc.Hs[j].copy(), _block_index(j), sc.Rj[j].copy())
             n_up += 1
             out[c] = j
-            terms = view_terms(x, shapes, N)
+            terms = view_terms(x, shapes, N, cfg)
             sc = _scores(x, terms, N, R, cfg)
     return x, P, out, nis[:n_up]
 
@@ -296,11 +310,17 @@ def _batch_rows(x, polar, rows, R, mu, B, S, Q):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _model_error(x, lm, j, cfg):  # pragma: no cover - compiled
-    """Landmark ``j``'s model error at ``x`` (``model_errors`` of one landmark)."""
+def _one_landmark(x, shapes, lm, j, cfg):  # pragma: no cover - compiled
+    """Landmark ``j``'s ``mu``, ``B``, ``S`` ``(1, ...)`` and model error ``(2, 2)`` at ``x``
+    (``view_model_terms`` of one landmark)."""
+    js = np.array([j])
+    if _analytic_cov(cfg):
+        mu, B, S, J = view_xi_rows(x, shapes, js, POSE_DIM)
+        return mu, B, S, model_error_rows(J, lm.Pxi, js, cfg.pv.Qv)[0]
+    mu, B, S = view_rows(x, shapes, js, POSE_DIM)
     if cfg.pv.with_cov:
-        return shape_error_rows(x, lm.xi, lm.Pxi, np.array([j]), cfg.pv.Qv, cfg.pv.shape_step, POSE_DIM)[0]
-    return cfg.pv.Qv.copy()
+        return mu, B, S, shape_error_rows(x, lm.xi, lm.Pxi, js, cfg.pv.Qv, cfg.pv.shape_step, POSE_DIM)[0]
+    return mu, B, S, cfg.pv.Qv.copy()
 
 
 @njit(cache=True)
@@ -324,11 +344,11 @@ def view_associate(x, P, polar, cidx, lm, N, shapes, terms, noise, cfg):  # prag
         nis = np.empty(L)
         for a in range(L):
             j = js[a]
-            mu, B, S = view_rows(x, shapes, js[a:a + 1], POSE_DIM)
-            e, Hs, Rb = _batch_rows(x, polar, cidx[out == j], R, mu, B, S, _model_error(x, lm, j, cfg))
+            mu, B, S, Q = _one_landmark(x, shapes, lm, j, cfg)
+            e, Hs, Rb = _batch_rows(x, polar, cidx[out == j], R, mu, B, S, Q)
             nis[a] = _joseph_update_inplace(x, P, e, Hs, _block_index(j), Rb)
         return x, P, out, nis
-    mu_all, B_all, S_all = terms
+    mu_all, B_all, S_all, _ = terms
     e = np.empty(2 * L)
     Hs_all = np.empty((L, 2, 5))
     idx_all = np.empty((L, 5), dtype=np.int64)
