@@ -297,6 +297,12 @@ _TILE = 32
 
 
 @njit(cache=True)
+def stacked_rows(L):  # pragma: no cover - compiled
+    """``(e (2L,), Hs (L, 2, 5), idx (L, 5), Rb (L, 2, 2))`` to fill for :func:`joint_update_loops`."""
+    return np.empty(2 * L), np.empty((L, 2, 5)), np.empty((L, 5), dtype=np.int64), np.empty((L, 2, 2))
+
+
+@njit(cache=True)
 def joint_update_loops(x, P, e, Hs, idx, Rb):  # pragma: no cover - compiled
     """:func:`radarslam.slam.ekf.joint_update_inplace` on the sparse blocks: landmark ``a``'s two
     rows of H are ``Hs[a] (2, 5)`` on the columns ``idx[a]``, its noise ``Rb[a] (2, 2)``. ``P H^T``
@@ -410,10 +416,7 @@ def joint_batch_associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta
     L = js.shape[0]
     if L == 0:
         return x, P, out, np.empty(0)
-    e = np.empty(2 * L)
-    Hs_all = np.empty((L, 2, 5))
-    idx_all = np.empty((L, 5), dtype=np.int64)
-    Rb = np.empty((L, 2, 2))
+    e, Hs_all, idx_all, Rb = stacked_rows(L)
     for a in range(L):
         j = js[a]
         rows = cand[out == j]

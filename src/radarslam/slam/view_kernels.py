@@ -226,24 +226,23 @@ def sensor_xy_rows(x: np.ndarray, mu: np.ndarray, B: np.ndarray):
     return h, Hs
 
 
+def _times_transpose(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """``A B^T`` ``(2, n)`` of ``A (2, 5)`` and ``B (n, 5)``. A kernel."""
+    n = B.shape[0]
+    out = np.empty((2, n))
+    for r in range(2):
+        for c in range(n):
+            acc = 0.0
+            for k in range(5):
+                acc += A[r, k] * B[c, k]
+            out[r, c] = acc
+    return out
+
+
 def innovation_cov(Hs: np.ndarray, Pb: np.ndarray, Rj: np.ndarray) -> np.ndarray:
     """``Hs Pb Hs^T + R_j`` ``(2, 2)`` of one landmark: ``Hs (2, 5)``, ``Pb (5, 5)`` the covariance
     of ``(x, y, theta, p_x, p_y)``. A kernel."""
-    T = np.zeros((2, 5))
-    for r in range(2):
-        for c in range(5):
-            acc = 0.0
-            for k in range(5):
-                acc += Hs[r, k] * Pb[k, c]
-            T[r, c] = acc
-    Sn = np.empty((2, 2))
-    for r in range(2):
-        for s in range(2):
-            acc = 0.0
-            for k in range(5):
-                acc += T[r, k] * Hs[s, k]
-            Sn[r, s] = acc + Rj[r, s]
-    return Sn
+    return _times_transpose(_times_transpose(Hs, Pb.T), Hs) + Rj
 
 
 def view_log_distance(z0: float, z1: float, h0: float, h1: float, Sn: np.ndarray) -> float:
@@ -306,5 +305,5 @@ def view_walk_rows(x: np.ndarray, P: np.ndarray, last: np.ndarray, q: float, pla
 
 #: The kernels of this module (compiled by :mod:`radarslam.slam._view_compiled`).
 KERNELS = (view_rows, view_xi_rows, exp_sym2_rows, shape_error_rows, model_error_rows, _shape_error,
-           _central_shape_jacobian, polar_rows, sensor_xy_rows,
-           innovation_cov, view_log_distance, log_distance_rows, view_batch_noise, corrected_centroid, view_walk_rows)
+           _central_shape_jacobian, polar_rows, sensor_xy_rows, _times_transpose, innovation_cov, view_log_distance,
+           log_distance_rows, view_batch_noise, corrected_centroid, view_walk_rows)

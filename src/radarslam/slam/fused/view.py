@@ -27,7 +27,8 @@ from numba import njit
 
 from radarslam.extent._compiled import measurement_contour, sift_spreads, view_scan_data, view_update
 from radarslam.landmarks._compiled import compiled_candidates, compiled_seen_landmarks
-from radarslam.slam._numba import _joseph_update_inplace, _polar_to_sensor_xy, _smallest, _wrap_pi, joint_update_loops
+from radarslam.slam._numba import (_joseph_update_inplace, _polar_to_sensor_xy, _smallest, _wrap_pi, joint_update_loops,
+                                   stacked_rows)
 from radarslam.slam._view_compiled import (corrected_centroid, exp_sym2, innovation_cov, model_error_rows, polar_rows,
                                            sensor_xy_rows, shape_error_rows, view_batch_noise, view_log_distance,
                                            view_rows, view_walk_rows, view_xi_rows)
@@ -349,10 +350,7 @@ def view_associate(x, P, polar, cidx, lm, N, shapes, terms, noise, cfg):  # prag
             nis[a] = _joseph_update_inplace(x, P, e, Hs, _block_index(j), Rb)
         return x, P, out, nis
     mu_all, B_all, S_all, _ = terms
-    e = np.empty(2 * L)
-    Hs_all = np.empty((L, 2, 5))
-    idx_all = np.empty((L, 5), dtype=np.int64)
-    Rb = np.empty((L, 2, 2))
+    e, Hs_all, idx_all, Rb = stacked_rows(L)
     for a in range(L):
         j = js[a]
         ea, Hs_all[a], Rb[a] = _batch_rows(x, polar, cidx[out == j], R, mu_all[j:j + 1], B_all[j:j + 1],
