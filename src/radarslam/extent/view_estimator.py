@@ -160,6 +160,9 @@ def view_update(xi: np.ndarray, P: np.ndarray, dx: float, dy: float, y: np.ndarr
     Rn = np.zeros((nr, nr))
     x = xi.copy()
     K = np.zeros((3, nr))
+    HP = np.empty((nr, 3))
+    Sy = np.empty((nr, nr))
+    Sg = np.empty((2, 2))
     for _ in range(VIEW_ITERATIONS):
         if rows_and_jacobian(x, dx, dy, Ws, fd_step, h, H, Hf):
             return xi, P, 1
@@ -171,7 +174,7 @@ def view_update(xi: np.ndarray, P: np.ndarray, dx: float, dy: float, y: np.ndarr
         Rn[0, 1] = Rn[1, 0] = S01 / m + Pc[0, 1]
         Rn[1, 1] = S11 / m + Pc[1, 1] + qv2 + big
         if nr == 5:
-            Sg = np.array([[S00, S01], [S01, S11]])
+            Sg[0, 0], Sg[0, 1], Sg[1, 0], Sg[1, 1] = S00, S01, S01, S11
             pi = (0, 0, 1)
             pj = (0, 1, 1)
             for a in range(3):
@@ -180,9 +183,8 @@ def view_update(xi: np.ndarray, P: np.ndarray, dx: float, dy: float, y: np.ndarr
                     k, l = pi[b], pj[b]
                     Rn[2 + a, 2 + b] = (Sg[i, k] * Sg[j, l] + Sg[i, l] * Sg[j, k]) / (m - 1)
                 Rn[2 + a, 2 + a] += (rel * Sg[i, j]) ** 2 + 1e-6
-        HP = H @ P
-        Ht = np.ascontiguousarray(H.T)
-        Sy = HP @ Ht + Rn
+        _mul(H, P, HP)
+        Sy = _mul(HP, H.T, Sy) + Rn
         r = np.empty((nr, 1))
         for a in range(nr):
             acc = 0.0
@@ -199,17 +201,29 @@ def view_update(xi: np.ndarray, P: np.ndarray, dx: float, dy: float, y: np.ndarr
         gate = GATE_2 if nr == 2 else GATE_5
         if d2 > gate:
             Rn *= d2 / gate
-            Sy = HP @ Ht + Rn
+            Sy = _mul(HP, H.T, Sy) + Rn
         K = np.ascontiguousarray(solve_spd(Sy, HP).T)
-        step = K @ r
+        step = _mul(K, r, np.empty((3, 1)))
         for i in range(3):
             x[i] = xi[i] + step[i, 0]
     for i in range(3):
         if not math.isfinite(x[i]):
             return xi, P, 2
-    I_KH = np.eye(3) - K @ H
-    P_new = I_KH @ P @ np.ascontiguousarray(I_KH.T) + K @ Rn @ np.ascontiguousarray(K.T)
+    I_KH = np.eye(3) - _mul(K, H, np.empty((3, 3)))
+    P_new = _mul(_mul(I_KH, P, np.empty((3, 3))), I_KH.T, np.empty((3, 3))) + _mul(_mul(K, Rn, np.empty((3, nr))), K.T,
+                                                                              np.empty((3, 3)))
     return x, 0.5 * (P_new + P_new.T), 0
+
+
+def _mul(A: np.ndarray, B: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """``out = A B`` by loops (small matrices: no BLAS call), returned. A kernel."""
+    for i in range(A.shape[0]):
+        for j in range(B.shape[1]):
+            acc = 0.0
+            for k in range(A.shape[1]):
+                acc += A[i, k] * B[k, j]
+            out[i, j] = acc
+    return out
 
 
 def arc_rows(s0: float, s1: float, centroids: np.ndarray, shapes: np.ndarray):
@@ -306,7 +320,7 @@ def view_scan_data(polar: np.ndarray, pts: np.ndarray, theta: float, c0: float, 
 
 
 #: The kernels of this module, compiled with the arc kernels (extent/_compiled.py).
-KERNELS = (exp_sym2, predicted_rows, solve_spd, rows_and_jacobian, view_update, arc_rows, sift_spreads, view_scan_data)
+KERNELS = (exp_sym2, predicted_rows, solve_spd, _mul, rows_and_jacobian, view_update, arc_rows, sift_spreads, view_scan_data)
 
 
 def log_matrix_to_X(xi: np.ndarray) -> np.ndarray:
