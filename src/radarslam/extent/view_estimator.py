@@ -238,17 +238,23 @@ def arc_rows(s0: float, s1: float, centroids: np.ndarray, shapes: np.ndarray):
         px = centroids[a, 0]
         py = centroids[a, 1]
         r = arc_moments(s0 - px, s1 - py, shapes[a, 0, 0], shapes[a, 0, 1], shapes[a, 1, 1])
-        mu[a, 0] = px + r[0]
-        mu[a, 1] = py + r[1]
-        B[a, 0, 0] = 1.0 - r[2]
-        B[a, 0, 1] = -r[3]
-        B[a, 1, 0] = -r[4]
-        B[a, 1, 1] = 1.0 - r[5]
-        S[a, 0, 0] = r[6]
-        S[a, 0, 1] = r[7]
-        S[a, 1, 0] = r[7]
-        S[a, 1, 1] = r[8]
+        put_arc_row(mu[a], B[a], S[a], px, py, r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8])
     return mu, B, S
+
+
+def put_arc_row(mu: np.ndarray, B: np.ndarray, S: np.ndarray, px: float, py: float, g0: float, g1: float, G00: float,
+                G01: float, G10: float, G11: float, S00: float, S01: float, S11: float) -> None:
+    """One landmark's ``mu = p + g`` ``(2,)``, ``B = I - G`` and ``S`` ``(2, 2)`` in place (a.12.4). A kernel."""
+    mu[0] = px + g0
+    mu[1] = py + g1
+    B[0, 0] = 1.0 - G00
+    B[0, 1] = -G01
+    B[1, 0] = -G10
+    B[1, 1] = 1.0 - G11
+    S[0, 0] = S00
+    S[0, 1] = S01
+    S[1, 0] = S01
+    S[1, 1] = S11
 
 
 def sift_spreads(B: np.ndarray, S: np.ndarray, centroid_covs: np.ndarray, Qv: np.ndarray):
@@ -320,7 +326,8 @@ def view_scan_data(polar: np.ndarray, pts: np.ndarray, theta: float, c0: float, 
 
 
 #: The kernels of this module, compiled with the arc kernels (extent/_compiled.py).
-KERNELS = (exp_sym2, predicted_rows, solve_spd, _mul, rows_and_jacobian, view_update, arc_rows, sift_spreads, view_scan_data)
+KERNELS = (exp_sym2, predicted_rows, solve_spd, _mul, rows_and_jacobian, view_update, arc_rows, put_arc_row,
+           sift_spreads, view_scan_data)
 
 
 def log_matrix_to_X(xi: np.ndarray) -> np.ndarray:

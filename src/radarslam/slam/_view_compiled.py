@@ -13,6 +13,7 @@ from radarslam.extent import partial_view, partial_view_jac, view_estimator
 from radarslam.slam import ekf, view_kernels
 
 _K = compile_kernels(*partial_view.KERNELS, *partial_view_jac.KERNELS, view_estimator.exp_sym2, view_estimator.arc_rows,
+                     view_estimator.put_arc_row,
                      ekf.rotate_to_sensor, ekf.batch_noise, *view_kernels.KERNELS)
 exp_sym2 = _K["exp_sym2"]
 view_rows = _K["view_rows"]

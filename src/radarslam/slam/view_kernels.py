@@ -16,7 +16,7 @@ import numpy as np
 
 from radarslam.extent.partial_view import arc_moments
 from radarslam.extent.partial_view_jac import arc_xi_rows
-from radarslam.extent.view_estimator import arc_rows, exp_sym2
+from radarslam.extent.view_estimator import arc_rows, exp_sym2, put_arc_row
 from radarslam.slam.ekf import batch_noise, rotate_to_sensor
 
 #: ``log((2 pi)^2)`` of the log distance (APSIPA eq. 9).
@@ -59,16 +59,7 @@ def view_xi_rows(x: np.ndarray, shapes: np.ndarray, js: np.ndarray, platform: in
         px = x[i]
         py = x[i + 1]
         arc_xi_rows(x[0] - px, x[1] - py, shapes[j, 0, 0], shapes[j, 0, 1], shapes[j, 1, 1], h, Hf)
-        mu[a, 0] = px + h[0]
-        mu[a, 1] = py + h[1]
-        B[a, 0, 0] = 1.0 - h[5]
-        B[a, 0, 1] = -h[6]
-        B[a, 1, 0] = -h[7]
-        B[a, 1, 1] = 1.0 - h[8]
-        S[a, 0, 0] = h[2]
-        S[a, 0, 1] = h[3]
-        S[a, 1, 0] = h[3]
-        S[a, 1, 1] = h[4]
+        put_arc_row(mu[a], B[a], S[a], px, py, h[0], h[1], h[5], h[6], h[7], h[8], h[2], h[3], h[4])
         for c in range(3):
             J[a, 0, c] = Hf[0, c]
             J[a, 1, c] = Hf[1, c]
