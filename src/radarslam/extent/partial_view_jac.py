@@ -100,9 +100,9 @@ def arc_xi_rows(dx: float, dy: float, X11: float, X12: float, X22: float, h: np.
     (entries ``X11, X12, X22``) seen along ``d = (dx, dy)``, and their derivatives over the
     log-matrix shape ``xi`` of ``X = expm(A)`` (a.12.9): ``h[:5] = (g0, g1, S00, S01, S11)`` and
     ``H[:5, :3] = dh/dxi``, in place; when ``h`` has 9 entries, also the mean's Jacobian
-    ``G = dg/dd`` (a.12.3 eq. (13)) in ``h[5:9] = (G00, G01, G10, G11)``, from the arc's end terms
-    the pass has (a.12.9 "One pass"). Returns the clamp flag of a.12.3 eq. (14) (the derivatives
-    are then the clamped model's). A kernel."""
+    ``G = dg/dd`` (a.12.3 eq. (13)) in ``h[5:9] = (G00, G01, G10, G11)``, from the arc's end
+    terms the pass has (a.12.9 "SLAM's terms from the same pass"). Returns the clamp flag of
+    a.12.3 eq. (14) (the derivatives are then the clamped model's). A kernel."""
     return arc_xi_rows_on(dx, dy, X11, X12, X22, h, H, GL_NODES, GL_WEIGHTS)
 
 

@@ -80,8 +80,8 @@ def view_model_terms(x: np.ndarray, spreads: Spreads, js: np.ndarray, step: floa
                      platform: int = POSE_DIM):
     """``mu``, ``B``, ``S`` (:func:`view_terms`) and the model errors ``Q (n, 2, 2)``
     (:func:`model_errors`) of the landmarks ``js``: with the shapes' covariances and the analytic
-    ``J`` (``step`` 0), from one quadrature pass per landmark (a.12.9 "One pass",
-    :func:`~radarslam.slam.view_kernels.view_xi_rows`)."""
+    ``J`` (``step`` 0), from one quadrature pass per landmark (a.12.9 "SLAM's terms from the same
+    pass", :func:`~radarslam.slam.view_kernels.view_xi_rows`)."""
     js = np.asarray(js, dtype=np.int64)
     if spreads.shape_covs is None or step != 0.0 or js.size == 0:
         mu, B, S = view_terms(x, spreads.shapes, js, platform)

@@ -45,7 +45,7 @@ def view_xi_rows(x: np.ndarray, shapes: np.ndarray, js: np.ndarray, platform: in
     """:func:`view_rows` with the mean offset's derivatives over the log-matrix shape: ``mu (n, 2)``,
     ``B (n, 2, 2)``, ``S (n, 2, 2)`` and ``J = dg/dxi (n, 2, 3)`` of the landmarks ``js``, each
     from one quadrature pass over its arc (:func:`~radarslam.extent.partial_view_jac.arc_xi_rows`,
-    a.12.9 "One pass"), for :func:`model_error_rows`. A kernel."""
+    a.12.9 "SLAM's terms from the same pass"), for :func:`model_error_rows`. A kernel."""
     n = js.shape[0]
     mu = np.empty((n, 2))
     B = np.empty((n, 2, 2))
