@@ -14,7 +14,7 @@ from numba import njit
 
 from radarslam.core.angles import wrap_2pi_scalar
 from radarslam.core.jit import compile_kernels
-from radarslam.extent._compiled import literal_inside, measurement_contour
+from radarslam.extent._compiled import literal_inside, measurement_contour, small_matmul
 from radarslam.landmarks._compiled import compiled_by_landmark, compiled_candidates, compiled_in_view as _in_view
 from radarslam.landmarks._compiled import compiled_mn_windows as _mn_windows
 from radarslam.models.ackermann import ackermann_jacobians, ackermann_step, centre_speed
@@ -54,15 +54,8 @@ UNICYCLE, ACKERMANN, BODY_VELOCITY = 0, 1, 2
 
 @njit(cache=True, inline="always")
 def _matmul(A, B):  # pragma: no cover - compiled
-    """``A @ B`` for small matrices, each entry summed over k in order."""
-    C = np.zeros((A.shape[0], B.shape[1]))
-    for i in range(A.shape[0]):
-        for j in range(B.shape[1]):
-            acc = 0.0
-            for k in range(A.shape[1]):
-                acc += A[i, k] * B[k, j]
-            C[i, j] = acc
-    return C
+    """``A @ B`` for small matrices, each entry summed over k in order (extent.view_estimator._mul)."""
+    return small_matmul(A, B, np.empty((A.shape[0], B.shape[1])))
 
 
 @njit(cache=True, inline="always")
