@@ -46,7 +46,6 @@ def _state(pose, lms, first) -> SlamState:
     for j in range(len(first)):
         st.records = add_record(st.records, j, j, 1, first[j, 0], first[j, 1])
         st.extents.append(None)
-    st.n_landmarks = len(first)
     return st
 
 

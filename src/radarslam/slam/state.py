@@ -75,7 +75,6 @@ class SlamState:
     x: np.ndarray
     P: np.ndarray
     records: Records = field(default_factory=lambda: new_records(16))
-    n_landmarks: int = 0
     extents: list = field(default_factory=list)
     tentatives: Tentatives = field(default_factory=no_tentatives)
     next_id: int = 0
@@ -105,7 +104,7 @@ class SlamState:
         for j in range(n):
             i = landmark_index(j, platform_dim)
             st.records = add_record(st.records, j, j, 0, float(x[i]), float(x[i + 1]))
-        st.extents, st.n_landmarks = list(extents) if extents is not None else [None] * n, n
+        st.extents = list(extents) if extents is not None else [None] * n
         return st
 
     def __post_init__(self):
@@ -116,6 +115,11 @@ class SlamState:
     def index(self, j: int) -> int:
         """First row of landmark ``j`` in ``x`` and ``P``."""
         return landmark_index(j, self.platform_dim)
+
+    @property
+    def n_landmarks(self) -> int:
+        """The number of landmarks, the rows of :attr:`records` in use (from ``x``'s size)."""
+        return (self.x.shape[0] - self.platform_dim) // 2
 
     @property
     def landmarks(self) -> list[Landmark]:
@@ -216,11 +220,11 @@ class SlamState:
         """Take ``(x, P)``, the current state augmented by one landmark; record it and return its id."""
         if x.shape[0] != self.x.shape[0] + 2:
             raise ValueError(f"x: expected {self.x.shape[0] + 2} entries, got {x.shape[0]}")
+        n = self.n_landmarks
         self.x, self.P = x, P
         lid = self.next_id
-        self.records = add_record(self.records, self.n_landmarks, lid, created, float(x[-2]), float(x[-1]))
+        self.records = add_record(self.records, n, lid, created, float(x[-2]), float(x[-1]))
         self.extents.append(extent)
-        self.n_landmarks += 1
         self.next_id += 1
         return lid
 
@@ -235,5 +239,4 @@ class SlamState:
         self.x, self.P = ekf.remove_landmarks(self.x, self.P, list(js), self.platform_dim)
         old = compact_records(self.records, keep)
         self.extents = [self.extents[j] for j in old.tolist()]
-        self.n_landmarks = old.shape[0]
         return removed
