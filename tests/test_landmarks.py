@@ -443,6 +443,26 @@ def test_landmark_records_written_once_match_a_list_oracle():
     assert compact_records(new_records(3), np.zeros(3, dtype=bool)).size == 0
 
 
+def test_growth_by_doubling_is_one_kernel_python_and_compiled():
+    """core.arrays.grown, the one growth rule of the records, the engine's arrays and the extent
+    buffers: the same array when it has room; else max(n, 2 * rows) rows of its dtype, its rows
+    first and zeros after, for 1-D int and 3-D float arrays, Python and compiled alike."""
+    from radarslam.core.arrays import grown
+    from radarslam.landmarks._compiled import compiled_grown
+
+    ints = np.arange(5, dtype=np.int64)
+    cubes = np.arange(3 * 2 * 2, dtype=float).reshape(3, 2, 2)
+    for kernel in (grown, compiled_grown):
+        assert kernel(ints, 5) is ints and kernel(cubes, 2) is cubes      # room enough: no copy
+        g = kernel(ints, 6)
+        assert g.dtype == np.int64 and g.shape == (10,)                    # doubled
+        assert g[:5].tolist() == ints.tolist() and g[5:].tolist() == [0] * 5
+        g = kernel(cubes, 13)
+        assert g.shape == (13, 2, 2) and g.dtype == float                  # n beyond twice the rows
+        assert np.array_equal(g[:3], cubes) and not g[3:].any()
+        assert kernel(np.empty((0, 2)), 1).shape == (1, 2)                 # from nothing
+
+
 def test_slam_state_records_follow_removals_and_merges():
     """The orchestrator's state holds its landmarks' bookkeeping in the records' arrays: ids,
     creation scans and first estimates stay with their rows of ``x`` through a removal, and the

@@ -19,6 +19,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from radarslam.core.arrays import grown
 from radarslam.core.registry import EXTENT_ESTIMATORS
 from radarslam.extent.buffering import POOL, READY, TAKE, buffer_and_fit, merge_outcome
 from radarslam.extent.ellipse_fit import _fit_ellipse
@@ -272,7 +273,7 @@ class RmaEfaEstimator:
         than ``n_init`` are held, initialise X by EFA (upper bound) with ``alpha_0``; a degenerate
         fit keeps only the newest ``n_init`` and waits."""
         ec = self.c
-        st.buffer = _with_room(st.buffer, st.n_buffered + pts.shape[0])
+        st.buffer = grown(st.buffer, st.n_buffered + pts.shape[0])
         outcome, n, e11, e12, e22 = buffer_and_fit(st.buffer, st.n_buffered, pts, ec.n_init, ec.spread_factor)
         if outcome != READY:
             st.n_buffered = n
@@ -293,19 +294,10 @@ class RmaEfaEstimator:
             return gone
         if outcome == POOL:
             n = survivor.n_buffered + gone.n_buffered
-            survivor.buffer = _with_room(survivor.buffer, n)
+            survivor.buffer = grown(survivor.buffer, n)
             survivor.buffer[survivor.n_buffered:n] = gone.buffer[:gone.n_buffered]
             survivor.n_buffered = n
         return survivor
-
-
-def _with_room(buf: np.ndarray, n: int) -> np.ndarray:
-    """The buffer ``(B, 2)`` with room for ``n`` rows (doubling), its rows kept."""
-    if buf.shape[0] >= n:
-        return buf
-    out = np.empty((max(n, 2 * buf.shape[0]), 2))
-    out[:buf.shape[0]] = buf
-    return out
 
 
 def _reference_contour(points, polar, pose, pose_cov, R, centroids, spreads, centroid_covs, gate):

@@ -15,6 +15,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from radarslam.core.arrays import grown
+
 
 class Records(NamedTuple):
     """Bookkeeping of the confirmed landmarks in state order (rows ``0 .. n - 1`` in use)."""
@@ -33,18 +35,12 @@ def new_records(cap):
 
 
 def with_room(rec, n):
-    """``rec`` with room for at least ``n`` landmarks: ``rec`` itself, or new arrays of twice the
-    capacity (or ``n``) holding the old rows; a kernel."""
-    cap = rec.ids.shape[0]
-    if n <= cap:
+    """``rec`` with room for at least ``n`` landmarks: ``rec`` itself, or every array grown alike
+    by :func:`radarslam.core.arrays.grown` (doubling), the old rows kept; a kernel."""
+    if n <= rec.ids.shape[0]:
         return rec
-    out = new_records(max(n, 2 * cap))
-    out.ids[:cap] = rec.ids
-    out.created[:cap] = rec.created
-    out.mbits[:cap] = rec.mbits
-    out.rbits[:cap] = rec.rbits
-    out.first[:cap] = rec.first
-    return out
+    return Records(grown(rec.ids, n), grown(rec.created, n), grown(rec.mbits, n), grown(rec.rbits, n),
+                   grown(rec.first, n))
 
 
 def add_record(rec, n, lid, created, fx, fy):

@@ -17,7 +17,7 @@ from numba import njit
 
 from radarslam.core.jit import compile_kernels
 from radarslam.extent.visible_arc import arc_width_diameter, gated_diameter
-from radarslam.landmarks._compiled import compiled_compact_records, compiled_with_room
+from radarslam.landmarks._compiled import compiled_compact_records, compiled_grown, compiled_with_room
 from radarslam.landmarks.records import Records
 from radarslam.slam import _view_compiled
 
@@ -116,16 +116,8 @@ class MapRows(NamedTuple):
 
 
 # ---------------------------------------------------------------------------------------- arrays
-@njit(cache=True, inline="always")
-def _grow_rows(a, n):  # pragma: no cover - compiled
-    """``a`` with room for at least ``n`` rows along its first axis (doubling), contents kept."""
-    if a.shape[0] >= n:
-        return a
-    cap = max(n, 2 * a.shape[0])
-    shape = (cap,) + a.shape[1:]
-    b = np.empty(shape, dtype=a.dtype)
-    b[:a.shape[0]] = a
-    return b
+#: ``a`` with room for ``n`` rows (doubling): :func:`radarslam.core.arrays.grown`, compiled.
+_grow_rows = compiled_grown
 
 
 @njit(cache=True, inline="always")
