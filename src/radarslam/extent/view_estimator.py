@@ -55,6 +55,9 @@ FD_STEP = 1e-4
 #: scaled up by ``d^2 / gate`` (a Huber-type weight), so that one scan of another object's returns,
 #: or of returns the arc model cannot produce, does not drag the shape.
 GATE_2, GATE_5 = 9.210, 15.086
+#: The (row, column) of the spread rows' entries 00, 01, 11 (a.12.7).
+_PI = (0, 0, 1)
+_PJ = (0, 1, 1)
 
 
 def exp_sym2(a: float, b: float, c: float):
@@ -83,11 +86,11 @@ def predicted_rows(x0: float, x1: float, x2: float, dx: float, dy: float, W00: f
     return r[9] > 0.5
 
 
-def solve_spd(A: np.ndarray, B: np.ndarray) -> np.ndarray:
-    """``A^-1 B`` for a small symmetric positive definite ``A (n, n)`` by Cholesky, ``B (n, k)``;
-    NaN where ``A`` is not positive definite. A kernel."""
+def solve_spd(A: np.ndarray, B: np.ndarray, L: np.ndarray, Y: np.ndarray) -> np.ndarray:
+    """``Y = A^-1 B`` for a small symmetric positive definite ``A (n, n)`` by Cholesky into the
+    scratch ``L (n, n)``, ``B (n, k)`` and ``Y (n, k)`` given (no allocation); NaN where ``A`` is not
+    positive definite. Returns ``Y``. A kernel."""
     n = A.shape[0]
-    L = np.zeros((n, n))
     for i in range(n):
         for j in range(i + 1):
             acc = A[i, j]
@@ -97,10 +100,9 @@ def solve_spd(A: np.ndarray, B: np.ndarray) -> np.ndarray:
                 L[i, i] = math.sqrt(acc) if acc > 0.0 else math.nan
             else:
                 L[i, j] = acc / L[j, j]
-    Y = B.copy()
     for c in range(B.shape[1]):
         for i in range(n):
-            acc = Y[i, c]
+            acc = B[i, c]
             for k in range(i):
                 acc -= L[i, k] * Y[k, c]
             Y[i, c] = acc / L[i, i]
@@ -159,10 +161,13 @@ def view_update(xi: np.ndarray, P: np.ndarray, dx: float, dy: float, y: np.ndarr
     Hf = np.empty((5, 3))
     Rn = np.zeros((nr, nr))
     x = xi.copy()
-    K = np.zeros((3, nr))
+    Y = np.empty((nr, 3))                                      # Sy^-1 H P, so that K = Y^T
     HP = np.empty((nr, 3))
     Sy = np.empty((nr, nr))
-    Sg = np.empty((2, 2))
+    L = np.empty((nr, nr))
+    r = np.empty((nr, 1))
+    inn = np.empty((nr, 1))
+    sol = np.empty((nr, 1))
     for _ in range(VIEW_ITERATIONS):
         if rows_and_jacobian(x, dx, dy, Ws, fd_step, h, H, Hf):
             return xi, P, 1
@@ -174,45 +179,52 @@ def view_update(xi: np.ndarray, P: np.ndarray, dx: float, dy: float, y: np.ndarr
         Rn[0, 1] = Rn[1, 0] = S01 / m + Pc[0, 1]
         Rn[1, 1] = S11 / m + Pc[1, 1] + qv2 + big
         if nr == 5:
-            Sg[0, 0], Sg[0, 1], Sg[1, 0], Sg[1, 1] = S00, S01, S01, S11
-            pi = (0, 0, 1)
-            pj = (0, 1, 1)
             for a in range(3):
-                i, j = pi[a], pj[a]
+                i, j = _PI[a], _PJ[a]
                 for b in range(3):
-                    k, l = pi[b], pj[b]
-                    Rn[2 + a, 2 + b] = (Sg[i, k] * Sg[j, l] + Sg[i, l] * Sg[j, k]) / (m - 1)
-                Rn[2 + a, 2 + a] += (rel * Sg[i, j]) ** 2 + 1e-6
+                    k, l = _PI[b], _PJ[b]
+                    Rn[2 + a, 2 + b] = (h[2 + i + k] * h[2 + j + l] + h[2 + i + l] * h[2 + j + k]) / (m - 1)
+                Rn[2 + a, 2 + a] += (rel * h[2 + i + j]) ** 2 + 1e-6
         _mul(H, P, HP)
-        Sy = _mul(HP, H.T, Sy) + Rn
-        r = np.empty((nr, 1))
+        _hpht_plus(HP, H, Rn, Sy)
         for a in range(nr):
             acc = 0.0
             for i in range(3):
                 acc += H[a, i] * (xi[i] - x[i])
             r[a, 0] = y[a] - h[a] - acc                        # y - h(x) - H (xi0 - x)
-        inn = np.empty((nr, 1))
-        for a in range(nr):
             inn[a, 0] = y[a] - h[a]
-        sol = solve_spd(Sy, inn)
+        solve_spd(Sy, inn, L, sol)
         d2 = 0.0
         for a in range(nr):
             d2 += inn[a, 0] * sol[a, 0]
         gate = GATE_2 if nr == 2 else GATE_5
         if d2 > gate:
             Rn *= d2 / gate
-            Sy = _mul(HP, H.T, Sy) + Rn
-        K = np.ascontiguousarray(solve_spd(Sy, HP).T)
-        step = _mul(K, r, np.empty((3, 1)))
-        for i in range(3):
-            x[i] = xi[i] + step[i, 0]
+            _hpht_plus(HP, H, Rn, Sy)
+        solve_spd(Sy, HP, L, Y)
+        for i in range(3):                                     # x = xi + K r
+            acc = 0.0
+            for a in range(nr):
+                acc += Y[a, i] * r[a, 0]
+            x[i] = xi[i] + acc
     for i in range(3):
         if not math.isfinite(x[i]):
             return xi, P, 2
+    K = np.ascontiguousarray(Y.T)
     I_KH = np.eye(3) - _mul(K, H, np.empty((3, 3)))
     P_new = _mul(_mul(I_KH, P, np.empty((3, 3))), I_KH.T, np.empty((3, 3))) + _mul(_mul(K, Rn, np.empty((3, nr))), K.T,
                                                                               np.empty((3, 3)))
     return x, 0.5 * (P_new + P_new.T), 0
+
+
+def _hpht_plus(HP: np.ndarray, H: np.ndarray, Rn: np.ndarray, Sy: np.ndarray) -> None:
+    """``Sy = (H P) H^T + Rn`` in place, from ``HP = H P``. A kernel."""
+    for i in range(HP.shape[0]):
+        for j in range(H.shape[0]):
+            acc = 0.0
+            for k in range(3):
+                acc += HP[i, k] * H[j, k]
+            Sy[i, j] = acc + Rn[i, j]
 
 
 def _mul(A: np.ndarray, B: np.ndarray, out: np.ndarray) -> np.ndarray:
@@ -326,7 +338,7 @@ def view_scan_data(polar: np.ndarray, pts: np.ndarray, theta: float, c0: float, 
 
 
 #: The kernels of this module, compiled with the arc kernels (extent/_compiled.py).
-KERNELS = (exp_sym2, predicted_rows, solve_spd, _mul, rows_and_jacobian, view_update, arc_rows, put_arc_row,
+KERNELS = (exp_sym2, predicted_rows, solve_spd, _mul, _hpht_plus, rows_and_jacobian, view_update, arc_rows, put_arc_row,
            sift_spreads, view_scan_data)
 
 

@@ -105,16 +105,17 @@ def view_shapes(lm, N, cfg):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _analytic_cov(cfg):  # pragma: no cover - compiled
-    """True when the model error takes the shape's uncertainty with the analytic ``J`` (a.12.9)."""
-    return cfg.pv.with_cov and cfg.pv.shape_step == 0.0
+def _analytic_cov(pv):  # pragma: no cover - compiled
+    """True when the model error takes the shape's uncertainty with the analytic ``J`` (a.12.9);
+    ``pv`` the :class:`ViewParams`."""
+    return pv.with_cov and pv.shape_step == 0.0
 
 
 @njit(cache=True)
 def view_terms(x, shapes, N, cfg):  # pragma: no cover - compiled
     """``(mu, B, S, J)`` of every landmark at the state ``x`` (a.12.4), with the model error's
     ``J = dg/dxi (N, 2, 3)`` from the same pass under :func:`_analytic_cov` (else ``(0, 2, 3)``)."""
-    if _analytic_cov(cfg):
+    if _analytic_cov(cfg.pv):
         return view_xi_rows(x, shapes, np.arange(N), POSE_DIM)
     mu, B, S = view_rows(x, shapes, np.arange(N), POSE_DIM)
     return mu, B, S, np.empty((0, 2, 3))
@@ -194,10 +195,12 @@ def _block_index(j):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _complete(x, P, lm, js, terms, R, sc, cfg):  # pragma: no cover - compiled
-    """The model error (with the shape's uncertainty, ``cfg.pv.with_cov``), ``Rj`` and ``Sn``
-    of the landmarks ``js`` not yet done, in ``sc`` (the orchestrator's ``model_errors``,
-    ``polar_terms`` and ``log_distances`` of them: the same kernels on the same state)."""
+def _complete(x, P, xi, Pxi, js, terms, R, sc, pv):  # pragma: no cover - compiled
+    """The model error (with the shape's uncertainty ``Pxi`` of the shapes ``xi``, ``pv.with_cov``),
+    ``Rj`` and ``Sn`` of the landmarks ``js`` not yet done, in ``sc`` (the orchestrator's
+    ``model_errors``, ``polar_terms`` and ``log_distances`` of them: the same kernels on the same
+    state). Called per detection: it takes the arrays it reads, not the landmark and configuration
+    records, whose every array a call would count a reference to."""
     todo = np.empty(js.shape[0], dtype=np.int64)
     n = 0
     for a in range(js.shape[0]):
@@ -209,12 +212,12 @@ def _complete(x, P, lm, js, terms, R, sc, cfg):  # pragma: no cover - compiled
     todo = todo[:n]
     if n == 0:
         return
-    if cfg.pv.with_cov:
+    if pv.with_cov:
         mu, B, S, J = terms
-        if _analytic_cov(cfg):
-            Q = model_error_rows(J[todo], lm.Pxi, todo, cfg.pv.Qv)
+        if _analytic_cov(pv):
+            Q = model_error_rows(J[todo], Pxi, todo, pv.Qv)
         else:
-            Q = shape_error_rows(x, lm.xi, lm.Pxi, todo, cfg.pv.Qv, cfg.pv.shape_step, POSE_DIM)
+            Q = shape_error_rows(x, xi, Pxi, todo, pv.Qv, pv.shape_step, POSE_DIM)
         Rj = polar_rows(x, mu[todo], B[todo], S[todo], R, Q)[2]
         for a in range(n):
             sc.Q[todo[a]] = Q[a]
@@ -230,11 +233,11 @@ def _complete(x, P, lm, js, terms, R, sc, cfg):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _nearest_best(x, P, lm, z0, z1, d2, N, count, terms, R, sc, cfg):  # pragma: no cover - compiled
+def _nearest_best(x, P, xi, Pxi, z0, z1, d2, N, count, terms, R, sc, pv):  # pragma: no cover - compiled
     """The landmark of smallest log distance among the ``count`` nearest by ``d2`` (ties by
     position, the first minimum; ``inf`` where ``d2`` or ``Sn`` rule it out): ``(j, D)``."""
     near = _smallest(d2, N, count)
-    _complete(x, P, lm, near, terms, R, sc, cfg)
+    _complete(x, P, xi, Pxi, near, terms, R, sc, pv)
     best_j = near[0]
     best_D = math.inf
     for k in range(count):
@@ -265,7 +268,8 @@ def _view_nn(x, P, polar, cidx, lm, N, shapes, terms, R, cfg):  # pragma: no cov
         zw1 = x[1] + polar[i, 0] * math.sin(a)
         for j in range(N):
             d2[j] = (mu[j, 0] - zw0) ** 2 + (mu[j, 1] - zw1) ** 2
-        j, D = _nearest_best(x, P, lm, polar[i, 0], polar[i, 1], d2.copy(), N, count, terms, R, sc, cfg)
+        j, D = _nearest_best(x, P, lm.xi, lm.Pxi, polar[i, 0], polar[i, 1], d2.copy(), N, count, terms, R, sc,
+                             cfg.pv)
         if D < cfg.beta:
             e = np.array([polar[i, 0] - sc.h[j, 0], _wrap_pi(polar[i, 1] - sc.h[j, 1])])
             nis[n_up] = _joseph_update_inplace(x, P, e, sc.Hs[j].copy(), _block_index(j), sc.Rj[j].copy())
@@ -292,7 +296,7 @@ def _view_scores(x, P, polar, cidx, lm, N, terms, R, sc, cfg):  # pragma: no cov
         zw1 = x[1] + polar[i, 0] * math.sin(th)
         for j in range(N):
             d2[j] = (zw0 - mu[j, 0]) ** 2 + (zw1 - mu[j, 1]) ** 2 if sc.ok[j] else math.inf
-        j, D = _nearest_best(x, P, lm, polar[i, 0], polar[i, 1], d2, N, count, terms, R, sc, cfg)
+        j, D = _nearest_best(x, P, lm.xi, lm.Pxi, polar[i, 0], polar[i, 1], d2, N, count, terms, R, sc, cfg.pv)
         if D < cfg.beta:
             out[c] = j
     return out
@@ -315,7 +319,7 @@ def _one_landmark(x, shapes, lm, j, cfg):  # pragma: no cover - compiled
     """Landmark ``j``'s ``mu``, ``B``, ``S`` ``(1, ...)`` and model error ``(2, 2)`` at ``x``
     (``view_model_terms`` of one landmark)."""
     js = np.array([j])
-    if _analytic_cov(cfg):
+    if _analytic_cov(cfg.pv):
         mu, B, S, J = view_xi_rows(x, shapes, js, POSE_DIM)
         return mu, B, S, model_error_rows(J, lm.Pxi, js, cfg.pv.Qv)[0]
     mu, B, S = view_rows(x, shapes, js, POSE_DIM)
@@ -375,8 +379,8 @@ def view_shape_step(x, polar, xy, lm, N, old, aoff, arow, cents, ccovs, noise, c
             continue
         rows = arow[aoff[o]:aoff[o + 1]]
         y, Ws = view_scan_data(polar[rows], xy[rows], x[2], cents[j, 0], cents[j, 1], noise.R_ext)
-        xi, Pu, status = view_update(lm.xi[j].copy(), Pn, x[0] - cents[j, 0], x[1] - cents[j, 1], y, na, Ws,
-                                     ccovs[j].copy(), v.qv2, v.rel, v.spread_only, v.shape_step)
+        xi, Pu, status = view_update(lm.xi[j], Pn, x[0] - cents[j, 0], x[1] - cents[j, 1], y, na, Ws,
+                                     ccovs[j], v.qv2, v.rel, v.spread_only, v.shape_step)
         if status == 0:
             lm.xi[j] = xi
             lm.Pxi[j] = Pu
