@@ -237,14 +237,18 @@ def _nearest_best(x, P, xi, Pxi, z0, z1, d2, N, count, terms, R, sc, pv):  # pra
     """The landmark of smallest log distance among the ``count`` nearest by ``d2`` (ties by
     position, the first minimum; ``inf`` where ``d2`` or ``Sn`` rule it out): ``(j, D)``."""
     near = _smallest(d2, N, count)
-    _complete(x, P, xi, Pxi, near, terms, R, sc, pv)
+    have, ok, h, Sn = sc.have, sc.ok, sc.h, sc.Sn     # once: each record access counts a reference
+    for k in range(count):
+        if not have[near[k]]:
+            _complete(x, P, xi, Pxi, near, terms, R, sc, pv)
+            break
     best_j = near[0]
     best_D = math.inf
     for k in range(count):
         j = near[k]
         D = math.inf
-        if d2[j] < math.inf and sc.ok[j]:
-            D = view_log_distance(z0, z1, sc.h[j, 0], sc.h[j, 1], sc.Sn[j])
+        if d2[j] < math.inf and ok[j]:
+            D = view_log_distance(z0, z1, h[j, 0], h[j, 1], Sn[j])
         if k == 0 or D < best_D:
             best_j, best_D = j, D
     return best_j, best_D
@@ -287,6 +291,7 @@ def _view_scores(x, P, polar, cidx, lm, N, terms, R, sc, cfg):  # pragma: no cov
     (landmarks whose mean sits on the sensor excluded)."""
     out = np.full(cidx.shape[0], -1, dtype=np.int64)
     mu = terms[0]
+    ok, xi, Pxi, pv = sc.ok, lm.xi, lm.Pxi, cfg.pv
     d2 = np.empty(N)
     count = min(cfg.n_near, N)
     for c in range(cidx.shape[0]):
@@ -295,8 +300,8 @@ def _view_scores(x, P, polar, cidx, lm, N, terms, R, sc, cfg):  # pragma: no cov
         zw0 = x[0] + polar[i, 0] * math.cos(th)
         zw1 = x[1] + polar[i, 0] * math.sin(th)
         for j in range(N):
-            d2[j] = (zw0 - mu[j, 0]) ** 2 + (zw1 - mu[j, 1]) ** 2 if sc.ok[j] else math.inf
-        j, D = _nearest_best(x, P, lm.xi, lm.Pxi, polar[i, 0], polar[i, 1], d2, N, count, terms, R, sc, cfg.pv)
+            d2[j] = (zw0 - mu[j, 0]) ** 2 + (zw1 - mu[j, 1]) ** 2 if ok[j] else math.inf
+        j, D = _nearest_best(x, P, xi, Pxi, polar[i, 0], polar[i, 1], d2, N, count, terms, R, sc, pv)
         if D < cfg.beta:
             out[c] = j
     return out
