@@ -18,8 +18,8 @@ from pathlib import Path
 #: Files (relative to the package) whose functions numba compiles, directly or as kernels
 #: (``core.jit.compile_kernels``); ``tests/test_layering.py`` checks that it is complete.
 COMPILED_SOURCES = (
-    "core/angles.py", "core/arrays.py", "core/jit.py", "slam/ekf.py", "slam/layout.py", "slam/_numba.py", "slam/_jcbb_numba.py",
-    "slam/jcbb.py",
+    "core/angles.py", "core/arrays.py", "core/jit.py", "core/small_matrices.py", "slam/ekf.py", "slam/layout.py",
+    "slam/_numba.py", "slam/_jcbb_numba.py", "slam/jcbb.py",
     "slam/fused/storage.py", "slam/fused/tracking.py", "slam/fused/mapping.py", "slam/fused/engine.py",
     "slam/fused/plan.py", "slam/fused/extent.py", "slam/fused/gate.py",
     "landmarks/confirmation.py", "landmarks/merging.py", "landmarks/sifting.py", "landmarks/grouping.py",

@@ -45,8 +45,8 @@ tangent_points = _PV["tangent_points"]
 arc_rows = _PV["arc_rows"]
 sift_spreads = _PV["sift_spreads"]
 view_scan_data = _PV["view_scan_data"]
-#: ``out = A B`` by loops for small matrices (view_estimator._mul), also the fused prediction's product.
-small_matmul = _PV["_mul"]
+#: ``out = A B`` by loops for small matrices (core.small_matrices), also the fused prediction's product.
+small_matmul = _PV["matmul_into"]
 
 
 @njit(cache=True)

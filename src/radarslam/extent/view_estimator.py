@@ -42,7 +42,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from radarslam.core import small_matrices
 from radarslam.core.registry import EXTENT_ESTIMATORS
+from radarslam.core.small_matrices import cholesky_into, hpht_plus, matmul_into, solve_spd
 from radarslam.extent.estimator import RmaEfaEstimator, RmaEfaState
 from radarslam.extent.partial_view import arc_moments
 from radarslam.extent.partial_view_jac import arc_xi_rows
@@ -84,34 +86,6 @@ def predicted_rows(x0: float, x1: float, x2: float, dx: float, dy: float, W00: f
     out[3] = r[7] + W01
     out[4] = r[8] + W11
     return r[9] > 0.5
-
-
-def solve_spd(A: np.ndarray, B: np.ndarray, L: np.ndarray, Y: np.ndarray) -> np.ndarray:
-    """``Y = A^-1 B`` for a small symmetric positive definite ``A (n, n)`` by Cholesky into the
-    scratch ``L (n, n)``, ``B (n, k)`` and ``Y (n, k)`` given (no allocation); NaN where ``A`` is not
-    positive definite. Returns ``Y``. A kernel."""
-    n = A.shape[0]
-    for i in range(n):
-        for j in range(i + 1):
-            acc = A[i, j]
-            for k in range(j):
-                acc -= L[i, k] * L[j, k]
-            if i == j:
-                L[i, i] = math.sqrt(acc) if acc > 0.0 else math.nan
-            else:
-                L[i, j] = acc / L[j, j]
-    for c in range(B.shape[1]):
-        for i in range(n):
-            acc = B[i, c]
-            for k in range(i):
-                acc -= L[i, k] * Y[k, c]
-            Y[i, c] = acc / L[i, i]
-        for i in range(n - 1, -1, -1):
-            acc = Y[i, c]
-            for k in range(i + 1, n):
-                acc -= L[k, i] * Y[k, c]
-            Y[i, c] = acc / L[i, i]
-    return Y
 
 
 def rows_and_jacobian(x: np.ndarray, dx: float, dy: float, Ws: np.ndarray, step: float, h: np.ndarray,
@@ -185,23 +159,24 @@ def view_update(xi: np.ndarray, P: np.ndarray, dx: float, dy: float, y: np.ndarr
                     k, l = _PI[b], _PJ[b]
                     Rn[2 + a, 2 + b] = (h[2 + i + k] * h[2 + j + l] + h[2 + i + l] * h[2 + j + k]) / (m - 1)
                 Rn[2 + a, 2 + a] += (rel * h[2 + i + j]) ** 2 + 1e-6
-        _mul(H, P, HP)
-        _hpht_plus(HP, H, Rn, Sy)
+        matmul_into(H, P, HP)
+        hpht_plus(HP, H, Rn, Sy)
         for a in range(nr):
             acc = 0.0
             for i in range(3):
                 acc += H[a, i] * (xi[i] - x[i])
             r[a, 0] = y[a] - h[a] - acc                        # y - h(x) - H (xi0 - x)
             inn[a, 0] = y[a] - h[a]
-        solve_spd(Sy, inn, L, sol)
+        solve_spd(cholesky_into(Sy, L), inn, sol)
         d2 = 0.0
         for a in range(nr):
             d2 += inn[a, 0] * sol[a, 0]
         gate = GATE_2 if nr == 2 else GATE_5
         if d2 > gate:
             Rn *= d2 / gate
-            _hpht_plus(HP, H, Rn, Sy)
-        solve_spd(Sy, HP, L, Y)
+            hpht_plus(HP, H, Rn, Sy)
+            cholesky_into(Sy, L)                               # else the factor serves both solves
+        solve_spd(L, HP, Y)
         for i in range(3):                                     # x = xi + K r
             acc = 0.0
             for a in range(nr):
@@ -211,31 +186,10 @@ def view_update(xi: np.ndarray, P: np.ndarray, dx: float, dy: float, y: np.ndarr
         if not math.isfinite(x[i]):
             return xi, P, 2
     K = np.ascontiguousarray(Y.T)
-    I_KH = np.eye(3) - _mul(K, H, np.empty((3, 3)))
-    P_new = _mul(_mul(I_KH, P, np.empty((3, 3))), I_KH.T, np.empty((3, 3))) + _mul(_mul(K, Rn, np.empty((3, nr))), K.T,
-                                                                              np.empty((3, 3)))
+    I_KH = np.eye(3) - matmul_into(K, H, np.empty((3, 3)))
+    joseph = matmul_into(matmul_into(I_KH, P, np.empty((3, 3))), I_KH.T, np.empty((3, 3)))
+    P_new = joseph + matmul_into(matmul_into(K, Rn, np.empty((3, nr))), K.T, np.empty((3, 3)))
     return x, 0.5 * (P_new + P_new.T), 0
-
-
-def _hpht_plus(HP: np.ndarray, H: np.ndarray, Rn: np.ndarray, Sy: np.ndarray) -> None:
-    """``Sy = (H P) H^T + Rn`` in place, from ``HP = H P``. A kernel."""
-    for i in range(HP.shape[0]):
-        for j in range(H.shape[0]):
-            acc = 0.0
-            for k in range(3):
-                acc += HP[i, k] * H[j, k]
-            Sy[i, j] = acc + Rn[i, j]
-
-
-def _mul(A: np.ndarray, B: np.ndarray, out: np.ndarray) -> np.ndarray:
-    """``out = A B`` by loops (small matrices: no BLAS call), returned. A kernel."""
-    for i in range(A.shape[0]):
-        for j in range(B.shape[1]):
-            acc = 0.0
-            for k in range(A.shape[1]):
-                acc += A[i, k] * B[k, j]
-            out[i, j] = acc
-    return out
 
 
 def arc_rows(s0: float, s1: float, centroids: np.ndarray, shapes: np.ndarray):
@@ -338,7 +292,7 @@ def view_scan_data(polar: np.ndarray, pts: np.ndarray, theta: float, c0: float, 
 
 
 #: The kernels of this module, compiled with the arc kernels (extent/_compiled.py).
-KERNELS = (exp_sym2, predicted_rows, solve_spd, _mul, _hpht_plus, rows_and_jacobian, view_update, arc_rows, put_arc_row,
+KERNELS = (exp_sym2, predicted_rows, *small_matrices.KERNELS, rows_and_jacobian, view_update, arc_rows, put_arc_row,
            sift_spreads, view_scan_data)
 
 

@@ -54,7 +54,7 @@ UNICYCLE, ACKERMANN, BODY_VELOCITY = 0, 1, 2
 
 @njit(cache=True, inline="always")
 def _matmul(A, B):  # pragma: no cover - compiled
-    """``A @ B`` for small matrices, each entry summed over k in order (extent.view_estimator._mul)."""
+    """``A @ B`` for small matrices, each entry summed over k in order (core.small_matrices.matmul_into)."""
     return small_matmul(A, B, np.empty((A.shape[0], B.shape[1])))
 
 
