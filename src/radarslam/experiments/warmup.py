@@ -33,25 +33,26 @@ from radarslam.experiments.single import run_filter
 from radarslam.experiments.variants import Variant, apply_variant
 
 #: What the progress output says while the cache is filled.
-COMPILING = "compiling the numba kernels (once per machine, about four minutes); later runs load them in about a second"
+COMPILING = "compiling the numba kernels (once per machine, about three minutes); later runs load them in about a second"
 #: ... and when this run's trials go through the orchestrator (:func:`first_run_engine`).
 COMPILING_SHORT = ("compiling the numba kernels the per-event engine uses (once per machine, about 20 s); "
                    "this run is short, so it does not wait for the fused engine")
 
 #: Costs on two cores of this kind of machine (``python benchmarks/bench_compile.py``, quiet machine:
-#: 10.5 and 43.2 ms per variant and trial warm; 233.7 s and 34.3 s to compile on one core, the
+#: 10.5 and 43.2 ms per variant and trial warm; 198.3 s (233.7 s before the engine's array growth
+#: became one call instead of being inlined at every use) and 34.3 s to compile on one core, the
 #: simulation and the evaluation's ~20 s included, which the warm-up compiles beside on the second
 #: core): seconds per variant and trial with a warm cache, fused engine and orchestrator; wall
 #: seconds to fill a cold cache for each.
 FUSED_S, ORCHESTRATOR_S = 0.0105, 0.0432
-FUSED_COMPILE_S, ORCHESTRATOR_COMPILE_S = 214.0, 20.0
+FUSED_COMPILE_S, ORCHESTRATOR_COMPILE_S = 178.0, 20.0
 
 
 def first_run_engine(n_trials: int, n_variants: int, jobs: int) -> str:
     """The engine that ends a run of ``n_trials`` trials of ``n_variants`` variants on ``jobs``
     workers sooner from a cold cache: ``"auto"`` (compile the fused engine first) or
     ``"orchestrator"``. With the constants above and three variants on two workers the
-    orchestrator is chosen up to 3,955 trials."""
+    orchestrator is chosen up to 3,221 trials."""
     par = max(1, min(int(jobs), int(n_trials)))
     work = n_trials * n_variants / par
     fused = FUSED_COMPILE_S + work * FUSED_S
@@ -67,7 +68,7 @@ ORCHESTRATOR_SCAN_S, FUSED_SCAN_S = 0.003, 0.0011
 
 def first_run_engine_scans(n_scans: int) -> str:
     """:func:`first_run_engine` for one run of ``n_scans`` scans of a recording, on one core:
-    ``"orchestrator"`` up to about 102,000 scans with the constants above."""
+    ``"orchestrator"`` up to about 83,000 scans with the constants above."""
     fused = FUSED_COMPILE_S + n_scans * FUSED_SCAN_S
     orchestrator = ORCHESTRATOR_COMPILE_S + n_scans * ORCHESTRATOR_SCAN_S
     return "orchestrator" if orchestrator < fused else "auto"
