@@ -39,8 +39,8 @@ COMPILING_SHORT = ("compiling the numba kernels the per-event engine uses (once 
                    "this run is short, so it does not wait for the fused engine")
 
 #: Costs on two cores of this kind of machine (``python benchmarks/bench_compile.py``, quiet machine:
-#: 10.5 and 43.2 ms per variant and trial warm; 198.3 s (233.7 s before the engine's array growth
-#: became one call instead of being inlined at every use) and 34.3 s to compile on one core, the
+#: 10.5 and 43.2 ms per variant and trial warm; 198.3 s (233.7 s the stop before, whose engine
+#: inlined its array growth at every use) and 34.3 s to compile on one core, the
 #: simulation and the evaluation's ~20 s included, which the warm-up compiles beside on the second
 #: core): seconds per variant and trial with a warm cache, fused engine and orchestrator; wall
 #: seconds to fill a cold cache for each.
