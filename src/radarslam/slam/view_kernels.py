@@ -149,47 +149,57 @@ def _central_shape_jacobian(d0: float, d1: float, xi: np.ndarray, step: float, J
 def polar_rows(x: np.ndarray, mu: np.ndarray, B: np.ndarray, S: np.ndarray, R: np.ndarray, Q: np.ndarray):
     """Per landmark, the polar measurement of one detection (a.12.5): ``h (n, 2)``, ``Hs (n, 2, 5)``
     over ``(x, y, theta, p_x, p_y)``, ``R_j = R + Hp (S + Q) Hp^T`` ``(n, 2, 2)`` with the model
-    errors ``Q (n, 2, 2)``, and ``ok (n,)``, False where ``mu`` sits on the sensor. A kernel."""
+    errors ``Q (n, 2, 2)``, and ``ok (n,)``, False where ``mu`` sits on the sensor
+    (:func:`polar_row` of each). A kernel."""
     n = mu.shape[0]
     h = np.empty((n, 2))
     Hs = np.zeros((n, 2, 5))
     Rj = np.empty((n, 2, 2))
     ok = np.empty(n, dtype=np.bool_)
     for a in range(n):
-        d0 = mu[a, 0] - x[0]
-        d1 = mu[a, 1] - x[1]
-        r2 = d0 * d0 + d1 * d1
-        ok[a] = r2 > 1e-12
-        if not ok[a]:
-            r2 = 1.0
-        r = math.sqrt(r2)
-        H00 = d0 / r
-        H01 = d1 / r
-        H10 = -d1 / r2
-        H11 = d0 / r2
-        for c in range(2):
-            hb0 = H00 * B[a, 0, c] + H01 * B[a, 1, c]
-            hb1 = H10 * B[a, 0, c] + H11 * B[a, 1, c]
-            Hs[a, 0, c] = -hb0
-            Hs[a, 1, c] = -hb1
-            Hs[a, 0, 3 + c] = hb0
-            Hs[a, 1, 3 + c] = hb1
-        Hs[a, 1, 2] = -1.0
-        h[a, 0] = r
-        h[a, 1] = math.atan2(d1, d0) - x[2]
-        c00 = S[a, 0, 0] + Q[a, 0, 0]
-        c01 = S[a, 0, 1] + Q[a, 0, 1]
-        c10 = S[a, 1, 0] + Q[a, 1, 0]
-        c11 = S[a, 1, 1] + Q[a, 1, 1]
-        t00 = H00 * c00 + H01 * c10
-        t01 = H00 * c01 + H01 * c11
-        t10 = H10 * c00 + H11 * c10
-        t11 = H10 * c01 + H11 * c11
-        Rj[a, 0, 0] = R[0, 0] + (t00 * H00 + t01 * H01)
-        Rj[a, 0, 1] = R[0, 1] + (t00 * H10 + t01 * H11)
-        Rj[a, 1, 0] = R[1, 0] + (t10 * H00 + t11 * H01)
-        Rj[a, 1, 1] = R[1, 1] + (t10 * H10 + t11 * H11)
+        ok[a] = polar_row(x, mu[a, 0], mu[a, 1], B[a], S[a], Q[a], R, h[a], Hs[a], Rj[a])
     return h, Hs, Rj, ok
+
+
+def polar_row(x: np.ndarray, m0: float, m1: float, B: np.ndarray, S: np.ndarray, Q: np.ndarray, R: np.ndarray,
+              h: np.ndarray, Hs: np.ndarray, Rj: np.ndarray) -> bool:
+    """:func:`polar_rows` of one landmark with the mean ``(m0, m1)``, ``B``, ``S`` and ``Q (2, 2)``,
+    into ``h (2,)``, ``Hs (2, 5)`` (whose other entries are left as they are: zeros from
+    :func:`polar_rows`) and ``Rj (2, 2)``; returns ``ok``. A kernel."""
+    d0 = m0 - x[0]
+    d1 = m1 - x[1]
+    r2 = d0 * d0 + d1 * d1
+    ok = r2 > 1e-12
+    if not ok:
+        r2 = 1.0
+    r = math.sqrt(r2)
+    H00 = d0 / r
+    H01 = d1 / r
+    H10 = -d1 / r2
+    H11 = d0 / r2
+    for c in range(2):
+        hb0 = H00 * B[0, c] + H01 * B[1, c]
+        hb1 = H10 * B[0, c] + H11 * B[1, c]
+        Hs[0, c] = -hb0
+        Hs[1, c] = -hb1
+        Hs[0, 3 + c] = hb0
+        Hs[1, 3 + c] = hb1
+    Hs[1, 2] = -1.0
+    h[0] = r
+    h[1] = math.atan2(d1, d0) - x[2]
+    c00 = S[0, 0] + Q[0, 0]
+    c01 = S[0, 1] + Q[0, 1]
+    c10 = S[1, 0] + Q[1, 0]
+    c11 = S[1, 1] + Q[1, 1]
+    t00 = H00 * c00 + H01 * c10
+    t01 = H00 * c01 + H01 * c11
+    t10 = H10 * c00 + H11 * c10
+    t11 = H10 * c01 + H11 * c11
+    Rj[0, 0] = R[0, 0] + (t00 * H00 + t01 * H01)
+    Rj[0, 1] = R[0, 1] + (t00 * H10 + t01 * H11)
+    Rj[1, 0] = R[1, 0] + (t10 * H00 + t11 * H01)
+    Rj[1, 1] = R[1, 1] + (t10 * H10 + t11 * H11)
+    return ok
 
 
 def sensor_xy_rows(x: np.ndarray, mu: np.ndarray, B: np.ndarray):
@@ -296,5 +306,5 @@ def view_walk_rows(x: np.ndarray, P: np.ndarray, last: np.ndarray, q: float, pla
 
 #: The kernels of this module (compiled by :mod:`radarslam.slam._view_compiled`).
 KERNELS = (view_rows, view_xi_rows, exp_sym2_rows, shape_error_rows, model_error_rows, _shape_error,
-           _central_shape_jacobian, polar_rows, sensor_xy_rows, _times_transpose, innovation_cov, view_log_distance,
-           log_distance_rows, view_batch_noise, corrected_centroid, view_walk_rows)
+           _central_shape_jacobian, polar_rows, polar_row, sensor_xy_rows, _times_transpose, innovation_cov,
+           view_log_distance, log_distance_rows, view_batch_noise, corrected_centroid, view_walk_rows)

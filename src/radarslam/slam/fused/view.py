@@ -29,9 +29,9 @@ from radarslam.extent._compiled import measurement_contour, sift_spreads, view_s
 from radarslam.landmarks._compiled import compiled_candidates, compiled_seen_landmarks
 from radarslam.slam._numba import (_joseph_update_inplace, _polar_to_sensor_xy, _smallest, _wrap_pi, joint_update_loops,
                                    stacked_rows)
-from radarslam.slam._view_compiled import (corrected_centroid, exp_sym2, innovation_cov, model_error_rows, polar_rows,
-                                           sensor_xy_rows, shape_error_rows, view_batch_noise, view_log_distance,
-                                           view_rows, view_walk_rows, view_xi_rows)
+from radarslam.slam._view_compiled import (corrected_centroid, exp_sym2, innovation_cov, model_error_rows, polar_row,
+                                           polar_rows, sensor_xy_rows, shape_error_one, shape_error_rows, view_batch_noise,
+                                           view_log_distance, view_rows, view_walk_rows, view_xi_rows)
 from radarslam.slam.fused.tracking import _to_world, associate_and_update, sift
 from radarslam.slam.layout import POSE_DIM
 
@@ -209,26 +209,28 @@ def _complete(x, P, xi, Pxi, js, terms, R, sc, pv):  # pragma: no cover - compil
             sc.have[j] = True
             todo[n] = j
             n += 1
-    todo = todo[:n]
     if n == 0:
         return
-    if pv.with_cov:
-        mu, B, S, J = terms
-        if _analytic_cov(pv):
-            Q = model_error_rows(J[todo], Pxi, todo, pv.Qv)
-        else:
-            Q = shape_error_rows(x, xi, Pxi, todo, pv.Qv, pv.shape_step, POSE_DIM)
-        Rj = polar_rows(x, mu[todo], B[todo], S[todo], R, Q)[2]
-        for a in range(n):
-            sc.Q[todo[a]] = Q[a]
-            sc.Rj[todo[a]] = Rj[a]
+    mu, B, S, J = terms
+    Qcd = np.empty((0, 2, 2))                            # the central-difference model errors, when asked
+    if pv.with_cov and not _analytic_cov(pv):
+        Qcd = shape_error_rows(x, xi, Pxi, todo[:n], pv.Qv, pv.shape_step, POSE_DIM)
+    h1 = np.empty(2)                                     # polar_row's h and Hs: sc has them already
+    Hs1 = np.empty((2, 5))
+    Pb = np.empty((5, 5))
     for a in range(n):
         j = todo[a]
-        idx = _block_index(j)
-        Pb = np.empty((5, 5))
+        if pv.with_cov:                                  # one row of model_error_rows and polar_rows
+            if _analytic_cov(pv):
+                shape_error_one(J[j], Pxi[j], pv.Qv, sc.Q[j])
+            else:
+                sc.Q[j] = Qcd[a]
+            polar_row(x, mu[j, 0], mu[j, 1], B[j], S[j], sc.Q[j], R, h1, Hs1, sc.Rj[j])
+        i = POSE_DIM + 2 * j
         for r in range(5):
+            ir = r if r < 3 else i + r - 3
             for c in range(5):
-                Pb[r, c] = P[idx[r], idx[c]]
+                Pb[r, c] = P[ir, c if c < 3 else i + c - 3]
         sc.Sn[j] = innovation_cov(sc.Hs[j], Pb, sc.Rj[j])
 
 
