@@ -185,11 +185,30 @@ def view_update(xi: np.ndarray, P: np.ndarray, dx: float, dy: float, y: np.ndarr
     for i in range(3):
         if not math.isfinite(x[i]):
             return xi, P, 2
+    # Joseph form (I - K H) P (I - K H)^T + K Rn K^T with K = Y^T, symmetrised; each sum in
+    # matmul_into's order, into arrays made once
     K = np.ascontiguousarray(Y.T)
-    I_KH = np.eye(3) - matmul_into(K, H, np.empty((3, 3)))
-    joseph = matmul_into(matmul_into(I_KH, P, np.empty((3, 3))), I_KH.T, np.empty((3, 3)))
-    P_new = joseph + matmul_into(matmul_into(K, Rn, np.empty((3, nr))), K.T, np.empty((3, 3)))
-    return x, 0.5 * (P_new + P_new.T), 0
+    I_KH = matmul_into(K, H, np.empty((3, 3)))
+    for i in range(3):
+        for j in range(3):
+            I_KH[i, j] = (1.0 if i == j else 0.0) - I_KH[i, j]
+    T = matmul_into(I_KH, P, np.empty((3, 3)))
+    KR = matmul_into(K, Rn, np.empty((3, nr)))
+    P_new = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            a = 0.0
+            for k in range(3):
+                a += T[i, k] * I_KH[j, k]
+            b = 0.0
+            for k in range(nr):
+                b += KR[i, k] * K[j, k]
+            P_new[i, j] = a + b
+    P_sym = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            P_sym[i, j] = 0.5 * (P_new[i, j] + P_new[j, i])
+    return x, P_sym, 0
 
 
 def arc_rows(s0: float, s1: float, centroids: np.ndarray, shapes: np.ndarray):
