@@ -131,17 +131,14 @@ def view_update(xi: np.ndarray, P: np.ndarray, dx: float, dy: float, y: np.ndarr
     not finite (unchanged). A kernel."""
     nr = 5 if m >= 3 else 2
     h = np.empty(5)
-    H = np.empty((nr, 3))
     Hf = np.empty((5, 3))
-    Rn = np.zeros((nr, nr))
     x = xi.copy()
-    Y = np.empty((nr, 3))                                      # Sy^-1 H P, so that K = Y^T
-    HP = np.empty((nr, 3))
-    Sy = np.empty((nr, nr))
-    L = np.empty((nr, nr))
-    r = np.empty((nr, 1))
-    inn = np.empty((nr, 1))
-    sol = np.empty((nr, 1))
+    by3 = np.empty((3, nr, 3))                                 # scratch by shape, each made once
+    H, Y, HP = by3[0], by3[1], by3[2]                          # Y = Sy^-1 H P, so that K = Y^T
+    square = np.zeros((3, nr, nr))
+    Rn, Sy, L = square[0], square[1], square[2]
+    col = np.empty((3, nr, 1))
+    r, inn, sol = col[0], col[1], col[2]
     for _ in range(VIEW_ITERATIONS):
         if rows_and_jacobian(x, dx, dy, Ws, fd_step, h, H, Hf):
             return xi, P, 1
