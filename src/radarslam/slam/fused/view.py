@@ -318,7 +318,7 @@ def _batch_rows(x, polar, rows, R, mu, B, S, Q):  # pragma: no cover - compiled
     e = np.empty(2)
     e[0] = pts[:, 0].mean() - h[0, 0]
     e[1] = pts[:, 1].mean() - h[0, 1]
-    return e, Hs[0].copy(), view_batch_noise(x[2], S[0].copy(), Q, R_xy, rows.shape[0])
+    return e, Hs[0], view_batch_noise(x[2], S[0], Q, R_xy, rows.shape[0])
 
 
 @njit(cache=True)
@@ -378,8 +378,10 @@ def view_shape_step(x, polar, xy, lm, N, old, aoff, arow, cents, ccovs, noise, c
     centroid ``cents[j]`` (covariance ``ccovs[j]``) seen from the updated pose, in place."""
     v = cfg.pv
     for j in range(N):
-        Pn = lm.Pxi[j] + v.Q
-        lm.Pxi[j] = Pn
+        Pn = lm.Pxi[j]                                   # the random walk, in place
+        for a in range(3):
+            for b in range(3):
+                Pn[a, b] += v.Q[a, b]
         o = old[j]
         na = aoff[o + 1] - aoff[o]
         if na == 0:
