@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from radarslam.core.small_matrices import cholesky_into, hpht_plus, matmul_into, solve_spd
+from radarslam.core.small_matrices import abt_plus_cdt_into, cholesky_into, hpht_plus, matmul_into, solve_spd
 
 
 def _compiled():
@@ -17,8 +17,9 @@ def _compiled():
 
 @pytest.mark.parametrize("n", [2, 3, 5])
 def test_small_products_and_solves_match_numpy_python_and_compiled(n):
-    """matmul_into and hpht_plus equal numpy's products to rounding; cholesky_into + solve_spd solve
-    an SPD system to 1e-12 relative; the compiled forms equal the Python ones to the bit."""
+    """matmul_into, hpht_plus and abt_plus_cdt_into equal numpy's products to rounding;
+    cholesky_into + solve_spd solve an SPD system to 1e-12 relative; the compiled forms equal the
+    Python ones to the bit."""
     rng = np.random.default_rng(n)
     A = rng.normal(size=(n, 3))
     P = rng.normal(size=(3, 3))
@@ -39,6 +40,12 @@ def test_small_products_and_solves_match_numpy_python_and_compiled(n):
         np.testing.assert_allclose(Sy, S, rtol=1e-13, atol=1e-13)
         np.testing.assert_allclose(Y, np.linalg.solve(S, B), rtol=1e-12, atol=1e-12)
         out[name] = (prod, Sy, Y)
+    F = rng.normal(size=(3, 3))
+    G = rng.normal(size=(3, n))
+    U = np.diag(rng.uniform(0.1, 1.0, n))
+    pair = [kernel(F @ P, F, G @ U, G, np.empty((3, 3))) for kernel in (abt_plus_cdt_into, K["abt_plus_cdt_into"])]
+    np.testing.assert_allclose(pair[0], F @ P @ F.T + G @ U @ G.T, rtol=1e-13, atol=1e-13)   # a propagation
+    assert np.array_equal(pair[0], pair[1])
     for a, b in zip(out["py"], out["nb"]):
         assert np.array_equal(a, b)
 

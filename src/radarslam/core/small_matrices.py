@@ -35,6 +35,22 @@ def hpht_plus(HP: np.ndarray, H: np.ndarray, Rn: np.ndarray, Sy: np.ndarray) -> 
             Sy[i, j] = acc + Rn[i, j]
 
 
+def abt_plus_cdt_into(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """``out = A B^T + C D^T`` (each product summed in index order, then the two added), returned:
+    the two halves of a covariance propagation ``F P F^T + G U G^T`` from ``A = F P``, ``C = G U``,
+    or of a Joseph update. A kernel."""
+    for i in range(A.shape[0]):
+        for j in range(B.shape[0]):
+            s1 = 0.0
+            for k in range(A.shape[1]):
+                s1 += A[i, k] * B[j, k]
+            s2 = 0.0
+            for k in range(C.shape[1]):
+                s2 += C[i, k] * D[j, k]
+            out[i, j] = s1 + s2
+    return out
+
+
 def cholesky_into(A: np.ndarray, L: np.ndarray) -> np.ndarray:
     """The lower Cholesky factor of a small symmetric positive definite ``A (n, n)`` into ``L``
     (its upper triangle untouched); NaN on the diagonal where ``A`` is not positive definite.
@@ -71,4 +87,4 @@ def solve_spd(L: np.ndarray, B: np.ndarray, Y: np.ndarray) -> np.ndarray:
 
 
 #: The kernels of this module.
-KERNELS = (matmul_into, hpht_plus, cholesky_into, solve_spd)
+KERNELS = (matmul_into, hpht_plus, abt_plus_cdt_into, cholesky_into, solve_spd)

@@ -47,6 +47,8 @@ sift_spreads = _PV["sift_spreads"]
 view_scan_data = _PV["view_scan_data"]
 #: ``out = A B`` by loops for small matrices (core.small_matrices), also the fused prediction's product.
 small_matmul = _PV["matmul_into"]
+#: ``A B^T + C D^T`` by loops (core.small_matrices), the fused prediction's covariance.
+abt_plus_cdt = _PV["abt_plus_cdt_into"]
 
 
 @njit(cache=True)

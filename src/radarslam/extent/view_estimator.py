@@ -44,7 +44,7 @@ import numpy as np
 
 from radarslam.core import small_matrices
 from radarslam.core.registry import EXTENT_ESTIMATORS
-from radarslam.core.small_matrices import cholesky_into, hpht_plus, matmul_into, solve_spd
+from radarslam.core.small_matrices import abt_plus_cdt_into, cholesky_into, hpht_plus, matmul_into, solve_spd
 from radarslam.extent.estimator import RmaEfaEstimator, RmaEfaState
 from radarslam.extent.partial_view import arc_moments
 from radarslam.extent.partial_view_jac import arc_xi_rows
@@ -191,16 +191,7 @@ def view_update(xi: np.ndarray, P: np.ndarray, dx: float, dy: float, y: np.ndarr
             I_KH[i, j] = (1.0 if i == j else 0.0) - I_KH[i, j]
     T = matmul_into(I_KH, P, np.empty((3, 3)))
     KR = matmul_into(K, Rn, np.empty((3, nr)))
-    P_new = np.empty((3, 3))
-    for i in range(3):
-        for j in range(3):
-            a = 0.0
-            for k in range(3):
-                a += T[i, k] * I_KH[j, k]
-            b = 0.0
-            for k in range(nr):
-                b += KR[i, k] * K[j, k]
-            P_new[i, j] = a + b
+    P_new = abt_plus_cdt_into(T, I_KH, KR, K, np.empty((3, 3)))
     P_sym = np.empty((3, 3))
     for i in range(3):
         for j in range(3):

@@ -14,7 +14,7 @@ from numba import njit
 
 from radarslam.core.angles import wrap_2pi_scalar
 from radarslam.core.jit import compile_kernels
-from radarslam.extent._compiled import literal_inside, measurement_contour, small_matmul
+from radarslam.extent._compiled import abt_plus_cdt, literal_inside, measurement_contour, small_matmul
 from radarslam.landmarks._compiled import compiled_by_landmark, compiled_candidates, compiled_in_view as _in_view
 from radarslam.landmarks._compiled import compiled_mn_windows as _mn_windows
 from radarslam.models.ackermann import ackermann_jacobians, ackermann_step, centre_speed
@@ -91,17 +91,11 @@ def predict(x, P, u, dt, U, Q, pose_first, model, cfg):  # pragma: no cover - co
     pose0, pose1, pose2 = pose[0], pose[1], pose[2]
     T = _matmul(Fx, P[:3, :3])
     FU = _matmul(Fu, U)
-    Ppp = np.empty((3, 3))
+    Ppp = abt_plus_cdt(T, Fx, FU, Fu, np.empty((3, 3)))
     ok = math.isfinite(pose0) and math.isfinite(pose1) and math.isfinite(pose2)
     for i in range(3):
         for j in range(3):
-            s1 = 0.0
-            for k in range(3):
-                s1 += T[i, k] * Fx[j, k]
-            s2 = 0.0
-            for k in range(Fu.shape[1]):
-                s2 += FU[i, k] * Fu[j, k]
-            Ppp[i, j] = s1 + s2 + Q[i, j]
+            Ppp[i, j] += Q[i, j]
             ok = ok and math.isfinite(Ppp[i, j])
     n = x.shape[0]
     Ppl = np.empty((3, n - 3))
