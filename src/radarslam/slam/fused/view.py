@@ -187,11 +187,19 @@ def _scores(x, terms, N, R, cfg):  # pragma: no cover - compiled
     return _Scores(h, Hs, Rj, ok, Q, np.empty((N, 2, 2)), np.zeros(N, dtype=np.bool_))
 
 
+@njit(cache=True, inline="always")
+def _block_row(j, r):  # pragma: no cover - compiled
+    """The state row of entry ``r`` of landmark ``j``'s block ``(x, y, theta, p_j)``."""
+    return r if r < 3 else POSE_DIM + 2 * j + r - 3
+
+
 @njit(cache=True)
 def _block_index(j):  # pragma: no cover - compiled
     """The rows ``(x, y, theta, p_j)`` of landmark ``j`` in the state."""
-    i = POSE_DIM + 2 * j
-    return np.array([0, 1, 2, i, i + 1], dtype=np.int64)
+    idx = np.empty(5, dtype=np.int64)
+    for r in range(5):
+        idx[r] = _block_row(j, r)
+    return idx
 
 
 @njit(cache=True)
@@ -226,11 +234,9 @@ def _complete(x, P, xi, Pxi, js, terms, R, sc, pv):  # pragma: no cover - compil
             else:
                 sc.Q[j] = Qcd[a]
             polar_row(x, mu[j, 0], mu[j, 1], B[j], S[j], sc.Q[j], R, h1, Hs1, sc.Rj[j])
-        i = POSE_DIM + 2 * j
-        for r in range(5):
-            ir = r if r < 3 else i + r - 3
+        for r in range(5):                               # P on the block (_block_index), gathered
             for c in range(5):
-                Pb[r, c] = P[ir, c if c < 3 else i + c - 3]
+                Pb[r, c] = P[_block_row(j, r), _block_row(j, c)]
         sc.Sn[j] = innovation_cov(sc.Hs[j], Pb, sc.Rj[j])
 
 
