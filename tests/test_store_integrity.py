@@ -4,10 +4,12 @@ directory lock, SIGTERM and the worker count (issue "First run works", item 2)."
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import signal
 import subprocess
 import sys
+import threading
 import time
 from dataclasses import replace
 
@@ -149,6 +151,62 @@ def test_sigterm_is_handled_like_ctrl_c_and_leaves_no_worker(tmp_path):
     assert good and not bad and len(good) < 40
     json.loads((out / "manifest.json").read_text())
     assert np.isfinite(load_results(out)["noext"]["position_error_m"]).all()
+
+
+def _quick_trial(cfg_dict, seed, trial, variants, chash, engine):
+    time.sleep(0.01)
+    return b"%d" % trial
+
+
+def _sigterm_in(seconds: float) -> threading.Timer:
+    timer = threading.Timer(seconds, lambda: os.kill(os.getpid(), signal.SIGTERM))
+    timer.start()
+    return timer
+
+
+def _manager_threads_alive(within_s: float = 10.0) -> list:
+    deadline = time.time() + within_s
+    while True:
+        alive = [t for t in threading.enumerate() if type(t).__name__ == "_ExecutorManagerThread"]
+        if not alive or time.time() > deadline:
+            return alive
+        time.sleep(0.05)
+
+
+@pytest.mark.parametrize("delay_s", [0.05, 0.13, 0.31, 0.57])
+def test_an_interrupt_stops_the_pool_between_trials_never_inside_one(monkeypatch, delay_s):
+    """SIGTERM during a 2-worker pool is acted on between two waits: no trial's storing is cut
+    short, the pool's manager thread ends (a KeyboardInterrupt raised inside ``wait`` once left it
+    blocked on futures' locks, and the command hung at exit), and the handlers are put back."""
+    monkeypatch.setattr(mc, "compute_trial", _quick_trial)
+    started, ended = [], []
+
+    def finish(t, data):                       # a slow store: an interrupt raised here would show
+        started.append(t)
+        time.sleep(0.03)
+        ended.append(t)
+
+    before = signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGINT)
+    with mc._sigterm_as_interrupt():
+        _sigterm_in(delay_s)
+        with pytest.raises(KeyboardInterrupt):
+            mc._run_pool({}, 1, (), list(range(1, 401)), finish, 2, "h")
+    assert started and started == ended
+    assert not _manager_threads_alive()
+    assert (signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGINT)) == before
+
+
+def test_negative_control_a_raising_handler_does_cut_a_slow_step_short():
+    """What the test above guards against can be seen: SIGTERM's handler raising KeyboardInterrupt
+    (outside the pool) cuts a step short at an arbitrary point."""
+    started, ended = [], []
+    with mc._sigterm_as_interrupt(), pytest.raises(KeyboardInterrupt):
+        _sigterm_in(0.05)
+        for t in range(100):
+            started.append(t)
+            time.sleep(0.03)
+            ended.append(t)
+    assert len(started) == len(ended) + 1
 
 
 def _trial_bytes() -> bytes:

@@ -126,11 +126,13 @@ def _limit_threads() -> None:
 
 
 def _init_pool_worker() -> None:
-    """A pool worker: one BLAS thread, and SIGTERM back to its default (end the process). A forked
-    worker inherits the parent's SIGTERM-as-Ctrl-C handler (:func:`_sigterm_as_interrupt`); with it,
-    the parent's ``terminate`` raised KeyboardInterrupt inside the worker, which then blocked for
-    ever sending that exception back on a queue nobody read, holding the parent's output pipes."""
+    """A pool worker: one BLAS thread; SIGTERM back to its default (end the process) and Ctrl-C
+    ignored, the parent deciding (:func:`_run_pool` ends its workers when interrupted). A forked
+    worker inherits the parent's handlers; when one raised KeyboardInterrupt, the parent's
+    ``terminate`` made the worker block for ever sending that exception back on a queue nobody
+    read, holding the parent's output pipes."""
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     _limit_threads()
 
 
@@ -284,37 +286,60 @@ def _sigterm_as_interrupt():
         signal.signal(signal.SIGTERM, old)
 
 
+@contextlib.contextmanager
+def _interrupts_as_flag():
+    """Within the block Ctrl-C and SIGTERM only set the yielded event; the pool loop raises
+    KeyboardInterrupt itself, between two waits. An exception raised by the signal handler at an
+    arbitrary point could land inside ``concurrent.futures.wait`` while it holds some futures'
+    locks (they are taken one by one, outside any ``try``); the pool's manager thread then blocked
+    for ever on them, and the command on that thread at exit, after it had printed that it was
+    interrupted (seen once in CI). Outside the main thread: no handler, an event never set."""
+    stop = threading.Event()
+    if threading.current_thread() is not threading.main_thread():
+        yield stop
+        return
+    old = {s: signal.signal(s, lambda signum, frame: stop.set()) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield stop
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+
+
 def _run_pool(cfg_dict: dict, seed: int, variants: tuple[Variant, ...], todo: list[int], finish,
-              jobs: int, chash: str, engine: str = "auto") -> None:
+              jobs: int, chash: str, engine: str = "auto", poll_s: float = 0.2) -> None:
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
     from concurrent.futures.process import BrokenProcessPool
 
-    ex = ProcessPoolExecutor(max_workers=jobs, initializer=_init_pool_worker)
-    try:
-        pending = {ex.submit(compute_trial, cfg_dict, seed, t, variants, chash, engine): t for t in todo}
-        while pending:
-            done, _ = wait(pending, return_when=FIRST_COMPLETED)
-            for f in done:
-                t = pending.pop(f)
-                try:
-                    data = f.result()
-                except BrokenProcessPool:
-                    raise RadarSlamError("a worker process died; every finished trial is stored, "
-                                         "rerun the same command to resume") from None
-                finish(t, data)
-    except BaseException:
-        # Interrupted (Ctrl-C, SIGTERM) or failed: cancel what has not started and end the workers
-        # now, so that none is left running a trial after this process is gone.
-        procs = list(getattr(ex, "_processes", {}).values())
-        for proc in procs:
-            proc.terminate()
-        for proc in procs:           # one forked before its initializer ran still has the handler
-            proc.join(2.0)
-            if proc.is_alive():
-                proc.kill()
-        ex.shutdown(wait=False, cancel_futures=True)
-        raise
-    ex.shutdown(wait=True)
+    with _interrupts_as_flag() as stop:
+        ex = ProcessPoolExecutor(max_workers=jobs, initializer=_init_pool_worker)
+        try:
+            pending = {ex.submit(compute_trial, cfg_dict, seed, t, variants, chash, engine): t for t in todo}
+            while pending:
+                done, _ = wait(pending, timeout=poll_s, return_when=FIRST_COMPLETED)
+                for f in done:
+                    t = pending.pop(f)
+                    try:
+                        data = f.result()
+                    except BrokenProcessPool:
+                        raise RadarSlamError("a worker process died; every finished trial is stored, "
+                                             "rerun the same command to resume") from None
+                    finish(t, data)
+                if stop.is_set():
+                    raise KeyboardInterrupt
+        except BaseException:
+            # Interrupted (Ctrl-C, SIGTERM) or failed: cancel what has not started and end the
+            # workers now, so that none is left running a trial after this process is gone.
+            procs = list(getattr(ex, "_processes", {}).values())
+            for proc in procs:
+                proc.terminate()
+            for proc in procs:       # one forked before its initializer ran still has the parent's handler
+                proc.join(2.0)
+                if proc.is_alive():
+                    proc.kill()
+            ex.shutdown(wait=False, cancel_futures=True)
+            raise
+        ex.shutdown(wait=True)
 
 
 def _run_dask(cfg_dict: dict, seed: int, variants: tuple[Variant, ...], todo: list[int], finish,
