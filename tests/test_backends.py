@@ -93,15 +93,17 @@ def test_compiled_measurement_contour_equals_reference():
 
 
 def test_batched_extent_step_equals_per_landmark_steps():
-    """One compiled call for every landmark of a scan gives each landmark's reference step: the
-    same RMA extent and alpha to 1e-12 and the same EFA, through buffering, initialisation,
-    landmarks without detections and scans with dt = 0."""
+    """The extent step over every landmark of a scan at once (extent.rows, compiled under numba)
+    gives each landmark's step taken alone (Python): the same RMA extent and alpha to 1e-12 and
+    the same EFA, through buffering, initialisation, landmarks without detections and scans with
+    dt = 0."""
     require("numba")
+    from radarslam.extent import _compiled, rows
     from radarslam.extent.estimator import RmaEfaEstimator
 
     cfg = profile_config()
     ref, fast = (RmaEfaEstimator(cfg.extent, cfg.extent.R(cfg.filter.R), b) for b in ("python", "numba"))
-    assert fast._batched and not ref._batched
+    assert fast._kernels is _compiled and ref._kernels is rows
     r = np.random.default_rng(13)
     L = 9
     states = {e: [e.new() for _ in range(L)] for e in (ref, fast)}
@@ -119,8 +121,10 @@ def test_batched_extent_step_equals_per_landmark_steps():
         cents = centres + r.normal(0, 0.05, (L, 2))
         covs = np.tile(np.diag([0.02, 0.03]), (L, 1, 1))
         dt = 0.0 if k % 7 == 0 else 0.1
-        for e in (ref, fast):
-            e.step_all(states[e], polar, pts, assoc, cents, covs, pose, pose_cov, dt, k)
+        for j, st in enumerate(states[ref]):          # landmark by landmark
+            a = assoc[j]
+            ref.step(st, polar[a], pts[a], cents[j], covs[j], pose, pose_cov, dt, k)
+        fast.step_all(states[fast], polar, pts, assoc, cents, covs, pose, pose_cov, dt, k)
         for a, b in zip(states[ref], states[fast]):
             assert a.initialized == b.initialized
             if a.initialized:

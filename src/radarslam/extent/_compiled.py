@@ -17,19 +17,22 @@ from numba import njit
 
 from radarslam.core.jit import compile_kernels
 from radarslam.extent import (_sym2, buffering, ellipse_fit, measurement, partial_view, partial_view_jac, random_matrix,
-                              sifting, view_estimator)
+                              rows, sifting, view_estimator)
 
 _K = compile_kernels(measurement._w_entries, measurement.max_trace_w_entries, random_matrix.rm_update_entries,
                      random_matrix.rm_predict_alpha, ellipse_fit.fit_entries, _sym2.spectral, _sym2.from_spectral,
-                     _sym2.sqrt2, _sym2.inv_sqrt2, _sym2.floor2, _sym2.mean_and_scatter, *buffering.KERNELS)
+                     _sym2.sqrt2, _sym2.inv_sqrt2, _sym2.floor2, _sym2.mean_and_scatter, *buffering.KERNELS,
+                     *rows.KERNELS)
 _w_entries = _K["_w_entries"]
 _max_trace_w_entries = _K["max_trace_w_entries"]
-_rm_update_entries = _K["rm_update_entries"]
-_rm_predict_alpha = _K["rm_predict_alpha"]
 _fit_entries = _K["fit_entries"]
 #: The extent's buffering and initialisation (a.3) and the merge's outcome (c.9), for the fused engine.
 buffer_and_fit = _K["buffer_and_fit"]
 merge_outcome = _K["merge_outcome"]
+#: The extent step over array-held states (extent.rows), for the fused engine and the orchestrator's numba backend.
+buffer_need = _K["buffer_need"]
+initialise_rows = _K["initialise_rows"]
+rma_efa_rows = _K["rma_efa_rows"]
 
 #: The literal and measurement contours of a.7.1, compiled as they are (the orchestrator's numba backend and the fused engine).
 _S = compile_kernels(sifting.literal_inside, sifting.contour_inside)
@@ -67,55 +70,6 @@ def measurement_contour(points, polar, theta, pose_cov, R, centroids, spreads, c
                                    R[0, 0], R[0, 1])
         W[i, 0, 0], W[i, 0, 1], W[i, 1, 0], W[i, 1, 1] = w00, w01, w01, w11
     return contour_inside(points, W, centroids, spreads, centroid_covs, gate)
-
-
-@njit(cache=True)
-def rma_efa_step(X, alpha, centroids, centroid_covs, offsets, polar, points, pose, pose_cov, R, dt, tau, gamma,
-                 eig_floor, upper_bound):  # pragma: no cover
-    """One scan of :meth:`radarslam.extent.estimator.RmaEfaEstimator.step` for L initialised
-    landmarks at once (a.4, a.5 and the per-scan EFA of Decision 5, W by largest trace, h.3).
-
-    Landmark ``l`` has the detections ``polar[offsets[l]:offsets[l + 1]]`` (world frame: ``points``).
-    Returns ``(X (L, 2, 2), alpha (L,), efa (L, 2, 2), efa_ok (L,))``: the predicted-and-updated
-    extents and confidences, and the EFA of the scan where it succeeded (three points or more, not
-    collinear).
-    """
-    L = X.shape[0]
-    X_out = X.copy()
-    a_out = alpha.copy()
-    efa = np.zeros((L, 2, 2))
-    efa_ok = np.zeros(L, dtype=np.bool_)
-    theta = pose[2]
-    p00, p01, p02 = pose_cov[0, 0], pose_cov[0, 1], pose_cov[0, 2]
-    p11, p12, p22 = pose_cov[1, 1], pose_cov[1, 2], pose_cov[2, 2]
-    r00, r01, r11 = R[0, 0], R[0, 1], R[1, 1]
-    for l in range(L):
-        a = alpha[l]
-        if dt > 0.0:
-            a = _rm_predict_alpha(a, dt, tau)
-        a_out[l] = a
-        lo, hi = offsets[l], offsets[l + 1]
-        if hi == lo:
-            continue
-        pol = polar[lo:hi]
-        pts = points[lo:hi]
-        w00, w01, w11 = _max_trace_w_entries(theta, p00, p01, p02, p11, p12, p22, r00, r01, r11, pol)
-        n11, n12, n22, a_post = _rm_update_entries(X[l, 0, 0], X[l, 0, 1], X[l, 1, 1], a, centroids[l, 0],
-                                                   centroids[l, 1], centroid_covs[l, 0, 0], centroid_covs[l, 0, 1],
-                                                   centroid_covs[l, 1, 1], pts, w00, w01, w11, gamma, eig_floor)
-        X_out[l, 0, 0] = n11
-        X_out[l, 0, 1] = n12
-        X_out[l, 1, 0] = n12
-        X_out[l, 1, 1] = n22
-        a_out[l] = a_post
-        ok, _, _, e11, e12, e22 = _fit_entries(pts, upper_bound, w00, w01, w11, gamma)
-        if ok:
-            efa[l, 0, 0] = e11
-            efa[l, 0, 1] = e12
-            efa[l, 1, 0] = e12
-            efa[l, 1, 1] = e22
-            efa_ok[l] = True
-    return X_out, a_out, efa, efa_ok
 
 
 @njit(cache=True)

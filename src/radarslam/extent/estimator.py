@@ -19,13 +19,13 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from radarslam.core.arrays import grown
+from radarslam.core.arrays import grown, grown_inner
 from radarslam.core.registry import EXTENT_ESTIMATORS
-from radarslam.extent.buffering import POOL, READY, TAKE, buffer_and_fit, merge_outcome
+from radarslam.extent.buffering import POOL, TAKE, merge_outcome
 from radarslam.extent.ellipse_fit import _fit_ellipse
 from radarslam.extent.measurement import _scan_W
 from radarslam.extent.measurement import _converted_measurement_covs
-from radarslam.extent.random_matrix import _rm_predict, _rm_update
+from radarslam.extent.rows import ExtentRows
 from radarslam.extent.ellipse import trunk_diameter
 from radarslam.extent.sifting import chi2_2dof_quantile, literal_contour, literal_inside, measurement_contour
 
@@ -115,10 +115,7 @@ class RmaEfaEstimator:
         self.c = extent_config
         self._contour = _contour_test(backend)
         self._literal = _literal_kernel(backend)
-        # The compiled scan step covers this class's own step() with the default EFA and W options;
-        # a subclass that overrides step(), or other options, run step() per landmark.
-        self._batched = (backend == "numba" and type(self).step is RmaEfaEstimator.step
-                         and extent_config.efa_mode == "per_scan" and extent_config.w_mode == "max_trace")
+        self._kernels = _row_kernels(backend)
         self.R_extent = R_extent
         self.posterior_centroid = bool(extent_config.use_posterior_landmark)
         self.in_slam = bool(extent_config.use_in_slam)
@@ -200,20 +197,63 @@ class RmaEfaEstimator:
     def step(self, st: RmaEfaState, polar: np.ndarray, pts: np.ndarray, centroid: np.ndarray,
              centroid_cov: np.ndarray, pose: np.ndarray, pose_cov: np.ndarray, dt: float, k: int) -> None:
         """a.3 (buffer, then EFA initialisation), a.4 (RM prediction), a.5 (RM update) and the EFA
-        baseline (Decision 5) for one landmark and one scan."""
-        if not self.c.track:
+        baseline (Decision 5) for one landmark and one scan: :meth:`step_all` on it alone."""
+        self._rows_step([st], polar, pts, [list(range(polar.shape[0]))], np.asarray(centroid)[None],
+                        np.asarray(centroid_cov)[None], pose, pose_cov, dt, k)
+
+    def step_all(self, states: list[RmaEfaState], polar: np.ndarray, pts: np.ndarray, assoc: list[list[int]],
+                 centroids: np.ndarray, centroid_covs: np.ndarray, pose: np.ndarray, pose_cov: np.ndarray,
+                 dt: float, k: int) -> None:
+        """:meth:`step` for every landmark of the scan. A subclass that overrides :meth:`step` is
+        stepped landmark by landmark; otherwise the scan goes through the extent step over
+        array-held states (:mod:`radarslam.extent.rows`, compiled under the numba backend), the
+        same functions the fused engine calls."""
+        if type(self).step is not RmaEfaEstimator.step:
+            for j, st in enumerate(states):
+                a = assoc[j]
+                self.step(st, polar[a], pts[a], centroids[j], centroid_covs[j], pose, pose_cov, dt, k)
             return
-        if not st.initialized:
-            self._buffer(st, pts, k)
+        self._rows_step(states, polar, pts, assoc, centroids, centroid_covs, pose, pose_cov, dt, k)
+
+    def _rows_step(self, states, polar, pts, assoc, centroids, centroid_covs, pose, pose_cov, dt, k) -> None:
+        """The objects ``states`` gathered into an :class:`~radarslam.extent.rows.ExtentRows`, a.3
+        and a.4-a.5 by :func:`~radarslam.extent.rows.initialise_rows` and
+        :func:`~radarslam.extent.rows.rma_efa_rows`, and the rows written back. The options the
+        fused engine has not (``w_mode`` other than ``max_trace``: the scan's ``W`` given;
+        ``efa_mode = "sliding"``: the EFA of :meth:`_efa_baseline` after) are handled here."""
+        ec, N = self.c, len(states)
+        if not ec.track or N == 0:
             return
-        ec = self.c
-        if dt > 0.0:
-            st.X, st.alpha = _rm_predict(st.X, st.alpha, dt, ec.tau_s)
-        if polar.shape[0] == 0:
-            return
-        W = _scan_W(pose, pose_cov, polar, self.R_extent, ec.w_mode)  # seed eq. (5), h.3
-        st.X, st.alpha = _rm_update(st.X, st.alpha, centroid, centroid_cov, pts, W, ec.spread_factor, ec.eig_floor_m2)
-        self._efa_baseline(st, pts, W)
+        kern = self._kernels
+        E = _gather(states)
+        old = np.arange(N, dtype=np.int64)
+        aoff = np.zeros(N + 1, dtype=np.int64)
+        aoff[1:] = np.cumsum([len(a) for a in assoc])
+        arow = np.array([i for a in assoc for i in a], dtype=np.int64)
+        polar = np.ascontiguousarray(polar, dtype=float).reshape(-1, 2)
+        pts = np.ascontiguousarray(pts, dtype=float).reshape(-1, 2)
+        ready = E.einit.copy()
+        born = np.zeros(N, dtype=np.int64)
+        E = E._replace(buf=grown_inner(E.buf, kern.buffer_need(E, ready, N, old, aoff)))
+        kern.initialise_rows(E, ready, born, N, old, aoff, arow, pts, ec.n_init, ec.spread_factor, ec.alpha0)
+        w_given = ec.w_mode != "max_trace"
+        W = np.zeros((N if w_given else 0, 2, 2))
+        if w_given:
+            for j in np.flatnonzero(ready).tolist():
+                if assoc[j]:
+                    W[j] = _scan_W(pose, pose_cov, polar[assoc[j]], self.R_extent, ec.w_mode)
+        sliding = ec.efa_mode == "sliding"
+        kern.rma_efa_rows(E, ready, N, old, aoff, arow, polar, pts, np.ascontiguousarray(centroids, dtype=float),
+                          np.ascontiguousarray(centroid_covs, dtype=float), np.asarray(pose, dtype=float),
+                          np.asarray(pose_cov, dtype=float), self.R_extent, W, w_given, dt, ec.tau_s,
+                          ec.spread_factor, ec.eig_floor_m2, not ec.efa_noise_correct, not sliding)
+        _scatter(E, states, born, k, ec.efa_window)
+        if sliding:
+            for j in np.flatnonzero(ready).tolist():
+                if assoc[j]:
+                    a = assoc[j]
+                    Wj = _scan_W(pose, pose_cov, polar[a], self.R_extent, ec.w_mode) if ec.efa_noise_correct else None
+                    self._efa_baseline(states[j], pts[a], Wj)
 
     def _efa_baseline(self, st: RmaEfaState, pts: np.ndarray, W: np.ndarray | None) -> None:
         """The EFA baseline of the scan (Decision 5, d.3): the fit of this scan's detections (or of
@@ -230,60 +270,20 @@ class RmaEfaEstimator:
             if fit:
                 st.X_efa = fit[1]
 
-    def step_all(self, states: list[RmaEfaState], polar: np.ndarray, pts: np.ndarray, assoc: list[list[int]],
-                 centroids: np.ndarray, centroid_covs: np.ndarray, pose: np.ndarray, pose_cov: np.ndarray,
-                 dt: float, k: int) -> None:
-        """:meth:`step` for every landmark of the scan. With ``filter.backend = "numba"`` the
-        initialised landmarks go through one compiled call
-        (:func:`radarslam.extent._compiled.rma_efa_step`, the same kernels compiled); the ones still
-        buffering (a.3) are handled here as in :meth:`step`."""
-        if not self._batched:
-            for j, st in enumerate(states):
-                a = assoc[j]
-                self.step(st, polar[a], pts[a], centroids[j], centroid_covs[j], pose, pose_cov, dt, k)
-            return
-        if not self.c.track:
-            return
-        ready = []
-        for j, st in enumerate(states):
-            if st.initialized:
-                ready.append(j)
-            else:
-                self._buffer(st, pts[assoc[j]], k)
-        if not ready:
-            return
-        from radarslam.extent._compiled import rma_efa_step
-
-        ec = self.c
-        rows = [i for j in ready for i in assoc[j]]
-        offsets = np.zeros(len(ready) + 1, dtype=np.int64)
-        offsets[1:] = np.cumsum([len(assoc[j]) for j in ready])
-        X, alpha, efa, ok = rma_efa_step(
-            np.array([states[j].X for j in ready]), np.array([states[j].alpha for j in ready]),
-            centroids[ready], centroid_covs[ready], offsets, polar[rows].reshape(-1, 2), pts[rows].reshape(-1, 2),
-            pose, pose_cov, self.R_extent, dt, ec.tau_s, ec.spread_factor, ec.eig_floor_m2, not ec.efa_noise_correct)
-        for l, (j, fit) in enumerate(zip(ready, ok.tolist())):
-            st = states[j]
-            st.X, st.alpha = X[l], float(alpha[l])
-            if fit:
-                st.X_efa = efa[l]
-
     def _buffer(self, st: RmaEfaState, pts: np.ndarray, k: int) -> None:
-        """a.3 (:func:`~radarslam.extent.buffering.buffer_and_fit`): buffer detections; once more
-        than ``n_init`` are held, initialise X by EFA (upper bound) with ``alpha_0``; a degenerate
-        fit keeps only the newest ``n_init`` and waits."""
-        ec = self.c
-        st.buffer = grown(st.buffer, st.n_buffered + pts.shape[0])
-        outcome, n, e11, e12, e22 = buffer_and_fit(st.buffer, st.n_buffered, pts, ec.n_init, ec.spread_factor)
-        if outcome != READY:
-            st.n_buffered = n
-            return
-        st.X = np.array(((e11, e12), (e12, e22)))
-        st.alpha = ec.alpha0
-        st.X_efa = st.X.copy()
-        st.initialized_at = k
-        st.efa_buffer = [st.buffer[:n][-ec.efa_window:].copy()]
-        st.buffer, st.n_buffered = np.empty((0, 2)), 0
+        """a.3 for one landmark (:func:`~radarslam.extent.rows.initialise_rows` on it alone):
+        buffer detections; once more than ``n_init`` are held, initialise X by EFA (upper bound)
+        with ``alpha_0``; a degenerate fit keeps only the newest ``n_init`` and waits."""
+        ec, kern = self.c, self._kernels
+        E = _gather([st])
+        one = np.zeros(2, dtype=np.int64)
+        one[1] = pts.shape[0]
+        zero, ready, born = np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.bool_), np.zeros(1, dtype=np.int64)
+        E = E._replace(buf=grown_inner(E.buf, kern.buffer_need(E, ready, 1, zero, one)))
+        kern.initialise_rows(E, ready, born, 1, zero, one, np.arange(pts.shape[0], dtype=np.int64),
+                             np.ascontiguousarray(pts, dtype=float).reshape(-1, 2), ec.n_init, ec.spread_factor,
+                             ec.alpha0)
+        _scatter(E, [st], born, k, ec.efa_window)
 
     def merge(self, survivor: RmaEfaState, gone: RmaEfaState) -> RmaEfaState:
         """c.9 [PROP] (:func:`~radarslam.extent.buffering.merge_outcome`): the surviving landmark
@@ -298,6 +298,47 @@ class RmaEfaEstimator:
             survivor.buffer[survivor.n_buffered:n] = gone.buffer[:gone.n_buffered]
             survivor.n_buffered = n
         return survivor
+
+
+def _row_kernels(backend: str):
+    """The extent step's kernels over array-held states (:mod:`radarslam.extent.rows`): as Python,
+    or compiled under the numba backend (:mod:`radarslam.extent._compiled`)."""
+    if backend == "numba":
+        from radarslam.extent import _compiled as kernels
+    else:
+        from radarslam.extent import rows as kernels
+    return kernels
+
+
+def _gather(states: list[RmaEfaState]) -> ExtentRows:
+    """The RMA/EFA states of ``states`` as the rows of one record (new arrays)."""
+    n = len(states)
+    zero = np.zeros((2, 2))
+    B = max([s.n_buffered for s in states], default=0)
+    E = ExtentRows(einit=np.array([s.initialized for s in states], dtype=np.bool_),
+                   X=np.array([zero if s.X is None else s.X for s in states], dtype=float).reshape(n, 2, 2),
+                   alpha=np.array([s.alpha for s in states], dtype=float),
+                   Xefa=np.array([zero if s.X_efa is None else s.X_efa for s in states], dtype=float).reshape(n, 2, 2),
+                   nbuf=np.array([s.n_buffered for s in states], dtype=np.int64), buf=np.zeros((n, B, 2)))
+    for j, s in enumerate(states):
+        E.buf[j, :s.n_buffered] = s.buffer[:s.n_buffered]
+    return E
+
+
+def _scatter(E: ExtentRows, states: list[RmaEfaState], born: np.ndarray, k: int, efa_window: int) -> None:
+    """The rows of ``E`` written back into ``states``; a landmark initialised now (``born[j]``
+    detections fitted) records the scan ``k`` and starts the sliding EFA's buffer with them."""
+    for j, s in enumerate(states):
+        n = int(born[j])
+        if n:
+            s.initialized_at = k
+            s.efa_buffer = [E.buf[j, :n][-efa_window:].copy()]
+            s.buffer, s.n_buffered = np.empty((0, 2)), 0
+        elif not E.einit[j]:
+            s.n_buffered = int(E.nbuf[j])
+            s.buffer = E.buf[j, :s.n_buffered].copy()
+        if E.einit[j]:
+            s.X, s.alpha, s.X_efa = E.X[j].copy(), float(E.alpha[j]), E.Xefa[j].copy()
 
 
 def _reference_contour(points, polar, pose, pose_cov, R, centroids, spreads, centroid_covs, gate):

@@ -339,9 +339,6 @@ class PartialViewEstimator(RmaEfaEstimator):
     def __init__(self, extent_config, R_extent: np.ndarray, backend: str = "python"):
         super().__init__(extent_config, R_extent, backend)
         ec = extent_config
-        # The RMA/EFA step stays the compiled batch step where it would be (this class adds a
-        # second step after it instead of overriding step()).
-        self._batched = (backend == "numba" and ec.efa_mode == "per_scan" and ec.w_mode == "max_trace")
         self.xi0 = X_to_log_matrix(ec.view_prior_radius_m ** 2 * np.eye(2))
         #: gamma_z X0 of the partial view's own prior shape (a.12.6), in place of the full view's.
         self.prior_spread = ec.spread_factor * ec.view_prior_radius_m ** 2 * np.eye(2)
@@ -423,7 +420,7 @@ class PartialViewEstimator(RmaEfaEstimator):
         self.view_step(st, polar, pts, centroid, centroid_cov, pose)
 
     def step_all(self, states, polar, pts, assoc, centroids, centroid_covs, pose, pose_cov, dt, k) -> None:
-        super().step_all(states, polar, pts, assoc, centroids, centroid_covs, pose, pose_cov, dt, k)
+        self._rows_step(states, polar, pts, assoc, centroids, centroid_covs, pose, pose_cov, dt, k)   # RMA/EFA
         for j, st in enumerate(states):
             a = assoc[j]
             self.view_step(st, polar[a], pts[a], centroids[j], centroid_covs[j], pose)

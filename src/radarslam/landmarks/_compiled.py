@@ -19,17 +19,18 @@ from radarslam.landmarks.merging import closest_pair
 from radarslam.landmarks.sifting import candidates
 from radarslam.landmarks.grouping import by_landmark, seen_landmarks
 from radarslam.landmarks import records
-from radarslam.core.arrays import grown
+from radarslam.core.arrays import grown, grown_inner
 
 # Sifting's decision, the associations by landmark, Rule 1 / Rule 2, the M/N windows and the merge pair (c.3, c.4, c.7, c.5, c.9): the kernels of
 # landmarks.confirmation and landmarks.merging compiled as they are, for the orchestrator's numba
 # backend and the fused engine alike.
 _K = compile_kernels(popcount, push_bit, should_remove, mn_windows, rule12, closest_pair, candidates, by_landmark,
-                     seen_landmarks, wrap_pi_scalar, in_view, grown, *records.KERNELS)
+                     seen_landmarks, wrap_pi_scalar, in_view, grown, grown_inner, *records.KERNELS)
 # The landmark records' growth, birth and removal (landmarks.records), for the fused engine.
 compiled_with_room = _K["with_room"]
 #: core.arrays.grown compiled: the fused engine's arrays grow by the records' rule.
 compiled_grown = _K["grown"]
+compiled_grown_inner = _K["grown_inner"]
 compiled_add_record = _K["add_record"]
 compiled_compact_records = _K["compact_records"]
 compiled_seen_landmarks = _K["seen_landmarks"]

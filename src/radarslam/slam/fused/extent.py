@@ -14,8 +14,7 @@ from numba import njit
 
 from radarslam.core.jit import compile_kernels
 from radarslam.extent import mem_ekf_kernels
-from radarslam.extent._compiled import _fit_entries, _max_trace_w_entries, buffer_and_fit, rma_efa_step
-from radarslam.extent.buffering import READY
+from radarslam.extent._compiled import _fit_entries, _max_trace_w_entries, buffer_need, initialise_rows, rma_efa_rows
 from radarslam.extent.ellipse import _ellipse_to_matrix
 from radarslam.slam.fused.storage import _arc_width_diameter, _blocks, add_arc, with_buffer
 from radarslam.slam.fused.view import view_shape_step
@@ -34,71 +33,25 @@ MEM_SENSOR, MEM_NO_CENTROID, MEM_FULL = 0, 1, 2
 
 
 @njit(cache=True, inline="always")
-def _buffer_and_initialise(lm, j, o, xy, aoff, arow, Cp0, cfg):  # pragma: no cover - compiled
-    """a.3 for landmark ``j`` (row ``o`` of the associations) whose extent is not initialised:
-    extent.buffering.buffer_and_fit on its detections; once fitted, ``alpha_0``, and with
-    ``cfg.mem`` the MEM-EKF* shape from the fit, of covariance ``Cp0`` (a.10), and ``X`` its
-    matrix. Returns ``lm`` (its buffers may grow)."""
-    na = aoff[o + 1] - aoff[o]
-    lm = with_buffer(lm, lm.nbuf[j] + na)
-    pts = np.empty((na, 2))
-    for a in range(na):
-        pts[a] = xy[arow[aoff[o] + a]]
-    outcome, n, e11, e12, e22 = buffer_and_fit(lm.buf[j], lm.nbuf[j], pts, cfg.n_init, cfg.gamma)
-    if outcome != READY:
-        lm.nbuf[j] = n
-        return lm
-    lm.einit[j] = True
-    lm.X[j, 0, 0], lm.X[j, 0, 1], lm.X[j, 1, 0], lm.X[j, 1, 1] = e11, e12, e12, e22
-    lm.alpha[j] = cfg.alpha0
-    lm.Xefa[j] = lm.X[j]
-    lm.nbuf[j] = 0
+def _initialise(lm, N, old, aoff, arow, xy, Cp0, cfg):  # pragma: no cover - compiled
+    """a.3 for the landmarks whose extent is not initialised (extent.rows.initialise_rows, the
+    buffers grown first); with ``cfg.mem`` the MEM-EKF* shape of a fit made now, of covariance
+    ``Cp0`` (a.10), ``X`` its matrix. Returns ``(lm, ready)``: the record (its buffers may grow)
+    and which landmarks were initialised before this scan."""
+    ready = np.empty(N, dtype=np.bool_)
+    for j in range(N):
+        ready[j] = lm.einit[j]
+    born = np.zeros(N, dtype=np.int64)
+    lm = with_buffer(lm, buffer_need(lm, ready, N, old, aoff))
+    initialise_rows(lm, ready, born, N, old, aoff, arow, xy, cfg.n_init, cfg.gamma, cfg.alpha0)
     if cfg.mem:
-        th, l1, l2 = _initial_shape(e11, e12, e22)
-        lm.shape[j, 0], lm.shape[j, 1], lm.shape[j, 2] = th, l1, l2
-        lm.Cs[j] = Cp0
-        lm.X[j] = _shape_matrix(l1, l2, th)
-    return lm
-
-
-@njit(cache=True, inline="always")
-def _rma_efa_ready(x, P, polar, xy, lm, ready, old, aoff, arow, cents, ccovs, R_ext, dt, cfg):  # pragma: no cover - compiled
-    """a.4-a.5 for the landmarks ``ready`` (extent initialised): the RM step and the EFA on their
-    associated detections, in place."""
-    n_ready = ready.shape[0]
-    offsets = np.zeros(n_ready + 1, dtype=np.int64)
-    n_rows = 0
-    for l in range(n_ready):
-        o = old[ready[l]]
-        n_rows += aoff[o + 1] - aoff[o]
-    rpol = np.empty((n_rows, 2))
-    rpts = np.empty((n_rows, 2))
-    q = 0
-    for l in range(n_ready):
-        o = old[ready[l]]
-        for a in range(aoff[o], aoff[o + 1]):
-            rpol[q] = polar[arow[a]]
-            rpts[q] = xy[arow[a]]
-            q += 1
-        offsets[l + 1] = q
-    Xr = np.empty((n_ready, 2, 2))
-    ar = np.empty(n_ready)
-    cr = np.empty((n_ready, 2))
-    Cr = np.empty((n_ready, 2, 2))
-    for l in range(n_ready):
-        Xr[l] = lm.X[ready[l]]
-        ar[l] = lm.alpha[ready[l]]
-        cr[l] = cents[ready[l]]
-        Cr[l] = ccovs[ready[l]]
-    X_new, a_new, efa, efa_ok = rma_efa_step(Xr, ar, cr, Cr, offsets, rpol, rpts, x[:3].copy(),
-                                             P[:3, :3].copy(), R_ext, dt, cfg.tau, cfg.gamma,
-                                             cfg.eig_floor, cfg.upper)
-    for l in range(n_ready):
-        j = ready[l]
-        lm.X[j] = X_new[l]
-        lm.alpha[j] = a_new[l]
-        if efa_ok[l]:
-            lm.Xefa[j] = efa[l]
+        for j in range(N):
+            if born[j] > 0:
+                th, l1, l2 = _initial_shape(lm.X[j, 0, 0], lm.X[j, 0, 1], lm.X[j, 1, 1])
+                lm.shape[j, 0], lm.shape[j, 1], lm.shape[j, 2] = th, l1, l2
+                lm.Cs[j] = Cp0
+                lm.X[j] = _shape_matrix(l1, l2, th)
+    return lm, ready
 
 
 @njit(cache=True)
@@ -185,22 +138,22 @@ def extent_step(x, P, polar, xy, lm, N, old, aoff, arow, prior, dt, arcs, n_arcs
         for j in range(N):
             cents[j] = pos_prior[old[j]]
             ccovs[j] = cov_prior[old[j]]
-    n_ready = 0
-    for j in range(N):
-        if lm.einit[j]:
-            n_ready += 1
-    ready = np.empty(n_ready, dtype=np.int64)
-    r_i = 0
-    for j in range(N):
-        if lm.einit[j]:
-            ready[r_i] = j
-            r_i += 1
-            continue
-        lm = _buffer_and_initialise(lm, j, old[j], xy, aoff, arow, noise.Cp0, cfg)
-    if n_ready > 0 and cfg.mem:
-        _mem_ekf_ready(x, P, polar, xy, lm, ready, old, aoff, arow, cents, ccovs, noise.R_ext, dt, cfg)
-    elif n_ready > 0:
-        _rma_efa_ready(x, P, polar, xy, lm, ready, old, aoff, arow, cents, ccovs, noise.R_ext, dt, cfg)
+    lm, ready = _initialise(lm, N, old, aoff, arow, xy, noise.Cp0, cfg)
+    if cfg.mem:
+        n_ready = 0
+        for j in range(N):
+            n_ready += ready[j]
+        which = np.empty(n_ready, dtype=np.int64)
+        r_i = 0
+        for j in range(N):
+            if ready[j]:
+                which[r_i] = j
+                r_i += 1
+        if n_ready > 0:
+            _mem_ekf_ready(x, P, polar, xy, lm, which, old, aoff, arow, cents, ccovs, noise.R_ext, dt, cfg)
+    else:
+        rma_efa_rows(lm, ready, N, old, aoff, arow, polar, xy, cents, ccovs, x[:3], P[:3, :3], noise.R_ext,
+                     np.zeros((0, 2, 2)), False, dt, cfg.tau, cfg.gamma, cfg.eig_floor, cfg.upper, True)
     if cfg.arc:
         arcs, n_arcs = _arc_widths(polar, lm, N, old, aoff, arow, arcs, n_arcs, cfg)
     if cfg.pv.on:                                      # the partial-view shapes (a.12.7)

@@ -17,7 +17,7 @@ from numba import njit
 
 from radarslam.core.jit import compile_kernels
 from radarslam.extent.visible_arc import arc_width_diameter, gated_diameter
-from radarslam.landmarks._compiled import compiled_compact_records, compiled_grown, compiled_with_room
+from radarslam.landmarks._compiled import compiled_compact_records, compiled_grown, compiled_grown_inner, compiled_with_room
 from radarslam.landmarks.records import Records
 from radarslam.slam import _view_compiled
 
@@ -120,14 +120,8 @@ class MapRows(NamedTuple):
 _grow_rows = compiled_grown
 
 
-@njit(cache=True, inline="always")
-def _grow_buffer(buf, n):  # pragma: no cover - compiled
-    """The detection buffers ``(L, B, 2)`` with room for ``n`` points per landmark."""
-    if buf.shape[1] >= n:
-        return buf
-    b = np.empty((buf.shape[0], max(n, 2 * buf.shape[1]), 2))
-    b[:, :buf.shape[1]] = buf
-    return b
+#: The detection buffers ``(L, B, 2)`` with room for ``n`` points per landmark: core.arrays.grown_inner, compiled.
+_grow_buffer = compiled_grown_inner
 
 
 @njit(cache=True, inline="always")
