@@ -30,8 +30,7 @@ def _kernels(backend):
 
 
 def _record(L, B=0):
-    return rows.ExtentRows(einit=np.zeros(L, dtype=np.bool_), X=np.zeros((L, 2, 2)), alpha=np.zeros(L),
-                           Xefa=np.zeros((L, 2, 2)), nbuf=np.zeros(L, dtype=np.int64), buf=np.zeros((L, B, 2)))
+    return rows.empty_rows(L, B)
 
 
 def _scan(rng, L, pose, counts, centres):
@@ -174,6 +173,67 @@ def test_python_and_compiled_agree_to_the_bit_over_many_scans():
         assert np.array_equal(getattr(a, f), getattr(b, f)), f
 
 
+@pytest.mark.parametrize("backend", ["python", "numba"])
+def test_the_mem_ekf_scan_is_the_public_update_landmark_by_landmark(backend):
+    """a.10 for each ``ready`` landmark: mem_ekf_predict then mem_ekf_update_scan with each
+    detection's W(i) of the sensor and the pose (``no-centroid``), to 1e-12; X the new shape's
+    matrix; a landmark not ready is left alone."""
+    from radarslam.extent.mem_ekf import mem_ekf_predict, mem_ekf_update_scan, shape_matrix
+
+    k = _kernels(backend)
+    rng = np.random.default_rng(17)
+    L = 4
+    centres = rng.uniform(-20, 20, (L, 2))
+    E = _record(L)
+    for j in range(L):
+        E.shape[j] = [rng.uniform(0, np.pi), rng.uniform(1.5, 2.5), rng.uniform(0.6, 1.0)]
+        E.Cs[j] = np.diag([0.05, 0.1, 0.1])
+        E.X[j] = shape_matrix(E.shape[j])
+    E.einit[:] = True
+    E.einit[2] = False
+    before = E._replace(shape=E.shape.copy(), Cs=E.Cs.copy(), X=E.X.copy())
+    pose = np.array([0.5, 1.0, -0.4])
+    pose_cov = np.diag([0.02, 0.02, 0.001])
+    xy, polar, aoff, arow = _scan(rng, L, pose, [5, 3, 4, 6], centres)
+    cents, ccovs = centres + 0.05, np.tile(0.02 * np.eye(2), (L, 1, 1))
+    k.mem_ekf_rows(E, E.einit.copy(), L, np.arange(L), aoff, arow, polar, xy, cents, ccovs, pose, pose_cov, R,
+                   np.zeros((0, 2, 2)), False, 0.1, 0.02, 0.05, rows.MEM_NO_CENTROID, EC.spread_factor, True, True)
+    for j in range(L):
+        if j == 2:
+            assert np.array_equal(E.shape[j], before.shape[j]) and np.array_equal(E.Cs[j], before.Cs[j])
+            continue
+        sl = slice(aoff[j], aoff[j + 1])
+        p, Cp = mem_ekf_predict(before.shape[j], before.Cs[j], 0.1, 0.02, 0.05)
+        W = converted_measurement_covs(pose, pose_cov, polar[sl], R)       # each detection's own W(i)
+        p, Cp = mem_ekf_update_scan(p, Cp, cents[j], np.zeros((2, 2)), xy[sl], W, EC.spread_factor)
+        assert np.allclose(E.shape[j], p, rtol=1e-12, atol=1e-13) and np.allclose(E.Cs[j], Cp, rtol=1e-10, atol=1e-14)
+        assert np.allclose(E.X[j], shape_matrix(p), rtol=1e-12, atol=1e-13)
+        assert not np.allclose(E.shape[j], before.shape[j])
+
+
+@pytest.mark.parametrize("backend", ["python", "numba"])
+def test_the_arc_widths_are_each_landmarks_arc_diameter(backend):
+    """a.9: each landmark's width of the scan is arc_diameter of its detections, the beam width
+    its nearest range times the beam step; NaN without detections or across a gap."""
+    from radarslam.extent import visible_arc
+
+    if backend == "numba":
+        require("numba")
+        from radarslam.extent._compiled import arc_widths_rows as widths
+    else:
+        widths = visible_arc.arc_widths_rows
+    step = np.radians(0.5)
+    polar = np.array([[10.0, 0.10], [9.8, 0.10 + step], [9.9, 0.10 + 2 * step],      # a trunk: three beams
+                      [20.0, -0.3], [20.1, -0.3 + 4 * step],                          # a gap of four beams
+                      [5.0, 0.5]])                                                     # one beam
+    aoff = np.array([0, 3, 5, 5, 6])
+    d, beam = np.empty(4), np.empty(4)
+    widths(polar, 4, np.arange(4), aoff, np.arange(6), step, d, beam)
+    assert d[0] == visible_arc.arc_diameter(polar[:3], step) and beam[0] == 9.8 * step
+    assert np.isnan(d[1]) and np.isnan(d[2])
+    assert d[3] == visible_arc.arc_diameter(polar[5:], step) and d[3] > 0
+
+
 def test_the_partial_view_shape_is_updated_once_per_scan_under_the_python_backend():
     """Regression: under the Python backend the partial-view estimator's scan step ran its shape
     update twice (once through step(), once more in step_all); the numba backend once."""
@@ -191,3 +251,38 @@ def test_the_partial_view_shape_is_updated_once_per_scan_under_the_python_backen
     est.step_all(states, polar, xy, assoc, centres, np.tile(0.01 * np.eye(2), (L, 1, 1)), pose,
                  np.diag([0.01, 0.01, 1e-4]), 0.1, 1)
     assert [s.n_view for s in states] == [1, 1, 1]
+
+
+@pytest.mark.parametrize("backend", ["python", "numba"])
+def test_a_merge_keeps_takes_or_pools_as_merge_outcome_says(backend):
+    """c.9 [PROP]: an initialised survivor keeps its extent; an uninitialised one takes the other's
+    (RMA/EFA and MEM-EKF* shape); two uninitialised ones pool their buffers, the survivor's first;
+    with ``view`` the partial-view shape updated by more scans is kept, without it never."""
+    from radarslam.extent.buffering import KEEP, POOL, TAKE
+
+    k = _kernels(backend)
+
+    def pair(init0, init1, n0, n1):
+        E = _record(2, n0 + n1)
+        for j, (init, n) in enumerate(((init0, n0), (init1, n1))):
+            E.einit[j], E.alpha[j], E.nbuf[j] = init, 10.0 + j, 0 if init else n
+            E.X[j], E.Xefa[j] = (j + 1) * np.eye(2), (j + 2) * np.eye(2)
+            E.shape[j], E.Cs[j] = [j, 1.0 + j, 0.5], (j + 1) * np.eye(3)
+            E.buf[j, :n] = 100 * j + np.arange(2 * n).reshape(n, 2)
+            E.xi[j], E.Pxi[j], E.nview[j] = [j, 0.0, j], (j + 1) * np.eye(3), 3 * j
+        return E
+
+    E = pair(True, True, 0, 0)
+    assert k.merge_rows(E, 0, 1, False) == KEEP
+    assert E.alpha[0] == 10.0 and np.array_equal(E.X[0], np.eye(2)) and E.nview[0] == 0
+    E = pair(False, True, 3, 0)
+    assert k.merge_rows(E, 0, 1, True) == TAKE
+    assert E.einit[0] and E.alpha[0] == 11.0 and E.nbuf[0] == 0
+    assert np.array_equal(E.X[0], 2 * np.eye(2)) and np.array_equal(E.Xefa[0], 3 * np.eye(2))
+    assert np.array_equal(E.shape[0], [1, 2.0, 0.5]) and np.array_equal(E.Cs[0], 2 * np.eye(3))
+    assert E.nview[0] == 3 and np.array_equal(E.xi[0], [1, 0.0, 1])            # the view shape seen more
+    E = pair(False, False, 2, 3)
+    mine = E.buf[0, :2].copy()
+    assert k.merge_rows(E, 0, 1, False) == POOL
+    assert E.nbuf[0] == 5 and np.array_equal(E.buf[0, :2], mine) and np.array_equal(E.buf[0, 2:5], E.buf[1, :3])
+    assert not E.einit[0] and E.nview[0] == 0                                   # no view: its shape stays

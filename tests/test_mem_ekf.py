@@ -371,7 +371,10 @@ def test_estimator_initialises_from_efa_and_tracks():
     assert has.tolist() == [True, False]
     np.testing.assert_array_equal(gX[0], cfg.extent.spread_factor * st_.X)
     fresh = est.new()
-    assert est.merge(fresh, st_) is st_          # an uninitialised survivor takes the other's shape
+    kept = est.merge(fresh, st_)                 # an uninitialised survivor takes the other's shape
+    assert kept.initialized and kept.n_buffered == 0
+    for a, b in ((kept.p, st_.p), (kept.Cp, st_.Cp), (kept.X, st_.X), (kept.X_efa, st_.X_efa)):
+        np.testing.assert_array_equal(a, b)
 
 
 def test_noise_modes_count_the_shared_errors_or_not():

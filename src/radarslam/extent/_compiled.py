@@ -16,13 +16,13 @@ import numpy as np
 from numba import njit
 
 from radarslam.core.jit import compile_kernels
-from radarslam.extent import (_sym2, buffering, ellipse_fit, measurement, partial_view, partial_view_jac, random_matrix,
-                              rows, sifting, view_estimator)
+from radarslam.extent import (_sym2, buffering, ellipse, ellipse_fit, measurement, mem_ekf_kernels, partial_view,
+                              partial_view_jac, random_matrix, rows, sifting, view_estimator, visible_arc)
 
 _K = compile_kernels(measurement._w_entries, measurement.max_trace_w_entries, random_matrix.rm_update_entries,
                      random_matrix.rm_predict_alpha, ellipse_fit.fit_entries, _sym2.spectral, _sym2.from_spectral,
                      _sym2.sqrt2, _sym2.inv_sqrt2, _sym2.floor2, _sym2.mean_and_scatter, *buffering.KERNELS,
-                     *rows.KERNELS)
+                     *mem_ekf_kernels.KERNELS, ellipse._ellipse_to_matrix, *rows.KERNELS)
 _w_entries = _K["_w_entries"]
 _max_trace_w_entries = _K["max_trace_w_entries"]
 _fit_entries = _K["fit_entries"]
@@ -33,6 +33,15 @@ merge_outcome = _K["merge_outcome"]
 buffer_need = _K["buffer_need"]
 initialise_rows = _K["initialise_rows"]
 rma_efa_rows = _K["rma_efa_rows"]
+mem_ekf_initialise_rows = _K["mem_ekf_initialise_rows"]
+mem_ekf_rows = _K["mem_ekf_rows"]
+merge_rows = _K["merge_rows"]
+
+#: The visible-arc kernels (docs/method.md a.9): a scan's widths of every landmark, and the trunk's diameter.
+_A = compile_kernels(visible_arc.arc_width_diameter, visible_arc.gated_diameter, visible_arc.arc_widths_rows,
+                     rows.detections)
+arc_widths_rows = _A["arc_widths_rows"]
+gated_diameter = _A["gated_diameter"]
 
 #: The literal and measurement contours of a.7.1, compiled as they are (the orchestrator's numba backend and the fused engine).
 _S = compile_kernels(sifting.literal_inside, sifting.contour_inside)
@@ -42,6 +51,7 @@ contour_inside = _S["contour_inside"]
 #: The partial-view kernels (docs/method.md a.12), compiled as they are.
 _PV = compile_kernels(*partial_view.KERNELS, *partial_view_jac.KERNELS, *view_estimator.KERNELS)
 view_update = _PV["view_update"]
+view_rows = _PV["view_rows"]
 arc_moments = _PV["arc_moments"]
 arc_mean_shape_jacobian = _PV["arc_mean_shape_jacobian"]
 tangent_points = _PV["tangent_points"]

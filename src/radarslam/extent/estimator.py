@@ -15,17 +15,17 @@ fitting, with the per-scan EFA baseline tracked beside it.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any, NamedTuple, Protocol
 
 import numpy as np
 
-from radarslam.core.arrays import grown, grown_inner
+from radarslam.core.arrays import grown_inner
 from radarslam.core.registry import EXTENT_ESTIMATORS
-from radarslam.extent.buffering import POOL, TAKE, merge_outcome
+from radarslam.extent.buffering import TAKE
 from radarslam.extent.ellipse_fit import _fit_ellipse
 from radarslam.extent.measurement import _scan_W
 from radarslam.extent.measurement import _converted_measurement_covs
-from radarslam.extent.rows import ExtentRows
+from radarslam.extent.rows import ExtentRows, empty_rows
 from radarslam.extent.ellipse import trunk_diameter
 from radarslam.extent.sifting import chi2_2dof_quantile, literal_contour, literal_inside, measurement_contour
 
@@ -94,6 +94,24 @@ class RmaEfaState:
     @property
     def initialized(self) -> bool:
         return self.X is not None
+
+
+class ScanRows(NamedTuple):
+    """A scan as the extent step over array-held states takes it (:mod:`radarslam.extent.rows`):
+    landmark ``j``'s detections are rows ``arow[aoff[old[j]]:aoff[old[j] + 1]]``."""
+
+    old: np.ndarray        #: (N,) int64, each landmark's association row
+    aoff: np.ndarray       #: (N + 1,) int64
+    arow: np.ndarray       #: (a,) int64
+    polar: np.ndarray      #: (m, 2) the scan's detections, sensor frame
+    xy: np.ndarray         #: (m, 2) the same in the world frame of the updated pose
+    cents: np.ndarray      #: (N, 2) the centroids the update is about
+    ccovs: np.ndarray      #: (N, 2, 2) their covariances
+    pose: np.ndarray       #: (3,)
+    pose_cov: np.ndarray   #: (3, 3)
+    W: np.ndarray          #: (N, 2, 2) the scans' W when given (w_given), else (0, 2, 2)
+    w_given: bool
+    dt: float
 
 
 class RmaEfaEstimator:
@@ -216,44 +234,81 @@ class RmaEfaEstimator:
         self._rows_step(states, polar, pts, assoc, centroids, centroid_covs, pose, pose_cov, dt, k)
 
     def _rows_step(self, states, polar, pts, assoc, centroids, centroid_covs, pose, pose_cov, dt, k) -> None:
-        """The objects ``states`` gathered into an :class:`~radarslam.extent.rows.ExtentRows`, a.3
-        and a.4-a.5 by :func:`~radarslam.extent.rows.initialise_rows` and
-        :func:`~radarslam.extent.rows.rma_efa_rows`, and the rows written back. The options the
-        fused engine has not (``w_mode`` other than ``max_trace``: the scan's ``W`` given;
-        ``efa_mode = "sliding"``: the EFA of :meth:`_efa_baseline` after) are handled here."""
+        """The objects ``states`` gathered into an :class:`~radarslam.extent.rows.ExtentRows`
+        (:meth:`_gather`), the extent step over array-held states that the fused engine runs too
+        (a.3 by :func:`~radarslam.extent.rows.initialise_rows`, then :meth:`_born`, :meth:`_scan`
+        and :meth:`_after`, a subclass's), and the rows written back (:meth:`_scatter`). The
+        options the fused engine has not (``w_mode`` other than ``max_trace``: the scan's ``W``
+        given; ``efa_mode = "sliding"``: the EFA of :meth:`_efa_baseline` after) are handled here."""
         ec, N = self.c, len(states)
         if not ec.track or N == 0:
             return
-        kern = self._kernels
-        E = _gather(states)
-        old = np.arange(N, dtype=np.int64)
         aoff = np.zeros(N + 1, dtype=np.int64)
         aoff[1:] = np.cumsum([len(a) for a in assoc])
-        arow = np.array([i for a in assoc for i in a], dtype=np.int64)
         polar = np.ascontiguousarray(polar, dtype=float).reshape(-1, 2)
-        pts = np.ascontiguousarray(pts, dtype=float).reshape(-1, 2)
-        ready = E.einit.copy()
-        born = np.zeros(N, dtype=np.int64)
-        E = E._replace(buf=grown_inner(E.buf, kern.buffer_need(E, ready, N, old, aoff)))
-        kern.initialise_rows(E, ready, born, N, old, aoff, arow, pts, ec.n_init, ec.spread_factor, ec.alpha0)
+        pose, pose_cov = np.asarray(pose, dtype=float), np.asarray(pose_cov, dtype=float)
         w_given = ec.w_mode != "max_trace"
         W = np.zeros((N if w_given else 0, 2, 2))
-        if w_given:
-            for j in np.flatnonzero(ready).tolist():
-                if assoc[j]:
-                    W[j] = _scan_W(pose, pose_cov, polar[assoc[j]], self.R_extent, ec.w_mode)
+        for j in range(N if w_given else 0):
+            if assoc[j]:
+                W[j] = _scan_W(pose, pose_cov, polar[assoc[j]], self.R_extent, ec.w_mode)
+        s = ScanRows(np.arange(N, dtype=np.int64), aoff, np.array([i for a in assoc for i in a], dtype=np.int64),
+                     polar, np.ascontiguousarray(pts, dtype=float).reshape(-1, 2),
+                     np.ascontiguousarray(centroids, dtype=float).reshape(-1, 2),
+                     np.ascontiguousarray(centroid_covs, dtype=float).reshape(-1, 2, 2), pose, pose_cov, W, w_given, dt)
+        kern = self._kernels
+        E = self._gather(states)
+        ready, born = E.einit.copy(), np.zeros(N, dtype=np.int64)
+        E = E._replace(buf=grown_inner(E.buf, kern.buffer_need(E, ready, N, s.old, s.aoff)))
+        kern.initialise_rows(E, ready, born, N, s.old, s.aoff, s.arow, s.xy, ec.n_init, ec.spread_factor, ec.alpha0)
+        self._born(E, born)
         sliding = ec.efa_mode == "sliding"
-        kern.rma_efa_rows(E, ready, N, old, aoff, arow, polar, pts, np.ascontiguousarray(centroids, dtype=float),
-                          np.ascontiguousarray(centroid_covs, dtype=float), np.asarray(pose, dtype=float),
-                          np.asarray(pose_cov, dtype=float), self.R_extent, W, w_given, dt, ec.tau_s,
-                          ec.spread_factor, ec.eig_floor_m2, not ec.efa_noise_correct, not sliding)
-        _scatter(E, states, born, k, ec.efa_window)
-        if sliding:
-            for j in np.flatnonzero(ready).tolist():
-                if assoc[j]:
-                    a = assoc[j]
-                    Wj = _scan_W(pose, pose_cov, polar[a], self.R_extent, ec.w_mode) if ec.efa_noise_correct else None
-                    self._efa_baseline(states[j], pts[a], Wj)
+        self._scan(E, ready, s, not sliding)
+        self._after(E, states, s)
+        self._scatter(E, states, born, k)
+        for j in np.flatnonzero(ready).tolist() if sliding else ():
+            a = assoc[j]
+            if a:
+                Wj = _scan_W(pose, pose_cov, polar[a], self.R_extent, ec.w_mode) if ec.efa_noise_correct else None
+                self._efa_baseline(states[j], s.xy[a], Wj)
+
+    # The hooks of the extent step over array-held states (:meth:`_rows_step`), for the subclasses.
+    def _born(self, E: ExtentRows, born: np.ndarray) -> None:
+        """What a landmark whose extent was initialised now (``born[j] > 0``) starts with besides."""
+
+    def _scan(self, E: ExtentRows, ready: np.ndarray, s: ScanRows, efa: bool) -> None:
+        """The scan's step of the landmarks ``ready``: a.4-a.5 and the EFA of Decision 5."""
+        ec = self.c
+        self._kernels.rma_efa_rows(E, ready, len(ready), s.old, s.aoff, s.arow, s.polar, s.xy, s.cents, s.ccovs,
+                                   s.pose, s.pose_cov, self.R_extent, s.W, s.w_given, s.dt, ec.tau_s, ec.spread_factor,
+                                   ec.eig_floor_m2, not ec.efa_noise_correct, efa)
+
+    def _after(self, E: ExtentRows, states: list, s: ScanRows) -> None:
+        """A further step of every landmark after :meth:`_scan` (a subclass's own estimate)."""
+
+    def _gather(self, states: list[RmaEfaState]) -> ExtentRows:
+        """The states as the rows of one record (new arrays)."""
+        n, zero = len(states), np.zeros((2, 2))
+        E = empty_rows(n, max([st.n_buffered for st in states], default=0))
+        for j, st in enumerate(states):
+            E.einit[j], E.alpha[j], E.nbuf[j] = st.initialized, st.alpha, st.n_buffered
+            E.X[j] = zero if st.X is None else st.X
+            E.Xefa[j] = zero if st.X_efa is None else st.X_efa
+            E.buf[j, :st.n_buffered] = st.buffer[:st.n_buffered]
+        return E
+
+    def _scatter(self, E: ExtentRows, states: list[RmaEfaState], born: np.ndarray, k: int) -> None:
+        """The rows written back into ``states``; a landmark initialised now (``born[j]``
+        detections fitted) records the scan ``k`` and starts the sliding EFA's buffer with them."""
+        for j, st in enumerate(states):
+            n = int(born[j])
+            if n:
+                st.initialized_at = k
+                st.efa_buffer = [E.buf[j, :n][-self.c.efa_window:].copy()]
+            st.n_buffered = int(E.nbuf[j])
+            st.buffer = E.buf[j, :st.n_buffered].copy()
+            if E.einit[j]:
+                st.X, st.alpha, st.X_efa = E.X[j].copy(), float(E.alpha[j]), E.Xefa[j].copy()
 
     def _efa_baseline(self, st: RmaEfaState, pts: np.ndarray, W: np.ndarray | None) -> None:
         """The EFA baseline of the scan (Decision 5, d.3): the fit of this scan's detections (or of
@@ -270,33 +325,18 @@ class RmaEfaEstimator:
             if fit:
                 st.X_efa = fit[1]
 
-    def _buffer(self, st: RmaEfaState, pts: np.ndarray, k: int) -> None:
-        """a.3 for one landmark (:func:`~radarslam.extent.rows.initialise_rows` on it alone):
-        buffer detections; once more than ``n_init`` are held, initialise X by EFA (upper bound)
-        with ``alpha_0``; a degenerate fit keeps only the newest ``n_init`` and waits."""
-        ec, kern = self.c, self._kernels
-        E = _gather([st])
-        one = np.zeros(2, dtype=np.int64)
-        one[1] = pts.shape[0]
-        zero, ready, born = np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.bool_), np.zeros(1, dtype=np.int64)
-        E = E._replace(buf=grown_inner(E.buf, kern.buffer_need(E, ready, 1, zero, one)))
-        kern.initialise_rows(E, ready, born, 1, zero, one, np.arange(pts.shape[0], dtype=np.int64),
-                             np.ascontiguousarray(pts, dtype=float).reshape(-1, 2), ec.n_init, ec.spread_factor,
-                             ec.alpha0)
-        _scatter(E, [st], born, k, ec.efa_window)
+    #: The partial view's shapes take part in a merge (:func:`~radarslam.extent.rows.merge_rows`).
+    _merges_view = False
 
     def merge(self, survivor: RmaEfaState, gone: RmaEfaState) -> RmaEfaState:
-        """c.9 [PROP] (:func:`~radarslam.extent.buffering.merge_outcome`): the surviving landmark
-        keeps its own extent; it takes the other's when it has none yet, and two uninitialised
-        landmarks pool their buffered detections."""
-        outcome = merge_outcome(survivor.initialized, gone.initialized)
-        if outcome == TAKE:
-            return gone
-        if outcome == POOL:
-            n = survivor.n_buffered + gone.n_buffered
-            survivor.buffer = grown(survivor.buffer, n)
-            survivor.buffer[survivor.n_buffered:n] = gone.buffer[:gone.n_buffered]
-            survivor.n_buffered = n
+        """c.9 [PROP] by :func:`~radarslam.extent.rows.merge_rows`, the function the fused engine
+        calls: the surviving landmark keeps its own extent; it takes the other's when it has none
+        yet, and two uninitialised landmarks pool their buffered detections."""
+        E = self._gather([survivor, gone])
+        E = E._replace(buf=grown_inner(E.buf, survivor.n_buffered + gone.n_buffered))
+        if self._kernels.merge_rows(E, 0, 1, self._merges_view) == TAKE:
+            survivor.initialized_at, survivor.efa_buffer = gone.initialized_at, gone.efa_buffer
+        self._scatter(E, [survivor], np.zeros(1, dtype=np.int64), -1)
         return survivor
 
 
@@ -308,37 +348,6 @@ def _row_kernels(backend: str):
     else:
         from radarslam.extent import rows as kernels
     return kernels
-
-
-def _gather(states: list[RmaEfaState]) -> ExtentRows:
-    """The RMA/EFA states of ``states`` as the rows of one record (new arrays)."""
-    n = len(states)
-    zero = np.zeros((2, 2))
-    B = max([s.n_buffered for s in states], default=0)
-    E = ExtentRows(einit=np.array([s.initialized for s in states], dtype=np.bool_),
-                   X=np.array([zero if s.X is None else s.X for s in states], dtype=float).reshape(n, 2, 2),
-                   alpha=np.array([s.alpha for s in states], dtype=float),
-                   Xefa=np.array([zero if s.X_efa is None else s.X_efa for s in states], dtype=float).reshape(n, 2, 2),
-                   nbuf=np.array([s.n_buffered for s in states], dtype=np.int64), buf=np.zeros((n, B, 2)))
-    for j, s in enumerate(states):
-        E.buf[j, :s.n_buffered] = s.buffer[:s.n_buffered]
-    return E
-
-
-def _scatter(E: ExtentRows, states: list[RmaEfaState], born: np.ndarray, k: int, efa_window: int) -> None:
-    """The rows of ``E`` written back into ``states``; a landmark initialised now (``born[j]``
-    detections fitted) records the scan ``k`` and starts the sliding EFA's buffer with them."""
-    for j, s in enumerate(states):
-        n = int(born[j])
-        if n:
-            s.initialized_at = k
-            s.efa_buffer = [E.buf[j, :n][-efa_window:].copy()]
-            s.buffer, s.n_buffered = np.empty((0, 2)), 0
-        elif not E.einit[j]:
-            s.n_buffered = int(E.nbuf[j])
-            s.buffer = E.buf[j, :s.n_buffered].copy()
-        if E.einit[j]:
-            s.X, s.alpha, s.X_efa = E.X[j].copy(), float(E.alpha[j]), E.Xefa[j].copy()
 
 
 def _reference_contour(points, polar, pose, pose_cov, R, centroids, spreads, centroid_covs, gate):

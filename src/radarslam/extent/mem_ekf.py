@@ -46,16 +46,14 @@ from radarslam.core.registry import EXTENT_ESTIMATORS
 from radarslam.core.validation import as_array, as_points, as_scalar, as_spd
 from radarslam.extent.ellipse import _ellipse_to_matrix
 from radarslam.extent.estimator import RmaEfaEstimator, RmaEfaState
-from radarslam.extent.measurement import _scan_W
 from radarslam.extent.mem_ekf_kernels import (
     AXIS_FLOOR,
-    detection_cov_entries,
-    initial_shape,
     mem_ekf_predict_cov,
     mem_ekf_scan_entries,
     shape_entries,
 )
 from radarslam.extent.random_matrix import GAMMA_Z
+from radarslam.extent.rows import MEM_NOISE
 
 
 # --------------------------------------------------------------------------- shape <-> matrix
@@ -306,16 +304,6 @@ def _mem_ekf_predict(Cp: np.ndarray, dt: float, q_theta: float, q_axis: float) -
     return mem_ekf_predict_cov(Cp, dt, q_theta, q_axis)
 
 
-def _detection_covs(pose: np.ndarray, pose_cov: np.ndarray, polar: np.ndarray, R: np.ndarray) -> list:
-    """The per-detection ``W(i)`` of seed eq. (5) (docs/method.md a.2) as ``(W11, W12, W22)`` triples."""
-    (p00, p01, p02), (_, p11, p12), (_, _, p22) = pose_cov.tolist()
-    (r00, r01), (_, r11) = R.tolist()
-    return detection_cov_entries(float(pose[2]), p00, p01, p02, p11, p12, p22, r00, r01, r11, polar.tolist())
-
-
-_ZERO2, _ZERO3 = np.zeros((2, 2)), np.zeros((3, 3))
-
-
 # --------------------------------------------------------------------------- the component
 @dataclass
 class MemEkfState(RmaEfaState):
@@ -363,35 +351,29 @@ class MemEkfEstimator(RmaEfaEstimator):
         """``shape_matrix(p)`` (held in ``st.X``), or None before initialisation."""
         return st.X
 
-    def step(self, st: MemEkfState, polar: np.ndarray, pts: np.ndarray, centroid: np.ndarray,
-             centroid_cov: np.ndarray, pose: np.ndarray, pose_cov: np.ndarray, dt: float, k: int) -> None:
-        """a.3 (buffer, then EFA initialisation), then a.10 (MEM-EKF* prediction and update) and
-        the EFA baseline (Decision 5) for one landmark and one scan."""
-        if not self.c.track:
-            return
-        if not st.initialized:
-            self._buffer(st, pts, k)
-            if st.initialized:
-                (a, b), (_, c) = st.X.tolist()
-                p = np.array(initial_shape(a, b, c))
-                st.p, st.Cp = p, self.Cp0.copy()
-                st.X = _shape_matrix(p)
-            return
+    # The extent step over array-held states (RmaEfaEstimator._rows_step): a.3 is the parent's,
+    # then a.10 by extent.rows.mem_ekf_rows, the function the fused engine calls.
+    def _born(self, E, born) -> None:
+        self._kernels.mem_ekf_initialise_rows(E, born, len(born), self.Cp0)
+
+    def _scan(self, E, ready, s, efa: bool) -> None:
         ec = self.c
-        if dt > 0.0:
-            st.Cp = _mem_ekf_predict(st.Cp, dt, self.q_theta, self.q_axis)
-        if polar.shape[0] == 0:
-            return
-        # extent.mem_ekf_noise (a.10): the centroid's and the pose's errors are shared by every
-        # detection of a scan, so counting them per detection understates the shape in SLAM
-        mode = ec.mem_ekf_noise
-        cvs = _detection_covs(pose, pose_cov if mode != "sensor" else _ZERO3, polar, self.R_extent)
-        C_m = centroid_cov if mode == "full" else _ZERO2
-        st.p, st.Cp = _mem_ekf_update_scan(st.p, st.Cp, centroid, C_m, pts, cvs, ec.spread_factor, AXIS_FLOOR)
-        st.X = _shape_matrix(st.p)
-        # the EFA baseline, as in RmaEfaEstimator.step (Decision 5, d.3)
-        W = _scan_W(pose, pose_cov, polar, self.R_extent, ec.w_mode) if ec.efa_noise_correct else None
-        self._efa_baseline(st, pts, W)
+        self._kernels.mem_ekf_rows(E, ready, len(ready), s.old, s.aoff, s.arow, s.polar, s.xy, s.cents, s.ccovs, s.pose,
+                                   s.pose_cov, self.R_extent, s.W, s.w_given, s.dt, self.q_theta, self.q_axis,
+                                   MEM_NOISE[ec.mem_ekf_noise], ec.spread_factor, not ec.efa_noise_correct, efa)
+
+    def _gather(self, states: list[MemEkfState]):
+        E = super()._gather(states)
+        for j, st in enumerate(states):
+            if st.p is not None:
+                E.shape[j], E.Cs[j] = st.p, st.Cp
+        return E
+
+    def _scatter(self, E, states: list[MemEkfState], born, k: int) -> None:
+        super()._scatter(E, states, born, k)
+        for j, st in enumerate(states):
+            if E.einit[j]:
+                st.p, st.Cp = E.shape[j].copy(), E.Cs[j].copy()
 
 
 EXTENT_ESTIMATORS.register("mem-ekf", MemEkfEstimator.from_config)

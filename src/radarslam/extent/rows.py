@@ -21,21 +21,43 @@ from typing import NamedTuple
 
 import numpy as np
 
-from radarslam.extent.buffering import READY, buffer_and_fit
+from radarslam.extent.buffering import POOL, READY, TAKE, buffer_and_fit, merge_outcome
+from radarslam.extent.ellipse import _ellipse_to_matrix
 from radarslam.extent.ellipse_fit import fit_entries
 from radarslam.extent.measurement import max_trace_w_entries
+from radarslam.extent.mem_ekf_kernels import (AXIS_FLOOR, detection_cov_entries, initial_shape, mem_ekf_predict_cov,
+                                              mem_ekf_scan_entries)
 from radarslam.extent.random_matrix import rm_predict_alpha, rm_update_entries
+
+#: What each MEM-EKF* detection's noise holds besides the sensor's (``extent.mem_ekf_noise``, a.10):
+#: the sensor's alone; the pose's too; the centroid's too.
+MEM_SENSOR, MEM_NO_CENTROID, MEM_FULL = 0, 1, 2
+#: ``extent.mem_ekf_noise`` by name.
+MEM_NOISE = {"sensor": MEM_SENSOR, "no-centroid": MEM_NO_CENTROID, "full": MEM_FULL}
 
 
 class ExtentRows(NamedTuple):
-    """The random-matrix and EFA states of ``N`` landmarks (a.3-a.5, Decision 5), one row each."""
+    """The built-in extent estimators' states of ``N`` landmarks, one row each: the random-matrix
+    and EFA states (a.3-a.5, Decision 5), MEM-EKF*'s shapes (a.10) and the partial view's (a.12.7)."""
 
     einit: np.ndarray      #: (N,) bool, extent initialised
-    X: np.ndarray          #: (N, 2, 2) RMA extents
+    X: np.ndarray          #: (N, 2, 2) RMA extents (MEM-EKF*: the shapes' matrices)
     alpha: np.ndarray      #: (N,) RMA degrees of freedom
     Xefa: np.ndarray       #: (N, 2, 2) EFA extents
     nbuf: np.ndarray       #: (N,) int64, detections held before the extent is initialised (a.3)
     buf: np.ndarray        #: (N, B, 2) those detections in the world frame
+    shape: np.ndarray      #: (N, 3) MEM-EKF* shapes [theta, l1, l2]
+    Cs: np.ndarray         #: (N, 3, 3) their covariances
+    xi: np.ndarray         #: (N, 3) partial-view log-matrix shapes
+    Pxi: np.ndarray        #: (N, 3, 3) their covariances
+    nview: np.ndarray      #: (N,) int64, scans that updated the partial-view shape
+
+
+def empty_rows(N, B=0):
+    """An :class:`ExtentRows` of ``N`` fresh rows (zeros) with buffers of ``B``."""
+    return ExtentRows(np.zeros(N, dtype=np.bool_), np.zeros((N, 2, 2)), np.zeros(N), np.zeros((N, 2, 2)),
+                      np.zeros(N, dtype=np.int64), np.zeros((N, B, 2)), np.zeros((N, 3)), np.zeros((N, 3, 3)),
+                      np.zeros((N, 3)), np.zeros((N, 3, 3)), np.zeros(N, dtype=np.int64))
 
 
 def detections(xy, aoff, arow, o):
@@ -88,7 +110,6 @@ def rma_efa_rows(E, ready, N, old, aoff, arow, polar, xy, cents, ccovs, pose, po
     the centroid ``cents[j]`` of covariance ``ccovs[j]`` with the scan's ``W`` (seed eq. 5, the
     ``W(i)`` of largest trace, h.3; ``W[j]`` instead when ``w_given``), then, with ``efa``, the fit
     of the scan (d.3; the upper bound when ``upper``), kept when it succeeds. In place. A kernel."""
-    theta = pose[2]
     for j in range(N):
         if not ready[j]:
             continue
@@ -101,11 +122,7 @@ def rma_efa_rows(E, ready, N, old, aoff, arow, polar, xy, cents, ccovs, pose, po
             continue
         pol = detections(polar, aoff, arow, o)
         pts = detections(xy, aoff, arow, o)
-        if w_given:
-            w00, w01, w11 = W[j, 0, 0], W[j, 0, 1], W[j, 1, 1]
-        else:
-            w00, w01, w11 = max_trace_w_entries(theta, pose_cov[0, 0], pose_cov[0, 1], pose_cov[0, 2], pose_cov[1, 1],
-                                                pose_cov[1, 2], pose_cov[2, 2], R[0, 0], R[0, 1], R[1, 1], pol)
+        w00, w01, w11 = scan_w(j, pol, pose, pose_cov, R, W, w_given)
         n11, n12, n22, a = rm_update_entries(E.X[j, 0, 0], E.X[j, 0, 1], E.X[j, 1, 1], a, cents[j, 0], cents[j, 1],
                                              ccovs[j, 0, 0], ccovs[j, 0, 1], ccovs[j, 1, 1], pts, w00, w01, w11,
                                              gamma, eig_floor)
@@ -117,4 +134,90 @@ def rma_efa_rows(E, ready, N, old, aoff, arow, polar, xy, cents, ccovs, pose, po
                 E.Xefa[j, 0, 0], E.Xefa[j, 0, 1], E.Xefa[j, 1, 0], E.Xefa[j, 1, 1] = e11, e12, e12, e22
 
 
-KERNELS = (detections, buffer_need, initialise_rows, rma_efa_rows)
+def scan_w(j, pol, pose, pose_cov, R, W, w_given):
+    """The entries ``(W11, W12, W22)`` of the scan's ``W`` for landmark ``j`` with detections
+    ``pol``: the ``W(i)`` of largest trace (seed eq. 5, h.3), or ``W[j]`` when ``w_given``. A kernel."""
+    if w_given:
+        return W[j, 0, 0], W[j, 0, 1], W[j, 1, 1]
+    return max_trace_w_entries(pose[2], pose_cov[0, 0], pose_cov[0, 1], pose_cov[0, 2], pose_cov[1, 1],
+                               pose_cov[1, 2], pose_cov[2, 2], R[0, 0], R[0, 1], R[1, 1], pol)
+
+
+def mem_ekf_initialise_rows(E, born, N, Cp0):
+    """a.10's start for the landmarks initialised now (``born[j] > 0``): the shape of their EFA
+    extent (semi-axes floored), of covariance ``Cp0``, and ``X`` its matrix. In place. A kernel."""
+    for j in range(N):
+        if born[j] > 0:
+            th, l1, l2 = initial_shape(E.X[j, 0, 0], E.X[j, 0, 1], E.X[j, 1, 1])
+            E.shape[j, 0], E.shape[j, 1], E.shape[j, 2] = th, l1, l2
+            E.Cs[j] = Cp0
+            E.X[j] = _ellipse_to_matrix(l1, l2, th)
+
+
+def mem_ekf_rows(E, ready, N, old, aoff, arow, polar, xy, cents, ccovs, pose, pose_cov, R, W, w_given, dt, q_theta,
+                 q_axis, noise, gamma, upper, efa):
+    """a.10 for every landmark ``j < N`` ``ready``: the shape covariance grown over ``dt``, then the
+    scan's detections one by one, each with its ``W(i)`` (of the sensor noise alone under
+    ``noise = MEM_SENSOR``, else with the pose's) and with the centroid's covariance under
+    ``MEM_FULL``; ``X`` the new shape's matrix; with ``efa`` the EFA baseline of the scan
+    (Decision 5; its ``W`` only for the noise-corrected fit). In place. A kernel."""
+    pc = np.zeros((3, 3)) if noise == MEM_SENSOR else pose_cov
+    z2 = np.zeros((2, 2))
+    for j in range(N):
+        if not ready[j]:
+            continue
+        if dt > 0.0:
+            E.Cs[j] = mem_ekf_predict_cov(E.Cs[j], dt, q_theta, q_axis)
+        o = old[j]
+        if aoff[o + 1] == aoff[o]:
+            continue
+        pol = detections(polar, aoff, arow, o)
+        pts = detections(xy, aoff, arow, o)
+        cvs = detection_cov_entries(pose[2], pc[0, 0], pc[0, 1], pc[0, 2], pc[1, 1], pc[1, 2], pc[2, 2], R[0, 0],
+                                    R[0, 1], R[1, 1], pol)
+        cm = ccovs[j] if noise == MEM_FULL else z2
+        C, s = E.Cs[j], E.shape[j]
+        th, l1, l2, C[0, 0], C[0, 1], C[0, 2], C[1, 1], C[1, 2], C[2, 2] = mem_ekf_scan_entries(
+            s[0], s[1], s[2], C[0, 0], C[0, 1], C[0, 2], C[1, 1], C[1, 2], C[2, 2], cents[j, 0], cents[j, 1],
+            cm[0, 0], cm[0, 1], cm[1, 1], pts, cvs, gamma, AXIS_FLOOR)
+        C[1, 0], C[2, 0], C[2, 1] = C[0, 1], C[0, 2], C[1, 2]
+        s[0], s[1], s[2] = th, l1, l2
+        E.X[j] = _ellipse_to_matrix(l1, l2, th)
+        if efa:
+            w00, w01, w11 = 0.0, 0.0, 0.0
+            if not upper:
+                w00, w01, w11 = scan_w(j, pol, pose, pose_cov, R, W, w_given)
+            ok, _, _, e11, e12, e22 = fit_entries(pts, upper, w00, w01, w11, gamma)
+            if ok:
+                E.Xefa[j, 0, 0], E.Xefa[j, 0, 1], E.Xefa[j, 1, 0], E.Xefa[j, 1, 1] = e11, e12, e12, e22
+
+
+def merge_rows(E, keep, drop, view):
+    """c.9 [PROP] for the extents when landmark ``drop`` merges into ``keep``
+    (:func:`~.buffering.merge_outcome`): ``keep`` keeps its own extent, takes ``drop``'s (RMA/EFA
+    and MEM-EKF*'s shape) when it has none yet, or, neither having one, appends ``drop``'s buffered
+    detections to its own (``E.buf`` must have room for both). With ``view`` the partial view's
+    shape of the two updated by more scans is kept. In place. A kernel."""
+    outcome = merge_outcome(E.einit[keep], E.einit[drop])
+    if outcome == TAKE:
+        E.einit[keep], E.alpha[keep], E.nbuf[keep] = True, E.alpha[drop], E.nbuf[drop]
+        E.X[keep] = E.X[drop]
+        E.Xefa[keep] = E.Xefa[drop]
+        E.buf[keep] = E.buf[drop]
+        E.shape[keep] = E.shape[drop]
+        E.Cs[keep] = E.Cs[drop]
+    elif outcome == POOL:
+        n, m = E.nbuf[keep], E.nbuf[drop]
+        for a in range(m):
+            E.buf[keep, n + a, 0] = E.buf[drop, a, 0]
+            E.buf[keep, n + a, 1] = E.buf[drop, a, 1]
+        E.nbuf[keep] = n + m
+    if view and E.nview[drop] > E.nview[keep]:
+        E.xi[keep] = E.xi[drop]
+        E.Pxi[keep] = E.Pxi[drop]
+        E.nview[keep] = E.nview[drop]
+    return outcome
+
+
+KERNELS = (detections, buffer_need, initialise_rows, scan_w, rma_efa_rows, mem_ekf_initialise_rows, mem_ekf_rows,
+           merge_rows)

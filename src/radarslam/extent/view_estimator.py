@@ -48,6 +48,7 @@ from radarslam.core.small_matrices import abt_plus_cdt_into, cholesky_into, hpht
 from radarslam.extent.estimator import RmaEfaEstimator, RmaEfaState
 from radarslam.extent.partial_view import arc_moments
 from radarslam.extent.partial_view_jac import arc_xi_rows
+from radarslam.extent.rows import detections
 
 #: Gauss-Newton steps of the iterated update.
 VIEW_ITERATIONS = 3
@@ -298,9 +299,34 @@ def view_scan_data(polar: np.ndarray, pts: np.ndarray, theta: float, c0: float, 
     return y, Ws
 
 
+def view_rows(E, N, old, aoff, arow, polar, xy, cents, ccovs, pose, R, Q, qv2, rel, spread_only, shape_step):
+    """The partial view's part of the extent step (a.12.7) for every landmark ``j < N`` of the
+    array-held states ``E`` (:mod:`radarslam.extent.rows`): the shape's random walk ``P_xi += Q``,
+    then with this scan's detections the iterated update (:func:`view_update`) about the centroid
+    ``cents[j]`` (covariance ``ccovs[j]``) seen from the updated ``pose``; kept, and counted, when it
+    succeeds. In place. A kernel: the fused engine and :class:`PartialViewEstimator` alike."""
+    for j in range(N):
+        Pn = E.Pxi[j]
+        for a in range(3):
+            for b in range(3):
+                Pn[a, b] += Q[a, b]
+        o = old[j]
+        m = aoff[o + 1] - aoff[o]
+        if m == 0:
+            continue
+        y, Ws = view_scan_data(detections(polar, aoff, arow, o), detections(xy, aoff, arow, o), pose[2], cents[j, 0],
+                               cents[j, 1], R)
+        xi, Pu, status = view_update(E.xi[j], Pn, pose[0] - cents[j, 0], pose[1] - cents[j, 1], y, m, Ws, ccovs[j],
+                                     qv2, rel, spread_only, shape_step)
+        if status == 0:
+            E.xi[j] = xi
+            E.Pxi[j] = Pu
+            E.nview[j] += 1
+
+
 #: The kernels of this module, compiled with the arc kernels (extent/_compiled.py).
 KERNELS = (exp_sym2, predicted_rows, *small_matrices.KERNELS, rows_and_jacobian, view_update, arc_rows, put_arc_row,
-           sift_spreads, view_scan_data)
+           sift_spreads, view_scan_data, detections, view_rows)
 
 
 def log_matrix_to_X(xi: np.ndarray) -> np.ndarray:
@@ -335,6 +361,8 @@ class PartialViewEstimator(RmaEfaEstimator):
 
     name = "partial-view"
     baseline_name = "rma"
+    #: A merge keeps the shape of the two updated by more scans (extent.rows.merge_rows).
+    _merges_view = True
 
     def __init__(self, extent_config, R_extent: np.ndarray, backend: str = "python"):
         super().__init__(extent_config, R_extent, backend)
@@ -354,10 +382,10 @@ class PartialViewEstimator(RmaEfaEstimator):
         #: Central-difference step of the shape's Jacobians, 0 for the analytic ones (a.12.9).
         self.shape_step = 0.0 if ec.view_jacobian == "analytic" else FD_STEP
         if backend == "numba":
-            from radarslam.extent._compiled import view_scan_data as data, view_update as compiled
-            self._update, self._data = compiled, data
+            from radarslam.extent._compiled import view_rows as compiled
+            self._view_rows = compiled
         else:
-            self._update, self._data = view_update, view_scan_data
+            self._view_rows = view_rows
 
     def new(self) -> PartialViewState:
         return PartialViewState(xi=self.xi0.copy(), P_xi=self.P0.copy())
@@ -415,41 +443,22 @@ class PartialViewEstimator(RmaEfaEstimator):
         return super().round_diameter(X)
 
     # ------------------------------------------------------------------ life cycle
-    def step(self, st, polar, pts, centroid, centroid_cov, pose, pose_cov, dt, k) -> None:
-        super().step(st, polar, pts, centroid, centroid_cov, pose, pose_cov, dt, k)
-        self.view_step(st, polar, pts, centroid, centroid_cov, pose)
+    def _after(self, E, states: list[PartialViewState], s) -> None:
+        """The shapes' scan (module docstring, a.12.7) by :func:`view_rows`, the function the fused
+        engine calls (compiled under the numba backend), after the RMA/EFA step."""
+        self._view_rows(E, len(states), s.old, s.aoff, s.arow, s.polar, s.xy, s.cents, s.ccovs, s.pose, self.R_extent,
+                        self.Q, self.qv2, self.rel, self.spread_only, self.shape_step)
 
-    def step_all(self, states, polar, pts, assoc, centroids, centroid_covs, pose, pose_cov, dt, k) -> None:
-        self._rows_step(states, polar, pts, assoc, centroids, centroid_covs, pose, pose_cov, dt, k)   # RMA/EFA
+    def _gather(self, states: list[PartialViewState]):
+        E = super()._gather(states)
         for j, st in enumerate(states):
-            a = assoc[j]
-            self.view_step(st, polar[a], pts[a], centroids[j], centroid_covs[j], pose)
+            E.xi[j], E.Pxi[j], E.nview[j] = st.xi, st.P_xi, st.n_view
+        return E
 
-    def view_step(self, st: PartialViewState, polar: np.ndarray, pts: np.ndarray, centroid: np.ndarray,
-                  centroid_cov: np.ndarray, pose: np.ndarray) -> None:
-        """One scan's iterated EKF update of the landmark's shape (module docstring, a.12.7), by
-        the kernel :func:`view_update` (compiled under the numba backend)."""
-        st.P_xi = st.P_xi + self.Q
-        m = pts.shape[0]
-        if m == 0 or not self.c.track:
-            return
-        d = pose[:2] - centroid
-        y, Ws = self._data(np.ascontiguousarray(polar, dtype=float), np.ascontiguousarray(pts, dtype=float),
-                           float(pose[2]), float(centroid[0]), float(centroid[1]), self.R_extent)
-        xi, P, status = self._update(st.xi, st.P_xi, float(d[0]), float(d[1]), y, m, Ws,
-                                     np.ascontiguousarray(centroid_cov), self.qv2, self.rel, self.spread_only,
-                                     self.shape_step)
-        if status == 0:
-            st.xi, st.P_xi = xi, P
-            st.n_view += 1
-
-    def merge(self, survivor: PartialViewState, gone: PartialViewState) -> PartialViewState:
-        """As :meth:`RmaEfaEstimator.merge`; the survivor keeps the better-known shape of the two."""
-        xi, P, n = (gone.xi, gone.P_xi, gone.n_view) if gone.n_view > survivor.n_view else \
-            (survivor.xi, survivor.P_xi, survivor.n_view)
-        kept = super().merge(survivor, gone)
-        kept.xi, kept.P_xi, kept.n_view = xi, P, n
-        return kept
+    def _scatter(self, E, states: list[PartialViewState], born, k: int) -> None:
+        super()._scatter(E, states, born, k)
+        for j, st in enumerate(states):
+            st.xi, st.P_xi, st.n_view = E.xi[j].copy(), E.Pxi[j].copy(), int(E.nview[j])
 
 
 EXTENT_ESTIMATORS.register("partial-view", PartialViewEstimator.from_config)

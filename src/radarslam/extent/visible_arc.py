@@ -27,6 +27,7 @@ import numpy as np
 from radarslam.core.errors import InputError
 from radarslam.core.registry import EXTENT_ESTIMATORS
 from radarslam.extent.estimator import RmaEfaEstimator, RmaEfaState
+from radarslam.extent.rows import detections
 
 #: A gap between consecutive hits wider than this many beam steps splits the landmark's returns.
 MAX_GAP_STEPS = 1.5
@@ -67,6 +68,26 @@ def arc_width_diameter(polar: np.ndarray, beam_step: float) -> float:
     return 2.0 * float(polar[:, 0].min()) * s / (1.0 - s)
 
 
+def arc_widths_rows(polar, N, old, aoff, arow, beam_step, d, beam):
+    """The visible-arc part of the extent step (a.9) for every landmark ``j < N`` (its detections
+    as :mod:`radarslam.extent.rows` has them): this scan's diameter ``d[j]``
+    (:func:`arc_width_diameter`; NaN without detections or when they are not consecutive beams)
+    and beam width ``beam[j]`` at the nearest one's range. A kernel: the fused engine and
+    :class:`VisibleArcEstimator` alike."""
+    for j in range(N):
+        o = old[j]
+        d[j] = math.nan
+        beam[j] = 0.0
+        if aoff[o + 1] == aoff[o]:
+            continue
+        mine = detections(polar, aoff, arow, o)
+        d[j] = arc_width_diameter(mine, beam_step)
+        r_min = math.inf
+        for a in range(mine.shape[0]):
+            r_min = min(r_min, mine[a, 0])
+        beam[j] = r_min * beam_step
+
+
 def gated_diameter(d: np.ndarray, b: np.ndarray) -> float:
     """The trunk diameter from its per-scan diameters ``d (n,)`` and beam widths ``b (n,)`` (m), n >= 1:
     the mean of those within ``ARC_GATE_BEAMS b + ARC_GATE_M`` of their median, else the median.
@@ -102,20 +123,27 @@ class VisibleArcEstimator(RmaEfaEstimator):
 
     def __init__(self, extent_config, R_extent: np.ndarray, backend: str = "python"):
         super().__init__(extent_config, R_extent, backend)
+        if backend == "numba":
+            from radarslam.extent._compiled import arc_widths_rows as widths
+        else:
+            widths = arc_widths_rows
+        self._arc_widths = widths
         self.beam_step = math.radians(extent_config.beam_step_deg)
         self.min_scans = int(extent_config.arc_min_scans)
 
     def new(self) -> VisibleArcState:
         return VisibleArcState()
 
-    def step(self, st: VisibleArcState, polar: np.ndarray, pts: np.ndarray, centroid: np.ndarray,
-             centroid_cov: np.ndarray, pose: np.ndarray, pose_cov: np.ndarray, dt: float, k: int) -> None:
-        super().step(st, polar, pts, centroid, centroid_cov, pose, pose_cov, dt, k)
-        if self.c.track and polar.shape[0]:
-            d = arc_diameter(polar, self.beam_step)
-            if math.isfinite(d):
-                st.arc.append(d)
-                st.beam.append(float(polar[:, 0].min()) * self.beam_step)
+    def _after(self, E, states: list[VisibleArcState], s) -> None:
+        """Each landmark's width of this scan (:func:`arc_widths_rows`, the function the fused
+        engine calls), kept when finite."""
+        n = len(states)
+        d, beam = np.empty(n), np.empty(n)
+        self._arc_widths(s.polar, n, s.old, s.aoff, s.arow, self.beam_step, d, beam)
+        for j, st in enumerate(states):
+            if math.isfinite(d[j]):
+                st.arc.append(float(d[j]))
+                st.beam.append(float(beam[j]))
 
     def diameter(self, st: VisibleArcState) -> float:
         """The trunk diameter (m): the gated mean of the per-scan widths (module docstring); NaN

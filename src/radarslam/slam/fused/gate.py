@@ -9,7 +9,7 @@ memory in the world frame of the pose at the scan (:func:`remember`, c.10.4.3), 
 landmarks a moving object was seen on (:func:`moving_young`, removed with step 5, c.10.4.4), and
 the veto of new clusters near a remembered moving detection (:func:`veto`, step 7). ``cfg`` is
 the engine's :class:`~radarslam.slam.fused.plan.FusedParams`. The three steps are compiled as
-functions of their own, not inlined into ``run_stream`` (as ``extent._mem_ekf_ready``): inlined,
+functions of their own, not inlined into ``run_stream`` (as the extent step's row kernels, ``extent.rows``): inlined,
 they made the engine's cold compilation longer (about 128-143 s of CPU against 126 s, measured
 under load with ``NUMBA_CACHE_DIR`` fresh).
 """

@@ -12,8 +12,7 @@ import numpy as np
 from numba import njit
 
 from radarslam.core.jit import compile_kernels
-from radarslam.extent._compiled import merge_outcome
-from radarslam.extent.buffering import POOL, TAKE
+from radarslam.extent._compiled import merge_rows
 from radarslam.landmarks._compiled import compiled_add_record
 from radarslam.landmarks._compiled import compiled_closest_pair as _closest_pair
 from radarslam.landmarks._compiled import compiled_rule12 as _rule12
@@ -22,8 +21,7 @@ from radarslam.landmarks.confirmation import Tentatives
 from radarslam.models.radar import inverse_jacobians, polar_to_xy
 from radarslam.slam import ekf
 from radarslam.slam._numba import _polar_to_sensor_xy, min_log_distance
-from radarslam.slam.fused.view import view_merge, view_newborn
-from radarslam.slam.layout import POSE_DIM
+from radarslam.slam.fused.view import view_newborn
 from radarslam.slam.fused.storage import (
     Clusters,
     _drop_state_rows,
@@ -163,20 +161,8 @@ def merge(x, P, lm, N, arcs, cfg):  # pragma: no cover - compiled
         bi, bj = _closest_pair(pos, lm.created[:N], lm.ids[:N], cfg.merge_distance, cfg.merge_axis_tol)
         if bi < 0:
             break
-        # the survivor keeps its extent, takes the other's if it has none, or pools the buffers
-        outcome = merge_outcome(lm.einit[bi], lm.einit[bj])
-        if outcome == TAKE:
-            lm.einit[bi], lm.X[bi], lm.alpha[bi], lm.Xefa[bi], lm.nbuf[bi] = (
-                True, lm.X[bj], lm.alpha[bj], lm.Xefa[bj], lm.nbuf[bj])
-            lm.buf[bi] = lm.buf[bj]
-            lm.shape[bi] = lm.shape[bj]
-            lm.Cs[bi] = lm.Cs[bj]
-        elif outcome == POOL:
-            lm = with_buffer(lm, lm.nbuf[bi] + lm.nbuf[bj])
-            lm.buf[bi, lm.nbuf[bi]:lm.nbuf[bi] + lm.nbuf[bj]] = lm.buf[bj, :lm.nbuf[bj]]
-            lm.nbuf[bi] += lm.nbuf[bj]
-        if cfg.pv.on:
-            view_merge(lm, bi, bj)
+        lm = with_buffer(lm, lm.nbuf[bi] + lm.nbuf[bj])
+        merge_rows(lm, bi, bj, cfg.pv.on)                 # the extents (extent.rows.merge_rows)
         pool_arcs(arcs, lm, bi, bj)
         keepm = np.ones(N, dtype=np.bool_)
         keepm[bj] = False

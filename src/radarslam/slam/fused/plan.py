@@ -64,7 +64,7 @@ class FusedParams(NamedTuple):
     kappa: float           #: extent.kappa
     beam_step: float       #: extent.beam_step_deg, in radians (visible-arc)
     mem: bool              #: the extent estimator is "mem-ekf" (MEM-EKF*, docs/method.md a.10)
-    mem_noise: int         #: extent.mem_ekf_noise: 0 sensor, 1 no-centroid, 2 full (fused.extent.MEM_SENSOR, ...)
+    mem_noise: int         #: extent.mem_ekf_noise: 0 sensor, 1 no-centroid, 2 full (extent.rows.MEM_SENSOR, ...)
     mem_q_theta: float     #: extent.mem_ekf_process_std[0], in radians per sqrt(s)
     mem_q_axis: float      #: extent.mem_ekf_process_std[1] (m per sqrt(s))
     wheelbase: float       #: Ackermann L (filter.vehicle_L_m)
@@ -191,7 +191,7 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
     from radarslam.extent.visible_arc import VisibleArcEstimator
     from radarslam.models.ackermann import AckermannModel
     from radarslam.slam._jcbb_numba import CompiledJcbbAssociator
-    from radarslam.slam.fused.extent import MEM_FULL, MEM_NO_CENTROID, MEM_SENSOR
+    from radarslam.extent.rows import MEM_NOISE
     from radarslam.slam._numba import CompiledBatchAssociator, CompiledJointBatchAssociator
     from radarslam.slam.fused.tracking import ACKERMANN, UNICYCLE
     from radarslam.slam.partial_view import PartialViewBatch, PartialViewJointBatch
@@ -231,7 +231,7 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
         gate=float(slam.extent.gate), gamma=float(ec.spread_factor),
         alpha0=float(ec.alpha0), tau=float(ec.tau_s), eig_floor=float(ec.eig_floor_m2), kappa=float(ec.kappa),
         beam_step=float(slam.extent.beam_step) if arc else 0.0,
-        mem=mem, mem_noise={"sensor": MEM_SENSOR, "no-centroid": MEM_NO_CENTROID, "full": MEM_FULL}[ec.mem_ekf_noise],
+        mem=mem, mem_noise=MEM_NOISE[ec.mem_ekf_noise],
         mem_q_theta=float(slam.extent.q_theta) if mem else 0.0, mem_q_axis=float(slam.extent.q_axis) if mem else 0.0,
         wheelbase=float(model.L) if ackermann else 0.0, encoder_offset=float(model.H) if ackermann else 0.0,
         lever=float(model.lever) if ackermann else 0.0, sensor_b=float(model.b) if ackermann else 0.0,

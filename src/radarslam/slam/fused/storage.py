@@ -15,16 +15,13 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from radarslam.core.jit import compile_kernels
-from radarslam.extent.visible_arc import arc_width_diameter, gated_diameter
+from radarslam.extent._compiled import gated_diameter as compiled_gated_diameter
 from radarslam.landmarks._compiled import compiled_compact_records, compiled_grown, compiled_grown_inner, compiled_with_room
 from radarslam.landmarks.records import Records
 from radarslam.slam import _view_compiled
 
-# The visible-arc estimator's own kernels, compiled as they are (docs/method.md a.9).
-_ARC = compile_kernels(arc_width_diameter, gated_diameter)
-_arc_width_diameter = _ARC["arc_width_diameter"]
-_gated_diameter = _ARC["gated_diameter"]
+# The visible-arc estimator's trunk diameter, compiled as it is (docs/method.md a.9).
+_gated_diameter = compiled_gated_diameter
 _exp_sym2 = _view_compiled.exp_sym2
 
 

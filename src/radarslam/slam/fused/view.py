@@ -12,9 +12,7 @@ compiled in :mod:`radarslam.slam._view_compiled`; the shape update of
 - :func:`view_associate`: the partial-view nearest-neighbour, batch and batch-joint associators
   (``slam.partial_view``), with each landmark's model error and polar terms computed when a
   detection first needs them (the same values, not every landmark's);
-- :func:`view_shape_step`: the shape's iterated update per scan (``PartialViewEstimator.view_step``);
-- :func:`view_newborn` and :func:`view_merge`: a new landmark's shape and view-corrected
-  centroid (a.12.6), and the shape a merge keeps.
+- :func:`view_newborn`: a new landmark's shape and view-corrected centroid (a.12.6).
 """
 
 from __future__ import annotations
@@ -25,7 +23,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from radarslam.extent._compiled import measurement_contour, sift_spreads, view_scan_data, view_update
+from radarslam.extent._compiled import measurement_contour, sift_spreads
 from radarslam.landmarks._compiled import compiled_candidates, compiled_seen_landmarks
 from radarslam.slam._numba import (_joseph_update_inplace, _polar_to_sensor_xy, _smallest, _wrap_pi, joint_update_loops,
                                    stacked_rows)
@@ -378,31 +376,6 @@ def view_associate(x, P, polar, cidx, lm, N, shapes, terms, noise, cfg):  # prag
 
 
 @njit(cache=True)
-def view_shape_step(x, polar, xy, lm, N, old, aoff, arow, cents, ccovs, noise, cfg):  # pragma: no cover - compiled
-    """Step 6's partial-view part (``PartialViewEstimator.view_step``, a.12.7) for every landmark:
-    the shape's random walk, then with this scan's detections the iterated update about the
-    centroid ``cents[j]`` (covariance ``ccovs[j]``) seen from the updated pose, in place."""
-    v = cfg.pv
-    for j in range(N):
-        Pn = lm.Pxi[j]                                   # the random walk, in place
-        for a in range(3):
-            for b in range(3):
-                Pn[a, b] += v.Q[a, b]
-        o = old[j]
-        na = aoff[o + 1] - aoff[o]
-        if na == 0:
-            continue
-        rows = arow[aoff[o]:aoff[o + 1]]
-        y, Ws = view_scan_data(polar[rows], xy[rows], x[2], cents[j, 0], cents[j, 1], noise.R_ext)
-        xi, Pu, status = view_update(lm.xi[j], Pn, x[0] - cents[j, 0], x[1] - cents[j, 1], y, na, Ws,
-                                     ccovs[j], v.qv2, v.rel, v.spread_only, v.shape_step)
-        if status == 0:
-            lm.xi[j] = xi
-            lm.Pxi[j] = Pu
-            lm.nview[j] += 1
-
-
-@njit(cache=True)
 def view_newborn(x, lm, n, cfg):  # pragma: no cover - compiled
     """Landmark ``n``, just added as the last of ``x``: the prior shape, no view yet and, with
     ``cfg.pv.init_correct``, its centroid moved so that the prior shape's arc mean seen from the
@@ -414,11 +387,3 @@ def view_newborn(x, lm, n, cfg):  # pragma: no cover - compiled
     lm.vangle[n] = np.nan
     if v.on and v.init_correct:
         x[-2], x[-1] = corrected_centroid(x[-2], x[-1], x[0], x[1], v.X0, CORRECTION_ITERATIONS)
-
-
-@njit(cache=True)
-def view_merge(lm, keep, drop):  # pragma: no cover - compiled
-    """A merge's survivor ``keep`` takes the partial-view shape of ``drop`` when that one was
-    updated by more scans (``PartialViewEstimator.merge``)."""
-    if lm.nview[drop] > lm.nview[keep]:
-        lm.xi[keep], lm.Pxi[keep], lm.nview[keep] = lm.xi[drop], lm.Pxi[drop], lm.nview[drop]
