@@ -33,6 +33,12 @@ def _record(L, B=0):
     return rows.empty_rows(L, B)
 
 
+def _setting(backend, seed, L):
+    """The kernels, a generator, ``L`` landmark centres and a fresh record of ``L`` rows."""
+    rng = np.random.default_rng(seed)
+    return _kernels(backend), rng, rng.uniform(-20, 20, (L, 2)), _record(L)
+
+
 def _scan(rng, L, pose, counts, centres):
     """Detections around ``centres`` (counts per landmark), in the world and the sensor frame, and
     their association rows (CSR)."""
@@ -83,11 +89,8 @@ def test_the_scan_step_is_the_public_equations_landmark_by_landmark(backend):
     """a.4-a.5 and Decision 5 for each ``ready`` landmark: rm_predict, the max-trace W of seed
     eq. (5) (select_scan_W), rm_update and fit_ellipse, to 1e-12; a landmark without detections
     is only predicted; one not ready is left alone (negative control: it would have moved)."""
-    k = _kernels(backend)
-    rng = np.random.default_rng(9)
     L = 6
-    centres = rng.uniform(-20, 20, (L, 2))
-    E = _record(L)
+    k, rng, centres, E = _setting(backend, 9, L)
     for j in range(L):
         E.X[j] = np.diag(rng.uniform(0.5, 3.0, 2))
         E.Xefa[j] = np.eye(2)
@@ -180,11 +183,8 @@ def test_the_mem_ekf_scan_is_the_public_update_landmark_by_landmark(backend):
     matrix; a landmark not ready is left alone."""
     from radarslam.extent.mem_ekf import mem_ekf_predict, mem_ekf_update_scan, shape_matrix
 
-    k = _kernels(backend)
-    rng = np.random.default_rng(17)
     L = 4
-    centres = rng.uniform(-20, 20, (L, 2))
-    E = _record(L)
+    k, rng, centres, E = _setting(backend, 17, L)
     for j in range(L):
         E.shape[j] = [rng.uniform(0, np.pi), rng.uniform(1.5, 2.5), rng.uniform(0.6, 1.0)]
         E.Cs[j] = np.diag([0.05, 0.1, 0.1])
