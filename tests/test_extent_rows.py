@@ -286,3 +286,32 @@ def test_a_merge_keeps_takes_or_pools_as_merge_outcome_says(backend):
     assert k.merge_rows(E, 0, 1, False) == POOL
     assert E.nbuf[0] == 5 and np.array_equal(E.buf[0, :2], mine) and np.array_equal(E.buf[0, 2:5], E.buf[1, :3])
     assert not E.einit[0] and E.nview[0] == 0                                   # no view: its shape stays
+
+
+@pytest.mark.parametrize("backend", ["python", "numba"])
+def test_the_sliding_efa_fits_the_last_window_of_detections(backend):
+    """``extent.efa_mode = "sliding"`` (kept in the estimator, after the row kernels): once the
+    extent is initialised, the EFA baseline is the fit of the last ``efa_window`` detections the
+    landmark was given, those buffered before the initialisation included."""
+    from dataclasses import replace
+
+    from radarslam.extent.estimator import RmaEfaEstimator
+
+    if backend == "numba":
+        require("numba")
+    cfg = profile_config()
+    ec = replace(cfg.extent, efa_mode="sliding", efa_window=12)
+    est = RmaEfaEstimator(ec, ec.R(cfg.filter.R), backend)
+    st, seen = est.new(), []
+    rng = np.random.default_rng(8)
+    pose, pose_cov = np.array([0.0, 0.0, 0.1]), np.diag([0.01, 0.01, 1e-4])
+    centre = np.array([[14.0, 5.0]])
+    for k in range(1, 16):
+        xy, polar, _, _ = _scan(rng, 1, pose, [4], centre)
+        est.step(st, polar, xy, centre[0], 0.02 * np.eye(2), pose, pose_cov, 0.1, k)
+        seen.append(xy)
+    assert st.initialized and st.initialized_at < 15
+    _, X = fit_ellipse(np.concatenate(seen)[-12:], True, None, ec.spread_factor)
+    assert np.allclose(st.X_efa, X, rtol=1e-12, atol=0)
+    _, X_scan = fit_ellipse(seen[-1], True, None, ec.spread_factor)          # not the last scan's alone
+    assert not np.allclose(st.X_efa, X_scan)

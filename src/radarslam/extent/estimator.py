@@ -248,7 +248,7 @@ class RmaEfaEstimator:
         polar = np.ascontiguousarray(polar, dtype=float).reshape(-1, 2)
         pose, pose_cov = np.asarray(pose, dtype=float), np.asarray(pose_cov, dtype=float)
         w_given = ec.w_mode != "max_trace"
-        W = np.zeros((N if w_given else 0, 2, 2))
+        W = np.zeros((N, 2, 2)) if w_given else _NO_W
         for j in range(N if w_given else 0):
             if assoc[j]:
                 W[j] = _scan_W(pose, pose_cov, polar[assoc[j]], self.R_extent, ec.w_mode)
@@ -259,9 +259,13 @@ class RmaEfaEstimator:
         kern = self._kernels
         E = self._gather(states)
         ready, born = E.einit.copy(), np.zeros(N, dtype=np.int64)
-        E = E._replace(buf=grown_inner(E.buf, kern.buffer_need(E, ready, N, s.old, s.aoff)))
-        kern.initialise_rows(E, ready, born, N, s.old, s.aoff, s.arow, s.xy, ec.n_init, ec.spread_factor, ec.alpha0)
-        self._born(E, born)
+        if not ready.all():                              # a.3 for the landmarks without an extent
+            need = kern.buffer_need(E, ready, N, s.old, s.aoff)
+            if need > E.buf.shape[1]:
+                E = E._replace(buf=grown_inner(E.buf, need))
+            kern.initialise_rows(E, ready, born, N, s.old, s.aoff, s.arow, s.xy, ec.n_init, ec.spread_factor,
+                                 ec.alpha0)
+            self._born(E, born)
         sliding = ec.efa_mode == "sliding"
         self._scan(E, ready, s, not sliding)
         self._after(E, states, s)
@@ -288,38 +292,42 @@ class RmaEfaEstimator:
 
     def _gather(self, states: list[RmaEfaState]) -> ExtentRows:
         """The states as the rows of one record (new arrays)."""
-        n, zero = len(states), np.zeros((2, 2))
-        E = empty_rows(n, max([st.n_buffered for st in states], default=0))
-        for j, st in enumerate(states):
-            E.einit[j], E.alpha[j], E.nbuf[j] = st.initialized, st.alpha, st.n_buffered
-            E.X[j] = zero if st.X is None else st.X
-            E.Xefa[j] = zero if st.X_efa is None else st.X_efa
-            E.buf[j, :st.n_buffered] = st.buffer[:st.n_buffered]
+        Xs = [st.X for st in states]
+        nb = [st.n_buffered for st in states]
+        E = empty_rows(len(states), max(nb, default=0))
+        if states:
+            E.einit[:] = [X is not None for X in Xs]
+            E.alpha[:] = [st.alpha for st in states]
+            E.nbuf[:] = nb
+            E.X[:] = [_ZERO2 if X is None else X for X in Xs]
+            E.Xefa[:] = [_ZERO2 if st.X_efa is None else st.X_efa for st in states]
+        for j, n in enumerate(nb):
+            if n:
+                E.buf[j, :n] = states[j].buffer[:n]
         return E
 
     def _scatter(self, E: ExtentRows, states: list[RmaEfaState], born: np.ndarray, k: int) -> None:
-        """The rows written back into ``states``; a landmark initialised now (``born[j]``
-        detections fitted) records the scan ``k`` and starts the sliding EFA's buffer with them."""
+        """The rows written back into ``states`` (as views of the record's rows: a record is made
+        for one step and not changed after); a landmark initialised now (``born[j]`` detections
+        fitted) records the scan ``k`` and starts the sliding EFA's buffer with them."""
+        nbuf, alpha, einit, fitted = E.nbuf.tolist(), E.alpha.tolist(), E.einit.tolist(), born.tolist()
         for j, st in enumerate(states):
-            n = int(born[j])
-            if n:
+            n = nbuf[j]
+            if fitted[j]:
                 st.initialized_at = k
-                st.efa_buffer = [E.buf[j, :n][-self.c.efa_window:].copy()]
-            st.n_buffered = int(E.nbuf[j])
-            st.buffer = E.buf[j, :st.n_buffered].copy()
-            if E.einit[j]:
-                st.X, st.alpha, st.X_efa = E.X[j].copy(), float(E.alpha[j]), E.Xefa[j].copy()
+                st.efa_buffer = [E.buf[j, :fitted[j]][-self.c.efa_window:].copy()]
+            if n or st.n_buffered:
+                st.n_buffered, st.buffer = n, E.buf[j, :n]
+            if einit[j]:
+                st.X, st.alpha, st.X_efa = E.X[j], alpha[j], E.Xefa[j]
 
     def _efa_baseline(self, st: RmaEfaState, pts: np.ndarray, W: np.ndarray | None) -> None:
-        """The EFA baseline of the scan (Decision 5, d.3): the fit of this scan's detections (or of
-        the sliding buffer), with the spread factor of a.11; ``W`` (the scan's, seed eq. 5) is used
-        only by the noise-corrected fit. Kept when the fit fails."""
+        """The EFA baseline of the scan (Decision 5, d.3) under ``efa_mode = "sliding"``: the fit of
+        the sliding buffer with this scan's detections, with the spread factor of a.11; ``W`` (the
+        scan's, seed eq. 5) is used only by the noise-corrected fit. Kept when the fit fails."""
         ec = self.c
-        if ec.efa_mode == "sliding":
-            data = np.concatenate(st.efa_buffer + [pts])[-ec.efa_window:]
-            st.efa_buffer = [data]
-        else:
-            data = pts
+        data = np.concatenate(st.efa_buffer + [pts])[-ec.efa_window:]
+        st.efa_buffer = [data]
         if data.shape[0] >= 3:
             fit = _fit_ellipse(data, not ec.efa_noise_correct, W if ec.efa_noise_correct else None, ec.spread_factor)
             if fit:
@@ -338,6 +346,9 @@ class RmaEfaEstimator:
             survivor.initialized_at, survivor.efa_buffer = gone.initialized_at, gone.efa_buffer
         self._scatter(E, [survivor], np.zeros(1, dtype=np.int64), -1)
         return survivor
+
+
+_ZERO2, _NO_W = np.zeros((2, 2)), np.zeros((0, 2, 2))
 
 
 def _row_kernels(backend: str):

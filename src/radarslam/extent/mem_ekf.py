@@ -373,7 +373,7 @@ class MemEkfEstimator(RmaEfaEstimator):
         super()._scatter(E, states, born, k)
         for j, st in enumerate(states):
             if E.einit[j]:
-                st.p, st.Cp = E.shape[j].copy(), E.Cs[j].copy()
+                st.p, st.Cp = E.shape[j], E.Cs[j]
 
 
 EXTENT_ESTIMATORS.register("mem-ekf", MemEkfEstimator.from_config)

@@ -451,14 +451,16 @@ class PartialViewEstimator(RmaEfaEstimator):
 
     def _gather(self, states: list[PartialViewState]):
         E = super()._gather(states)
-        for j, st in enumerate(states):
-            E.xi[j], E.Pxi[j], E.nview[j] = st.xi, st.P_xi, st.n_view
+        if states:
+            E.xi[:], E.Pxi[:] = [st.xi for st in states], [st.P_xi for st in states]
+            E.nview[:] = [st.n_view for st in states]
         return E
 
     def _scatter(self, E, states: list[PartialViewState], born, k: int) -> None:
         super()._scatter(E, states, born, k)
+        nview = E.nview.tolist()
         for j, st in enumerate(states):
-            st.xi, st.P_xi, st.n_view = E.xi[j].copy(), E.Pxi[j].copy(), int(E.nview[j])
+            st.xi, st.P_xi, st.n_view = E.xi[j], E.Pxi[j], nview[j]
 
 
 EXTENT_ESTIMATORS.register("partial-view", PartialViewEstimator.from_config)
