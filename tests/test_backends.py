@@ -103,7 +103,7 @@ def test_batched_extent_step_equals_per_landmark_steps():
 
     cfg = profile_config()
     ref, fast = (RmaEfaEstimator(cfg.extent, cfg.extent.R(cfg.filter.R), b) for b in ("python", "numba"))
-    assert fast._kernels is _compiled and ref._kernels is rows
+    assert fast._kernels.rma_efa_rows is _compiled.rma_efa_rows and ref._kernels.rma_efa_rows is rows.rma_efa_rows
     r = np.random.default_rng(13)
     L = 9
     states = {e: [e.new() for _ in range(L)] for e in (ref, fast)}

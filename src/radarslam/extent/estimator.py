@@ -15,6 +15,7 @@ fitting, with the per-scan EFA baseline tracked beside it.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 from typing import Any, NamedTuple, Protocol
 
 import numpy as np
@@ -351,14 +352,20 @@ class RmaEfaEstimator:
 _ZERO2, _NO_W = np.zeros((2, 2)), np.zeros((0, 2, 2))
 
 
-def _row_kernels(backend: str):
-    """The extent step's kernels over array-held states (:mod:`radarslam.extent.rows`): as Python,
-    or compiled under the numba backend (:mod:`radarslam.extent._compiled`)."""
+def _row_kernels(backend: str) -> SimpleNamespace:
+    """The extent step's kernels over array-held states (:mod:`radarslam.extent.rows`) for
+    ``backend``: the per-scan steps compiled under numba (:mod:`radarslam.extent._compiled`), as
+    Python otherwise; the bookkeeping that runs once in a landmark's life (a.3's buffering and
+    initialisation, a merge) as Python under both, a handful of small loops that would cost a
+    first run on a fresh machine seconds of compilation for microseconds of work."""
+    from radarslam.extent import rows
+
+    scan = rows
     if backend == "numba":
-        from radarslam.extent import _compiled as kernels
-    else:
-        from radarslam.extent import rows as kernels
-    return kernels
+        from radarslam.extent import _compiled as scan
+    return SimpleNamespace(buffer_need=rows.buffer_need, initialise_rows=rows.initialise_rows,
+                           mem_ekf_initialise_rows=rows.mem_ekf_initialise_rows, merge_rows=rows.merge_rows,
+                           rma_efa_rows=scan.rma_efa_rows, mem_ekf_rows=scan.mem_ekf_rows)
 
 
 def _reference_contour(points, polar, pose, pose_cov, R, centroids, spreads, centroid_covs, gate):
