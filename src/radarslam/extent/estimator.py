@@ -353,19 +353,23 @@ _ZERO2, _NO_W = np.zeros((2, 2)), np.zeros((0, 2, 2))
 
 
 def _row_kernels(backend: str) -> SimpleNamespace:
-    """The extent step's kernels over array-held states (:mod:`radarslam.extent.rows`) for
-    ``backend``: the per-scan steps compiled under numba (:mod:`radarslam.extent._compiled`), as
-    Python otherwise; the bookkeeping that runs once in a landmark's life (a.3's buffering and
-    initialisation, a merge) as Python under both, a handful of small loops that would cost a
-    first run on a fresh machine seconds of compilation for microseconds of work."""
-    from radarslam.extent import rows
+    """The extent step's kernels over array-held states for ``backend``, the one place that
+    chooses their form: the per-scan steps (:mod:`radarslam.extent.rows`, the visible arc's and the
+    partial view's) compiled under numba (:mod:`radarslam.extent._compiled`), as Python otherwise;
+    the bookkeeping that runs once in a landmark's life (a.3's buffering and initialisation, a
+    merge) as Python under both, a handful of small loops that would cost a first run on a fresh
+    machine seconds of compilation for microseconds of work."""
+    from radarslam.extent import rows, view_estimator, visible_arc
 
-    scan = rows
     if backend == "numba":
         from radarslam.extent import _compiled as scan
+    else:
+        scan = SimpleNamespace(rma_efa_rows=rows.rma_efa_rows, mem_ekf_rows=rows.mem_ekf_rows,
+                               arc_widths_rows=visible_arc.arc_widths_rows, view_rows=view_estimator.view_rows)
     return SimpleNamespace(buffer_need=rows.buffer_need, initialise_rows=rows.initialise_rows,
                            mem_ekf_initialise_rows=rows.mem_ekf_initialise_rows, merge_rows=rows.merge_rows,
-                           rma_efa_rows=scan.rma_efa_rows, mem_ekf_rows=scan.mem_ekf_rows)
+                           rma_efa_rows=scan.rma_efa_rows, mem_ekf_rows=scan.mem_ekf_rows,
+                           arc_widths_rows=scan.arc_widths_rows, view_rows=scan.view_rows)
 
 
 def _reference_contour(points, polar, pose, pose_cov, R, centroids, spreads, centroid_covs, gate):

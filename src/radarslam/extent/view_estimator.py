@@ -381,11 +381,6 @@ class PartialViewEstimator(RmaEfaEstimator):
         self.qv2 = ec.view_model_error_m ** 2
         #: Central-difference step of the shape's Jacobians, 0 for the analytic ones (a.12.9).
         self.shape_step = 0.0 if ec.view_jacobian == "analytic" else FD_STEP
-        if backend == "numba":
-            from radarslam.extent._compiled import view_rows as compiled
-            self._view_rows = compiled
-        else:
-            self._view_rows = view_rows
 
     def new(self) -> PartialViewState:
         return PartialViewState(xi=self.xi0.copy(), P_xi=self.P0.copy())
@@ -446,8 +441,8 @@ class PartialViewEstimator(RmaEfaEstimator):
     def _after(self, E, states: list[PartialViewState], s) -> None:
         """The shapes' scan (module docstring, a.12.7) by :func:`view_rows`, the function the fused
         engine calls (compiled under the numba backend), after the RMA/EFA step."""
-        self._view_rows(E, len(states), s.old, s.aoff, s.arow, s.polar, s.xy, s.cents, s.ccovs, s.pose, self.R_extent,
-                        self.Q, self.qv2, self.rel, self.spread_only, self.shape_step)
+        self._kernels.view_rows(E, len(states), s.old, s.aoff, s.arow, s.polar, s.xy, s.cents, s.ccovs, s.pose,
+                                self.R_extent, self.Q, self.qv2, self.rel, self.spread_only, self.shape_step)
 
     def _gather(self, states: list[PartialViewState]):
         E = super()._gather(states)

@@ -123,11 +123,6 @@ class VisibleArcEstimator(RmaEfaEstimator):
 
     def __init__(self, extent_config, R_extent: np.ndarray, backend: str = "python"):
         super().__init__(extent_config, R_extent, backend)
-        if backend == "numba":
-            from radarslam.extent._compiled import arc_widths_rows as widths
-        else:
-            widths = arc_widths_rows
-        self._arc_widths = widths
         self.beam_step = math.radians(extent_config.beam_step_deg)
         self.min_scans = int(extent_config.arc_min_scans)
 
@@ -139,7 +134,7 @@ class VisibleArcEstimator(RmaEfaEstimator):
         engine calls), kept when finite."""
         n = len(states)
         d, beam = np.empty(n), np.empty(n)
-        self._arc_widths(s.polar, n, s.old, s.aoff, s.arow, self.beam_step, d, beam)
+        self._kernels.arc_widths_rows(s.polar, n, s.old, s.aoff, s.arow, self.beam_step, d, beam)
         for j, st in enumerate(states):
             if math.isfinite(d[j]):
                 st.arc.append(float(d[j]))
