@@ -63,12 +63,17 @@ def run_recording_cmd(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     rec = _read(args)
     n = rec.scan_times().size
+    from radarslam.experiments.first_run import announce, choose
+
+    first = choose(config.filter.backend)                    # the first-run rule (experiments/first_run.py)
+    announce(first, config)
     bar = Progress(n, 0, unit="scans", enabled=sys.stderr.isatty())
-    run = run_recording(rec, config, on_scan=bar.update)
+    run = run_recording(rec, config, on_scan=bar.update, first_run=first)
     out = prepare_out_dir(args.out)
     refuse_finished(out / "run.json", "--out", args.overwrite)
     names = write_recording_outputs(out, run, {"recording": str(args.recording), "version": __version__,
-                                                "argv": sys.argv, "wall_seconds": time.perf_counter() - t0})
+                                                "argv": sys.argv, "wall_seconds": time.perf_counter() - t0,
+                                                "engine": run.record.engine})
     if args.animate:
         from radarslam.experiments.recording import animation_frames
         from radarslam.viz.animation import animate_run

@@ -73,9 +73,13 @@ def run(args: argparse.Namespace) -> int:
     # a long single run shows its progress (a terminal, or more than LONG_RUN_SCANS scans)
     from radarslam.experiments.montecarlo import Progress
 
+    from radarslam.experiments.first_run import announce, choose
+
+    first = choose(config.filter.backend, simulation=True, matching=True)       # the first-run rule
+    announce(first, config)
     n = config.trajectory.n_steps
     bar = Progress(n, 0, unit="scans", enabled=n >= LONG_RUN_SCANS or sys.stderr.isatty())
-    res = run_trial(config, args.seed, on_scan=bar.update)
+    res = run_trial(config, args.seed, on_scan=bar.update, first_run=first)
     wall = time.perf_counter() - t0
     write_outputs(out, res, wall, argv=sys.argv)
     print(summary_table(res))
@@ -149,6 +153,7 @@ def write_outputs(out, res, wall: float, argv=None) -> None:
     atomic_write_text(out / "config.toml", to_toml(res.config))
     write_json(out / "run.json", {"seed": res.seed, "version": __version__, "argv": argv,
                                   "wall_seconds": wall, "filter_seconds": res.record.seconds,
+                                  "engine": res.record.engine,
                                   "config": to_dict(res.config)})
     from radarslam.viz import have_matplotlib
 

@@ -113,9 +113,15 @@ def main(job: str) -> int:
             print("radarslam: another process is compiling for this cache; nothing to do", flush=True)
             return 0
         config = from_dict(data["config"])
-        for v in variants_from_json(data["variants"]):
+        variants = variants_from_json(data["variants"])
+        for v in variants:
             run_filter(apply_variant(config, v), _tiny_stream())
-    print("radarslam: the fused engine is compiled and cached", flush=True)
+        print("radarslam: the fused engine is compiled and cached", flush=True)
+        if config.filter.motion_model == "unicycle":       # the car park's simulation and evaluation too
+            from radarslam.experiments.warmup import _side
+
+            _side(data["config"], dict(variants[0].overlay) if variants else {})
+            print("radarslam: the scan simulation and the evaluation's matching are compiled and cached", flush=True)
     return 0
 
 

@@ -91,7 +91,7 @@ def evaluate_truth(poses: np.ndarray, truth: np.ndarray) -> dict:
             "final_heading_error_deg": math.degrees(abs(float(head[-1]))), "position_max_error_m": float(pos.max())}
 
 
-def run_recording(rec: Recording, config: Config, *, on_scan=None) -> RecordingRun:
+def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=None) -> RecordingRun:
     """Run :class:`~radarslam.slam.EkfSlam` over ``rec`` with ``config`` and evaluate against its truth."""
     config = validate(config)
     check_motion_model(rec, config.filter.motion_model)
@@ -102,7 +102,12 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None) -> RecordingR
     config = dataclasses.replace(config, sensor=dataclasses.replace(
         config.sensor, mount_x_m=m.x, mount_y_m=m.y, mount_yaw_deg=math.degrees(m.yaw)))
     events = to_events(rec, m)
-    record = run_filter(config, events, on_scan=on_scan)
+    if first_run is not None and first_run.filter_backend == "python":   # experiments/first_run.py
+        python = dataclasses.replace(config, filter=dataclasses.replace(config.filter, backend="python"))
+        record = run_filter(python, events, on_scan=on_scan, engine="orchestrator")
+        record.engine = "python"
+    else:
+        record = run_filter(config, events, on_scan=on_scan)
     times = np.array([e.t for e in events if isinstance(e, Scan)])
     truth = None if rec.truth is None else truth_at(times, rec.truth_t, rec.truth)
     metrics = {"scans": int(times.size), "detections": int(record.n_detections.sum()),

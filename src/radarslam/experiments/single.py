@@ -110,11 +110,12 @@ def vehicle_rectangles(vehicles) -> np.ndarray:
     return np.array([[v.x_left, v.y_bottom, v.size_x, v.size_y] for v in vehicles], dtype=float).reshape(-1, 4)
 
 
-def evaluate(config: Config, scenario: Scenario, rec: FilterRecord) -> dict:
+def evaluate(config: Config, scenario: Scenario, rec: FilterRecord, compiled: bool = True) -> dict:
     """Pose and landmark metrics of one run (scalars and per-step arrays).
 
     The simulator's objects and the filter's snapshots are turned into plain arrays here; the
-    metrics see nothing else.
+    metrics see nothing else. ``compiled=False``: the landmark matching through its reference
+    (:func:`~radarslam.metrics.landmarks.match`, the same matches; a first run, :mod:`.first_run`).
     """
     truth = scenario.truth
     pos_err, head_err = pose_errors(rec.poses, truth.poses)
@@ -123,11 +124,12 @@ def evaluate(config: Config, scenario: Scenario, rec: FilterRecord) -> dict:
     present = np.asarray(truth.present, dtype=bool)
     positions = [m.positions for m in rec.maps]
     gate = config.metrics.match_gate_m
-    matched = matches(positions, centers, gate)  # every scan's landmarks to every vehicle, once
+    matched = matches(positions, centers, gate, compiled)  # every scan's landmarks to every vehicle, once
     lm = landmark_metrics(positions, truth.poses, centers, present,
                           config.radar.max_range_m, gate, config.metrics.missed_grace_scans, matched)
     ext = (extent_metrics(positions, [m.rma for m in rec.maps], [m.efa for m in rec.maps], rects, present,
-                          gate, config.metrics.include_stale, matched=matched) if config.extent.track else {})
+                          gate, config.metrics.include_stale, matched=matched, compiled=compiled)
+           if config.extent.track else {})
     return {
         "position_avg_rmse_m": avg_rmse(pos_err),
         "heading_avg_rmse_deg": float(np.degrees(avg_rmse(head_err))),
@@ -179,18 +181,26 @@ def with_initial_estimate(config: Config, scenario: Scenario, ss: np.random.Seed
 
 
 def run_trial(config: Config, seed: int | np.random.SeedSequence, *, use_extent: bool | None = None,
-              on_scan=None, engine: str = "auto") -> TrialResult:
+              on_scan=None, engine: str = "auto", first_run=None) -> TrialResult:
     """Simulate one scenario from ``seed`` and run the filter on it.
 
     ``use_extent`` overrides ``config.extent.use_in_slam`` (same data either way); ``on_scan`` and
-    ``engine`` are passed to :func:`run_filter`.
+    ``engine`` are passed to :func:`run_filter`. ``first_run`` (a
+    :class:`~radarslam.experiments.first_run.FirstRun`) runs the parts it names through their
+    Python reference (the same results; the record's ``engine`` then says "python").
     """
     config = check_simulation_config(validate(config))
     if use_extent is not None:
         config = replace(config, extent=replace(config.extent, use_in_slam=use_extent))
     ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
-    scenario = generate_scenario(config, np.random.default_rng(ss))
+    sim, match = (True, True) if first_run is None else (first_run.simulation_compiled, first_run.matching_compiled)
+    scenario = generate_scenario(config, np.random.default_rng(ss), compiled=sim)
     config = with_initial_estimate(config, scenario, ss)
-    rec = run_filter(config, scenario.events, on_scan=on_scan, engine=engine)
+    if first_run is not None and first_run.filter_backend == "python":
+        python = replace(config, filter=replace(config.filter, backend="python"))
+        rec = run_filter(python, scenario.events, on_scan=on_scan, engine="orchestrator")
+        rec.engine = "python"
+    else:
+        rec = run_filter(config, scenario.events, on_scan=on_scan, engine=engine)
     seed_out = ss.entropy if not ss.spawn_key else {"entropy": ss.entropy, "spawn_key": list(ss.spawn_key)}
-    return TrialResult(config, seed_out, scenario, rec, evaluate(config, scenario, rec))
+    return TrialResult(config, seed_out, scenario, rec, evaluate(config, scenario, rec, match))

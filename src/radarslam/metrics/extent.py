@@ -79,7 +79,7 @@ def ground_truth_extents(rectangles, convention: str = "moment") -> np.ndarray:
 def gwd_per_step(positions: Sequence[np.ndarray], rma: Sequence[np.ndarray], efa: Sequence[np.ndarray],
                  centers: np.ndarray, present: np.ndarray, gt_extents: np.ndarray | Mapping[str, np.ndarray],
                  gate: float, include_stale: bool = False, matched: Sequence[np.ndarray] | None = None,
-                 centred: Sequence[str] = ()):
+                 centred: Sequence[str] = (), compiled: bool = True):
     """Mean GWD over the matched landmarks with an initialised extent, per scan (docs/method.md e).
 
     Landmarks are matched one-to-one to the vehicles present at the scan (Hungarian, ``gate``);
@@ -143,7 +143,7 @@ def gwd_per_step(positions: Sequence[np.ndarray], rma: Sequence[np.ndarray], efa
     everyone = np.ones(K, dtype=bool) if include_stale else present.all(axis=1)
     reuse = everyone & (matched is not None)
     vehicles = np.where(everyone[:, None], True, present) & ~reuse[:, None]
-    a = match_flat(pos_all, off, centers, vehicles, gate)
+    a = match_flat(pos_all, off, centers, vehicles, gate, compiled)
     if reuse.any():
         given, off_m = flatten(matched, ())
         if not np.array_equal(off_m, off):
@@ -174,7 +174,7 @@ def gwd_per_step(positions: Sequence[np.ndarray], rma: Sequence[np.ndarray], efa
 def extent_metrics(positions: Sequence[np.ndarray], rma: Sequence[np.ndarray], efa: Sequence[np.ndarray],
                    rectangles, present: np.ndarray, gate: float, include_stale: bool = False,
                    conventions=("moment", "full", "inscribed", "enclosing"),
-                   matched: Sequence[np.ndarray] | None = None) -> dict:
+                   matched: Sequence[np.ndarray] | None = None, compiled: bool = True) -> dict:
     """Per-step and final mean GWD of RMA and EFA in each ground-truth convention.
 
     Parameters
@@ -198,7 +198,7 @@ def extent_metrics(positions: Sequence[np.ndarray], rma: Sequence[np.ndarray], e
     gts = {c: ground_truth_extents(rectangles, c) for c in conventions}
     gts[SHAPE] = gts["moment"] if "moment" in gts else ground_truth_extents(rectangles, "moment")
     g_rma, g_efa, count = gwd_per_step(positions, rma, efa, centers, present, gts, gate, include_stale,
-                                       matched, centred=(SHAPE,))
+                                       matched, centred=(SHAPE,), compiled=compiled)
     out: dict = {"gwd_count": count}
     for conv in (*conventions, SHAPE):
         out[f"gwd_rma_{conv}"] = g_rma[conv]

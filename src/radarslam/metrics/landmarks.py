@@ -44,24 +44,37 @@ def flatten(per_scan, shape: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
 
 
 def match_flat(positions: np.ndarray, offsets: np.ndarray, centers: np.ndarray, vehicles: np.ndarray,
-               gate: float) -> np.ndarray:
+               gate: float, compiled: bool = True) -> np.ndarray:
     """:func:`match` of every scan at once: scan ``k``'s landmarks ``positions[offsets[k]:offsets[k + 1]]``
     against the vehicles ``centers[vehicles[k]]`` (boolean ``(K, V)``); the vehicle index (into
-    ``centers``) of every landmark, -1 for none. Compiled (:mod:`._compiled`), the same matches."""
+    ``centers``) of every landmark, -1 for none. Compiled (:mod:`._compiled`), the same matches;
+    ``compiled=False`` runs :func:`match` scan by scan (a first run that does not wait for numba)."""
+    centers = np.ascontiguousarray(centers, dtype=float).reshape(-1, 2)
+    if not compiled:
+        out = np.full(np.shape(positions)[0], -1, dtype=np.int64)
+        pos = np.asarray(positions, dtype=float).reshape(-1, 2)
+        vehicles = np.asarray(vehicles, dtype=bool).reshape(len(offsets) - 1, centers.shape[0])
+        for k in range(len(offsets) - 1):
+            a, b = int(offsets[k]), int(offsets[k + 1])
+            cols = np.flatnonzero(vehicles[k])
+            m = match(pos[a:b], centers[cols], gate)
+            hit = m >= 0
+            out[np.arange(a, b)[hit]] = cols[m[hit]]
+        return out
     from radarslam.metrics._compiled import match_scans
 
-    centers = np.ascontiguousarray(centers, dtype=float).reshape(-1, 2)
     return match_scans(np.ascontiguousarray(positions, dtype=float).reshape(-1, 2),
                        np.ascontiguousarray(offsets, dtype=np.int64), centers,
                        np.ascontiguousarray(vehicles, dtype=np.bool_).reshape(len(offsets) - 1, centers.shape[0]),
                        float(gate))
 
 
-def matches(positions_per_scan, centers: np.ndarray, gate: float) -> list[np.ndarray]:
-    """:func:`match` of every scan's landmarks ``(N_k, 2)`` to all the vehicles ``centers``."""
+def matches(positions_per_scan, centers: np.ndarray, gate: float, compiled: bool = True) -> list[np.ndarray]:
+    """:func:`match` of every scan's landmarks ``(N_k, 2)`` to all the vehicles ``centers``
+    (``compiled``: as :func:`match_flat`)."""
     pos, off = flatten(positions_per_scan, (2,))
     centers = np.asarray(centers, dtype=float).reshape(-1, 2)
-    a = match_flat(pos, off, centers, np.ones((off.shape[0] - 1, centers.shape[0]), dtype=bool), gate)
+    a = match_flat(pos, off, centers, np.ones((off.shape[0] - 1, centers.shape[0]), dtype=bool), gate, compiled)
     return [a[off[k]:off[k + 1]].astype(int) for k in range(off.shape[0] - 1)]
 
 

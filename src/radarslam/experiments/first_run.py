@@ -1,0 +1,108 @@
+"""The first run of a single command on a machine: run what is compiled, never wait for a compile.
+
+numba caches machine code on disk (docs/architecture.md "Backends"). On a machine whose cache is
+empty, compiling the fused engine costs minutes, the scan simulation about 13 s and the
+evaluation's matching about 4 s of one core, while one car-park trial through the Python
+reference takes about a second and a recording of a thousand scans some seconds. Every compiled
+part has a Python reference that gives the same results (the simulation and the matching to the
+bit, the filter to 1e-9 with the same associations; tests/test_backends.py, tests/test_metrics.py).
+So a single command (``radarslam run``) runs each part compiled only when its machine code is
+ready (cached or already compiled in this process) and otherwise through its reference, says so
+on its first line, and leaves the compile to a detached low-priority process
+(:mod:`.background`) for the runs that come after. The Monte Carlo applies the same rule through
+:func:`radarslam.experiments.warmup.warm_up`.
+"""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass
+
+#: What the first line says when a part runs through its reference.
+ANNOUNCE = ("run: first run on this machine: the compiled code is not built yet, so this run takes the Python "
+            "reference ({parts}; the same results){later}")
+
+
+@dataclass(frozen=True)
+class FirstRun:
+    """Which parts of a single run go compiled.
+
+    Attributes
+    ----------
+    filter_backend : str or None
+        ``"python"`` when the filter runs through its reference, else None (the configuration's).
+    simulation_compiled, matching_compiled : bool
+        Whether the scan simulation and the evaluation's matching run compiled.
+    reference_parts : tuple of str
+        The parts that run through their reference (empty: everything is compiled and ready).
+    """
+
+    filter_backend: str | None = None
+    simulation_compiled: bool = True
+    matching_compiled: bool = True
+    reference_parts: tuple[str, ...] = ()
+
+
+def ready(dispatcher) -> bool:
+    """True when numba need not compile ``dispatcher`` for its next call: it was compiled in this
+    process, or its cache holds fresh machine code."""
+    from radarslam.experiments.warmup import _has_fresh_code
+
+    return bool(getattr(dispatcher, "signatures", ())) or _has_fresh_code(dispatcher) is True
+
+
+def _filter_ready() -> bool:
+    from radarslam.slam._fused import run_stream
+
+    return ready(run_stream)
+
+
+def _simulation_ready() -> bool:
+    from radarslam.simulation._compiled import simulate_scans
+
+    return ready(simulate_scans)
+
+
+def _matching_ready() -> bool:
+    from radarslam.metrics._compiled import match_scans
+
+    return ready(match_scans)
+
+
+def choose(backend: str, *, simulation: bool = False, matching: bool = False) -> FirstRun:
+    """The parts of a single run that go compiled: each one whose machine code is ready. With
+    ``backend`` "python" everything is the reference already and nothing is announced."""
+    if backend != "numba":
+        return FirstRun(None, False, False, ())
+    parts = []
+    f = _filter_ready()
+    if not f:
+        parts.append("filter")
+    s = not simulation or _simulation_ready()
+    if not s:
+        parts.append("simulation")
+    m = not matching or _matching_ready()
+    if not m:
+        parts.append("evaluation")
+    return FirstRun(None if f else "python", s, m, tuple(parts))
+
+
+def announce(choice: FirstRun, config, stream=None) -> int | None:
+    """Say what :func:`choose` decided (nothing when every part is ready) and start the
+    background compile of what is missing; the background process's pid, or None."""
+    if not choice.reference_parts:
+        return None
+    from radarslam.config import to_dict
+    from radarslam.experiments import background
+    from radarslam.experiments.variants import Variant, variants_to_json
+
+    stream = stream or sys.stderr
+    busy = background.enabled() and background.busy()
+    pid = None if busy else background.start(to_dict(config), variants_to_json([Variant("run", "run", {})]))
+    where = f"log {background.lock_path().with_suffix('.log')}"
+    later = ("; the compiled code is still building in the background (" + where + ")" if busy else
+             f"; the compiled code builds in the background at low priority (pid {pid}, {where}, a few minutes "
+             "of one core) for the runs that come after" if pid else
+             "; background compiling is off (RADARSLAM_BACKGROUND_COMPILE=0): a later run compiles")
+    print(ANNOUNCE.format(parts=", ".join(choice.reference_parts), later=later), file=stream, flush=True)
+    return pid
