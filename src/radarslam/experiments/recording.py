@@ -52,16 +52,26 @@ class RecordingRun:
 
 
 def effective_mounting(rec: Recording, config: Config) -> Mounting:
-    """The bag's ``/tf_static`` mounting when it has one, else the config's ``[sensor]``.
+    """The bag's ``/tf_static`` mounting when it has one, else the config's ``[sensor]``; with a
+    multi-radar rig (``rec.sensors``) the sensor of the most detections (each detection is moved by
+    its own sensor's mounting; this one is what the config's ``[sensor]`` holds for the steps that
+    take one mounting, e.g. the Doppler's).
 
     With the ``ackermann`` model the pose already is the sensor's (``filter.sensor_a_m``,
     ``sensor_b_m``), so only a yaw may be added.
     """
-    m = rec.mounting or Mounting.from_config(config.sensor)
-    if config.filter.motion_model == "ackermann" and (m.x or m.y):
-        raise InputError(f"{m.source}: the ackermann model's pose is the sensor's own (filter.sensor_a_m, sensor_b_m); "
-                         f"expected a mounting with x = y = 0, got ({m.x}, {m.y})")
-    return m
+    if rec.sensors:
+        sid = rec.channels.get("sensor_id")
+        ids, counts = (np.unique(sid, return_counts=True) if sid is not None and sid.size
+                       else (np.array(sorted(rec.sensors)), np.ones(len(rec.sensors))))
+        ms = [rec.sensors[int(k)] for k in ids[np.argsort(-counts, kind="stable")]] or list(rec.sensors.values())
+    else:
+        ms = [rec.mounting or Mounting.from_config(config.sensor)]
+    for m in ms:
+        if config.filter.motion_model == "ackermann" and (m.x or m.y):
+            raise InputError(f"{m.source}: the ackermann model's pose is the sensor's own (filter.sensor_a_m, "
+                             f"sensor_b_m); expected a mounting with x = y = 0, got ({m.x}, {m.y})")
+    return ms[0]
 
 
 def truth_at(times: np.ndarray, truth_t: np.ndarray, truth: np.ndarray) -> np.ndarray:

@@ -24,12 +24,21 @@ from radarslam.core.errors import InputError
 
 @dataclass(frozen=True)
 class Mounting:
-    """Sensor pose in the platform frame: ``x`` ahead (m), ``y`` left (m), ``yaw`` (rad, CCW)."""
+    """Sensor pose in the platform frame: ``x`` ahead (m), ``y`` left (m), ``yaw`` (rad, CCW).
+
+    A multi-radar rig (``sensors.csv``, docs/recordings.md "Several radars") gives each sensor its
+    ``sensor_id`` and ``name`` and, optionally, its ``max_range_m`` and full field of view ``fov_rad``
+    (None: not stated). Only ``x``, ``y`` and ``yaw`` move detections.
+    """
 
     x: float = 0.0
     y: float = 0.0
     yaw: float = 0.0
     source: str = "config"
+    sensor_id: int = 0
+    name: str = ""
+    max_range_m: float | None = None
+    fov_rad: float | None = None
 
     @property
     def is_identity(self) -> bool:

@@ -1,9 +1,10 @@
 """The plain recording format: CSV files in a directory, or one NPZ file (docs/recordings.md).
 
-A directory holds ``detections.csv``, ``odometry.csv`` and optionally ``truth.csv`` and
-``scans.csv``; an ``.npz`` file holds the same tables as arrays named ``TABLE.COLUMN`` (e.g.
-``detections.range_m``). Columns carry their unit in their name; every fault is one
-:class:`InputError` line naming the file, the line (CSV) or array (NPZ), the column and the fault.
+A directory holds ``detections.csv``, ``odometry.csv`` and optionally ``truth.csv``,
+``scans.csv`` and ``sensors.csv`` (a multi-radar rig, :mod:`.sensors`); an ``.npz`` file holds
+the same tables as arrays named ``TABLE.COLUMN`` (e.g. ``detections.range_m``). Columns carry
+their unit in their name; every fault is one :class:`InputError` line naming the file, the line
+(CSV) or array (NPZ), the column and the fault.
 """
 
 from __future__ import annotations
@@ -16,12 +17,18 @@ from pathlib import Path
 import numpy as np
 
 from radarslam.core.errors import InputError
+from radarslam.io.recording import sensors as S
 from radarslam.io.recording.stream import CHANNELS, ODOMETRY_KINDS, Recording, check_times
 
 #: Required and optional columns of every table (``rcs`` may be spelt ``intensity``).
 REQUIRED = {"detections": ("t_s", "range_m", "azimuth_rad"), "truth": ("t_s", "x_m", "y_m", "yaw_rad"),
-            "scans": ("t_s",)}
-OPTIONAL = {"detections": CHANNELS, "truth": (), "scans": (), "odometry": ()}
+            "scans": ("t_s",), "sensors": S.REQUIRED}
+#: ``label`` (an annotation, evaluation only: it never reaches the filter) and ``scan`` (which scan a
+#: detection belongs to) are read apart from the channels.
+OPTIONAL = {"detections": CHANNELS + ("label", "scan"), "truth": (), "scans": (), "odometry": (),
+            "sensors": S.OPTIONAL}
+#: Columns whose values must be whole numbers >= 0.
+INTEGER = ("sensor_id", "label", "scan")
 ALIASES = {"intensity": "rcs"}
 #: Largest plausible magnitude of an angle-like column (rad); beyond it the values look like degrees.
 ANGLE_LIMITS = {"azimuth_rad": 2 * math.pi, "yaw_rad": 2 * math.pi, "steering_rad": math.pi / 2,
@@ -30,7 +37,7 @@ ANGLE_LIMITS = {"azimuth_rad": 2 * math.pi, "yaw_rad": 2 * math.pi, "steering_ra
 WRONG_UNITS = {"azimuth_deg": "azimuth_rad", "bearing_deg": "azimuth_rad", "yaw_deg": "yaw_rad",
                "yaw_rate_deg_s": "yaw_rate_rad_s", "steering_deg": "steering_rad", "range_km": "range_m",
                "t_ms": "t_s", "t_ns": "t_s", "speed_kmh": "speed_mps"}
-FILES = ("detections", "odometry", "truth", "scans")
+FILES = ("detections", "odometry", "truth", "scans", "sensors")
 
 
 def _columns(table: str, header: list[str], where: str) -> list[str]:
@@ -59,21 +66,27 @@ def _columns(table: str, header: list[str], where: str) -> list[str]:
 
 
 def _check_values(table: str, cols: dict[str, np.ndarray], where: str, row: str, first: int) -> None:
-    """Finite values, non-negative ranges, angles in radians, ordered times."""
+    """Finite values, non-negative ranges, angles in radians, whole ids, ordered times."""
     for name, v in cols.items():
+        if name in S.TEXT:
+            continue
         bad = np.flatnonzero(~np.isfinite(v))
         if bad.size:
             raise InputError(f"{where} {row} {int(bad[0]) + first} column {name}: expected a finite number, "
-                             f"got {v[bad[0]]!r}")
+                             f"got {float(v[bad[0]])!r}")
         lim = ANGLE_LIMITS.get(name)
         if lim is not None and v.size and np.max(np.abs(v)) > lim + 1e-9:
             i = int(np.argmax(np.abs(v)))
             raise InputError(f"{where} {row} {i + first} column {name}: expected radians (|value| <= {lim:.4g}), "
-                             f"got {v[i]!r}: degrees?")
+                             f"got {float(v[i])!r}: degrees?")
+        if name in INTEGER and table == "detections":
+            S.integer_column(v, name, where, row, first)
     if "range_m" in cols and np.any(cols["range_m"] < 0):
         i = int(np.argmax(cols["range_m"] < 0))
-        raise InputError(f"{where} {row} {i + first} column range_m: expected a range >= 0, got {cols['range_m'][i]!r}")
-    check_times(cols["t_s"], where, strict=table != "detections", row=row, first=first)
+        raise InputError(f"{where} {row} {i + first} column range_m: expected a range >= 0, "
+                         f"got {float(cols['range_m'][i])!r}")
+    if "t_s" in cols:
+        check_times(cols["t_s"], where, strict=table != "detections", row=row, first=first)
 
 
 def _read_csv(path: Path, table: str) -> dict[str, np.ndarray]:
@@ -89,16 +102,20 @@ def _read_csv(path: Path, table: str) -> dict[str, np.ndarray]:
         raise InputError(f"{where}: expected a header line, got an empty file")
     names = _columns(table, rows[0], where)
     data = np.empty((len(rows) - 1, len(names)))
+    text = {j: [] for j, n in enumerate(names) if n in S.TEXT and table == "sensors"}
     for i, r in enumerate(rows[1:]):
         if len(r) != len(names):
             raise InputError(f"{where} line {i + 2}: expected {len(names)} values ({', '.join(names)}), got {len(r)} "
                              "(a truncated or malformed line)")
         for j, cell in enumerate(r):
+            if j in text:
+                text[j].append(cell.strip())
+                continue
             try:
                 data[i, j] = float(cell)
             except ValueError:
                 raise InputError(f"{where} line {i + 2} column {names[j]}: expected a number, got {cell!r}") from None
-    cols = {n: data[:, j].copy() for j, n in enumerate(names)}
+    cols = {n: np.array(text[j]) if j in text else data[:, j].copy() for j, n in enumerate(names)}
     _check_values(table, cols, where, "line", 2)
     return cols
 
@@ -115,9 +132,11 @@ def _read_npz_tables(path: Path) -> dict[str, dict[str, np.ndarray]]:
         table, _, col = key.partition(".")
         if table not in FILES or not col:
             raise InputError(f"{where} array {key!r}: expected names TABLE.COLUMN with TABLE in {', '.join(FILES)}")
-        if arr.ndim != 1 or arr.dtype.kind not in "fiub":
-            raise InputError(f"{where} array {key}: expected a 1-D numeric array, got shape {arr.shape} {arr.dtype}")
-        tables.setdefault(table, {})[col] = arr.astype(np.float64)
+        is_text = table == "sensors" and col in S.TEXT
+        if arr.ndim != 1 or arr.dtype.kind not in ("U" if is_text else "fiub"):
+            raise InputError(f"{where} array {key}: expected a 1-D {'text' if is_text else 'numeric'} array, got "
+                             f"shape {arr.shape} {arr.dtype}")
+        tables.setdefault(table, {})[col] = arr if is_text else arr.astype(np.float64)
     for table, cols in tables.items():
         names = _columns(table, list(cols), f"{where} table {table}")
         cols = {ALIASES.get(k, k): v for k, v in cols.items()}
@@ -145,11 +164,18 @@ def read_plain(path: str | Path) -> Recording:
                 raise InputError(f"{path}: expected arrays {t}.* (table {t}), got none")
     else:
         raise InputError(f"{path}: expected a directory of CSV files or an .npz file")
-    return _recording(tables, str(path))
+    csv_rows = path.is_dir()
+    return _recording(tables, str(path), (lambda t: str(path / f"{t}.csv")) if csv_rows else
+                      (lambda t: f"{path} table {t}"), ("line", 2) if csv_rows else ("row", 1))
 
 
-def _recording(tables: dict[str, dict[str, np.ndarray]], source: str) -> Recording:
+def _recording(tables: dict[str, dict[str, np.ndarray]], source: str, where=lambda t: t,
+               row: tuple[str, int] = ("line", 2)) -> Recording:
     d, o = tables["detections"], tables["odometry"]
+    sensors = None
+    if "sensors" in tables:
+        sensors = S.sensors_from_columns(tables["sensors"], where("sensors"), *row)
+        S.check_detection_sensors(d.get("sensor_id"), sensors, where("detections"), *row)
     kind = next(k for k, cols in ODOMETRY_KINDS.items() if cols[0] in o)
     tr = tables.get("truth")
     sc = tables.get("scans")
@@ -162,19 +188,25 @@ def _recording(tables: dict[str, dict[str, np.ndarray]], source: str) -> Recordi
                      np.column_stack([o[c] for c in ODOMETRY_KINDS[kind]]), kind,
                      None if tr is None else tr["t_s"],
                      None if tr is None else np.column_stack([tr["x_m"], tr["y_m"], tr["yaw_rad"]]),
-                     source=source, scan_t=None if sc is None else sc["t_s"])
+                     source=source, scan_t=None if sc is None else sc["t_s"], sensors=sensors,
+                     labels=d["label"].astype(np.int64) if "label" in d else None,
+                     det_scan=d["scan"].astype(np.int64) if "scan" in d else None)
 
 
 def recording_tables(rec: Recording) -> dict[str, dict[str, np.ndarray]]:
     """The plain tables of ``rec`` (detections in the sensor frame)."""
     tables = {"detections": {"t_s": rec.det_t, "range_m": rec.det_polar[:, 0], "azimuth_rad": rec.det_polar[:, 1],
-                             **{c: rec.channels[c] for c in CHANNELS if c in rec.channels}},
+                             **{c: rec.channels[c] for c in CHANNELS if c in rec.channels},
+                             **({} if rec.labels is None else {"label": rec.labels}),
+                             **({} if rec.det_scan is None else {"scan": rec.det_scan})},
               "odometry": {"t_s": rec.odo_t, **dict(zip(ODOMETRY_KINDS[rec.odo_kind], rec.odo.T))}}
     if rec.truth is not None:
         tables["truth"] = {"t_s": rec.truth_t, "x_m": rec.truth[:, 0], "y_m": rec.truth[:, 1],
                            "yaw_rad": rec.truth[:, 2]}
     if rec.scan_t is not None and not np.array_equal(rec.scan_t, np.unique(rec.det_t)):
         tables["scans"] = {"t_s": rec.scan_t}
+    if rec.sensors:
+        tables["sensors"] = S.sensors_table(rec.sensors)
     return tables
 
 
@@ -194,8 +226,15 @@ def write_plain(rec: Recording, path: str | Path) -> list[Path]:
         return [path]
     out = []
     for t, cols in tables.items():
-        arr = np.column_stack(list(cols.values())) if cols["t_s"].size else np.empty((0, len(cols)))
-        lines = [",".join(cols)] + [",".join(repr(float(v)) for v in row) for row in arr]
+        cells = [[_cell(c, v) for v in vals.tolist()] for c, vals in cols.items()]
+        lines = [",".join(cols)] + [",".join(row) for row in zip(*cells)]
         atomic_write_text(path / f"{t}.csv", "\n".join(lines) + "\n")
         out.append(path / f"{t}.csv")
     return out
+
+
+def _cell(column: str, v) -> str:
+    """One CSV cell: whole numbers for ids, the text of a name (quoted when it must be), else ``repr``."""
+    if column in S.TEXT:
+        return '"' + v.replace('"', '""') + '"' if any(c in v for c in ',"\n') else v
+    return str(int(v)) if column in INTEGER else repr(float(v))

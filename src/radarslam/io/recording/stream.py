@@ -52,6 +52,15 @@ class Recording:
         distinct detection times.
     t0_ns : int
         The absolute time (ns) of ``t = 0`` when the source had one (a bag: its first radar message).
+    sensors : dict of int to Mounting, or None
+        A multi-radar rig (``sensors.csv``): each sensor's mounting by ``sensor_id``; each detection's
+        ``channels["sensor_id"]`` names its own (one sensor without that column: all of them). None:
+        the single ``mounting`` (or the config's) applies to every detection.
+    labels : ndarray of int64, shape (n,), or None
+        Per-detection annotation (RadarScenes: 11 the static world, else a road user), for evaluation
+        only: never in a :class:`Scan`.
+    det_scan : ndarray of int64, shape (n,), or None
+        Which scan each detection belongs to (the optional ``scan`` column), else None.
     """
 
     det_t: np.ndarray
@@ -67,6 +76,9 @@ class Recording:
     notes: list[str] = field(default_factory=list)
     scan_t: np.ndarray | None = None
     t0_ns: int = 0
+    sensors: dict[int, Mounting] | None = None
+    labels: np.ndarray | None = None
+    det_scan: np.ndarray | None = None
 
     def scan_times(self) -> np.ndarray:
         """Every scan's time (s), increasing."""
@@ -93,7 +105,7 @@ def to_events(rec: Recording, mounting: Mounting) -> list[Event]:
     if st.size == 0:
         raise InputError(f"{rec.source}: expected at least one scan, got none")
     order = np.argsort(rec.det_t, kind="stable")
-    t, polar = rec.det_t[order], to_platform(rec.det_polar[order], mounting)
+    t, polar = rec.det_t[order], platform_polar(rec, mounting)[order]
     ch = {k: v[order] for k, v in rec.channels.items()}
     starts = np.searchsorted(t, st, side="left")
     ends = np.searchsorted(t, st, side="right")
@@ -117,6 +129,25 @@ def to_events(rec: Recording, mounting: Mounting) -> list[Event]:
     return events
 
 
+def platform_polar(rec: Recording, mounting: Mounting) -> np.ndarray:
+    """Every detection ``(n, 2)`` moved to the platform frame by its OWN sensor's mounting
+    (``rec.sensors`` by ``channels["sensor_id"]``), else by ``mounting``."""
+    if not rec.sensors:
+        return to_platform(rec.det_polar, mounting)
+    sid = rec.channels.get("sensor_id")
+    if sid is None:                           # one sensor and no sensor_id column (checked by the reader)
+        return to_platform(rec.det_polar, next(iter(rec.sensors.values())))
+    unknown = np.flatnonzero(~np.isin(sid, np.array(sorted(rec.sensors), dtype=float)))
+    if unknown.size:
+        raise InputError(f"{rec.source}: detection {int(unknown[0]) + 1} has sensor_id {float(sid[unknown[0]])!r}, "
+                         f"expected one of the sensors {', '.join(map(str, sorted(rec.sensors)))}")
+    out = np.empty_like(rec.det_polar)
+    for k, m in rec.sensors.items():
+        rows = sid == k
+        out[rows] = to_platform(rec.det_polar[rows], m)
+    return out
+
+
 def check_times(t: np.ndarray, where: str, strict: bool, row: str = "row", first: int = 1) -> None:
     """Refuse times that go backwards (or repeat, with ``strict``), naming the first offending
     ``row`` (numbered so that element 0 is ``first``)."""
@@ -125,5 +156,5 @@ def check_times(t: np.ndarray, where: str, strict: bool, row: str = "row", first
     if bad.size:
         i = int(bad[0]) + 1
         what = "increasing" if strict else "non-decreasing"
-        raise InputError(f"{where} {row} {i + first}: expected {what} times, got {t[i]!r} after {t[i - 1]!r} "
-                         "(times going backwards)")
+        raise InputError(f"{where} {row} {i + first}: expected {what} times, got {float(t[i])!r} after "
+                         f"{float(t[i - 1])!r} (times going backwards)")
