@@ -15,12 +15,12 @@ from radarslam.core.errors import RadarSlamError
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from radarslam.cli import dump_config, montecarlo, recording, report, run
+    from radarslam.cli import calibrate, dump_config, montecarlo, recording, report, run
 
     p = argparse.ArgumentParser(prog="radarslam", description="Radar EKF-SLAM with extended landmarks.")
     p.add_argument("--version", action="version", version=f"radarslam {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
-    for mod in (run, montecarlo, report, dump_config):
+    for mod in (run, montecarlo, report, dump_config, calibrate):
         mod.add_parser(sub)
     recording.add_parsers(sub)
     return p

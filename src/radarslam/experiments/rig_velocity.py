@@ -13,10 +13,21 @@ from pathlib import Path
 import numpy as np
 
 from radarslam.core.errors import InputError
-from radarslam.models.rig_velocity import DEFAULTS, RigVelocitySeries, fit_rig_windows, rig_design
+from radarslam.models.rig_velocity import (
+    DEFAULTS,
+    RigVelocitySeries,
+    fit_rig_windows,
+    rig_design,
+)
 
-__all__ = ["Rig", "EGO_VELOCITY_COLUMNS", "compare_with_odometry", "read_rig", "rig_ego_velocity",
-           "write_ego_velocity_csv"]
+__all__ = [
+    "EGO_VELOCITY_COLUMNS",
+    "Rig",
+    "compare_with_odometry",
+    "read_rig",
+    "rig_ego_velocity",
+    "write_ego_velocity_csv",
+]
 
 
 @dataclass(frozen=True)
@@ -123,7 +134,7 @@ def compare_with_odometry(series: RigVelocitySeries, odometry: np.ndarray) -> di
     t = series.t[ok]
     dv = series.theta[ok, 0] - np.interp(t, odometry[:, 0], odometry[:, 1])
     dw = np.degrees(series.theta[ok, 2] - np.interp(t, odometry[:, 0], odometry[:, 2]))
-    f = lambda e: {"rmse": float(np.sqrt(np.mean(e * e))), "mean": float(np.mean(e)),   # noqa: E731
+    f = lambda e: {"rmse": float(np.sqrt(np.mean(e * e))), "mean": float(np.mean(e)),
                    "std": float(np.std(e))} if e.size else {"rmse": math.nan, "mean": math.nan, "std": math.nan}
     return {"windows": int(series.t.size), "valid": int(ok.sum()), "speed_mps": f(dv), "yaw_rate_deg_s": f(dw)}
 
@@ -144,7 +155,7 @@ def write_ego_velocity_csv(path: str | Path, series: RigVelocitySeries) -> None:
 
     iu = np.triu_indices(3)
     lines = [",".join(EGO_VELOCITY_COLUMNS)]
-    fmt = lambda v: "" if not np.isfinite(v) else repr(float(v))  # noqa: E731
+    fmt = lambda v: "" if not np.isfinite(v) else repr(float(v))
     for k in range(series.t.size):
         vals = [*series.theta[k], *series.cov[k][iu], series.sigma_mps[k]]
         lines.append(",".join([repr(float(series.t[k]))] + [fmt(v) for v in vals]

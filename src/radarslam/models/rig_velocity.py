@@ -27,8 +27,18 @@ from scipy import sparse
 
 from radarslam.core.errors import InputError
 
-__all__ = ["RigVelocity", "RigVelocitySeries", "TUKEY_C", "fit_rig_velocity", "fit_rig_windows", "rig_design",
-           "static_doppler", "tukey_location", "window_bounds", "yaw_offset_of_sweep"]
+__all__ = [
+    "TUKEY_C",
+    "RigVelocity",
+    "RigVelocitySeries",
+    "fit_rig_velocity",
+    "fit_rig_windows",
+    "rig_design",
+    "static_doppler",
+    "tukey_location",
+    "window_bounds",
+    "yaw_offset_of_sweep",
+]
 
 #: Tukey's biweight constant in units of the scale: 95% efficiency at the normal law (c.12.3).
 TUKEY_C = 4.685
@@ -478,29 +488,34 @@ def fit_rig_windows(t: np.ndarray, A: np.ndarray, doppler: np.ndarray, t_out: np
 # Mounting calibration pieces (c.12.5)
 
 
-def yaw_offset_of_sweep(w: np.ndarray, cov_w: np.ndarray, w_ref: np.ndarray) -> tuple[float, float, np.ndarray]:
-    """A sensor's yaw offset from one sweep (c.12.5): ``delta = angle(w_ref) - angle(w)``.
+def yaw_offset_of_sweep(w: np.ndarray, cov_w: np.ndarray, w_ref: np.ndarray) -> tuple[np.ndarray, np.ndarray,
+                                                                                         np.ndarray]:
+    """A sensor's yaw offset from each of ``K`` sweeps (c.12.5): ``delta = angle(w_ref) - angle(w)``.
 
-    ``w`` (2,) is the sensor's velocity fitted to the sweep in its own (nominal) frame with
-    covariance ``cov_w`` (2, 2); ``w_ref`` (2,) the velocity the reference motion predicts there
+    ``w`` (K, 2) is the sensor's velocity fitted to each sweep in its own nominal frame, with
+    covariance ``cov_w`` (K, 2, 2); ``w_ref`` (K, 2) the velocity the reference motion predicts there
     with the nominal mounting. A boresight truly at ``yaw + delta`` measures ``R(-delta) w_ref``.
-    Returns ``(delta rad wrapped to (-pi, pi], its variance rad^2, J (2,))`` with ``J = d delta / d w =
-    (w_y, -w_x) / |w|^2`` (the variance is ``J^T cov_w J``, first order).
+    Returns ``delta`` (K,) (rad, wrapped to [-pi, pi)), its variance ``J^T cov_w J`` (K,) (rad^2, first
+    order) and ``J = d delta / d w = (w_y, -w_x) / |w|^2`` (K, 2).
     """
-    w = np.asarray(w, dtype=float)
-    wr = np.asarray(w_ref, dtype=float)
-    delta = math.atan2(wr[1], wr[0]) - math.atan2(w[1], w[0])
-    delta = (delta + math.pi) % (2 * math.pi) - math.pi
-    n2 = float(w @ w)
-    J = np.array([w[1], -w[0]]) / n2 if n2 > 0 else np.full(2, np.inf)
-    return delta, float(J @ np.asarray(cov_w, dtype=float) @ J), J
+    w = np.asarray(w, dtype=float).reshape(-1, 2)
+    wr = np.asarray(w_ref, dtype=float).reshape(-1, 2)
+    C = np.asarray(cov_w, dtype=float).reshape(-1, 2, 2)
+    if wr.shape != w.shape or C.shape[0] != w.shape[0]:
+        raise InputError(f"w, cov_w, w_ref: expected shapes (K, 2), (K, 2, 2), (K, 2), got {w.shape}, {C.shape}, "
+                         f"{wr.shape}")
+    delta = np.arctan2(wr[:, 1], wr[:, 0]) - np.arctan2(w[:, 1], w[:, 0])
+    delta = (delta + np.pi) % (2 * np.pi) - np.pi
+    with np.errstate(divide="ignore", invalid="ignore"):
+        J = np.column_stack([w[:, 1], -w[:, 0]]) / np.einsum("ki,ki->k", w, w)[:, None]
+    return delta, np.einsum("ki,kij,kj->k", J, C, J), J
 
 
 def tukey_location(x: np.ndarray, std: np.ndarray, iterations: int = 50) -> tuple[float, float, np.ndarray]:
     """Tukey-biweight M-estimate of one location from values ``x`` (n,) with stds ``std`` (n,) (c.12.5).
 
     Start: the weighted median; scale: 1.4826 MAD of the normalised residuals ``(x - mu) / std``
-    (so an unmodelled spread between values inflates it); IRLS at that scale. Returns ``(mu,
+    (so an unmodelled spread between values inflates it), at least 1; IRLS at that scale. Returns ``(mu,
     std of mu, weights (n,))``; the std is the sandwich form of :func:`fit_rig_velocity` with the
     values taken as independent.
     """
@@ -512,7 +527,8 @@ def tukey_location(x: np.ndarray, std: np.ndarray, iterations: int = 50) -> tupl
     cw = np.cumsum(1.0 / sd[order] ** 2)
     mu = float(x[order][np.searchsorted(cw, 0.5 * cw[-1])])
     z = (x - mu) / sd
-    s = max(MAD_TO_STD * float(np.median(np.abs(z))), 1e-12)
+    # never below the values' own stds (s = 1): quantised data can make most values equal (MAD 0)
+    s = max(MAD_TO_STD * float(np.median(np.abs(z))), 1.0)
     cs = TUKEY_C * s
     w = np.zeros_like(x)
     for _ in range(iterations):
@@ -530,5 +546,7 @@ def tukey_location(x: np.ndarray, std: np.ndarray, iterations: int = 50) -> tupl
     M = np.sum((u * cs * t2 * t2) ** 2 / sd ** 2)
     n_in = int(inside.sum())
     # the sandwich B^-1 M B^-1 of sum psi(z_i) / std_i = 0 (c.12.3); M carries s^2 through z = u c s
-    var = M / B ** 2 * n_in / max(n_in - 1, 1) if B > 0 else s * s / np.sum(inside / sd ** 2)
+    # ... and never below the model's s^2 / sum(1 / std^2) (all residuals 0 would make the sandwich 0)
+    floor = s * s / np.sum(inside / sd ** 2)
+    var = max(M / B ** 2 * n_in / max(n_in - 1, 1), floor) if B > 0 else floor
     return mu, math.sqrt(var), np.where(inside, t2 * t2, 0.0)
