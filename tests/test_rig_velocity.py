@@ -13,8 +13,13 @@ import numpy as np
 import pytest
 
 from radarslam.core.errors import InputError
-from radarslam.models.rig_velocity import (fit_rig_velocity, fit_rig_windows, rig_design, static_doppler,
-                                           yaw_offset_of_sweep)
+from radarslam.models.rig_velocity import (
+    fit_rig_velocity,
+    fit_rig_windows,
+    rig_design,
+    static_doppler,
+    yaw_offset_of_sweep,
+)
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
 RECORDINGS = ["nuscenes_radar/scene-0061", "nuscenes_radar/scene-0103", "nuscenes_radar/scene-0655",
@@ -34,7 +39,7 @@ def scene(rng, n=300, mounts=NUSC, theta=THETA, moving=0.0, structured=False):
     A = rig_design(az, *mounts[sid].T)
     d = A @ theta + SIGMA * rng.standard_normal(n)
     out = np.zeros(n, dtype=bool)
-    out[: int(round(moving * n))] = True
+    out[: round(moving * n)] = True
     if structured:            # a translating object: the same linear model with another velocity
         d[out] = A[out] @ (theta - np.array([6.0, -2.0, 0.0])) + SIGMA * rng.standard_normal(out.sum())
     else:
@@ -175,8 +180,14 @@ def shared(name: str) -> Path:
 def test_first_seconds_of_each_recording_against_its_odometry(name, tmp_path):
     """The first 5 s: nearly every window valid, speed within 0.2 m/s RMS and yaw rate within 5 deg/s
     RMS of the odometry (loose: a sanity bound, not the measured figures of c.12.6), and the CSV."""
-    from radarslam.experiments.rig_velocity import (EGO_VELOCITY_COLUMNS, Rig, compare_with_odometry, read_rig,
-                                                    rig_ego_velocity, write_ego_velocity_csv)
+    from radarslam.experiments.rig_velocity import (
+        EGO_VELOCITY_COLUMNS,
+        Rig,
+        compare_with_odometry,
+        read_rig,
+        rig_ego_velocity,
+        write_ego_velocity_csv,
+    )
 
     rig = read_rig(shared(name))
     keep = rig.t < rig.t[0] + 5.0
