@@ -138,8 +138,8 @@ def write_calibration(out: str | Path, rig: Rig, cal: Calibration) -> list[str]:
 
     out = Path(out)
     f = lambda v, fmt: "" if not np.isfinite(v) else format(float(v), fmt)
-    lines = ["sensor_id,name,yaw_nominal_deg,yaw_offset_deg,std_deg,yaw_calibrated_deg,n_sweeps,n_used,"
-             "residual_rms_before_mps,residual_rms_after_mps"]
+    lines = [("sensor_id,name,yaw_nominal_deg,yaw_offset_deg,std_deg,yaw_calibrated_deg,n_sweeps,n_used,"
+              "residual_rms_before_mps,residual_rms_after_mps")]
     m = cal.mount(rig)
     for j, sid in enumerate(cal.sensor_ids):
         lines.append(",".join([str(int(sid)), cal.names[j], f(math.degrees(cal.yaw_nominal[j]), ".4f"),

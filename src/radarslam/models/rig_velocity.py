@@ -258,7 +258,7 @@ def _fit_chunk(A, d, lo, hi, rng, hypotheses, sample, threshold, sigma_floor, mi
     M, _ = normal((u * TUKEY_C * w) ** 2)          # psi(z) = z t2^2 with z = u c
     Nw, _ = normal(w)
     Bi, detB = _inv_batch(B)
-    Ni, detN = _inv_batch(Nw)
+    Ni, _ = _inv_batch(Nw)
     posB = (detB > 0) & np.all(np.einsum("kii->ki", B) > 0, axis=1)
     with np.errstate(invalid="ignore", divide="ignore"):
         C = np.where(posB[:, None, None], Bi @ M @ np.swapaxes(Bi, 1, 2) * (n_in / (n_in - p))[:, None, None],
