@@ -69,6 +69,8 @@ def run_recording_cmd(args: argparse.Namespace) -> int:
     announce(first, config)
     bar = Progress(n, 0, unit="scans", enabled=sys.stderr.isatty())
     run = run_recording(rec, config, on_scan=bar.update, first_run=first)
+    for note in run_notes(run):
+        print(f"radarslam: {note}", file=sys.stderr)
     out = prepare_out_dir(args.out)
     refuse_finished(out / "run.json", "--out", args.overwrite)
     names = write_recording_outputs(out, run, {"recording": str(args.recording), "version": __version__,
@@ -91,6 +93,16 @@ def run_recording_cmd(args: argparse.Namespace) -> int:
     print(line)
     print(f"wrote {out}/ ({', '.join(names)})")
     return 0
+
+
+def run_notes(run) -> list[str]:
+    """One line each: what the stream left out (issue 35 items 2, 7) and where the run started (item 1)."""
+    st = run.metrics["start"]
+    x, y, yaw = st["pose"]
+    where = {"truth": "the truth's first pose", "zero": "zero (no truth)",
+             "config": "the config's filter.initial_pose"}[st["from"]]
+    return [f"warning: {n}" for n in run.stream.notes] + [f"the run starts at {where}: ({x:.3f} m, {y:.3f} m, {math.degrees(yaw):.3f} deg), with "
+            "filter.initial_pose_std; map and trajectory are in " + st["frame"]]
 
 
 def ego_motion_cmd(args: argparse.Namespace, config) -> int:

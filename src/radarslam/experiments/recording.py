@@ -16,7 +16,7 @@ from radarslam.core.errors import ConfigError, InputError
 from radarslam.core.types import Scan
 from radarslam.experiments.single import FilterRecord, run_filter
 from radarslam.io.recording.mounting import Mounting, to_sensor
-from radarslam.io.recording.stream import Recording, check_motion_model, to_events
+from radarslam.io.recording.stream import Recording, StreamReport, check_motion_model, stream_events
 from radarslam.metrics.pose import avg_rmse, pose_errors
 
 
@@ -39,6 +39,8 @@ class RecordingRun:
     truth : ndarray, shape (K, 3), or None
         The truth at the scan times (NaN outside its time span).
     metrics : dict
+    stream : StreamReport
+        What the event stream left out (one note line each).
     """
 
     config: Config
@@ -49,6 +51,7 @@ class RecordingRun:
     record: FilterRecord
     truth: np.ndarray | None
     metrics: dict
+    stream: StreamReport = dataclasses.field(default_factory=StreamReport)
 
 
 def effective_mounting(rec: Recording, config: Config) -> Mounting:
@@ -101,8 +104,75 @@ def evaluate_truth(poses: np.ndarray, truth: np.ndarray) -> dict:
             "final_heading_error_deg": math.degrees(abs(float(head[-1]))), "position_max_error_m": float(pos.max())}
 
 
-def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=None) -> RecordingRun:
-    """Run :class:`~radarslam.slam.EkfSlam` over ``rec`` with ``config`` and evaluate against its truth."""
+#: What ``map.json`` says its frame is, by where the run started (``metrics.json["start"]["from"]``).
+FRAMES = {"truth": "the truth's frame (the run starts at its first pose)",
+          "zero": "the platform pose at the first scan",
+          "config": "the frame of filter.initial_pose (the config's start pose at the first scan)"}
+
+
+def sensor_lever(config: Config) -> tuple[float, float] | None:
+    """The ``ackermann`` model's sensor position ``(L + a, b)`` on the platform, whose pose the filter
+    estimates (models/ackermann.py); None for the other models (the platform's own pose)."""
+    f = config.filter
+    return (f.vehicle_L_m + f.sensor_a_m, f.sensor_b_m) if f.motion_model == "ackermann" else None
+
+
+def platform_to_filter(poses: np.ndarray, config: Config) -> np.ndarray:
+    """Platform poses ``(K, 3)`` as the filter's state (the sensor's under ``ackermann``)."""
+    return _shift(poses, sensor_lever(config), 1.0)
+
+
+def filter_to_platform(poses: np.ndarray, config: Config) -> np.ndarray:
+    """The filter's poses ``(K, 3)`` as the platform's (the inverse of :func:`platform_to_filter`)."""
+    return _shift(poses, sensor_lever(config), -1.0)
+
+
+def _shift(poses: np.ndarray, lever, sign: float) -> np.ndarray:
+    poses = np.array(poses, dtype=float)
+    if lever is None:
+        return poses
+    c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
+    poses[:, 0] += sign * (c * lever[0] - s * lever[1])
+    poses[:, 1] += sign * (s * lever[0] + c * lever[1])
+    return poses
+
+
+def start_pose(rec: Recording, config: Config, t_first: float, start: str = "auto") -> tuple[list[float], str]:
+    """Where a recording run starts (issue 35 item 1): ``(pose, from)``.
+
+    ``start`` "auto": the config's ``filter.initial_pose`` when it differs from its profile's value
+    (the user set it), else the truth's pose at the first scan when the truth covers it, else zero;
+    never the profile's value, which is the simulator's injected error (docs/method.md b.5). "truth",
+    "zero" and "config" force one. The pose is the filter's state (the sensor's under ``ackermann``).
+    """
+    from radarslam.config import profile_config
+
+    at = None if rec.truth is None else truth_at(np.array([t_first]), rec.truth_t, rec.truth)
+    if start == "auto":
+        own = list(config.filter.initial_pose) != list(profile_config(config.profile).filter.initial_pose)
+        start = "config" if own else "truth" if at is not None and np.all(np.isfinite(at)) else "zero"
+    if start == "config":
+        return [float(v) for v in config.filter.initial_pose], "config"
+    if start == "zero":
+        pose = np.zeros((1, 3))
+    elif start == "truth":
+        if at is None or not np.all(np.isfinite(at)):
+            raise InputError(f"{rec.source}: expected a truth covering the first scan ({t_first} s) to start at, got "
+                             + ("none" if at is None else f"one over {rec.truth_t[0]} .. {rec.truth_t[-1]} s"))
+        pose = at
+    else:
+        raise InputError(f"start: expected auto, truth, zero or config, got {start!r}")
+    pose = platform_to_filter(pose, config)[0]
+    if config.filter.motion_model == "ackermann":
+        pose[2] = pose[2] % (2 * math.pi)          # that model's heading is in [0, 2 pi)
+    return [float(v) for v in pose], start
+
+
+def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=None, start: str = "auto") -> RecordingRun:
+    """Run :class:`~radarslam.slam.EkfSlam` over ``rec`` with ``config`` and evaluate against its truth.
+
+    The run starts at :func:`start_pose` (``start``) with ``filter.initial_pose_std``.
+    """
     config = validate(config)
     check_motion_model(rec, config.filter.motion_model)
     if config.filter.initial_error != "fixed":   # b.5: a draw needs the true first pose of a simulation
@@ -111,22 +181,26 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
     m = effective_mounting(rec, config)
     config = dataclasses.replace(config, sensor=dataclasses.replace(
         config.sensor, mount_x_m=m.x, mount_y_m=m.y, mount_yaw_deg=math.degrees(m.yaw)))
-    events = to_events(rec, m)
+    events, report = stream_events(rec, m)
+    times = np.array([e.t for e in events if isinstance(e, Scan)])
+    pose, origin = start_pose(rec, config, float(times[0]), start)
+    config = dataclasses.replace(config, filter=dataclasses.replace(config.filter, initial_pose=pose))
     if first_run is not None and first_run.filter_backend == "python":   # experiments/first_run.py
         python = dataclasses.replace(config, filter=dataclasses.replace(config.filter, backend="python"))
         record = run_filter(python, events, on_scan=on_scan, engine="orchestrator")
         record.engine = "python"
     else:
         record = run_filter(config, events, on_scan=on_scan)
-    times = np.array([e.t for e in events if isinstance(e, Scan)])
     truth = None if rec.truth is None else truth_at(times, rec.truth_t, rec.truth)
     metrics = {"scans": int(times.size), "detections": int(record.n_detections.sum()),
                "associated": int(record.n_associated.sum()), "landmarks_final": int(record.n_landmarks[-1]),
                "filter_seconds": record.seconds, "mounting": {"x_m": m.x, "y_m": m.y, "yaw_rad": m.yaw,
-                                                              "source": m.source}}
+                                                              "source": m.source},
+               "start": {"pose": pose, "from": origin, "frame": FRAMES[origin]},
+               "dropped_scans": report.dropped_scans}
     if truth is not None:
         metrics.update(evaluate_truth(record.poses, truth))
-    return RecordingRun(config, rec, m, events, times, record, truth, metrics)
+    return RecordingRun(config, rec, m, events, times, record, truth, metrics, report)
 
 
 def animation_frames(run: RecordingRun) -> list[dict]:
@@ -180,8 +254,7 @@ def write_recording_outputs(out: Path, run: RecordingRun, extra: dict) -> list[s
         write_tum(out / "groundtruth_tum.txt", run.recording.truth_t, run.recording.truth)
         names.append("groundtruth_tum.txt")
     rows = map_rows(run)
-    write_json(out / "map.json", {"frame": "platform pose of the first scan's estimate (the odometry frame)",
-                                  "landmarks": rows})
+    write_json(out / "map.json", {"frame": FRAMES[run.metrics["start"]["from"]], "landmarks": rows})
     lines = ["id,x_m,y_m,cov_xx_m2,cov_xy_m2,cov_yy_m2,extent_xx_m2,extent_xy_m2,extent_yy_m2"]
     for r in rows:
         ext = r["extent"] if r["extent"] is not None else np.full((2, 2), np.nan)

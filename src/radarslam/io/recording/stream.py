@@ -15,6 +15,9 @@ from radarslam.core.errors import InputError
 from radarslam.core.types import Event, Odometry, Scan
 from radarslam.io.recording.mounting import Mounting, to_platform
 
+#: Times closer than this (s) are one time: a scan this close to an odometry stamp is at the stamp
+#: (no sliver of an odometry piece; a bag's stamps are whole nanoseconds).
+TIME_EPS_S = 1e-9
 #: Optional per-detection columns, carried to :attr:`Scan.channels` (not used by the filter yet).
 CHANNELS = ("doppler_mps", "rcs", "sensor_id", "z_m")
 #: Odometry columns of each kind: ``unicycle`` (speed, yaw rate) or ``ackermann`` (wheel speed, steering).
@@ -93,40 +96,99 @@ def check_motion_model(rec: Recording, motion_model: str) -> None:
                          f"filter.motion_model is {motion_model!r}; choose a profile or --config that matches")
 
 
-def to_events(rec: Recording, mounting: Mounting) -> list[Event]:
-    """The time-ordered event stream of ``rec`` with detections moved to the platform frame.
+@dataclass
+class StreamReport:
+    """What :func:`stream_events` left out of the stream, for ``metrics.json`` and one warning line each.
 
-    Scans are numbered from 1. Odometry row ``j`` with ``t_j`` after the first scan and at most the
-    last scan becomes ``Odometry(t_j, t_j - max(t_{j-1}, t_first_scan), row_j)``: the reading at the
-    end of its interval, applied over it (rows at or before the first scan only mark the start).
-    Odometry goes first on equal times (``t_odo <= t_scan``), as in the simulator.
+    Attributes
+    ----------
+    scans, detections : int
+        Scans and detections in the stream.
+    dropped_scans : dict
+        Scans outside the odometry's span (before its first row or after its last), which no
+        prediction reaches: ``{"count", "detections", "t_first_s", "t_last_s"}`` (count 0: none).
+    notes : list of str
+        One line per fault met (nothing when the stream is whole).
     """
-    st = rec.scan_times()
-    if st.size == 0:
+
+    scans: int = 0
+    detections: int = 0
+    dropped_scans: dict = field(default_factory=lambda: {"count": 0, "detections": 0})
+    notes: list[str] = field(default_factory=list)
+
+
+def to_events(rec: Recording, mounting: Mounting) -> list[Event]:
+    """The time-ordered event stream of ``rec`` (:func:`stream_events` without its report)."""
+    return stream_events(rec, mounting)[0]
+
+
+def stream_events(rec: Recording, mounting: Mounting) -> tuple[list[Event], StreamReport]:
+    """The time-ordered event stream of ``rec`` with detections moved to the platform frame, and
+    what was left out (docs/recordings.md "From rows to events").
+
+    Odometry row ``j`` is the reading over ``(t_{j-1}, t_j]`` (row 0 only marks the start). The
+    prediction reaches each scan at its own time: an interval holding scans at ``s_1 < ... < s_m`` is
+    split at them, ``Odometry(s_1, s_1 - a, u_j)``, the scan(s) at ``s_1``, ..., then the rest
+    ``Odometry(t_j, t_j - s_m, u_j)`` (never a piece of zero length), with ``a = max(t_{j-1}, t_first_scan)``.
+    The interval holding the last scan ends there (the rest of that reading, and later rows, are dropped).
+    Scans before ``t_0`` or after the last row cannot be predicted to: they are dropped and reported.
+    Odometry goes first on equal times (``t_odo <= t_scan``, within :data:`TIME_EPS_S`), as in the
+    simulator. Scans are numbered from 1 in the stream.
+    """
+    scans = _scans(rec, mounting)
+    if not scans:
         raise InputError(f"{rec.source}: expected at least one scan, got none")
+    report = StreamReport()
+    odo_t = rec.odo_t
+    covered = [bool(odo_t.size) and odo_t[0] - TIME_EPS_S <= sc.t <= odo_t[-1] + TIME_EPS_S for sc in scans]
+    inside = [sc for sc, c in zip(scans, covered) if c]
+    out = [sc for sc, c in zip(scans, covered) if not c]
+    if out:
+        n_det = sum(sc.polar.shape[0] for sc in out)
+        report.dropped_scans = {"count": len(out), "detections": n_det, "t_first_s": out[0].t, "t_last_s": out[-1].t}
+        span = f"{odo_t[0]} .. {odo_t[-1]} s" if odo_t.size else "none"
+        report.notes.append(f"{rec.source}: {len(out)} of {len(scans)} scans ({n_det} detections, {out[0].t} .. "
+                            f"{out[-1].t} s) lie outside the odometry's span ({span}) and were dropped")
+    if not inside:
+        raise InputError(f"{rec.source}: expected scans within the odometry's time span "
+                         f"({odo_t[0] if odo_t.size else '-'} .. {odo_t[-1] if odo_t.size else '-'} s), got none "
+                         f"(scans {scans[0].t} .. {scans[-1].t} s)")
+    scans = [Scan(sc.t, k, sc.polar, sc.channels) for k, sc in enumerate(inside, start=1)]
+    report.scans, report.detections = len(scans), sum(sc.polar.shape[0] for sc in scans)
+    t0, t1 = scans[0].t, scans[-1].t
+    events: list[Event] = [scans[0]]
+    i = 1                                     # the next scan to place
+    prev = -np.inf                            # the previous row's time
+    for tj, row in zip(odo_t.tolist(), rec.odo):
+        if tj <= t0 + TIME_EPS_S or prev >= t1 - TIME_EPS_S:
+            prev = tj
+            continue
+        u = np.array(row, dtype=float)
+        a = max(prev, t0)                     # where this reading's interval starts in the stream
+        while i < len(scans) and scans[i].t <= tj + TIME_EPS_S:
+            s = scans[i].t
+            if s > a + TIME_EPS_S:
+                events.append(Odometry(s, s - a, u))
+                a = s
+            events.append(scans[i])
+            i += 1
+        b = min(tj, t1)
+        if b > a + TIME_EPS_S:
+            events.append(Odometry(b, b - a, u))
+        prev = tj
+    return events, report
+
+
+def _scans(rec: Recording, mounting: Mounting) -> list[Scan]:
+    """Every scan of ``rec`` in time order (numbered 0 here), detections in the platform frame."""
+    st = rec.scan_times()
     order = np.argsort(rec.det_t, kind="stable")
     t, polar = rec.det_t[order], platform_polar(rec, mounting)[order]
     ch = {k: v[order] for k, v in rec.channels.items()}
     starts = np.searchsorted(t, st, side="left")
     ends = np.searchsorted(t, st, side="right")
-    scans = []
-    for k, (ts, a, b) in enumerate(zip(st.tolist(), starts.tolist(), ends.tolist()), start=1):
-        scans.append(Scan(ts, k, polar[a:b], {n: v[a:b] for n, v in ch.items()} or None))
-    t0, t1 = st[0], st[-1]
-    odo: list[tuple[float, Odometry]] = []
-    prev = -np.inf
-    for tj, row in zip(rec.odo_t.tolist(), rec.odo):
-        if t0 < tj <= t1:
-            odo.append((tj, Odometry(tj, tj - max(prev, t0), np.array(row, dtype=float))))
-        prev = tj
-    events: list[Event] = []
-    i = 0
-    for s in scans:
-        while i < len(odo) and odo[i][0] <= s.t:
-            events.append(odo[i][1])
-            i += 1
-        events.append(s)
-    return events
+    return [Scan(ts, 0, polar[a:b], {n: v[a:b] for n, v in ch.items()} or None)
+            for ts, a, b in zip(st.tolist(), starts.tolist(), ends.tolist())]
 
 
 def platform_polar(rec: Recording, mounting: Mounting) -> np.ndarray:
