@@ -7,6 +7,7 @@ CI sets it below 1 to keep its run short while still executing them.
 
 from __future__ import annotations
 
+import contextlib
 import os
 from pathlib import Path
 
@@ -71,20 +72,45 @@ def victoria_park_dir() -> Path:
     return VICTORIA_PARK
 
 
+@contextlib.contextmanager
+def _one_process_at_a_time(path: Path):
+    """Hold an exclusive lock on ``path``, waiting for it: under pytest-xdist every worker runs the
+    session fixtures, and they share numba's cache; the first compiles, the others wait and then
+    load its cached code instead of compiling the same engine again on the other core."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX
+        yield
+        return
+    with open(path, "a+") as fh:
+        fcntl.flock(fh, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)
+
+
 @pytest.fixture(scope="session", autouse=True)
 def _fused_engine_compiled():
     """Compile the fused engine once before the first test when numba's cache is cold, so that
     every Monte Carlo in the session runs its trials with the engine the results are compared
     against (a short run on a cold cache would take the orchestrator, equal only to 1e-9,
-    experiments/warmup.py). Without numba, nothing to do."""
+    experiments/warmup.py). Without numba, nothing to do.
+
+    Under pytest-xdist one worker compiles (on both cores: the others wait for its lock, so the
+    warm-up's second process takes the idle core) and the others then find the cache warm."""
     try:
         import numba  # noqa: F401
     except ImportError:
         yield
         return
     from radarslam.config import profile_config
+    from radarslam.experiments import background
     from radarslam.experiments.variants import DEFAULT_VARIANTS
     from radarslam.experiments.warmup import warm_up
 
-    warm_up(profile_config("apsipa"), DEFAULT_VARIANTS, lambda s: None, parallel=False)
+    workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
+    # keyed like the background compilation's lock: the package's location and NUMBA_CACHE_DIR
+    with _one_process_at_a_time(background.lock_path().with_suffix(".tests.lock")):
+        warm_up(profile_config("apsipa"), DEFAULT_VARIANTS, lambda s: None, parallel=workers > 1)
     yield
