@@ -58,6 +58,17 @@ def predict_terms(x: np.ndarray, P: np.ndarray, u: np.ndarray, dt: float, model:
     return pose, Ppp, Ppl
 
 
+def interval_noise(U: np.ndarray, Q: np.ndarray, dt: float, ref: float) -> tuple[np.ndarray, np.ndarray]:
+    """U and Q of one odometry reading over ``dt`` (s) when they are quoted for a reading over
+    ``ref`` (docs/method.md c.2.2): the reading's error is the mean of a white input noise over its
+    interval, ``U ref / dt``, and the process noise is a density, ``Q dt / ref``; so ``Fu U Fu^T + Q``
+    grows with time, not with the rate. The arrays themselves when ``dt`` is ``ref`` within 1 ns
+    (a clock's rounding: the profiles' own rates then run bit for bit as before)."""
+    if abs(dt - ref) <= 1e-9:
+        return U, Q
+    return U * (ref / dt), Q * (dt / ref)
+
+
 def fej_motion_jacobian(Fx: np.ndarray, pose_new: np.ndarray, pose_first: np.ndarray) -> np.ndarray:
     """The first-estimates pose Jacobian (docs/method.md c.2.1; Huang, Mourikis & Roumeliotis 2008).
 

@@ -25,11 +25,10 @@ from radarslam.core.errors import ConfigError, InputError
 from radarslam.core.registry import ASSOCIATORS, EXTENT_ESTIMATORS, MEASUREMENT_MODELS
 from radarslam.core.types import Odometry, Scan
 from radarslam.core.validation import as_array
-from radarslam.landmarks.clustering import DENSE_MAX, Cluster, clusters_of, dbscan_labels
-from radarslam.landmarks.confirmation import in_view, removal_step, rule2_step
+from radarslam.landmarks.clustering import Cluster
+from radarslam.landmarks.confirmation import removal_step, rule2_step
 from radarslam.landmarks.merging import next_merge
-from radarslam.landmarks.grouping import by_landmark
-from radarslam.landmarks.sifting import candidates, sift
+from radarslam.landmarks.sifting import sift
 from radarslam.models.body_velocity import BodyVelocityModel
 from radarslam.models.motion import MotionModel, motion_model_from_config
 from radarslam.slam import ekf
@@ -37,6 +36,7 @@ from radarslam.slam.association import Associator, Spreads
 from radarslam.slam.bias import (bias_states, control_noise, initial_state, measurement_noise, predict_terms,
                                  turn_noise, turn_noise_gain2, turn_noise_index)
 from radarslam.slam.doppler_gate import DopplerGate, mounting
+from radarslam.slam.kernels import cluster_kernel as _cluster_kernel, step_kernels as _step_kernels
 from radarslam.slam.odometry_source import odometry_source
 from radarslam.slam.partial_view import view_components, view_corrected_centroid, view_walk
 from radarslam.slam.state import Landmark
@@ -119,6 +119,8 @@ class EkfSlam:
         self._turn_k = (turn_noise_index(self.model, f), turn_noise_gain2(f))   # c.11.8: U grows with the turn
         self.R_assoc = measurement_noise(self.R, f)  # c.11.9: R of association and update
         self.Q = f.Q
+        #: U's stds and Q's variances are those of a reading over this interval (c.2.2).
+        self._noise_ref = float(f.noise_interval_s)
         #: The odometry-bias states (docs/method.md c.11) under filter.odometry_bias "states", else None.
         #: They belong to the model that drives the prediction: the body-velocity model under Doppler odometry.
         self.bias_model = bias_states(self.model if f.odometry == "odometer" else BodyVelocityModel(), f)
@@ -236,7 +238,8 @@ class EkfSlam:
         st = self.state
         with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
             U = self.U if self._turn_k[0] is None else turn_noise(self.U, u, *self._turn_k)
-            pose, Ppp, Ppl = predict_terms(self.bias_model, st.x, st.P, u, dt, self.model, U, self.Q,
+            U, Q = ekf.interval_noise(U, self.Q, dt, self._noise_ref)             # c.2.2
+            pose, Ppp, Ppl = predict_terms(self.bias_model, st.x, st.P, u, dt, self.model, U, Q,
                                            self._pose_first)
         # only the pose rows change (c.2): check them, then write them in place (O(N), no copy of P)
         if not (np.isfinite(pose).all() and np.isfinite(Ppp).all() and np.isfinite(Ppl).all()):
@@ -429,41 +432,6 @@ class EkfSlam:
             st.extents[j] = self.extent.merge(st.extents[j], gone_extent)
             merged.append((survivor, gone))
         return merged
-
-
-def _reference_clusters(polar: np.ndarray, xy: np.ndarray, index: np.ndarray, eps: float,
-                        min_samples: int) -> list[Cluster]:
-    """DBSCAN of ``xy`` (c.6) and the clusters with their centres (h.13); ``index`` maps rows to the scan."""
-    return clusters_of(polar, xy, dbscan_labels(xy, eps, min_samples), index)
-
-
-def _step_kernels(backend: str):
-    """Steps 3-5's kernels in ``backend``: sifting's decision
-    (:func:`~radarslam.landmarks.sifting.candidates`), the grouping by landmark
-    (:func:`~radarslam.landmarks.grouping.by_landmark`) and the sensor's view
-    (:func:`~radarslam.landmarks.confirmation.in_view`), or their compiled forms."""
-    if backend != "numba":
-        return candidates, by_landmark, in_view
-    from radarslam.landmarks._compiled import compiled_by_landmark, compiled_candidates, compiled_in_view
-    return compiled_candidates, compiled_by_landmark, compiled_in_view
-
-
-def _cluster_kernel(backend: str):
-    """Step 7's clustering in ``backend``: the reference (scikit-learn's DBSCAN), or the same labels
-    and centres from compiled loops (:mod:`radarslam.landmarks._compiled`) for scans of up to
-    ``DENSE_MAX`` points."""
-    if backend != "numba":
-        return _reference_clusters
-    from radarslam.landmarks._compiled import dbscan_centres, dbscan_labels as compiled_labels
-
-    def clusters(polar, xy, index, eps, min_samples):
-        if xy.shape[0] > DENSE_MAX:
-            return _reference_clusters(polar, xy, index, eps, min_samples)
-        labels = compiled_labels(xy, eps, min_samples)
-        return [Cluster(polar[c].copy(), xy[c].copy(), int(rows.size), index[rows])
-                for c, rows in ((c, np.flatnonzero(labels == lab))
-                                for lab, c in enumerate(dbscan_centres(polar[:, 0], labels).tolist()))]
-    return clusters
 
 
 def _number(value, name: str) -> float:

@@ -145,6 +145,7 @@ class DopplerOdometry:
         self.sensor_frame = True
         self.model = BodyVelocityModel()
         self.gyro_var = math.radians(filter_config.gyro_std_deg_s) ** 2
+        self.noise_ref = float(filter_config.noise_interval_s)   # Q is quoted per reading over it (c.2.2)
         #: RANSAC's minimal sets (c.10.2): a fixed seed of its own, so a run is reproducible.
         self.rng = np.random.default_rng(0)
         self.v = np.zeros(2)                                  # the velocity driving the next interval
@@ -191,14 +192,16 @@ class DopplerOdometry:
 
     def prediction_input(self, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
         """The body-velocity prediction over the accumulated interval (c.10.5) as ``(u (3,), U (3, 3),
-        dt, Q_n)``, ``Q_n`` the process noise ``Q`` once per odometer interval; it depends on the
+        dt, Q_n)``, ``Q_n`` the process noise over dt (c.2.2); it depends on the
         scans and readings only, not on the filter's state (the fused engine's stream takes it)."""
         omega = None if self.f.yaw_rate == "doppler" else self.gyro_dt / self.dt
         u, U = platform_input(self.v, self.C, self.mount if self.sensor_frame else (0.0, 0.0, 0.0), omega,
                               self.gyro_var)
         if self.f.odometry == "both":
             u, U = fuse_forward_speed(u, U, self.speed_dt / self.dt, self.f.speed_std_mps ** 2)
-        return u, U, self.dt, self.n * Q
+        # Q a density (c.2.2): n readings of the reference interval take n Q, as before, bit for bit
+        steady = abs(self.dt - self.n * self.noise_ref) <= 1e-9
+        return u, U, self.dt, self.n * Q if steady else Q * (self.dt / self.noise_ref)
 
     def _predict(self, slam, t) -> None:
         """Predict over the accumulated interval (c.10.5), then clear it."""

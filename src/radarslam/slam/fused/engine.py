@@ -102,6 +102,8 @@ def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
                 u, dt, U, Q, model = stream.odo[e_odo], stream.odo_dt[e_odo], noise.U, noise.Q, cfg.motion
                 if cfg.turn_index >= 0:                                            # c.11.8
                     U = turn_noise(noise.U, u, cfg.turn_index, cfg.turn_gain2)
+                if abs(dt - cfg.noise_ref) > 1e-9:                                 # c.2.2
+                    U, Q = U * (cfg.noise_ref / dt), Q * (dt / cfg.noise_ref)
                 e_odo += 1
             else:                                                                  # c.10.5
                 u, dt, U, Q, model = (stream.vel[e_vel], stream.vel_dt[e_vel], stream.vel_U[e_vel],

@@ -82,6 +82,7 @@ class FusedParams(NamedTuple):
     gate_radius: float     #: filter.doppler_memory_radius_m
     turn_index: int        #: the turning input whose variance grows with the turn (c.11.8), -1 for none
     turn_gain2: float      #: its k^2 (slam.bias.turn_noise_gain2)
+    noise_ref: float       #: filter.noise_interval_s: U and Q are a reading's over it (c.2.2)
     platform: int          #: the platform block's size: 3, or 3 + m with m odometry-bias states (c.11)
     bias_scaled: np.ndarray  #: (k,) int64, the inputs the speed-scale bias scales (InputBias.scaled; empty: none)
     bias_offset: int       #: the turning input (InputBias.offset)
@@ -243,6 +244,7 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
         doppler_gate=bool(f.doppler_gate), gate_memory=int(f.doppler_memory_scans),
         gate_probation=int(f.doppler_probation_scans), gate_radius=float(f.doppler_memory_radius_m),
         turn_index=-1 if slam._turn_k[0] is None else int(slam._turn_k[0]), turn_gain2=float(slam._turn_k[1]),
+        noise_ref=float(slam._noise_ref),
         **_bias_parameters(slam.bias_model),
         pv=view_parameters(slam),
     )
