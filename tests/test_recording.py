@@ -396,3 +396,4 @@ def test_evo_ape_equals_radarslams_own_figure(tmp_path):
     own_rmse = float(np.sqrt(np.mean((err[:, 2] - err[:, 5]) ** 2 + (err[:, 3] - err[:, 6]) ** 2)))
     assert ape.get_statistic(metrics.StatisticsType.mean) == pytest.approx(m["position_avg_rmse_m"], abs=1e-5)
     assert ape.get_statistic(metrics.StatisticsType.rmse) == pytest.approx(own_rmse, abs=1e-5)
+    assert ape.get_statistic(metrics.StatisticsType.rmse) == pytest.approx(m["position_rmse_m"], abs=1e-5)

@@ -27,6 +27,10 @@ def add_recording_args(p: argparse.ArgumentParser, run: bool) -> None:
     p.add_argument("--doppler-field", metavar="NAME", help="bag: the PointCloud2 field holding the radial velocity "
                    "(default: doppler, velocity, v_r, VrelRad, ... when present)")
     if run:
+        p.add_argument("--align", choices=("none", "first-pose", "se2"), default="none",
+                       help="--recording: how the estimate is aligned to the truth before its errors are taken: none "
+                            "(default, as evo_ape without -a), first-pose, or se2 (rotation and translation of least "
+                            "squares, no scale, as evo_ape -a)")
         p.add_argument("--animate", metavar="FILE", help="--recording: draw the run scan by scan into FILE.gif "
                        "(or .mp4 with ffmpeg)")
 
@@ -68,7 +72,7 @@ def run_recording_cmd(args: argparse.Namespace) -> int:
     first = choose(config.filter.backend)                    # the first-run rule (experiments/first_run.py)
     announce(first, config)
     bar = Progress(n, 0, unit="scans", enabled=sys.stderr.isatty())
-    run = run_recording(rec, config, on_scan=bar.update, first_run=first)
+    run = run_recording(rec, config, on_scan=bar.update, first_run=first, align=args.align)
     for note in run_notes(run):
         print(f"radarslam: {note}", file=sys.stderr)
     out = prepare_out_dir(args.out)
@@ -87,22 +91,28 @@ def run_recording_cmd(args: argparse.Namespace) -> int:
     m = run.metrics
     line = (f"radarslam run --recording: {m['scans']} scans, {m['detections']} detections, {m['associated']} "
             f"associated, {m['landmarks_final']} landmarks; filter {m['filter_seconds']:.2f} s")
-    if "position_avg_rmse_m" in m:
-        line += (f"; against the truth ({m['truth_scans']} scans): position avg. RMSE {m['position_avg_rmse_m']:.3f} m, "
-                 f"heading {m['heading_avg_rmse_deg']:.3f} deg")
+    if "position_rmse_m" in m:
+        dr, ratio = m["dead_reckoning"], m["ratio_to_dead_reckoning"]["position_rmse"]
+        line += (f"; against the truth ({m['truth_scans']} scans, alignment {m['alignment']}): position RMSE (evo's "
+                 f"APE rmse) {m['position_rmse_m']:.3f} m, heading RMSE {m['heading_rmse_deg']:.3f} deg; dead "
+                 f"reckoning {dr['position_rmse_m']:.3f} m, {dr['heading_rmse_deg']:.3f} deg"
+                 + (f" (ratio {ratio:.2f})" if ratio is not None else ""))
     print(line)
     print(f"wrote {out}/ ({', '.join(names)})")
     return 0
 
 
 def run_notes(run) -> list[str]:
-    """One line each: what the stream left out (issue 35 items 2, 7) and where the run started (item 1)."""
+    """One line each: what the stream left out (issue 35 items 2, 7), where the run started (item 1)
+    and what its evaluation found suspicious (item 6)."""
     st = run.metrics["start"]
     x, y, yaw = st["pose"]
-    where = {"truth": "the truth's first pose", "zero": "zero (no truth)",
+    where = {"truth": "the truth's first pose", "zero": "zero (no truth at the first scan)",
              "config": "the config's filter.initial_pose"}[st["from"]]
-    return [f"warning: {n}" for n in run.stream.notes] + [f"the run starts at {where}: ({x:.3f} m, {y:.3f} m, {math.degrees(yaw):.3f} deg), with "
-            "filter.initial_pose_std; map and trajectory are in " + st["frame"]]
+    notes = [f"warning: {n}" for n in run.stream.notes + run.metrics.get("warnings", [])]
+    start = (f"the run starts at {where}: ({x:.3f} m, {y:.3f} m, {math.degrees(yaw):.3f} deg) with "
+             f"filter.initial_pose_std; map and trajectory are in {st['frame']}")
+    return [*notes, start]
 
 
 def ego_motion_cmd(args: argparse.Namespace, config) -> int:

@@ -17,7 +17,7 @@ from radarslam.core.types import Scan
 from radarslam.experiments.single import FilterRecord, run_filter
 from radarslam.io.recording.mounting import Mounting, to_sensor
 from radarslam.io.recording.stream import Recording, StreamReport, check_motion_model, stream_events
-from radarslam.metrics.pose import avg_rmse, pose_errors
+from radarslam.metrics.trajectory import DEFINITIONS, trajectory_errors
 
 
 @dataclass
@@ -93,15 +93,64 @@ def truth_at(times: np.ndarray, truth_t: np.ndarray, truth: np.ndarray) -> np.nd
     return out
 
 
-def evaluate_truth(poses: np.ndarray, truth: np.ndarray) -> dict:
-    """Pose errors against the truth at the scans where it is known, as the simulator's are."""
+def dead_reckoning(events: list, config: Config, start) -> np.ndarray:
+    """The odometry of ``events`` integrated by the filter's motion model from ``start`` (the filter's
+    state), the pose ``(K, 3)`` at every scan: what the run would be without its radar."""
+    from radarslam.core.types import Odometry
+    from radarslam.models.motion import motion_model_from_config
+
+    model = motion_model_from_config(config.filter)
+    pose, out = np.array(start, dtype=float), []
+    for ev in events:
+        if isinstance(ev, Odometry):
+            pose = np.asarray(model.step(pose, np.asarray(ev.control, dtype=float), ev.dt), dtype=float)
+        elif isinstance(ev, Scan):
+            out.append(pose.copy())
+    return np.array(out).reshape(-1, 3)
+
+
+#: A truth this far (m, deg) from the start pose used, or this many times dead reckoning's RMSE
+#: (and over 1 m), looks like another frame: one warning line.
+FAR_START_M, FAR_START_DEG, FAR_RATIO = 1.0, 5.0, 10.0
+
+
+def evaluate_truth(poses: np.ndarray, dr: np.ndarray, truth: np.ndarray, config: Config, align: str,
+                   start: dict) -> dict:
+    """The run's and dead reckoning's errors against the truth (issue 35 item 6): the platform's pose
+    (moved back from the sensor's under ``ackermann``) after ``align``, what each figure is, and a
+    warning when the truth looks like another frame."""
+    plat, dr_plat = filter_to_platform(poses, config), filter_to_platform(dr, config)
+    own = trajectory_errors(plat, truth, align)
+    if not own["truth_scans"]:
+        return own
+    ref = trajectory_errors(dr_plat, truth, align)
+    out = {**own, "frame": start["frame"], "alignment": align,
+           "pose_compared": "the platform's" + (" (the filter's sensor pose moved back by filter.vehicle_L_m + "
+                                                "sensor_a_m, sensor_b_m)" if sensor_lever(config) else ""),
+           "dead_reckoning": {k: v for k, v in ref.items() if k != "truth_scans"},
+           "ratio_to_dead_reckoning": {"position_rmse": _ratio(own, ref, "position_rmse_m"),
+                                       "heading_rmse": _ratio(own, ref, "heading_rmse_deg")},
+           "definitions": {**DEFINITIONS, "dead_reckoning": "odometry.csv integrated by the filter's motion model "
+                           "from the same start pose, at the same scan times"}}
+    warnings = []
     ok = np.all(np.isfinite(truth), axis=1)
-    if not ok.any():
-        return {"truth_scans": 0}
-    pos, head = pose_errors(poses[ok], truth[ok])
-    return {"truth_scans": int(ok.sum()), "position_avg_rmse_m": avg_rmse(pos),
-            "heading_avg_rmse_deg": math.degrees(avg_rmse(head)), "final_position_error_m": float(pos[-1]),
-            "final_heading_error_deg": math.degrees(abs(float(head[-1]))), "position_max_error_m": float(pos.max())}
+    first = truth[np.argmax(ok)]
+    s0 = filter_to_platform(np.array([start["pose"]]), config)[0]
+    d_m, d_deg = math.hypot(*(first[:2] - s0[:2])), abs(math.degrees(wrap_pi(first[2] - s0[2])))
+    if align == "none" and (d_m > FAR_START_M or d_deg > FAR_START_DEG):
+        warnings.append(f"the truth's first pose is {d_m:.2f} m / {d_deg:.1f} deg from the start pose used "
+                        f"({start['from']}): another frame? (--align first-pose or se2)")
+    if own["position_rmse_m"] > max(1.0, FAR_RATIO * ref["position_rmse_m"]):
+        times = own["position_rmse_m"] / max(ref["position_rmse_m"], 1e-12)
+        warnings.append(f"position RMSE {own['position_rmse_m']:.2f} m is {times:.0f}x dead reckoning's "
+                        f"({ref['position_rmse_m']:.2f} m): the truth in another frame, or the run lost")
+    if warnings:
+        out["warnings"] = warnings
+    return out
+
+
+def _ratio(a: dict, b: dict, key: str) -> float | None:
+    return a[key] / b[key] if b[key] > 0 else None
 
 
 #: What ``map.json`` says its frame is, by where the run started (``metrics.json["start"]["from"]``).
@@ -147,7 +196,7 @@ def start_pose(rec: Recording, config: Config, t_first: float, start: str = "aut
     """
     from radarslam.config import profile_config
 
-    at = None if rec.truth is None else truth_at(np.array([t_first]), rec.truth_t, rec.truth)
+    at = None if rec.truth is None else _truth_at_start(t_first, rec.truth_t, rec.truth)
     if start == "auto":
         own = list(config.filter.initial_pose) != list(profile_config(config.profile).filter.initial_pose)
         start = "config" if own else "truth" if at is not None and np.all(np.isfinite(at)) else "zero"
@@ -168,10 +217,25 @@ def start_pose(rec: Recording, config: Config, t_first: float, start: str = "aut
     return [float(v) for v in pose], start
 
 
-def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=None, start: str = "auto") -> RecordingRun:
+def _truth_at_start(t: float, truth_t: np.ndarray, truth: np.ndarray) -> np.ndarray:
+    """The truth ``(1, 3)`` at ``t``; a first scan up to one truth interval before the truth's first
+    sample (a 50 Hz truth starting 6 ms after the radar) takes the line through its first two samples."""
+    at = truth_at(np.array([t]), truth_t, truth)
+    if not np.all(np.isfinite(at)) and truth_t.size >= 2 and 0 < truth_t[0] - t <= truth_t[1] - truth_t[0]:
+        w = (t - truth_t[0]) / (truth_t[1] - truth_t[0])
+        d = truth[1] - truth[0]
+        d[2] = wrap_pi(d[2])
+        at = (truth[0] + w * d)[None, :]
+        at[0, 2] = wrap_pi(at[0, 2])
+    return at
+
+
+def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=None, start: str = "auto",
+                  align: str = "none") -> RecordingRun:
     """Run :class:`~radarslam.slam.EkfSlam` over ``rec`` with ``config`` and evaluate against its truth.
 
-    The run starts at :func:`start_pose` (``start``) with ``filter.initial_pose_std``.
+    The run starts at :func:`start_pose` (``start``) with ``filter.initial_pose_std``; it is compared
+    with the truth after ``align`` (none, first-pose, se2; :func:`evaluate_truth`).
     """
     config = validate(config)
     check_motion_model(rec, config.filter.motion_model)
@@ -195,11 +259,14 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
     metrics = {"scans": int(times.size), "detections": int(record.n_detections.sum()),
                "associated": int(record.n_associated.sum()), "landmarks_final": int(record.n_landmarks[-1]),
                "filter_seconds": record.seconds, "mounting": {"x_m": m.x, "y_m": m.y, "yaw_rad": m.yaw,
-                                                              "source": m.source},
+                                                              "source": m.source,
+                                                              "sensors": {str(k): v.name or str(k) for k, v in
+                                                                          (rec.sensors or {}).items()}},
                "start": {"pose": pose, "from": origin, "frame": FRAMES[origin]},
                "dropped_scans": report.dropped_scans}
     if truth is not None:
-        metrics.update(evaluate_truth(record.poses, truth))
+        metrics.update(evaluate_truth(record.poses, dead_reckoning(events, config, pose), truth, config, align,
+                                      metrics["start"]))
     return RecordingRun(config, rec, m, events, times, record, truth, metrics, report)
 
 

@@ -46,6 +46,7 @@ def synthetic_recording(*, duration_s: float = 10.0, speed_mps: float = 10.0, tu
                         spacing_m: float = 8.0, lateral_m: float = 7.0, returns: int = 3,
                         max_range_m: float = 25.0, fov_rad: float = 2 * math.pi, range_std_m: float = 0.0,
                         azimuth_std_rad: float = 0.0, truth_hz: float = 50.0,
+                        ackermann: tuple[float, float] | None = None,
                         rng: np.random.Generator | None = None) -> Recording:
     """A recording of ``duration_s`` seconds (see the module's docstring).
 
@@ -65,6 +66,10 @@ def synthetic_recording(*, duration_s: float = 10.0, speed_mps: float = 10.0, tu
         landmark), each with its own noise.
     range_std_m, azimuth_std_rad : float
         Radar noise drawn about the sensor (``rng`` required when non-zero).
+    ackermann : (L, H) or None
+        Odometry of the ``ackermann`` model instead (models/ackermann.py: the rear-left wheel's speed
+        ``v - omega H`` and the steering ``atan(omega L / v)`` of wheelbase ``L``); the truth stays the
+        rear axle's.
     """
     rig = sensors or {0: Mounting()}
     delays = sensor_delays_s or {}
@@ -91,8 +96,13 @@ def synthetic_recording(*, duration_s: float = 10.0, speed_mps: float = 10.0, tu
     t = np.concatenate(det_t)
     order = np.argsort(t, kind="stable")
     odo_t = (np.arange(math.ceil(duration_s * odo_hz) + 2) - 1) / odo_hz + odo_delay_s   # k / rate: exact multiples
-    odo = np.column_stack([np.full(odo_t.size, speed_mps), np.full(odo_t.size, turn_rate_rad_s)])
+    row = [speed_mps, turn_rate_rad_s]
+    if ackermann is not None:
+        L, H = ackermann
+        row = [speed_mps - turn_rate_rad_s * H, math.atan2(turn_rate_rad_s * L, speed_mps)]
+    odo = np.tile(row, (odo_t.size, 1))
     return Recording(t[order], np.concatenate(det_polar)[order],
-                     {"sensor_id": np.concatenate(det_sid)[order]} if sensors else {}, odo_t, odo, "unicycle",
+                     {"sensor_id": np.concatenate(det_sid)[order]} if sensors else {}, odo_t, odo,
+                     "unicycle" if ackermann is None else "ackermann",
                      t_truth, truth, source="synthetic", scan_t=np.unique(scan_t),
                      sensors=dict(sensors) if sensors else None)

@@ -1,0 +1,85 @@
+"""A trajectory against its truth, as evo's APE states it (issue 35 item 6; docs/recordings.md
+"What metrics.json holds").
+
+- :func:`align`: none, the first pose, or the SE(2) least-squares fit without scale (Umeyama,
+  IEEE T-PAMI 13(4), 1991, eqs. 38-42 in two dimensions);
+- :func:`trajectory_errors`: the position RMSE ``sqrt(mean_k |p_k - p_k^true|^2)`` (evo's APE of the
+  translation part, its ``rmse``), the heading RMSE, and beside them the paper's avg. RMSE
+  (docs/method.md f.1), which for one run is the MEAN position error (evo's APE ``mean``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from radarslam.core.angles import wrap_pi
+from radarslam.metrics.pose import avg_rmse, pose_errors
+
+#: The alignments :func:`align` knows.
+ALIGNMENTS = ("none", "first-pose", "se2")
+#: One line per figure of :func:`trajectory_errors` (metrics.json's ``definitions``).
+DEFINITIONS = {
+    "position_rmse_m": "sqrt(mean over scans of |p - p_true|^2): evo's APE (translation part) rmse",
+    "heading_rmse_deg": "sqrt(mean over scans of wrap(theta - theta_true)^2)",
+    "position_avg_rmse_m": "the paper's avg. RMSE (docs/method.md f.1): mean over scans of sqrt(mean over runs "
+                           "of |p - p_true|^2); of one run, the mean position error (evo's APE mean)",
+    "heading_avg_rmse_deg": "the paper's avg. RMSE of the heading: of one run, the mean |heading error|",
+    "alignment": "none: the estimate as is; first-pose: moved so that its first pose is the truth's; "
+                 "se2: the rotation and translation (no scale) of least squares (Umeyama)",
+}
+
+
+def umeyama_se2(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rotation ``R`` (2, 2) and translation ``t`` (2,) minimising ``sum |R src_k + t - dst_k|^2``.
+
+    Parameters
+    ----------
+    src, dst : ndarray, shape (K, 2)
+        Matched points (K >= 2, not all at one place).
+    """
+    mu_s, mu_d = src.mean(axis=0), dst.mean(axis=0)
+    sigma = (dst - mu_d).T @ (src - mu_s) / src.shape[0]          # Umeyama eq. 38
+    U, _, Vt = np.linalg.svd(sigma)
+    D = np.diag([1.0, math.copysign(1.0, np.linalg.det(U) * np.linalg.det(Vt))])   # eq. 39: a rotation
+    R = U @ D @ Vt
+    return R, mu_d - R @ mu_s
+
+
+def transform(poses: np.ndarray, R: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Poses ``(K, 3)`` moved by the rigid motion ``(R, t)`` (headings turned by R's angle)."""
+    out = np.empty_like(poses)
+    out[:, :2] = poses[:, :2] @ R.T + t
+    out[:, 2] = wrap_pi(poses[:, 2] + math.atan2(R[1, 0], R[0, 0]))
+    return out
+
+
+def align(est: np.ndarray, true: np.ndarray, how: str = "none") -> np.ndarray:
+    """``est`` (K, 3) aligned to ``true`` (K, 3) by ``how`` (one of :data:`ALIGNMENTS`)."""
+    if how == "none":
+        return est
+    if how == "first-pose":
+        a = true[0, 2] - est[0, 2]
+        R = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+        return transform(est, R, true[0, :2] - R @ est[0, :2])
+    if how == "se2":
+        if est.shape[0] < 2:
+            return align(est, true, "first-pose")
+        return transform(est, *umeyama_se2(est[:, :2], true[:, :2]))
+    raise ValueError(f"align: expected one of {', '.join(ALIGNMENTS)}, got {how!r}")
+
+
+def trajectory_errors(est: np.ndarray, true: np.ndarray, how: str = "none") -> dict:
+    """The figures of :data:`DEFINITIONS` of ``est`` against ``true`` (both (K, 3), matched rows;
+    rows where the truth is NaN are left out), after :func:`align` by ``how``."""
+    ok = np.all(np.isfinite(true), axis=1)
+    if not ok.any():
+        return {"truth_scans": 0}
+    est, true = align(est[ok], true[ok], how), true[ok]
+    pos, head = pose_errors(est, true)
+    return {"truth_scans": int(ok.sum()), "position_rmse_m": float(np.sqrt(np.mean(pos ** 2))),
+            "heading_rmse_deg": math.degrees(float(np.sqrt(np.mean(head ** 2)))),
+            "position_avg_rmse_m": avg_rmse(pos), "heading_avg_rmse_deg": math.degrees(avg_rmse(head)),
+            "final_position_error_m": float(pos[-1]), "final_heading_error_deg": math.degrees(abs(float(head[-1]))),
+            "position_max_error_m": float(pos.max())}
