@@ -57,14 +57,15 @@ class DopplerGate:
         #: World positions (n, 2) of this scan's moving objects' detections (c.10.4.4).
         self.now = np.empty((0, 2))
 
-    def apply(self, scan, polar: np.ndarray, pose: np.ndarray):
-        """Steps 1-4 on one scan: ``(kept rows, moving rows, EgoVelocity)``."""
-        keep, bad, ego, objects = self.classify(scan, polar)
+    def apply(self, scan, polar: np.ndarray, pose: np.ndarray, mount=None):
+        """Steps 1-4 on one scan: ``(kept rows, moving rows, EgoVelocity)``; ``mount`` replaces the
+        configured mounting (zero for a scan in its own radar's frame, docs/method.md c.13)."""
+        keep, bad, ego, objects = self.classify(scan, polar, mount)
         if objects is not None:
             self._remember(scan.index, objects, pose)
         return keep, bad, ego
 
-    def classify(self, scan, polar: np.ndarray):
+    def classify(self, scan, polar: np.ndarray, mount=None):
         """Steps 1-3 on one scan, which depend on the scan alone (not on the filter's state):
         ``(kept rows, moving rows, EgoVelocity, the moving objects' detections in the platform
         frame (n, 2), or None when the objects were not tested)``; step 4 (:meth:`_remember`, in the
@@ -80,7 +81,7 @@ class DopplerGate:
                              f"got {d.shape}")
         polar = np.ascontiguousarray(polar, dtype=float).reshape(-1, 2)
         v, cov, inl, sigma, stat, rest, valid, bad, objects, tested = classify_scan(
-            polar, np.ascontiguousarray(d), *self.mounting, self.rng, int(f.doppler_iterations),
+            polar, np.ascontiguousarray(d), *(self.mounting if mount is None else mount), self.rng, int(f.doppler_iterations),
             float(f.doppler_threshold_mps), float(f.doppler_std_floor_mps), MIN_INLIER_FRACTION, *self.quantiles())
         ego = EgoVelocity(v, cov, inl, float(sigma), float(stat), bool(rest), bool(valid))
         seen = _platform_xy(polar[objects]) if tested else None

@@ -36,6 +36,8 @@ from radarslam.slam.association import Associator, Spreads
 from radarslam.slam.bias import (bias_states, control_noise, initial_state, measurement_noise, predict_terms,
                                  turn_noise, turn_noise_gain2, turn_noise_index)
 from radarslam.slam.doppler_gate import DopplerGate, mounting
+from radarslam.slam import sensor_frame
+from radarslam.slam.sensor_frame import mount_of
 from radarslam.slam.kernels import cluster_kernel as _cluster_kernel, step_kernels as _step_kernels
 from radarslam.slam.odometry_source import odometry_source
 from radarslam.slam.partial_view import view_components, view_corrected_centroid, view_walk
@@ -133,6 +135,7 @@ class EkfSlam:
         self._view_angle: dict[int, float] = {}        # a.12.5: bearing landmark -> sensor at the last scan
         self._scans = 0
         self._last_scan_t: float | None = None
+        self._view = (f.max_range_m, math.radians(f.field_of_view_deg) / 2)   # the M/N view test's (c.13)
         #: filter.doppler_gate: moving objects kept out of the map (c.10.4), else None.
         self._gate = DopplerGate(f, mounting(config.sensor)) if f.doppler_gate else None
         #: filter.odometry "doppler"/"both": the Doppler-and-gyro prediction driver (c.10.5), else None.
@@ -266,10 +269,29 @@ class EkfSlam:
             raise InputError(f"scan.t: expected scan times that do not go backwards, got {t!r} after "
                              f"{self._last_scan_t!r} (scan {scan.index})")
         self._last_scan_t = t
+        mount = mount_of(scan.sensor)
+        sen = scan.sensor
+        f = self.config.filter
+        self._view = (f.max_range_m if sen is None or sen.max_range_m is None else sen.max_range_m,
+                      math.radians(f.field_of_view_deg) / 2 if sen is None or sen.fov_rad is None else sen.fov_rad / 2)
+        if mount is None:
+            return self._steps(scan, polar, mount)
+        st, first = self.state, self._pose_first          # c.13: the scan about its own radar's pose
+        sensor_frame.to_sensor(st.x, st.P, mount)
+        if self.fej:
+            self._pose_first = sensor_frame.sensor_pose(first, *mount)
+        try:
+            return self._steps(scan, polar, mount)
+        finally:
+            sensor_frame.to_platform(self.state.x, self.state.P, mount)
+            self._pose_first = first
+
+    def _steps(self, scan: Scan, polar: np.ndarray, mount) -> ScanReport:
+        """a.8 steps 2-10 on one checked scan, the state's pose being the scan's sensor's (c.13)."""
         k = scan.index
         keep, moving, ego = None, np.empty(0, dtype=int), None
         if self._gate is not None:                                        # c.10.4
-            keep, moving, ego = self._gate.apply(scan, polar, self.state.pose)
+            keep, moving, ego = self._gate.apply(scan, polar, self.state.pose, None if mount is None else (0.0,) * 3)
             polar = polar[keep]
         dt = self._take_scan_interval()
         if self.view is not None:
@@ -346,9 +368,8 @@ class EkfSlam:
     def _remove_unseen(self, assoc: list[list[int]], k: int) -> tuple[list[int], list[list[int]]]:
         """Step 5: M/N windows of every landmark and removal (c.5, Decision 8); under the Doppler
         gate also the young landmarks a moving object was seen on (c.10.4.4)."""
-        st, f, lc = self.state, self.config.filter, self.config.landmarks
-        view = self._in_view(st.x, st.platform_dim, st.n_landmarks, f.max_range_m,
-                             math.radians(f.field_of_view_deg) / 2)
+        st, lc = self.state, self.config.landmarks
+        view = self._in_view(st.x, st.platform_dim, st.n_landmarks, *self._view)     # the scan's sensor (c.13)
         hit = np.array([bool(a) for a in assoc], dtype=bool)
         drop = removal_step(st.records, hit, view, k, window=lc.removal_window, max_hits=lc.removal_max_hits,
                             compiled=self.config.filter.backend == "numba")

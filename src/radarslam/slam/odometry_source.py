@@ -141,6 +141,7 @@ class DopplerOdometry:
     def __init__(self, filter_config, mount=(0.0, 0.0, 0.0)):
         self.f = filter_config
         self.mount = tuple(float(m) for m in mount)
+        self.config_mount = self.mount
         #: Whether the held velocity is the sensor's (a fit of the scan) or the platform's (``Scan.ego``).
         self.sensor_frame = True
         self.model = BodyVelocityModel()
@@ -225,6 +226,8 @@ class DopplerOdometry:
             raise InputError(f"scan {scan.index}: filter.yaw_rate 'doppler' expected the radar's own fit, got a scan "
                              f"carrying its velocity at the platform origin (Scan.ego, c.10.6)")
         self.sensor_frame = scan.ego is None
+        sen = scan.sensor              # c.13: a scan in its own radar's frame, the held velocity that radar's
+        self.mount = self.config_mount if sen is None else (float(sen.x), float(sen.y), float(sen.yaw))
         if ego is None:
             from radarslam.models.doppler import fit_ego_velocity, mounted_directions
 
@@ -234,7 +237,7 @@ class DopplerOdometry:
                 raise InputError(f"scan {scan.index}: channels['doppler_mps']: filter.odometry {self.f.odometry!r} "
                                  f"expected shape ({polar.shape[0]},), got {d.shape}")
             f = self.f
-            ego = fit_ego_velocity(mounted_directions(polar, *self.mount), d, self.rng,
+            ego = fit_ego_velocity(mounted_directions(polar, *(self.mount if sen is None else (0.0,) * 3)), d, self.rng,
                                    threshold_mps=f.doppler_threshold_mps, iterations=f.doppler_iterations,
                                    sigma_floor_mps=f.doppler_std_floor_mps,
                                    zero_probability=f.zero_velocity_probability)

@@ -182,6 +182,8 @@ def why_not(slam, events=None) -> str | None:
         big = max((np.shape(e.polar)[0] for e in events if isinstance(e, Scan) and np.ndim(e.polar) == 2), default=0)
         if big > DENSE_MAX:
             return f"a scan of {big} detections (the fused engine clusters up to {DENSE_MAX})"
+        if any(isinstance(e, Scan) and e.sensor is not None for e in events):
+            return "scans in their own radar's frame (docs/method.md c.13: the fused engine measures from the platform)"
     return None
 
 

@@ -1,0 +1,80 @@
+"""A scan measured from its own radar's pose (docs/method.md c.13).
+
+The method's measurement model (a.1) has the radar at the platform origin looking along the heading.
+A radar mounted at ``m = (m_x, m_y, m_yaw)`` on the platform sees from the sensor pose
+
+    s = g(p) = (t + R(theta) [m_x, m_y],  theta + m_yaw),
+
+so for the span of one scan the filter takes ``s`` as its pose: the state's pose block is replaced by
+``g(p)`` and the covariance's pose rows and columns by ``G P G^T`` with ``G = dg/dp``; every step of
+the scan (sifting, association and update, the M/N view test, the extent step's ``W(i)``, the partial
+view's viewpoint, the Doppler's static world, landmark creation) then runs unchanged about the
+sensor, with the radar's range-azimuth noise ``R`` where it arises. After the scan the pose block
+goes back, ``p = g^{-1}(s)``, with ``dg^{-1}/ds`` at the updated pose. ``g`` is a bijection for a
+fixed mounting and its Jacobian is exact to first order, so the scan's update equals one made with
+the lever arm in the measurement model, ``H_p = H_s G`` (the Jacobians evaluated at the same point).
+
+``G`` differs from the identity only in the heading column:
+``G = [[1, 0, a], [0, 1, b], [0, 0, 1]]`` with ``(a, b) = d(R(theta) m)/d theta
+= (-sin(theta) m_x - cos(theta) m_y,  cos(theta) m_x - sin(theta) m_y)``, and ``G^{-1}`` has
+``(-a, -b)`` there; so the transform costs O(n) (two row and two column updates), in place.
+A mounting at zero leaves the state untouched, bit for bit.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def lever_column(theta: float, mx: float, my: float) -> tuple[float, float]:
+    """``d(R(theta) [mx, my]) / d theta`` (2,): the heading column of ``G`` (module docstring)."""
+    c, s = math.cos(theta), math.sin(theta)
+    return -s * mx - c * my, c * mx - s * my
+
+
+def sensor_pose(pose: np.ndarray, mx: float, my: float, myaw: float) -> np.ndarray:
+    """``g(p)``: the sensor's pose ``(3,)`` of a platform pose ``(3,)`` (module docstring)."""
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    return np.array([pose[0] + c * mx - s * my, pose[1] + s * mx + c * my, pose[2] + myaw])
+
+
+def platform_pose(sensor: np.ndarray, mx: float, my: float, myaw: float) -> np.ndarray:
+    """``g^{-1}(s)``: the platform pose ``(3,)`` of a sensor pose ``(3,)``."""
+    theta = sensor[2] - myaw
+    c, s = math.cos(theta), math.sin(theta)
+    return np.array([sensor[0] - (c * mx - s * my), sensor[1] - (s * mx + c * my), theta])
+
+
+def _shear(x: np.ndarray, P: np.ndarray, a: float, b: float) -> None:
+    """``P <- G P G^T`` for ``G`` = identity with ``(a, b)`` in the heading column (rows 0, 1, col 2)."""
+    P[0, :] += a * P[2, :]
+    P[1, :] += b * P[2, :]
+    P[:, 0] += a * P[:, 2]
+    P[:, 1] += b * P[:, 2]
+
+
+def to_sensor(x: np.ndarray, P: np.ndarray, mount: tuple[float, float, float]) -> None:
+    """Replace the pose block of ``(x, P)`` (in place) by the sensor's pose and its covariance."""
+    mx, my, myaw = mount
+    a, b = lever_column(float(x[2]), mx, my)
+    x[:3] = sensor_pose(x[:3], mx, my, myaw)
+    _shear(x, P, a, b)
+
+
+def to_platform(x: np.ndarray, P: np.ndarray, mount: tuple[float, float, float]) -> None:
+    """The inverse of :func:`to_sensor` (in place), its Jacobian at the updated pose."""
+    mx, my, myaw = mount
+    x[:3] = platform_pose(x[:3], mx, my, myaw)
+    a, b = lever_column(float(x[2]), mx, my)
+    _shear(x, P, -a, -b)
+
+
+def mount_of(sensor) -> tuple[float, float, float] | None:
+    """``(x, y, yaw)`` of a :class:`~radarslam.core.types.Sensor`, or None for none or a zero mounting
+    (the scan is then processed exactly as before)."""
+    if sensor is None:
+        return None
+    m = (float(sensor.x), float(sensor.y), float(sensor.yaw))
+    return None if m == (0.0, 0.0, 0.0) else m

@@ -1,0 +1,150 @@
+"""A scan measured from its own radar's pose (docs/method.md c.13, slam/sensor_frame.py): the lever
+arm's Jacobian by central differences, the state transform and its inverse, the update it gives
+against the lever arm in the measurement model, bit-identity for a zero mounting, and the view test
+about the sensor."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from radarslam.config import profile_config
+from radarslam.core.types import Scan, Sensor
+from radarslam.experiments.single import run_filter
+from radarslam.models.radar import range_azimuth, range_azimuth_jacobians
+from radarslam.simulation.scenario import generate_scenario
+from radarslam.slam import sensor_frame as sf
+
+MOUNTS = [(3.5, 0.0, 0.0), (2.4, 0.8, 1.54), (-0.56, -0.62, -3.07)]
+
+
+def _fd(f, x, h=1e-6):
+    cols = []
+    for i in range(x.size):
+        e = np.zeros_like(x)
+        e[i] = h
+        cols.append((f(x + e) - f(x - e)) / (2 * h))
+    return np.column_stack(cols)
+
+
+@pytest.mark.parametrize("mount", MOUNTS)
+def test_the_lever_arm_jacobian_is_the_sensor_jacobian_times_G(mount):
+    """d h(g(p), l) / dp by central differences equals H_s(g(p)) G(p), and d g^{-1} / ds is G^{-1}."""
+    p, lm = np.array([3.0, -2.0, 0.7]), np.array([12.0, 5.0])
+    a, b = sf.lever_column(p[2], mount[0], mount[1])
+    G = np.array([[1.0, 0.0, a], [0.0, 1.0, b], [0.0, 0.0, 1.0]])
+    np.testing.assert_allclose(_fd(lambda q: sf.sensor_pose(q, *mount), p), G, atol=1e-8)
+    s = sf.sensor_pose(p, *mount)
+    np.testing.assert_allclose(_fd(lambda q: sf.platform_pose(q, *mount), s), np.linalg.inv(G), atol=1e-8)
+    Hs, Hl = range_azimuth_jacobians(s, lm)
+    num = _fd(lambda q: range_azimuth(sf.sensor_pose(q, *mount), lm), p)
+    np.testing.assert_allclose(num, Hs @ G, atol=1e-7)
+    np.testing.assert_allclose(_fd(lambda q: range_azimuth(s, q), lm), Hl, atol=1e-7)
+
+
+def _state(n_landmarks: int = 3, seed: int = 0):
+    rng = np.random.default_rng(seed)
+    n = 3 + 2 * n_landmarks
+    A = rng.normal(size=(n, n))
+    x = np.concatenate([[3.0, -2.0, 0.7], rng.uniform(-20, 20, 2 * n_landmarks)])
+    return x, A @ A.T / n + np.eye(n) * 0.01
+
+
+@pytest.mark.parametrize("mount", MOUNTS)
+def test_to_sensor_is_G_P_Gt_and_to_platform_undoes_it(mount):
+    x, P = _state()
+    x1, P1 = x.copy(), P.copy()
+    sf.to_sensor(x1, P1, mount)
+    a, b = sf.lever_column(x[2], mount[0], mount[1])
+    G = np.eye(x.size)
+    G[0, 2], G[1, 2] = a, b
+    np.testing.assert_allclose(x1[:3], sf.sensor_pose(x[:3], *mount), rtol=0, atol=1e-14)
+    np.testing.assert_array_equal(x1[3:], x[3:])
+    np.testing.assert_allclose(P1, G @ P @ G.T, rtol=1e-13, atol=1e-13)
+    sf.to_platform(x1, P1, mount)
+    np.testing.assert_allclose(x1, x, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(P1, P, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("mount", MOUNTS)
+def test_an_update_about_the_sensor_equals_the_lever_arm_measurement_model(mount):
+    """One EKF update of landmark 0 from a radar at ``mount``: through the transform (sensor pose,
+    H_s, back) and with H_p = H_s G in the platform's state agree to second order in the update."""
+    x, P = _state()
+    lm = x[3:5]
+    R = np.diag([0.5 ** 2, math.radians(1.0) ** 2])
+    z = range_azimuth(sf.sensor_pose(x[:3], *mount), lm) + np.array([0.05, 0.002])
+
+    def kalman(x, P, H, e):
+        S = H @ P @ H.T + R
+        K = P @ H.T @ np.linalg.inv(S)
+        return x + K @ e, P - K @ S @ K.T
+
+    def full_H(pose_block_H, Hl):
+        H = np.zeros((2, x.size))
+        H[:, :3], H[:, 3:5] = pose_block_H, Hl
+        return H
+
+    # the lever arm in the measurement model
+    s = sf.sensor_pose(x[:3], *mount)
+    Hs, Hl = range_azimuth_jacobians(s, lm)
+    a, b = sf.lever_column(x[2], mount[0], mount[1])
+    G = np.array([[1.0, 0.0, a], [0.0, 1.0, b], [0.0, 0.0, 1.0]])
+    e = z - range_azimuth(s, lm)
+    xb, Pb = kalman(x, P, full_H(Hs @ G, Hl), e)
+    # through the transform
+    xa, Pa = x.copy(), P.copy()
+    sf.to_sensor(xa, Pa, mount)
+    xa, Pa = kalman(xa, Pa, full_H(Hs, Hl), e)
+    sf.to_platform(xa, Pa, mount)
+    dx = np.abs(xb - x).max()
+    assert np.abs(xa - xb).max() < 10 * dx ** 2 + 1e-12
+    np.testing.assert_allclose(Pa, Pb, rtol=0, atol=max(10 * dx, 1e-12) * np.abs(P).max())
+    # negative control: the same detection treated as seen from the platform origin is far off
+    wrong = np.abs(kalman(x, P, full_H(*range_azimuth_jacobians(x[:3], lm)), z - range_azimuth(x[:3], lm))[0] - xb)
+    if mount[:2] != (0.0, 0.0):
+        assert wrong.max() > 100 * np.abs(xa - xb).max()
+
+
+def _config(backend: str = "numba"):
+    cfg = profile_config("apsipa")
+    return dataclasses.replace(cfg, filter=dataclasses.replace(cfg.filter, backend=backend))
+
+
+def test_a_zero_mounting_is_bit_identical_to_no_sensor():
+    cfg = profile_config("apsipa")
+    sc = generate_scenario(cfg, np.random.default_rng(2), compiled=False)
+    with_sensor = [dataclasses.replace(e, sensor=Sensor(0.0, 0.0, 0.0)) if isinstance(e, Scan) else e
+                   for e in sc.events]
+    a = run_filter(_config("python"), sc.events)
+    b = run_filter(_config("python"), with_sensor)
+    np.testing.assert_array_equal(a.poses, b.poses)
+    np.testing.assert_array_equal(a.pose_covs, b.pose_covs)
+    np.testing.assert_array_equal(a.n_landmarks, b.n_landmarks)
+
+
+def test_the_view_test_is_the_sensors_own():
+    """A landmark behind the car is not 'missed' by a forward radar whose field of view excludes it:
+    its M/N window is not charged. Negative control: the same scans with no field of view of their
+    own (the filter's 360 deg about the platform) remove it."""
+    from radarslam.slam.filter import EkfSlam
+    from tests.helpers import quiet_config
+
+    cfg = quiet_config()
+    lc = cfg.landmarks
+    back = np.array([-6.0, 0.0])
+    rng = np.random.default_rng(0)
+    pts = back + rng.uniform(-0.3, 0.3, (8, 2))
+    polar = np.column_stack([np.hypot(pts[:, 0], pts[:, 1]), np.arctan2(pts[:, 1], pts[:, 0])])
+    results = {}
+    for name, fov in (("own view", math.radians(120.0)), ("platform view", None)):
+        slam = EkfSlam(cfg)
+        slam.update(Scan(0.0, 1, polar))                      # a rear view creates the landmark
+        assert slam.state.n_landmarks == 1
+        for k in range(2, 2 + 3 * lc.removal_window):         # then only the forward radar reports, empty
+            slam.update(Scan(0.1 * k, k, np.empty((0, 2)), sensor=Sensor(0.0, 0.0, 0.0, None, fov)))
+        results[name] = slam.state.n_landmarks
+    assert results == {"own view": 1, "platform view": 0}
