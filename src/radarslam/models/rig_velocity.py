@@ -11,10 +11,12 @@ only its own velocity (rank 2); two radars with different lever arms give ``omeg
 the no-sideslip constraint (``v_y = 0`` at the rear axle) the unknowns are ``(v_x, omega)``.
 
 :func:`fit_rig_velocity` fits one window of detections and :func:`fit_rig_windows` every window
-of a recording in one compiled call (c.12.3): RANSAC on minimal sets for the consensus, a robust
-scale (1.4826 MAD of the consensus), Tukey's biweight by IRLS at that scale, and the M-estimator's
-sandwich covariance. :func:`yaw_offset_of_sweep` and :func:`tukey_location` are the pieces of the
-mounting calibration (c.12.5).
+of a recording in one vectorised call (c.12.3-c.12.4): RANSAC on minimal sets for the consensus and
+least squares on it (:mod:`radarslam.models._rig_consensus`), a robust scale (1.4826 MAD of the
+consensus), Tukey's biweight by IRLS at that scale, and the M-estimator's sandwich covariance
+(:mod:`radarslam.models._rig_robust`, which also holds :data:`TUKEY_C`, the status codes and the
+chunking; re-exported here). :func:`yaw_offset_of_sweep` and :func:`tukey_location` are the pieces of
+the mounting calibration (c.12.5).
 """
 
 from __future__ import annotations
@@ -23,9 +25,20 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import sparse
 
 from radarslam.core.errors import InputError
+from radarslam.models._rig_robust import (  # noqa: F401  (RANK_TOL, the status codes, CHUNK_ROWS: re-exported)
+    CHUNK_ROWS,
+    MAD_TO_STD,
+    NO_CONSENSUS,
+    OK,
+    RANK_TOL,
+    STATUS,
+    TOO_FEW,
+    TUKEY_C,
+    UNOBSERVABLE,
+    fit_windows,
+)
 
 __all__ = [
     "TUKEY_C",
@@ -39,18 +52,6 @@ __all__ = [
     "window_bounds",
     "yaw_offset_of_sweep",
 ]
-
-#: Tukey's biweight constant in units of the scale: 95% efficiency at the normal law (c.12.3).
-TUKEY_C = 4.685
-#: 1 / Phi^-1(3/4): the MAD of a normal law times this is its standard deviation.
-MAD_TO_STD = 1.4826
-#: Below this determinant of the information matrix normalised to unit diagonal, a direction of
-#: theta is not observed (one radar alone: ~1e-16; two radars 1.4 m apart: ~1e-2).
-RANK_TOL = 1e-9
-
-#: Status codes of a window's fit.
-OK, TOO_FEW, NO_CONSENSUS, UNOBSERVABLE = 0, 1, 2, 3
-STATUS = {OK: "ok", TOO_FEW: "too few detections", NO_CONSENSUS: "no consensus", UNOBSERVABLE: "rank deficient"}
 
 
 def rig_design(azimuth: np.ndarray, mount_x: np.ndarray, mount_y: np.ndarray, mount_yaw: np.ndarray,
@@ -98,207 +99,6 @@ def window_bounds(t: np.ndarray, t_out: np.ndarray, half_window_s: float) -> tup
     lo = np.searchsorted(t, np.asarray(t_out) - half_window_s, side="left")
     hi = np.searchsorted(t, np.asarray(t_out) + half_window_s, side="right")
     return lo.astype(np.int64), hi.astype(np.int64)
-
-
-# ---------------------------------------------------------------------------------------------
-# The fit of many windows at once, vectorised over windows (c.12.3-c.12.4). Windows are processed
-# in chunks of at most CHUNK_ROWS window-detection pairs (memory); every step is a numpy call over
-# all windows of a chunk, so a recording of a million detections costs a few numpy passes, no loop
-# in Python per window and no compilation.
-
-#: Largest number of (window, detection) pairs held at once.
-CHUNK_ROWS = 1_000_000
-#: RANSAC's first round of minimal sets per window, and the probability of an all-static set that
-#: ends it (c.12.3): at 90% static detections 7 sets of 3 reach it.
-FIRST_SETS, CONFIDENCE = 12, 0.9999
-
-
-def _inv_batch(M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Inverses ``(K, p, p)`` and determinants ``(K,)`` of a stack of 2 x 2 or 3 x 3 matrices
-    (adjugate over the determinant; a zero determinant gives inf/NaN, for the caller to mask)."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        if M.shape[-1] == 2:
-            det = M[..., 0, 0] * M[..., 1, 1] - M[..., 0, 1] * M[..., 1, 0]
-            adj = np.stack([np.stack([M[..., 1, 1], -M[..., 0, 1]], -1),
-                            np.stack([-M[..., 1, 0], M[..., 0, 0]], -1)], -2)
-            return adj / det[..., None, None], det
-        r0, r1, r2 = M[..., 0, :], M[..., 1, :], M[..., 2, :]
-        c0 = np.cross(r1, r2)
-        det = np.einsum("...i,...i->...", r0, c0)
-        inv = np.stack([c0, np.cross(r2, r0), np.cross(r0, r1)], -1)   # A c_j = det e_j
-        return inv / det[..., None, None], det
-
-
-def _corr_det(N: np.ndarray) -> np.ndarray:
-    """Determinants ``(K,)`` of the information matrices ``N (K, p, p)`` normalised to a unit diagonal."""
-    dg = np.sqrt(np.maximum(np.einsum("kii->ki", N), 0.0))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        C = N / (dg[:, :, None] * dg[:, None, :])
-    _, det = _inv_batch(np.where(np.isfinite(C), C, 0.0))
-    return np.where(np.all(dg > 0, axis=1), det, 0.0)
-
-
-def _fit_chunk(A, d, lo, hi, rng, hypotheses, sample, threshold, sigma_floor, min_fraction, irls_steps):
-    """Fit the windows ``lo[k]:hi[k]`` (each of at least p + 2 rows) of one chunk (c.12.3).
-    Returns ``(theta (K, p), cov (K, p, p), status (K,), sigma (K,), n_in (K,), w (P,))`` with ``w``
-    the final weights of the window-detection pairs, window after window."""
-    K, p = lo.size, A.shape[1]
-    m = hi - lo
-    start = np.concatenate([[0], np.cumsum(m)[:-1]])
-    P = int(m.sum())
-    win = np.repeat(np.arange(K), m)
-    row = np.arange(P) - np.repeat(start, m) + np.repeat(lo, m)
-    Ap, dp = A[row], d[row]
-    iu = np.triu_indices(p)
-    X = np.concatenate([Ap[:, iu[0]] * Ap[:, iu[1]], Ap * dp[:, None]], axis=1)   # a a^T's upper half, a d
-    q = iu[0].size
-    # sums over each window's pairs as one sparse product (K x P, row k: the pairs of window k, its
-    # values the weights): ten times faster than np.add.reduceat here
-    seg = sparse.csr_matrix((np.ones(P), np.arange(P), np.append(start, P)), shape=(K, P))
-
-    def wsum(w, Y):
-        seg.data = np.ascontiguousarray(w, dtype=float)
-        return seg @ Y
-
-    def normal(w):
-        """``N = sum w a a^T (K, p, p)``, ``g = sum w a d (K, p)`` per window (c.12.3): one pass."""
-        S = wsum(w, X)
-        N = np.empty((K, p, p))
-        N[:, iu[0], iu[1]] = S[:, :q]
-        N[:, iu[1], iu[0]] = S[:, :q]
-        return N, S[:, q:]
-
-    def residual(theta):
-        return dp - np.einsum("ij,ij->i", Ap, np.repeat(theta, m, axis=0))   # theta[win], faster
-
-    status = np.zeros(K, dtype=np.int64)
-    theta = np.full((K, p), np.nan)
-    cov = np.full((K, p, p), np.nan)
-    sigma = np.full(K, np.nan)
-    # 0. does the window observe every direction of theta at all? (one radar: no, c.12.2)
-    N, _ = normal(np.ones(P))
-    status[_corr_det(N) <= RANK_TOL] = UNOBSERVABLE
-    # 1. RANSAC: minimal sets of p rows, each scored on `sample` rows of its window (all rows when
-    #    the window has no more). Adaptive as Hartley & Zisserman's alg. 4.5, in two rounds: FIRST_SETS
-    #    sets for every window, then up to `hypotheses` for the windows whose best consensus so far
-    #    does not yet give an all-static set with probability CONFIDENCE.
-    small = m <= sample
-    s_off = np.where(small[:, None], np.arange(sample)[None, :] % m[:, None],
-                     np.floor(rng.random((K, sample)) * m[:, None]).astype(np.int64))
-    s_use = np.where(small[:, None], np.arange(sample)[None, :] < m[:, None], True)
-    s_row = lo[:, None] + s_off
-    n_scored = np.minimum(m, sample)
-    As, ds = np.swapaxes(A[s_row], 1, 2), d[s_row]
-
-    def best_of(ks, H):
-        pick = lo[ks, None, None] + np.floor(rng.random((ks.size, H, p)) * m[ks, None, None]).astype(np.int64)
-        Minv, det = _inv_batch(A[pick])
-        good = np.abs(det) > 1e-9
-        hyp = np.where(good[..., None], np.einsum("khij,khj->khi", Minv, d[pick]), 0.0)
-        R = ds[ks][:, None, :] - hyp @ As[ks]      # (k, H, S)
-        R *= R
-        inl = (R <= threshold * threshold) & s_use[ks][:, None, :]
-        cnt = inl.sum(-1)
-        score = np.where(good, cnt - (R * inl).sum(-1) / (sample * threshold * threshold + 1.0), -1.0)  # ties: RSS
-        j = np.argmax(score, axis=1)
-        i = np.arange(ks.size)
-        return score[i, j], hyp[i, j]
-
-    all_k = np.arange(K)
-    score, th = best_of(all_k, min(FIRST_SETS, hypotheses))
-    frac = np.clip(np.floor(score) / n_scored, 0.0, 1.0) ** p
-    with np.errstate(divide="ignore"):
-        needed = np.where(frac >= 1.0, 0.0, np.log(1.0 - CONFIDENCE) / np.log1p(-np.minimum(frac, 1.0 - 1e-16)))
-    more = all_k[(needed > FIRST_SETS) & (hypotheses > FIRST_SETS)]
-    if more.size:
-        sc2, th2 = best_of(more, hypotheses - FIRST_SETS)
-        better = sc2 > score[more]
-        th[more[better]] = th2[better]
-    # 2. least squares on the consensus, refined once on its own consensus (as c.10.2)
-    for _ in range(2):
-        w = (np.abs(residual(th)) <= threshold).astype(float)
-        N, g = normal(w)
-        Ni, det = _inv_batch(N)
-        ok = np.abs(det) > 1e-12
-        th = np.where(ok[:, None], np.einsum("kij,kj->ki", np.where(ok[:, None, None], Ni, 0.0), g), th)
-    # 3. robust scale: 1.4826 MAD of the consensus residuals, small-sample corrected (Rousseeuw &
-    #    Leroy 1987, 1 + 5 / (n - p)), floored at the Doppler's quantisation. One sort for all windows:
-    #    the key win + |r| / tau puts each window's consensus residuals in order, the rest after them.
-    r = np.abs(residual(th))
-    cons = r <= threshold
-    k_cons = np.rint(wsum(cons, np.ones(P))).astype(np.int64)
-    key = np.sort(win + np.where(cons, r / (threshold * (1 + 1e-9)), 1.0 - 1e-12))
-    mid_lo = start + np.maximum((k_cons - 1) // 2, 0)
-    mid_hi = start + np.maximum(k_cons // 2, 0)
-    med = 0.5 * ((key[mid_lo] - np.arange(K)) + (key[mid_hi] - np.arange(K))) * threshold * (1 + 1e-9)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        s = np.maximum(MAD_TO_STD * med * (1.0 + 5.0 / (k_cons - p)), sigma_floor)
-    status[(k_cons < p + 2) & (status == OK)] = NO_CONSENSUS
-    # 4. Tukey's biweight by IRLS at the fixed scale s
-    cs = (TUKEY_C * s)[win]
-    for _ in range(irls_steps):
-        u = residual(th) / cs
-        w = np.where(np.abs(u) < 1.0, (1.0 - u * u) ** 2, 0.0)
-        N, g = normal(w)
-        Ni, det = _inv_batch(N)
-        ok = np.abs(det) > 1e-12
-        new = np.where(ok[:, None], np.einsum("kij,kj->ki", np.where(ok[:, None, None], Ni, 0.0), g), th)
-        diff = np.abs(new - th)
-        step = float(np.max(diff[np.isfinite(diff)], initial=0.0))
-        th = new
-        if step < 1e-6:                # m/s, rad/s: far below any window's noise
-            break
-    # 5. sandwich covariance s^2 n / (n - p) B^-1 M B^-1: B = sum psi'(z) a a^T, M = sum psi(z)^2 a a^T
-    u = residual(th) / cs
-    inside = np.abs(u) < 1.0
-    t2 = np.where(inside, 1.0 - u * u, 0.0)
-    w = t2 * t2
-    n_in = np.rint(wsum(inside, np.ones(P))).astype(np.int64)
-    B, _ = normal(t2 * (1.0 - 5.0 * u * u))
-    M, _ = normal((u * TUKEY_C * w) ** 2)          # psi(z) = z t2^2 with z = u c
-    Nw, _ = normal(w)
-    Bi, detB = _inv_batch(B)
-    Ni, _ = _inv_batch(Nw)
-    posB = (detB > 0) & np.all(np.einsum("kii->ki", B) > 0, axis=1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        C = np.where(posB[:, None, None], Bi @ M @ np.swapaxes(Bi, 1, 2) * (n_in / (n_in - p))[:, None, None],
-                     Ni)                           # B not positive (rows near the rejection edge): (A^T W A)^-1
-    C = 0.5 * (C + np.swapaxes(C, 1, 2)) * (s * s)[:, None, None]
-    cdet = _corr_det(Nw)
-    status[(status == OK) & ((n_in < p + 2) | (n_in < min_fraction * m))] = NO_CONSENSUS
-    status[(status == OK) & (cdet <= RANK_TOL)] = UNOBSERVABLE
-    status[(status == OK) & ~np.all(np.isfinite(C.reshape(K, -1)), axis=1)] = UNOBSERVABLE
-    ok = status == OK
-    theta[ok], cov[ok] = th[ok], C[ok]
-    sigma[k_cons >= p + 2] = s[k_cons >= p + 2]
-    return theta, cov, status, sigma, n_in, w
-
-
-def _fit_windows(A, d, lo, hi, rng, hypotheses, sample, threshold, sigma_floor, min_fraction, irls_steps,
-                 keep_weights=False):
-    """:func:`_fit_chunk` over every window in chunks of at most :data:`CHUNK_ROWS` pairs; windows
-    with fewer than p + 2 rows are ``TOO_FEW``."""
-    K, p = lo.size, A.shape[1]
-    theta = np.full((K, p), np.nan)
-    cov = np.full((K, p, p), np.nan)
-    status = np.full(K, TOO_FEW, dtype=np.int64)
-    sigma = np.full(K, np.nan)
-    n_in = np.zeros(K, dtype=np.int64)
-    weights = []
-    m = hi - lo
-    fit = np.flatnonzero(m >= p + 2)
-    cum = np.cumsum(m[fit])
-    a = 0
-    while a < fit.size:
-        b = max(int(np.searchsorted(cum, (cum[a - 1] if a else 0) + CHUNK_ROWS, side="right")), a + 1)
-        ks = fit[a:b]
-        out = _fit_chunk(A, d, lo[ks], hi[ks], rng, hypotheses, sample, threshold, sigma_floor, min_fraction,
-                         irls_steps)
-        theta[ks], cov[ks], status[ks], sigma[ks], n_in[ks] = out[:5]
-        if keep_weights:
-            weights.append(out[5])
-        a = b
-    return theta, cov, status, sigma, n_in, (np.concatenate(weights) if weights else np.zeros(0))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -435,9 +235,9 @@ def fit_rig_velocity(A: np.ndarray, doppler: np.ndarray, rng: np.random.Generato
         raise InputError(f"doppler: expected shape ({A.shape[0]},), got {d.shape}")
     _check_options(threshold_mps, hypotheses, sample)
     n, p = A.shape
-    theta, cov, st, sigma, _, w = _fit_windows(A, d, np.array([0]), np.array([n]), rng, int(hypotheses), int(sample),
-                                               float(threshold_mps), float(sigma_floor_mps),
-                                               float(min_inlier_fraction), int(irls_steps), keep_weights=True)
+    theta, cov, st, sigma, _, w = fit_windows(A, d, np.array([0]), np.array([n]), rng, int(hypotheses), int(sample),
+                                              float(threshold_mps), float(sigma_floor_mps),
+                                              float(min_inlier_fraction), int(irls_steps), keep_weights=True)
     if w.size != n:
         w = np.zeros(n)
     rank = p
@@ -477,9 +277,9 @@ def fit_rig_windows(t: np.ndarray, A: np.ndarray, doppler: np.ndarray, t_out: np
         raise InputError("t: expected non-decreasing detection times, got a decrease")
     _check_options(threshold_mps, hypotheses, sample, half_window_s)
     lo, hi = window_bounds(t, t_out, half_window_s)
-    theta, cov, status, sigma, n_in, _ = _fit_windows(A, d, lo, hi, rng, int(hypotheses), int(sample),
-                                                      float(threshold_mps), float(sigma_floor_mps),
-                                                      float(min_inlier_fraction), int(irls_steps))
+    theta, cov, status, sigma, n_in, _ = fit_windows(A, d, lo, hi, rng, int(hypotheses), int(sample),
+                                                     float(threshold_mps), float(sigma_floor_mps),
+                                                     float(min_inlier_fraction), int(irls_steps))
     th, C = _full(theta, cov)
     return RigVelocitySeries(t_out, th, C, status, sigma, n_in, hi - lo)
 
