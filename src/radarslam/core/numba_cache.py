@@ -31,7 +31,7 @@ COMPILED_SOURCES = (
     "extent/ellipse.py", "models/body_velocity.py", "models/_ransac.py", "models/doppler_kernels.py",
     "models/_doppler_compiled.py", "slam/fused/doppler.py", "models/input_bias.py", "slam/fused/bias.py",
     "slam/view_kernels.py", "slam/_view_compiled.py", "slam/fused/view.py", "extent/partial_view_jac.py",
-    "extent/rows.py",
+    "extent/rows.py", "slam/sensor_frame.py", "slam/fused/sensor.py",
 )
 ROOT = Path(__file__).resolve().parents[1]
 STAMP = ROOT / "__pycache__" / "numba-sources.stamp"

@@ -47,7 +47,7 @@ def platform_pose(sensor: np.ndarray, mx: float, my: float, myaw: float) -> np.n
     return np.array([sensor[0] - (c * mx - s * my), sensor[1] - (s * mx + c * my), theta])
 
 
-def _shear(x: np.ndarray, P: np.ndarray, a: float, b: float) -> None:
+def shear(P: np.ndarray, a: float, b: float) -> None:
     """``P <- G P G^T`` for ``G`` = identity with ``(a, b)`` in the heading column (rows 0, 1, col 2)."""
     P[0, :] += a * P[2, :]
     P[1, :] += b * P[2, :]
@@ -55,20 +55,29 @@ def _shear(x: np.ndarray, P: np.ndarray, a: float, b: float) -> None:
     P[:, 1] += b * P[:, 2]
 
 
-def to_sensor(x: np.ndarray, P: np.ndarray, mount: tuple[float, float, float]) -> None:
-    """Replace the pose block of ``(x, P)`` (in place) by the sensor's pose and its covariance."""
-    mx, my, myaw = mount
-    a, b = lever_column(float(x[2]), mx, my)
+def to_sensor_xyz(x: np.ndarray, P: np.ndarray, mx: float, my: float, myaw: float) -> None:
+    """Replace the pose block of ``(x, P)`` (in place) by the sensor's pose and its covariance. A
+    kernel (the fused engine compiles it as it is, slam/fused/sensor.py)."""
+    a, b = lever_column(x[2], mx, my)
     x[:3] = sensor_pose(x[:3], mx, my, myaw)
-    _shear(x, P, a, b)
+    shear(P, a, b)
+
+
+def to_platform_xyz(x: np.ndarray, P: np.ndarray, mx: float, my: float, myaw: float) -> None:
+    """The inverse of :func:`to_sensor_xyz` (in place), its Jacobian at the updated pose. A kernel."""
+    x[:3] = platform_pose(x[:3], mx, my, myaw)
+    a, b = lever_column(x[2], mx, my)
+    shear(P, -a, -b)
+
+
+def to_sensor(x: np.ndarray, P: np.ndarray, mount: tuple[float, float, float]) -> None:
+    """:func:`to_sensor_xyz` with the mounting ``(x, y, yaw)``."""
+    to_sensor_xyz(x, P, *mount)
 
 
 def to_platform(x: np.ndarray, P: np.ndarray, mount: tuple[float, float, float]) -> None:
-    """The inverse of :func:`to_sensor` (in place), its Jacobian at the updated pose."""
-    mx, my, myaw = mount
-    x[:3] = platform_pose(x[:3], mx, my, myaw)
-    a, b = lever_column(float(x[2]), mx, my)
-    _shear(x, P, -a, -b)
+    """:func:`to_platform_xyz` with the mounting ``(x, y, yaw)``."""
+    to_platform_xyz(x, P, *mount)
 
 
 def mount_of(sensor) -> tuple[float, float, float] | None:

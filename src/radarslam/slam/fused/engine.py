@@ -20,6 +20,7 @@ from radarslam.slam.fused.bias import predict_platform
 from radarslam.slam.fused.extent import extent_step
 from radarslam.slam.fused.gate import moving_young, remember, veto
 from radarslam.slam.fused.mapping import alpha_test, augment, cluster, confirm, merge
+from radarslam.slam.fused.sensor import enter_sensor, leave_sensor
 from radarslam.slam.fused.storage import (
     _all_finite,
     _blocks,
@@ -117,6 +118,8 @@ def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
         # ------------------------------------------------------------ one scan (a.8 steps 2-10)
         polar = stream.polar[stream.scan_off[s]:stream.scan_off[s + 1]]
         k = stream.scan_k[s]
+        first_platform = pose_first
+        pose_first = enter_sensor(x, P, stream, s, pose_first)                    # c.13: about its own radar
         if cfg.doppler_gate and stream.remember[s]:                                # c.10.4.3
             seen = stream.seen[stream.seen_off[s]:stream.seen_off[s + 1]]
             mem, n_mem, n_now = remember(mem, n_mem, seen, x, k, cfg)
@@ -129,7 +132,7 @@ def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
         x, P, out, nis = associate_step(x, P, polar, cidx, lm, N, pose_first, shapes, terms, noise, cfg)  # 4
         n_assoc, aoff, arow, a_rows, n_arows = group_associations(out, cidx, N, lm.ids, s, a_rows, n_arows)
         young = moving_young(x, lm, N, k, mem, n_now, cfg)                        # c.10.4.4
-        x, P, N, old = remove_unseen(x, P, lm, N, aoff, k, young, cfg)              # 5
+        x, P, N, old = remove_unseen(x, P, lm, N, aoff, k, young, stream.sensor_view[s], cfg)  # 5
         xy = _to_world(x, polar)                                    # seed eq. (3), updated pose
         lm, arcs, n_arcs = extent_step(x, P, polar, xy, lm, N, old, aoff, arow, prior, dt, arcs, n_arcs,
                                        noise, cfg)                                 # 6
@@ -139,6 +142,8 @@ def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
         confirmed, tent = confirm(tent, fresh, clusters, xy, cfg)                  # 8
         x, P, lm, N, next_id = augment(x, P, lm, N, next_id, confirmed, clusters, polar, k, noise, cfg)  # 9
         x, P, lm, N = merge(x, P, lm, N, arcs, cfg)                                # 10
+        leave_sensor(x, P, stream, s)                                              # c.13
+        pose_first = first_platform
         if not _all_finite(x, P):
             status[0], status[1] = BAD_SCAN, ev
             break

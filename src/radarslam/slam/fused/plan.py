@@ -17,6 +17,7 @@ import numpy as np
 
 from radarslam.slam.fused.engine import BAD_PREDICTION, ODOMETRY, OK, SCAN, VELOCITY, run_stream
 from radarslam.slam.fused.view import ViewParams, view_parameters
+from radarslam.slam.sensor_frame import mount_of
 
 
 class FusedParams(NamedTuple):
@@ -111,6 +112,9 @@ class Stream(NamedTuple):
     seen_off: np.ndarray   #: (S + 1,) int64, scan s's moving-object detections are seen[seen_off[s]:seen_off[s + 1]]
     seen: np.ndarray       #: (G, 2) those detections in the platform frame
     kept: np.ndarray       #: (M,) int64, under the gate each row of ``polar``'s row in its scan (else empty)
+    mount: np.ndarray      #: (S, 3) each scan's radar's mounting (x, y, yaw) (docs/method.md c.13)
+    has_mount: np.ndarray  #: (S,) bool: the scan is in its radar's frame (a non-zero mounting)
+    sensor_view: np.ndarray  #: (S, 2) the M/N view test's range and half field of view (rad) of each scan
 
 
 class Noise(NamedTuple):
@@ -182,8 +186,6 @@ def why_not(slam, events=None) -> str | None:
         big = max((np.shape(e.polar)[0] for e in events if isinstance(e, Scan) and np.ndim(e.polar) == 2), default=0)
         if big > DENSE_MAX:
             return f"a scan of {big} detections (the fused engine clusters up to {DENSE_MAX})"
-        if any(isinstance(e, Scan) and e.sensor is not None for e in events):
-            return "scans in their own radar's frame (docs/method.md c.13: the fused engine measures from the platform)"
     return None
 
 
@@ -304,7 +306,8 @@ def _stream_arrays_checked(events, defer_polar: bool, slam=None) -> Stream:
     src, gate = (copy.deepcopy(slam._odometry), copy.deepcopy(slam._gate)) if slam is not None else (None, None)
     # c.10.4, c.10.5: the whole stream's classification or fits in one compiled call where the scans allow it
     gated, fits = None, None
-    if gate is not None or src is not None:
+    sensors = any(isinstance(e, Scan) and e.sensor is not None for e in events)      # c.13: per scan, below
+    if (gate is not None or src is not None) and not sensors:
         from radarslam.slam.fused.doppler import gate_stream, odometry_stream
 
         gated = gate_stream(events, gate) if gate is not None else None
@@ -312,6 +315,9 @@ def _stream_arrays_checked(events, defer_polar: bool, slam=None) -> Stream:
     kinds, odo, odo_dt, polars, scan_k, last_t = [], [], [], [], [], None
     vel, vel_dt, vel_U, vel_Q = [], [], [], []
     moving, remember, seen, kept = [], [], [], []
+    f = slam.config.filter if slam is not None else None
+    view0 = (float(f.max_range_m), math.radians(f.field_of_view_deg) / 2) if f is not None else (0.0, 0.0)
+    mounts, views = [], []
     for ev in events:
         if isinstance(ev, Odometry) and src is not None:
             src.accumulate(ev)
@@ -343,24 +349,32 @@ def _stream_arrays_checked(events, defer_polar: bool, slam=None) -> Stream:
             last_t = t
             ego = None
             if gate is not None:                                            # c.10.4
-                keep, bad, ego, objects = gate.classify(ev, polar) if gated is None else gated[len(polars)]
+                own = None if mount_of(ev.sensor) is None else (0.0, 0.0, 0.0)     # c.13: in the radar's frame
+                keep, bad, ego, objects = gate.classify(ev, polar, own) if gated is None else gated[len(polars)]
                 polar = polar[keep]
                 moving.append(bad.size)
                 remember.append(objects is not None)
                 seen.append(np.empty((0, 2)) if objects is None else objects)
                 kept.append(keep)
             kinds.append(SCAN)
+            sen = ev.sensor
+            m = mount_of(sen)
+            mounts.append((0.0, 0.0, 0.0) if m is None else m)
+            views.append((view0[0] if sen is None or sen.max_range_m is None else float(sen.max_range_m),
+                          view0[1] if sen is None or sen.fov_rad is None else float(sen.fov_rad) / 2))
             polars.append(polar)
             scan_k.append(int(ev.index))
             if src is not None:
                 src.fit(ev, ego if fits is None else fits[len(polars) - 1])
         else:
             raise InputError(f"event: expected Odometry or Scan, got {type(ev).__name__}")
-    return _as_stream(kinds, odo, odo_dt, (vel, vel_dt, vel_U, vel_Q), polars, scan_k, (moving, remember, seen, kept))
+    return _as_stream(kinds, odo, odo_dt, (vel, vel_dt, vel_U, vel_Q), polars, scan_k, (moving, remember, seen, kept),
+                      (mounts, views))
 
 
-def _as_stream(kinds, odo, odo_dt, velocity, polars, scan_k, gated) -> Stream:
+def _as_stream(kinds, odo, odo_dt, velocity, polars, scan_k, gated, sensors) -> Stream:
     """The :class:`Stream` of the lists :func:`_stream_arrays_checked` gathered."""
+    mount = np.array(sensors[0], dtype=float).reshape(-1, 3)
     vel, vel_dt, vel_U, vel_Q = velocity
     moving, remember, seen, kept = gated
     S = len(polars)
@@ -378,7 +392,8 @@ def _as_stream(kinds, odo, odo_dt, velocity, polars, scan_k, gated) -> Stream:
                   np.array(moving if moving else [0] * S, dtype=np.int64),
                   np.array(remember if remember else [False] * S, dtype=np.bool_), seen_off,
                   (np.concatenate(seen) if seen else np.empty((0, 2))).reshape(-1, 2),
-                  (np.concatenate(kept) if kept else np.empty(0)).astype(np.int64))
+                  (np.concatenate(kept) if kept else np.empty(0)).astype(np.int64), mount,
+                  np.any(mount != 0.0, axis=1), np.array(sensors[1], dtype=float).reshape(-1, 2))
 
 
 def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None):

@@ -215,12 +215,13 @@ def group_associations(out, cidx, N, ids, s, a_rows, n_arows):  # pragma: no cov
 
 
 @njit(cache=True, inline="always")
-def remove_unseen(x, P, lm, N, aoff, k, young, cfg):  # pragma: no cover - compiled
+def remove_unseen(x, P, lm, N, aoff, k, young, sensor_view, cfg):  # pragma: no cover - compiled
     """Step 5: age the M/N windows of scan ``k`` and remove the landmarks seen in too few of the
     last ``cfg.removal_window`` scans they were in view (c.5), by the orchestrator's own kernel
     (landmarks.confirmation.mn_windows) compiled as it is, and those ``young`` marks (the Doppler
-    gate's, c.10.4.4). Returns ``(x, P, N, old)``: each survivor's position before the removal."""
-    view = _in_view(x, cfg.platform, N, cfg.max_range, cfg.half_fov)
+    gate's, c.10.4.4), in view of the scan's radar (``sensor_view``: its range and half field of
+    view, c.13). Returns ``(x, P, N, old)``: each survivor's position before the removal."""
+    view = _in_view(x, cfg.platform, N, sensor_view[0], sensor_view[1])
     hit = np.empty(N, dtype=np.bool_)
     for j in range(N):
         hit[j] = aoff[j + 1] > aoff[j]
