@@ -33,13 +33,19 @@ def _rec(tmp_path: Path, det: str = DET, sensors: str | None = SENSORS, odo: str
     return d
 
 
+def _at_zero(events) -> Scan:
+    """The detections of every scan at t = 0 (one scan per sensor) as one."""
+    scans = [e for e in events if isinstance(e, Scan) and e.t == 0.0]
+    return Scan(0.0, 1, np.concatenate([s.polar for s in scans]),
+                {"sensor_id": np.concatenate([s.channels["sensor_id"] for s in scans])})
+
+
 def test_a_rear_radars_reflector_lands_behind_the_car(tmp_path):
     """Issue 36 item 1: a rear radar (1 m behind the axle, looking back) sees a reflector 5 m ahead
     of it: 6 m behind the platform, not ahead. The front radar's at 3.5 + 4 m ahead."""
     rec = read_plain(_rec(tmp_path))
     assert set(rec.sensors) == {0, 1} and rec.sensors[1].name == "rear" and rec.sensors[0].x == 3.5
-    scans = [e for e in to_events(rec, Mounting()) if isinstance(e, Scan)]
-    first = scans[0]
+    first = _at_zero(to_events(rec, Mounting()))
     rear = first.polar[first.channels["sensor_id"] == 1][0]
     assert rear[0] == pytest.approx(6.0, abs=1e-4) and abs(abs(rear[1]) - math.pi) < 1e-4
     front = first.polar[first.channels["sensor_id"] == 0][0]
@@ -51,8 +57,8 @@ def test_negative_control_the_single_mounting_puts_the_rear_reflector_ahead(tmp_
     """The old reading (sensors.csv ignored, one mounting for all) places it ahead: the test above fails on it."""
     rec = read_plain(_rec(tmp_path))
     rec.sensors = None
-    scans = [e for e in to_events(rec, Mounting()) if isinstance(e, Scan)]
-    rear = scans[0].polar[scans[0].channels["sensor_id"] == 1][0]
+    first = _at_zero(to_events(rec, Mounting()))
+    rear = first.polar[first.channels["sensor_id"] == 1][0]
     assert abs(rear[1]) < 1e-9 and rear[0] == 5.0
 
 
@@ -138,7 +144,8 @@ def test_malformed_sensors_are_refused_in_one_line_and_nothing_is_written(tmp_pa
 
 def test_malformed_npz_sensors_name_the_table_and_row(tmp_path):
     f = tmp_path / "r.npz"
-    np.savez(f, **{"detections.t_s": np.zeros(2), "detections.range_m": np.ones(2), "detections.azimuth_rad": np.zeros(2),
+    np.savez(f, **{"detections.t_s": np.zeros(2), "detections.range_m": np.ones(2),
+                   "detections.azimuth_rad": np.zeros(2),
                    "detections.sensor_id": np.array([0, 5]), "odometry.t_s": np.array([0.0, 0.1]),
                    "odometry.speed_mps": np.ones(2), "odometry.yaw_rate_rad_s": np.zeros(2),
                    "sensors.sensor_id": np.array([0]), "sensors.x_m": np.ones(1), "sensors.y_m": np.zeros(1),

@@ -144,7 +144,8 @@ def test_scans_outside_the_odometry_are_dropped_and_reported_not_frozen():
     events, report = stream_events(rec, Mounting())
     scans = [e for e in events if isinstance(e, Scan)]
     assert scans[-1].t == pytest.approx(3.0) and report.dropped_scans["count"] == 69
-    assert report.dropped_scans["t_first_s"] == pytest.approx(3.1) and report.dropped_scans["t_last_s"] == pytest.approx(9.9)
+    dropped = report.dropped_scans
+    assert dropped["t_first_s"] == pytest.approx(3.1) and dropped["t_last_s"] == pytest.approx(9.9)
     assert len(report.notes) == 1 and "69 of 100 scans" in report.notes[0] and "dropped" in report.notes[0]
     old = [e for e in old_to_events(rec, Mounting()) if isinstance(e, Scan)]
     assert len(old) == 100                           # the negative control: kept, at a frozen pose

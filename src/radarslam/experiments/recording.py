@@ -263,7 +263,8 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
                                                               "sensors": {str(k): v.name or str(k) for k, v in
                                                                           (rec.sensors or {}).items()}},
                "start": {"pose": pose, "from": origin, "frame": FRAMES[origin]},
-               "dropped_scans": report.dropped_scans}
+               "dropped_scans": report.dropped_scans, "zero_range_dropped": report.zero_range,
+               "single_detection_scans": report.single_detection_scans}
     if truth is not None:
         metrics.update(evaluate_truth(record.poses, dead_reckoning(events, config, pose), truth, config, align,
                                       metrics["start"]))
@@ -321,7 +322,8 @@ def write_recording_outputs(out: Path, run: RecordingRun, extra: dict) -> list[s
         write_tum(out / "groundtruth_tum.txt", run.recording.truth_t, run.recording.truth)
         names.append("groundtruth_tum.txt")
     rows = map_rows(run)
-    write_json(out / "map.json", {"frame": FRAMES[run.metrics["start"]["from"]], "landmarks": rows})
+    origin = run.metrics.get("start", {}).get("from", "config")     # a run of its own start: the config's pose
+    write_json(out / "map.json", {"frame": FRAMES[origin], "landmarks": rows})
     lines = ["id,x_m,y_m,cov_xx_m2,cov_xy_m2,cov_yy_m2,extent_xx_m2,extent_xy_m2,extent_yy_m2"]
     for r in rows:
         ext = r["extent"] if r["extent"] is not None else np.full((2, 2), np.nan)

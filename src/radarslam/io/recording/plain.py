@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from radarslam.core.angles import wrap_pi
 from radarslam.core.errors import InputError
 from radarslam.io.recording import sensors as S
 from radarslam.io.recording.stream import CHANNELS, ODOMETRY_KINDS, Recording, check_times
@@ -31,6 +32,8 @@ OPTIONAL = {"detections": CHANNELS + ("label", "scan"), "truth": (), "scans": ()
 INTEGER = ("sensor_id", "label", "scan")
 ALIASES = {"intensity": "rcs"}
 #: Largest plausible magnitude of an angle-like column (rad); beyond it the values look like degrees.
+#: The truth's yaw is exempt: a yaw unwrapped over turns (7 rad after a full turn) is radians, wrapped
+#: on reading (:data:`UNWRAPPED`).
 ANGLE_LIMITS = {"azimuth_rad": 2 * math.pi, "yaw_rad": 2 * math.pi, "steering_rad": math.pi / 2,
                 "yaw_rate_rad_s": 2 * math.pi}
 #: Column names in other units, refused with the name expected.
@@ -38,6 +41,8 @@ WRONG_UNITS = {"azimuth_deg": "azimuth_rad", "bearing_deg": "azimuth_rad", "yaw_
                "yaw_rate_deg_s": "yaw_rate_rad_s", "steering_deg": "steering_rad", "range_km": "range_m",
                "t_ms": "t_s", "t_ns": "t_s", "speed_kmh": "speed_mps"}
 FILES = ("detections", "odometry", "truth", "scans", "sensors")
+#: ``(table, column)`` of angles that may be unwrapped: accepted at any size and wrapped to (-pi, pi].
+UNWRAPPED = (("truth", "yaw_rad"),)
 
 
 def _columns(table: str, header: list[str], where: str) -> list[str]:
@@ -74,7 +79,7 @@ def _check_values(table: str, cols: dict[str, np.ndarray], where: str, row: str,
         if bad.size:
             raise InputError(f"{where} {row} {int(bad[0]) + first} column {name}: expected a finite number, "
                              f"got {float(v[bad[0]])!r}")
-        lim = ANGLE_LIMITS.get(name)
+        lim = None if (table, name) in UNWRAPPED else ANGLE_LIMITS.get(name)
         if lim is not None and v.size and np.max(np.abs(v)) > lim + 1e-9:
             i = int(np.argmax(np.abs(v)))
             raise InputError(f"{where} {row} {i + first} column {name}: expected radians (|value| <= {lim:.4g}), "
@@ -187,10 +192,15 @@ def _recording(tables: dict[str, dict[str, np.ndarray]], source: str, where=lamb
                      {c: d[c] for c in CHANNELS if c in d}, o["t_s"],
                      np.column_stack([o[c] for c in ODOMETRY_KINDS[kind]]), kind,
                      None if tr is None else tr["t_s"],
-                     None if tr is None else np.column_stack([tr["x_m"], tr["y_m"], tr["yaw_rad"]]),
+                     None if tr is None else np.column_stack([tr["x_m"], tr["y_m"], _wrapped(tr["yaw_rad"])]),
                      source=source, scan_t=None if sc is None else sc["t_s"], sensors=sensors,
                      labels=d["label"].astype(np.int64) if "label" in d else None,
                      det_scan=d["scan"].astype(np.int64) if "scan" in d else None)
+
+
+def _wrapped(yaw: np.ndarray) -> np.ndarray:
+    """``yaw`` wrapped to (-pi, pi], the values already there untouched (bit for bit)."""
+    return np.where((yaw > -np.pi) & (yaw <= np.pi), yaw, wrap_pi(yaw))
 
 
 def recording_tables(rec: Recording) -> dict[str, dict[str, np.ndarray]]:

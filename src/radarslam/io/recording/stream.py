@@ -107,6 +107,11 @@ class StreamReport:
     dropped_scans : dict
         Scans outside the odometry's span (before its first row or after its last), which no
         prediction reaches: ``{"count", "detections", "t_first_s", "t_last_s"}`` (count 0: none).
+    zero_range : int
+        Detections at range 0 dropped (many drivers' invalid returns; they would make landmarks at
+        the sensor).
+    single_detection_scans : int
+        Scans of one detection (most of them: detections stamped one by one, each its own scan).
     notes : list of str
         One line per fault met (nothing when the stream is whole).
     """
@@ -114,6 +119,8 @@ class StreamReport:
     scans: int = 0
     detections: int = 0
     dropped_scans: dict = field(default_factory=lambda: {"count": 0, "detections": 0})
+    zero_range: int = 0
+    single_detection_scans: int = 0
     notes: list[str] = field(default_factory=list)
 
 
@@ -132,13 +139,15 @@ def stream_events(rec: Recording, mounting: Mounting) -> tuple[list[Event], Stre
     ``Odometry(t_j, t_j - s_m, u_j)`` (never a piece of zero length), with ``a = max(t_{j-1}, t_first_scan)``.
     The interval holding the last scan ends there (the rest of that reading, and later rows, are dropped).
     Scans before ``t_0`` or after the last row cannot be predicted to: they are dropped and reported.
+    A unicycle row's yaw rate is also each piece's ``gyro_rad_s`` (what ``filter.odometry = "doppler"``
+    takes from a gyro, docs/method.md c.10.5).
     Odometry goes first on equal times (``t_odo <= t_scan``, within :data:`TIME_EPS_S`), as in the
     simulator. Scans are numbered from 1 in the stream.
     """
-    scans = _scans(rec, mounting)
+    report = StreamReport()
+    scans = _scans(rec, mounting, report)
     if not scans:
         raise InputError(f"{rec.source}: expected at least one scan, got none")
-    report = StreamReport()
     odo_t = rec.odo_t
     covered = [bool(odo_t.size) and odo_t[0] - TIME_EPS_S <= sc.t <= odo_t[-1] + TIME_EPS_S for sc in scans]
     inside = [sc for sc, c in zip(scans, covered) if c]
@@ -164,31 +173,72 @@ def stream_events(rec: Recording, mounting: Mounting) -> tuple[list[Event], Stre
             prev = tj
             continue
         u = np.array(row, dtype=float)
+        g = float(row[1]) if rec.odo_kind == "unicycle" else None    # the yaw rate as a gyro (c.10.5)
         a = max(prev, t0)                     # where this reading's interval starts in the stream
         while i < len(scans) and scans[i].t <= tj + TIME_EPS_S:
             s = scans[i].t
             if s > a + TIME_EPS_S:
-                events.append(Odometry(s, s - a, u))
+                events.append(Odometry(s, s - a, u, g))
                 a = s
             events.append(scans[i])
             i += 1
         b = min(tj, t1)
         if b > a + TIME_EPS_S:
-            events.append(Odometry(b, b - a, u))
+            events.append(Odometry(b, b - a, u, g))
         prev = tj
     return events, report
 
 
-def _scans(rec: Recording, mounting: Mounting) -> list[Scan]:
-    """Every scan of ``rec`` in time order (numbered 0 here), detections in the platform frame."""
-    st = rec.scan_times()
-    order = np.argsort(rec.det_t, kind="stable")
-    t, polar = rec.det_t[order], platform_polar(rec, mounting)[order]
-    ch = {k: v[order] for k, v in rec.channels.items()}
-    starts = np.searchsorted(t, st, side="left")
-    ends = np.searchsorted(t, st, side="right")
-    return [Scan(ts, 0, polar[a:b], {n: v[a:b] for n, v in ch.items()} or None)
-            for ts, a, b in zip(st.tolist(), starts.tolist(), ends.tolist())]
+#: Warn when more than this share of the scans (of at least ``SINGLE_MIN_SCANS``) hold one detection.
+SINGLE_SHARE, SINGLE_MIN_SCANS = 0.5, 10
+
+
+def _scans(rec: Recording, mounting: Mounting, report: StreamReport) -> list[Scan]:
+    """Every scan of ``rec`` as the sensor made it, in time order (numbered 0 here), detections in the
+    platform frame: the rows of one ``scan`` id when the recording has that column (its time the mean
+    of theirs), else of one ``(t_s, sensor_id)``; the empty scans of ``rec.scan_t`` too. Zero-range
+    detections are dropped; both faults are counted in ``report`` with one note line each."""
+    polar = platform_polar(rec, mounting)
+    ch = dict(rec.channels)
+    t, scan = rec.det_t, rec.det_scan
+    zero = rec.det_polar[:, 0] <= 0.0
+    report.zero_range = int(zero.sum())
+    if report.zero_range:
+        report.notes.append(f"{rec.source}: {report.zero_range} of {t.size} detections at range 0 (a driver's invalid "
+                            "returns) were dropped")
+        keep = ~zero
+        t, polar, ch = t[keep], polar[keep], {k: v[keep] for k, v in ch.items()}
+        scan = None if scan is None else scan[keep]
+    sid = ch.get("sensor_id", np.zeros(t.size))
+    key = scan if scan is not None else sid
+    o1 = np.argsort(key, kind="stable")                  # by (t, key), stable: one sensor keeps today's order
+    order = o1[np.argsort(t[o1] if scan is None else _scan_times(t, scan)[o1], kind="stable")]
+    ts, ks = (t if scan is None else _scan_times(t, scan))[order], key[order]
+    polar, ch = polar[order], {k: v[order] for k, v in ch.items()}
+    cut = np.flatnonzero((np.diff(ts) != 0) | (np.diff(ks) != 0)) + 1
+    starts, ends = np.r_[0, cut], np.r_[cut, ts.size]
+    groups = [(float(ts[a]), a, b) for a, b in zip(starts.tolist(), ends.tolist())] if ts.size else []
+    if rec.scan_t is not None:                           # scans without detections (a bag's empty clouds)
+        have = set(ts.tolist())
+        groups += [(float(x), 0, 0) for x in rec.scan_t.tolist() if x not in have]
+        groups.sort(key=lambda g: g[0])
+    scans = [Scan(x, 0, polar[a:b], {n: v[a:b] for n, v in ch.items()} or None) for x, a, b in groups]
+    ones = sum(1 for _, a, b in groups if b - a == 1)
+    report.single_detection_scans = ones
+    if len(groups) >= SINGLE_MIN_SCANS and ones > SINGLE_SHARE * len(groups):
+        report.notes.append(f"{rec.source}: {ones} of {len(groups)} scans hold one detection: detections stamped one "
+                            "by one? give them a scan column (docs/recordings.md \"Scans\")")
+    return scans
+
+
+def _scan_times(t: np.ndarray, scan: np.ndarray) -> np.ndarray:
+    """Each detection's scan time ``(n,)``: the mean time of the detections of its ``scan`` id (their
+    common time exactly when they share one)."""
+    ids, inv = np.unique(scan, return_inverse=True)
+    first = np.full(ids.size, np.inf)
+    np.minimum.at(first, inv, t)
+    mean = np.bincount(inv, weights=t - first[inv], minlength=ids.size) / np.bincount(inv, minlength=ids.size)
+    return (first + mean)[inv]
 
 
 def platform_polar(rec: Recording, mounting: Mounting) -> np.ndarray:
