@@ -17,7 +17,7 @@ import pytest
 
 from radarslam.config import from_dict
 from radarslam.core.errors import ConfigError
-from radarslam.core.types import Scan
+from radarslam.core.types import Scan, Sensor
 from radarslam.models.doppler import fit_ego_velocity, mounted_directions, sensor_velocity
 from radarslam.slam.odometry_source import platform_input
 
@@ -93,7 +93,8 @@ def test_yaw_rate_from_simulated_scans_within_its_stated_std():
         sc = generate_scenario(cfg, np.random.default_rng(np.random.SeedSequence(seed)))
         scans = [e for e in sc.events if isinstance(e, Scan)]
         for k, scan in enumerate(scans):
-            e = fit_ego_velocity(mounted_directions(scan.polar, 3.7, 0.0, 0.0), scan.channels["doppler_mps"], rng)
+            assert scan.sensor == Sensor(3.7, 0.0, 0.0)     # in the radar's own frame (docs/method.md c.13)
+            e = fit_ego_velocity(mounted_directions(scan.polar), scan.channels["doppler_mps"], rng)
             u, U = platform_input(e.v, e.cov, (3.7, 0.0, 0.0), None, 0.0)
             omega = sc.truth.controls[min(k + 1, len(scans) - 1), 1]
             z.append((u[2] - omega) / math.sqrt(U[2, 2]))
@@ -105,9 +106,11 @@ def test_yaw_rate_from_simulated_scans_within_its_stated_std():
 
 
 def test_simulated_mounting_moves_the_radar_not_the_scene():
-    """The mounted radar's detections (moved to the platform frame) lie on the same cars, and its
-    Doppler is the mounted sensor's velocity along the directions from the radar (residual std
-    about the Doppler noise and the direction noise)."""
+    """The mounted radar's detections (in its own frame, Scan.sensor, docs/method.md c.13) lie on the
+    same cars, and its Doppler is the mounted sensor's velocity along the directions from the radar
+    (residual std about the Doppler noise and the direction noise)."""
+    from radarslam.io.recording.mounting import Mounting, to_platform
+
     from radarslam.simulation.scenario import generate_scenario
 
     cfg = _mounted()
@@ -117,7 +120,7 @@ def test_simulated_mounting_moves_the_radar_not_the_scene():
     for k, scan in enumerate(scans):
         src = sc.truth.sources[k]
         v, omega = sc.truth.controls[min(k + 1, len(scans) - 1)]
-        U = mounted_directions(scan.polar[src >= 0], 3.7, 0.0, 0.0)
+        U = mounted_directions(scan.polar[src >= 0])
         res.append(scan.channels["doppler_mps"][src >= 0] + U @ sensor_velocity(v, 0.0, omega, 3.7, 0.0, 0.0))
     res = np.concatenate(res)
     assert 0.09 < res.std() < 0.2 and abs(res.mean()) < 0.02
@@ -126,7 +129,7 @@ def test_simulated_mounting_moves_the_radar_not_the_scene():
     for k, scan in enumerate(scans):
         src = sc.truth.sources[k]
         v, omega = sc.truth.controls[min(k + 1, len(scans) - 1)]
-        U = mounted_directions(scan.polar[src >= 0])
+        U = mounted_directions(to_platform(scan.polar[src >= 0], Mounting(3.7, 0.0, 0.0)))
         bad.append(scan.channels["doppler_mps"][src >= 0] + U @ sensor_velocity(v, 0.0, omega, 3.7, 0.0, 0.0))
     assert np.concatenate(bad).std() > 3 * res.std()
 

@@ -14,7 +14,7 @@ import pytest
 from radarslam.cli.main import main
 from radarslam.core.errors import InputError
 from radarslam.core.types import Scan
-from radarslam.io.recording.mounting import Mounting
+from radarslam.io.recording.mounting import Mounting, to_platform
 from radarslam.io.recording.plain import read_plain, write_plain
 from radarslam.io.recording.stream import to_events
 
@@ -33,10 +33,17 @@ def _rec(tmp_path: Path, det: str = DET, sensors: str | None = SENSORS, odo: str
     return d
 
 
+def _platform(scan: Scan) -> np.ndarray:
+    """A scan's detections about the platform origin: moved by its radar's mounting (``Scan.sensor``,
+    docs/method.md c.13; the scan itself stays in the radar's frame)."""
+    m = scan.sensor
+    return scan.polar if m is None else to_platform(scan.polar, Mounting(m.x, m.y, m.yaw))
+
+
 def _at_zero(events) -> Scan:
-    """The detections of every scan at t = 0 (one scan per sensor) as one."""
+    """The detections of every scan at t = 0 (one scan per sensor) as one, about the platform origin."""
     scans = [e for e in events if isinstance(e, Scan) and e.t == 0.0]
-    return Scan(0.0, 1, np.concatenate([s.polar for s in scans]),
+    return Scan(0.0, 1, np.concatenate([_platform(s) for s in scans]),
                 {"sensor_id": np.concatenate([s.channels["sensor_id"] for s in scans])})
 
 
@@ -74,7 +81,8 @@ def test_one_sensor_needs_no_sensor_id_column(tmp_path):
     rec = read_plain(_rec(tmp_path, "t_s,range_m,azimuth_rad\n0,5,0\n",
                           "sensor_id,x_m,y_m,yaw_rad\n3,1.0,0,0\n"))
     ev = to_events(rec, Mounting())
-    assert ev[0].polar[0, 0] == pytest.approx(6.0) and rec.sensors[3].name == ""
+    assert ev[0].sensor.x == 1.0 and ev[0].polar[0, 0] == 5.0       # in the radar's frame, its mounting beside
+    assert _platform(ev[0])[0, 0] == pytest.approx(6.0) and rec.sensors[3].name == ""
 
 
 def test_label_and_scan_columns_are_read_and_never_reach_the_filter(tmp_path):

@@ -293,10 +293,18 @@ def animation_frames(run: RecordingRun) -> list[dict]:
             labels[np.asarray(idx, dtype=int)] = lid
         mp = slam.snapshot()
         frames.append({"t": ev.t, "pose": pose, "pose_cov": slam.P[:3, :3].copy(),
-                       "detections": polar_to_xy(pose, ev.polar) if ev.polar.size else np.empty((0, 2)),
+                       "detections": polar_to_xy(_seen_from(pose, ev), ev.polar) if ev.polar.size else np.empty((0, 2)),
                        "labels": labels, "positions": mp.positions, "covs": mp.covs, "extents": mp.rma,
                        "truth": None if run.truth is None else run.truth[k]})
     return frames
+
+
+def _seen_from(pose: np.ndarray, scan: Scan) -> np.ndarray:
+    """The pose a scan's detections are measured from: its radar's (docs/method.md c.13), else the platform's."""
+    from radarslam.slam.sensor_frame import sensor_pose
+
+    m = scan.sensor
+    return pose if m is None else sensor_pose(pose, m.x, m.y, m.yaw)
 
 
 def map_rows(run: RecordingRun) -> list[dict]:
@@ -345,7 +353,8 @@ def recording_from_scenario(scenario, dt: float, mounting: Mounting | None = Non
     m = mounting or Mounting()
     scans = scenario.scans
     t = np.concatenate([np.full(s.polar.shape[0], s.t) for s in scans])
-    polar = np.concatenate([to_sensor(s.polar, m) for s in scans]).reshape(-1, 2)
+    polar = np.concatenate([s.polar if s.sensor is not None else to_sensor(s.polar, m)   # c.13: in its frame
+                            for s in scans]).reshape(-1, 2)
     scan_t = np.array([s.t for s in scans])
     odo_t = (np.arange(scenario.odometry.shape[0]) * dt)
     odo_t[: scan_t.size] = scan_t        # the readings at exactly the scan times (row 0: the start)

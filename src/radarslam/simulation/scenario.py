@@ -9,8 +9,8 @@ import numpy as np
 
 from radarslam.config import Config, FilterConfig
 from radarslam.core.errors import InputError
-from radarslam.core.types import Odometry, Scan
-from radarslam.io.recording.mounting import Mounting, to_platform
+from radarslam.core.types import Odometry, Scan, Sensor
+from radarslam.io.recording.mounting import Mounting
 from radarslam.simulation.doppler import (MovingTraffic, moving_detections, moving_traffic, platform_velocities,
                                           scan_doppler, sensor_poses)
 from radarslam.simulation.radar import simulate_scan
@@ -95,6 +95,8 @@ def generate_scenario(config: Config, rng: np.random.Generator, *, compiled: boo
     # b.4.1, b.4.2) always run through the Python reference, simulate_scan
     mount = Mounting.from_config(config.sensor)
     spose = poses if mount.is_identity else sensor_poses(poses, mount)    # b.4.3: measured from the radar
+    # c.13: a mounted radar's scans stay in its frame, the filter measuring from its pose
+    sensor = None if mount.is_identity else Sensor(mount.x, mount.y, mount.yaw)
     if compiled and config.radar.spread_model == "surface":
         from radarslam.simulation._compiled import simulate
 
@@ -113,8 +115,7 @@ def generate_scenario(config: Config, rng: np.random.Generator, *, compiled: boo
         if extra:
             polar, src, channels = _extras(out, k, poses[k - 1], spose[k - 1], velocity[k - 1], traffic, config,
                                            moving_rng, doppler_rng)
-        polar = to_platform(polar, mount)
-        events.append(Scan(t=(k - 1) * traj.dt_s, index=k, polar=polar, channels=channels))
+        events.append(Scan(t=(k - 1) * traj.dt_s, index=k, polar=polar, channels=channels, sensor=sensor))
         sources.append(src)
     truth = GroundTruth(poses, controls, vehicles, presence(vehicles, traj.n_steps), sources, traffic)
     return Scenario(events, truth, odo)

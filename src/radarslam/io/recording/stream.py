@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from radarslam.core.errors import InputError
-from radarslam.core.types import Event, Odometry, Scan
+from radarslam.core.types import Event, Odometry, Scan, Sensor
 from radarslam.io.recording.mounting import Mounting, to_platform
 
 #: Times closer than this (s) are one time: a scan this close to an odometry stamp is at the stamp
@@ -162,7 +162,7 @@ def stream_events(rec: Recording, mounting: Mounting) -> tuple[list[Event], Stre
         raise InputError(f"{rec.source}: expected scans within the odometry's time span "
                          f"({odo_t[0] if odo_t.size else '-'} .. {odo_t[-1] if odo_t.size else '-'} s), got none "
                          f"(scans {scans[0].t} .. {scans[-1].t} s)")
-    scans = [Scan(sc.t, k, sc.polar, sc.channels) for k, sc in enumerate(inside, start=1)]
+    scans = [Scan(sc.t, k, sc.polar, sc.channels, sensor=sc.sensor) for k, sc in enumerate(inside, start=1)]
     report.scans, report.detections = len(scans), sum(sc.polar.shape[0] for sc in scans)
     t0, t1 = scans[0].t, scans[-1].t
     events: list[Event] = [scans[0]]
@@ -194,11 +194,14 @@ SINGLE_SHARE, SINGLE_MIN_SCANS = 0.5, 10
 
 
 def _scans(rec: Recording, mounting: Mounting, report: StreamReport) -> list[Scan]:
-    """Every scan of ``rec`` as the sensor made it, in time order (numbered 0 here), detections in the
-    platform frame: the rows of one ``scan`` id when the recording has that column (its time the mean
-    of theirs), else of one ``(t_s, sensor_id)``; the empty scans of ``rec.scan_t`` too. Zero-range
-    detections are dropped; both faults are counted in ``report`` with one note line each."""
-    polar = platform_polar(rec, mounting)
+    """Every scan of ``rec`` as the sensor made it, in time order (numbered 0 here), detections in
+    their radar's frame with ``Scan.sensor`` its mounting and view (docs/method.md c.13; a radar at
+    the platform origin along the heading: no ``sensor``, the numbers as before): the rows of one
+    ``scan`` id when the recording has that column (its time the mean of theirs), else of one
+    ``(t_s, sensor_id)``; the empty scans of ``rec.scan_t`` too. Zero-range detections are dropped;
+    both faults are counted in ``report`` with one note line each."""
+    polar = rec.det_polar
+    sensors = scan_sensors(rec, mounting)
     ch = dict(rec.channels)
     t, scan = rec.det_t, rec.det_scan
     zero = rec.det_polar[:, 0] <= 0.0
@@ -222,7 +225,16 @@ def _scans(rec: Recording, mounting: Mounting, report: StreamReport) -> list[Sca
         have = set(ts.tolist())
         groups += [(float(x), 0, 0) for x in rec.scan_t.tolist() if x not in have]
         groups.sort(key=lambda g: g[0])
-    scans = [Scan(x, 0, polar[a:b], {n: v[a:b] for n, v in ch.items()} or None) for x, a, b in groups]
+    sid = ch.get("sensor_id")
+    if scan is not None and sid is not None and sid.size:
+        mixed = np.flatnonzero(np.diff(ks) == 0)
+        bad = mixed[sid[mixed] != sid[mixed + 1]]
+        if bad.size:
+            raise InputError(f"{rec.source}: scan {int(ks[bad[0]])} holds detections of sensors {float(sid[bad[0]])!r} "
+                             f"and {float(sid[bad[0] + 1])!r}; expected one sensor's detections per scan")
+    scans = [Scan(x, 0, polar[a:b], {n: v[a:b] for n, v in ch.items()} or None,
+                  sensor=sensors.get(int(sid[a]) if sid is not None and b > a else None, sensors.get(None)))
+             for x, a, b in groups]
     ones = sum(1 for _, a, b in groups if b - a == 1)
     report.single_detection_scans = ones
     if len(groups) >= SINGLE_MIN_SCANS and ones > SINGLE_SHARE * len(groups):
@@ -239,6 +251,29 @@ def _scan_times(t: np.ndarray, scan: np.ndarray) -> np.ndarray:
     np.minimum.at(first, inv, t)
     mean = np.bincount(inv, weights=t - first[inv], minlength=ids.size) / np.bincount(inv, minlength=ids.size)
     return (first + mean)[inv]
+
+
+def _sensor(m: Mounting) -> Sensor | None:
+    """The :class:`Sensor` of a mounting, None for a radar at the origin along the heading with the
+    configuration's view (the scan then runs exactly as the simulator's)."""
+    if m.is_identity and m.max_range_m is None and m.fov_rad is None:
+        return None
+    return Sensor(m.x, m.y, m.yaw, m.max_range_m, m.fov_rad, m.sensor_id)
+
+
+def scan_sensors(rec: Recording, mounting: Mounting) -> dict:
+    """Each sensor's :class:`Sensor` by ``sensor_id`` (``rec.sensors``), or under ``None`` the one
+    ``mounting`` of a recording without sensors.csv; refuses a detection of an unknown sensor."""
+    if not rec.sensors:
+        return {None: _sensor(mounting)}
+    sid = rec.channels.get("sensor_id")
+    if sid is None:                           # one sensor and no sensor_id column (checked by the reader)
+        return {None: _sensor(next(iter(rec.sensors.values())))}
+    unknown = np.flatnonzero(~np.isin(sid, np.array(sorted(rec.sensors), dtype=float)))
+    if unknown.size:
+        raise InputError(f"{rec.source}: detection {int(unknown[0]) + 1} has sensor_id {float(sid[unknown[0]])!r}, "
+                         f"expected one of the sensors {', '.join(map(str, sorted(rec.sensors)))}")
+    return {k: _sensor(m) for k, m in rec.sensors.items()}
 
 
 def platform_polar(rec: Recording, mounting: Mounting) -> np.ndarray:
