@@ -1,0 +1,79 @@
+"""A car's radar: SLAM on the shared nuScenes scenes against the car's own dead reckoning (issue 36).
+
+For each scene and each prediction mode -- wheel speed + gyro + radar (``filter.odometry`` odometer),
+Doppler speed + gyro (``doppler``, ``yaw_rate`` gyro) and the radar alone (``doppler``, ``yaw_rate``
+doppler) -- the ``automotive`` profile runs with the mountings as given and with the side radars'
+yaw calibrated from the static world's Doppler (``radarslam calibrate``, docs/method.md c.12.5; the
+calibration of each scene from that scene). Each row gives the position and heading RMSE over the
+scans (as evo's APE, no alignment) of SLAM and of dead reckoning (odometry.csv integrated from the
+truth's first pose at the same scans) and their ratio. Prints a Markdown table.
+
+    python scripts/automotive_study.py [--data ../shared/data/nuscenes_radar] [--scenes scene-0061 ...]
+
+The recordings are read from ``--data`` and never copied (CC BY-NC-SA 4.0, SOURCE.md).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import time
+from pathlib import Path
+
+import numpy as np
+
+from radarslam.config import profile_config, validate
+from radarslam.experiments.calibrate import calibrate_yaw
+from radarslam.experiments.recording import run_recording
+from radarslam.experiments.rig_velocity import read_rig
+from radarslam.io.recording import read_recording
+from radarslam.io.recording.mounting import Mounting
+
+MODES = {"wheels + gyro + radar": {}, "Doppler + gyro": {"odometry": "doppler", "yaw_rate": "gyro"},
+         "radar alone": {"odometry": "doppler", "yaw_rate": "doppler"}}
+SCENES = ("scene-0061", "scene-0103", "scene-0655", "scene-0916")
+
+
+def calibrated(rec, path: Path):
+    """``rec`` with each sensor's yaw replaced by its Doppler calibration (c.12.5) where one was found."""
+    cal = calibrate_yaw(read_rig(path), np.random.default_rng(0))
+    sensors = dict(rec.sensors)
+    for sid, off in zip(cal.sensor_ids.tolist(), cal.offset.tolist()):
+        if np.isfinite(off):
+            m = sensors[sid]
+            sensors[sid] = Mounting(m.x, m.y, m.yaw + off, "calibrated", m.sensor_id, m.name, m.max_range_m, m.fov_rad)
+    return dataclasses.replace(rec, sensors=sensors)
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", default=str(Path(__file__).resolve().parents[2] / "shared/data/nuscenes_radar"))
+    ap.add_argument("--scenes", nargs="+", default=list(SCENES))
+    args = ap.parse_args()
+    print("| scene | mountings | mode | SLAM pos. RMSE (m) | DR pos. RMSE (m) | ratio | SLAM heading RMSE (deg) "
+          "| DR heading RMSE (deg) | landmarks | run (s) |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    ratios: dict = {}
+    for scene in args.scenes:
+        path = Path(args.data) / scene
+        given = read_recording(path)
+        for label, rec in (("as given", given), ("calibrated", calibrated(given, path))):
+            for mode, f in MODES.items():
+                cfg = profile_config("automotive")
+                cfg = validate(dataclasses.replace(cfg, filter=dataclasses.replace(cfg.filter, **f)))
+                t0 = time.perf_counter()
+                m = run_recording(rec, cfg).metrics
+                dr, r = m["dead_reckoning"], m["ratio_to_dead_reckoning"]["position_rmse"]
+                ratios.setdefault((label, mode), []).append(r)
+                print(f"| {scene} | {label} | {mode} | {m['position_rmse_m']:.3f} | {dr['position_rmse_m']:.3f} | "
+                      f"{r:.2f} | {m['heading_rmse_deg']:.3f} | {dr['heading_rmse_deg']:.3f} | "
+                      f"{m['landmarks_final']} | {time.perf_counter() - t0:.1f} |", flush=True)
+    print("\n| mountings | mode | mean ratio to dead reckoning (position) | scenes below 1 |")
+    print("|---|---|---|---|")
+    for (label, mode), rs in ratios.items():
+        print(f"| {label} | {mode} | {np.mean(rs):.2f} | {sum(x < 1 for x in rs)} of {len(rs)} |")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
