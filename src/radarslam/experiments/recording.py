@@ -14,6 +14,7 @@ from radarslam.config import Config, to_toml, validate
 from radarslam.core.angles import wrap_pi
 from radarslam.core.errors import ConfigError, InputError
 from radarslam.core.types import Scan
+from radarslam.experiments.rig_odometry import with_rig_velocity
 from radarslam.experiments.single import FilterRecord, run_filter
 from radarslam.io.recording.mounting import Mounting, to_sensor
 from radarslam.io.recording.stream import Recording, StreamReport, check_motion_model, stream_events
@@ -246,6 +247,7 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
     config = dataclasses.replace(config, sensor=dataclasses.replace(
         config.sensor, mount_x_m=m.x, mount_y_m=m.y, mount_yaw_deg=math.degrees(m.yaw)))
     events, report = stream_events(rec, m)
+    events = with_rig_velocity(events, rec, config)          # c.12: the rig's Doppler odometry, if asked
     times = np.array([e.t for e in events if isinstance(e, Scan)])
     pose, origin = start_pose(rec, config, float(times[0]), start)
     config = dataclasses.replace(config, filter=dataclasses.replace(config.filter, initial_pose=pose))

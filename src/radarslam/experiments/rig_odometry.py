@@ -1,0 +1,55 @@
+"""Doppler odometry from the whole rig (docs/method.md c.12, c.10.5): each scan carries the joint fit
+of every radar's static detections about its time as its ``Scan.ego``, so that ``filter.odometry =
+"doppler"`` with ``filter.yaw_rate = "gyro"`` predicts with the rig's velocity at the rear axle and
+the gyro's yaw rate, instead of the velocity of the one radar that made the scan.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from radarslam.core.types import Scan
+from radarslam.experiments.rig_velocity import Rig, rig_ego_velocity
+from radarslam.models.doppler import EgoVelocity
+
+#: A fit held as valid (models.rig_velocity status 0).
+OK = 0
+
+
+def rig_of(rec) -> Rig | None:
+    """The :class:`Rig` of a recording with ``sensors.csv`` and a Doppler channel, else None."""
+    d, sid = rec.channels.get("doppler_mps"), rec.channels.get("sensor_id")
+    if not rec.sensors or d is None or sid is None or not rec.det_t.size:
+        return None
+    ids = np.array(sorted(rec.sensors), dtype=np.int64)
+    order = np.argsort(rec.det_t, kind="stable")
+    keep = order[rec.det_polar[order, 0] > 0]                       # zero ranges: a driver's invalid returns
+    row = np.searchsorted(ids, sid[keep].astype(np.int64))
+    mount = np.array([[rec.sensors[i].x, rec.sensors[i].y, rec.sensors[i].yaw] for i in ids.tolist()])
+    return Rig(rec.det_t[keep], rec.det_polar[keep, 0], rec.det_polar[keep, 1], d[keep], row, ids,
+               [rec.sensors[i].name for i in ids.tolist()], mount)
+
+
+def with_rig_velocity(events: list, rec, config) -> list:
+    """``events`` with every scan's ``ego`` the rig's fit at its time (module docstring) under
+    ``filter.odometry`` "doppler" and ``filter.yaw_rate`` "gyro" on a rig with Doppler; else ``events``."""
+    f = config.filter
+    rig = rig_of(rec) if f.odometry == "doppler" and f.yaw_rate == "gyro" else None
+    if rig is None:
+        return events
+    series = rig_ego_velocity(rig, np.random.default_rng(0))
+    out = []
+    for e in events:
+        if isinstance(e, Scan):
+            k = min(int(np.searchsorted(series.t, e.t)), series.t.size - 1)
+            if abs(series.t[k] - e.t) > 1e-6 and k > 0 and abs(series.t[k - 1] - e.t) < abs(series.t[k] - e.t):
+                k -= 1
+            ok = series.status[k] == OK and np.all(np.isfinite(series.theta[k, :2]))
+            ego = EgoVelocity(series.theta[k, :2].copy() if ok else np.zeros(2),
+                              series.cov[k, :2, :2].copy() if ok else np.eye(2), np.zeros(0, dtype=bool),
+                              float(series.sigma_mps[k]) if ok else float("nan"), 0.0, False, bool(ok))
+            e = dataclasses.replace(e, ego=ego)
+        out.append(e)
+    return out
