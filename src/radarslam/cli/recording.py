@@ -31,6 +31,8 @@ def add_recording_args(p: argparse.ArgumentParser, run: bool) -> None:
                        help="--recording: how the estimate is aligned to the truth before its errors are taken: none "
                             "(default, as evo_ape without -a), first-pose, or se2 (rotation and translation of least "
                             "squares, no scale, as evo_ape -a)")
+        p.add_argument("--sensors", metavar="FILE.csv", help="--recording: each radar's mounting from this sensors.csv "
+                       "instead of the recording's (e.g. radarslam calibrate's sensors_calibrated.csv)")
         p.add_argument("--animate", metavar="FILE", help="--recording: draw the run scan by scan into FILE.gif "
                        "(or .mp4 with ffmpeg)")
 
@@ -59,6 +61,9 @@ def run_recording_cmd(args: argparse.Namespace) -> int:
     refuse_finished(Path(args.out) / "run.json", "--out", args.overwrite)   # before any work
     config = config_from_args(args)
     if not args.odom_topic and args.radar_topic:
+        if getattr(args, "sensors", None):
+            raise InputError("--sensors: expected a run with odometry (a plain recording, or --odom-topic), got a "
+                             "run without")
         if config.filter.odometry == "doppler":
             from radarslam.cli.radar_alone import radar_alone_cmd
 
@@ -66,6 +71,11 @@ def run_recording_cmd(args: argparse.Namespace) -> int:
         return ego_motion_cmd(args, config)
     t0 = time.perf_counter()
     rec = _read(args)
+    sensors_file = _sensors_file(args)
+    if args.sensors:
+        from radarslam.experiments.recording_outputs import with_sensors_file
+
+        rec = with_sensors_file(rec, args.sensors)
     n = rec.scan_times().size
     from radarslam.experiments.first_run import announce, choose
 
@@ -79,7 +89,7 @@ def run_recording_cmd(args: argparse.Namespace) -> int:
     refuse_finished(out / "run.json", "--out", args.overwrite)
     names = write_recording_outputs(out, run, {"recording": str(args.recording), "version": __version__,
                                                 "argv": sys.argv, "wall_seconds": time.perf_counter() - t0,
-                                                "engine": run.record.engine})
+                                                "engine": run.record.engine, "sensors_file": sensors_file})
     if args.animate:
         from radarslam.experiments.recording import animation_frames
         from radarslam.viz.animation import animate_run
@@ -100,6 +110,16 @@ def run_recording_cmd(args: argparse.Namespace) -> int:
     print(line)
     print(f"wrote {out}/ ({', '.join(names)})")
     return 0
+
+
+def _sensors_file(args) -> str | None:
+    """The sensors.csv a run takes: ``--sensors``, else the plain recording's own, else None."""
+    from pathlib import Path
+
+    if args.sensors:
+        return str(args.sensors)
+    own = Path(args.recording) / "sensors.csv"
+    return str(own) if own.is_file() else None
 
 
 def run_notes(run) -> list[str]:

@@ -42,6 +42,10 @@ class RecordingRun:
     metrics : dict
     stream : StreamReport
         What the event stream left out (one note line each).
+    ego : RigVelocitySeries or None
+        The rig's ego-motion from every radar's Doppler (detections with ``doppler_mps``).
+    flags : DetectionFlags or None
+        Each input detection's fate under ``filter.doppler_gate`` (moving, landmark, used).
     """
 
     config: Config
@@ -53,6 +57,8 @@ class RecordingRun:
     truth: np.ndarray | None
     metrics: dict
     stream: StreamReport = dataclasses.field(default_factory=StreamReport)
+    ego: object = None
+    flags: object = None
 
 
 def effective_mounting(rec: Recording, config: Config) -> Mounting:
@@ -251,12 +257,7 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
     times = np.array([e.t for e in events if isinstance(e, Scan)])
     pose, origin = start_pose(rec, config, float(times[0]), start)
     config = dataclasses.replace(config, filter=dataclasses.replace(config.filter, initial_pose=pose))
-    if first_run is not None and first_run.filter_backend == "python":   # experiments/first_run.py
-        python = dataclasses.replace(config, filter=dataclasses.replace(config.filter, backend="python"))
-        record = run_filter(python, events, on_scan=on_scan, engine="orchestrator")
-        record.engine = "python"
-    else:
-        record = run_filter(config, events, on_scan=on_scan)
+    record, flags = _run_filter(config, events, on_scan, first_run)
     truth = None if rec.truth is None else truth_at(times, rec.truth_t, rec.truth)
     metrics = {"scans": int(times.size), "detections": int(record.n_detections.sum()),
                "associated": int(record.n_associated.sum()), "landmarks_final": int(record.n_landmarks[-1]),
@@ -270,7 +271,44 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
     if truth is not None:
         metrics.update(evaluate_truth(record.poses, dead_reckoning(events, config, pose), truth, config, align,
                                       metrics["start"]))
-    return RecordingRun(config, rec, m, events, times, record, truth, metrics, report)
+    ego, flags = _doppler_outputs(rec, m, flags, metrics)
+    return RecordingRun(config, rec, m, events, times, record, truth, metrics, report, ego, flags)
+
+
+def _run_filter(config: Config, events: list, on_scan, first_run):
+    """The filter over ``events`` (the first-run rule's engine, experiments/first_run.py) and, under
+    ``filter.doppler_gate``, every scan detection's flags (experiments/detection_flags.py)."""
+    from radarslam.experiments.detection_flags import run_with_flags
+
+    python = first_run is not None and first_run.filter_backend == "python"
+    if python:
+        config = dataclasses.replace(config, filter=dataclasses.replace(config.filter, backend="python"))
+    engine = "orchestrator" if python else "auto"
+    if config.filter.doppler_gate:
+        record, flags = run_with_flags(config, events, on_scan=on_scan, engine=engine)
+    else:
+        record, flags = run_filter(config, events, on_scan=on_scan, engine=engine), None
+    if python:
+        record.engine = "python"
+    return record, flags
+
+
+def _doppler_outputs(rec: Recording, m: Mounting, flags, metrics: dict):
+    """The rig's ego-motion (None without Doppler) and, with ``flags``, each input detection's in
+    input order; ``metrics`` gains ``ego_velocity`` and, with the annotation, ``moving_scores``."""
+    from radarslam.experiments.detection_flags import detection_flags, moving_scores, stream_rows
+    from radarslam.experiments.recording_outputs import ego_metrics, recording_rig, rig_velocity_of
+
+    rig = recording_rig(rec, m)
+    ego = None if rig is None else rig_velocity_of(rig)
+    if ego is not None:
+        metrics["ego_velocity"] = ego_metrics(ego, rig)
+    if flags is None:
+        return ego, None
+    flags = detection_flags(rec.det_t.size, stream_rows(rec, m), flags)
+    if rec.labels is not None:
+        metrics["moving_scores"] = moving_scores(rec.labels, flags)
+    return ego, flags
 
 
 def animation_frames(run: RecordingRun) -> list[dict]:
@@ -322,6 +360,7 @@ def map_rows(run: RecordingRun) -> list[dict]:
 
 def write_recording_outputs(out: Path, run: RecordingRun, extra: dict) -> list[str]:
     """Every result file of a recording run in ``out``; returns their names (``run.json`` last, the marker)."""
+    from radarslam.experiments.recording_outputs import write_run_figures, write_run_tables
     from radarslam.io.results import atomic_write_text, write_json, write_trajectory_csv, write_tum
 
     t, poses = run.times, run.record.poses
@@ -341,9 +380,10 @@ def write_recording_outputs(out: Path, run: RecordingRun, extra: dict) -> list[s
                 ext[0, 0], ext[0, 1], ext[1, 1]]
         lines.append(",".join([str(r["id"])] + [repr(float(v)) for v in vals]))
     atomic_write_text(out / "map.csv", "\n".join(lines) + "\n")
+    names += ["map.json", "map.csv"] + write_run_tables(out, run) + write_run_figures(out, run)
     atomic_write_text(out / "config.toml", to_toml(run.config))
     write_json(out / "metrics.json", run.metrics)
-    names += ["map.json", "map.csv", "config.toml", "metrics.json", "run.json"]
+    names += ["config.toml", "metrics.json", "run.json"]
     write_json(out / "run.json", {**extra, "source": run.recording.source, "t0_ns": run.recording.t0_ns,
                                   "notes": run.recording.notes})
     return names

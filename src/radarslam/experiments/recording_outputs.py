@@ -1,0 +1,148 @@
+"""What a recording run adds for a car's radars (issue 36 items 2, 3, 4 and 7; docs/recordings.md
+"Outputs"): another ``sensors.csv`` for the run (``--sensors``, e.g. ``radarslam calibrate``'s
+``sensors_calibrated.csv``), the rig's ego-motion from every radar's Doppler (``ego_velocity.csv``,
+``ego_velocity.png``), each input detection's fate under the Doppler gate (``moving.csv``, scored
+against the annotation when the recording has one) and the map figure (``map.png``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+from radarslam.core.errors import InputError
+from radarslam.core.types import Scan
+from radarslam.experiments.rig_velocity import (
+    Rig,
+    compare_with_odometry,
+    rig_ego_velocity,
+    write_ego_velocity_csv,
+)
+from radarslam.io.recording.mounting import Mounting
+from radarslam.io.recording.stream import Recording
+
+__all__ = ["landmark_sensors", "recording_rig", "rig_velocity_of", "with_sensors_file", "write_run_figures",
+           "write_run_tables"]
+
+#: The seed of the rig fit's RANSAC draws (a run is reproducible).
+EGO_SEED = 0
+
+
+def with_sensors_file(rec: Recording, path: str | Path) -> Recording:
+    """``rec`` with its sensors replaced by the ``sensors.csv`` at ``path`` (its columns, docs/recordings.md
+    "Several radars"), refused in one line as the recording's own would be (the file, line, column)."""
+    from radarslam.io.recording import sensors as S
+    from radarslam.io.recording.plain import (
+        _read_csv,  # the reader's own checks and messages
+    )
+
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"--sensors: {path}: no such file")
+    cols = _read_csv(path, "sensors")
+    sensors = S.sensors_from_columns(cols, str(path))
+    S.check_detection_sensors(rec.channels.get("sensor_id"), sensors, f"{rec.source} (detections)", "detection", 1)
+    return dataclasses.replace(rec, sensors=sensors, mounting=None)
+
+
+def recording_rig(rec: Recording, mounting: Mounting) -> Rig | None:
+    """The recording as a :class:`~radarslam.experiments.rig_velocity.Rig` (time order; zero-range
+    detections left out, as the stream leaves them), or None without ``doppler_mps``: its sensors
+    (``rec.sensors``), else ``mounting`` as sensor 0."""
+    d = rec.channels.get("doppler_mps")
+    if d is None or rec.det_t.size == 0:
+        return None
+    sensors = rec.sensors or {0: mounting}
+    ids = np.array(sorted(sensors), dtype=np.int64)
+    sid = rec.channels.get("sensor_id")
+    sid = np.full(rec.det_t.size, ids[0]) if sid is None else sid.astype(np.int64)
+    keep = rec.det_polar[:, 0] > 0.0
+    order = np.flatnonzero(keep)[np.argsort(rec.det_t[keep], kind="stable")]
+    mount = np.array([[sensors[k].x, sensors[k].y, sensors[k].yaw] for k in ids.tolist()], dtype=float)
+    odo = np.column_stack([rec.odo_t, rec.odo]) if rec.odo_kind == "unicycle" and rec.odo_t.size else None
+    return Rig(rec.det_t[order], rec.det_polar[order, 0], rec.det_polar[order, 1], d[order],
+               np.searchsorted(ids, sid[order]), ids, [sensors[k].name or str(k) for k in ids.tolist()], mount, odo,
+               None if rec.labels is None else rec.labels[order])
+
+
+def rig_velocity_of(rig: Rig):
+    """The rig's ``(v_x, v_y, omega)`` about every sweep (docs/method.md c.12.4): with one radar the
+    no-sideslip model (``v_y = 0``: one radar sees its own velocity only, rank 2, c.12.2)."""
+    return rig_ego_velocity(rig, np.random.default_rng(EGO_SEED), lateral=rig.sensor_ids.size >= 2)
+
+
+def landmark_sensors(events: list, created: np.ndarray) -> np.ndarray:
+    """The ``sensor_id`` of the scan that created each landmark (``created``: the scans' stream
+    indices, :class:`~radarslam.slam.filter.MapSnapshot`), -1 where the scan names none."""
+    by_index = {}
+    for e in events:
+        if isinstance(e, Scan):
+            sid = e.sensor.sensor_id if e.sensor is not None else None
+            if sid is None and e.channels and "sensor_id" in e.channels and len(e.channels["sensor_id"]):
+                sid = int(e.channels["sensor_id"][0])
+            by_index[e.index] = -1 if sid is None else int(sid)
+    return np.array([by_index.get(int(k), -1) for k in np.asarray(created).reshape(-1)], dtype=np.int64)
+
+
+def write_run_tables(out: Path, run) -> list[str]:
+    """``ego_velocity.csv`` (with a rig fit) and ``moving.csv`` (under the Doppler gate) of ``run``
+    (a :class:`~radarslam.experiments.recording.RecordingRun`); returns the names written."""
+    from radarslam.experiments.detection_flags import write_moving_csv
+
+    names = []
+    if run.ego is not None:
+        write_ego_velocity_csv(out / "ego_velocity.csv", run.ego)
+        names.append("ego_velocity.csv")
+    if run.flags is not None:
+        rec = run.recording
+        sid = rec.channels.get("sensor_id")
+        if sid is None:
+            sid = np.full(rec.det_t.size, next(iter(rec.sensors)) if rec.sensors else 0)
+        write_moving_csv(out / "moving.csv", rec.det_t, sid, run.flags)
+        names.append("moving.csv")
+    return names
+
+
+def write_run_figures(out: Path, run) -> list[str]:
+    """``map.png`` and (with a rig fit) ``ego_velocity.png``; nothing without matplotlib (the ``viz``
+    extra). Returns the names written."""
+    from radarslam.viz import have_matplotlib
+
+    if not have_matplotlib():
+        return []
+    from radarslam.viz.recording import plot_ego_velocity, plot_recording_map
+
+    names = []
+    rec, mp = run.recording, run.record.maps[-1]
+    if rec.truth is not None:
+        reference, label = rec.truth[:, :2], "truth"
+    else:
+        from radarslam.experiments.recording import dead_reckoning
+
+        reference, label = dead_reckoning(run.events, run.config, run.metrics["start"]["pose"])[:, :2], \
+            "dead reckoning (odometry.csv)"
+    names_of = {int(k): (m.name or f"sensor {k}") for k, m in (rec.sensors or {}).items()} or {-1: "radar"}
+    sensor = landmark_sensors(run.events, mp.created)
+    if not rec.sensors:
+        sensor[:] = -1
+    plot_recording_map(out / "map.png", run.record.poses, mp.positions, mp.rma, sensor, names_of, reference,
+                       reference_label=label, title=f"{Path(rec.source).name}: {mp.ids.size} landmarks, "
+                                                    f"{run.times.size} scans")
+    names.append("map.png")
+    if run.ego is not None:
+        odo = np.column_stack([rec.odo_t, rec.odo]) if rec.odo_kind == "unicycle" else None
+        plot_ego_velocity(out / "ego_velocity.png", run.ego.t, run.ego.theta, run.ego.cov, run.ego.valid, odo)
+        names.append("ego_velocity.png")
+    return names
+
+
+def ego_metrics(ego, rig: Rig) -> dict:
+    """``metrics.json["ego_velocity"]``: the fit's windows, and its speed and yaw rate against the
+    odometry (:func:`~radarslam.experiments.rig_velocity.compare_with_odometry`) when there is one."""
+    out = {"windows": int(ego.t.size), "valid": int(ego.valid.sum()), "sensors": int(rig.sensor_ids.size),
+           "model": "v_x, v_y, omega" if rig.sensor_ids.size >= 2 else "v_x, omega (no sideslip: one radar)"}
+    if rig.odometry is not None and rig.odometry.shape[0] >= 2:
+        out["against_odometry"] = compare_with_odometry(ego, rig.odometry)
+    return out
