@@ -93,3 +93,108 @@ def test_run_recording_cold_takes_the_reference_and_equals_the_warm_run(tmp_path
     assert len(started) == 1
     assert runs["cold"][0]["engine"] == "python" and runs["warm"][0]["engine"] == "fused"
     np.testing.assert_allclose(runs["cold"][1], runs["warm"][1], rtol=0, atol=1e-9)
+
+
+# --- run --dataset (experiments/dataset.py first_run_plan) -------------------------------------------------------
+
+def _dataset_state(monkeypatch, fused: bool, orchestrator: bool, started: list) -> None:
+    from radarslam.experiments import dataset
+
+    monkeypatch.setattr(dataset, "_fused_ready", lambda: fused)
+    monkeypatch.setattr(dataset, "_orchestrator_ready", lambda: orchestrator)
+    monkeypatch.setattr(background, "enabled", lambda: True)
+    monkeypatch.setattr(background, "busy", lambda: False)
+    monkeypatch.setattr(background, "start", lambda *a, **k: started.append(a) or 4242)
+
+
+def test_dataset_plan_picks_what_ends_sooner_and_says_how_long(monkeypatch):
+    """Cold: a short run takes the reference at once, a whole park compiles the orchestrator's
+    kernels first (with the expected seconds); either way the fused engine goes to the background.
+    Warm (negative controls): the fused engine, nothing announced, nothing started."""
+    from radarslam.config import profile_config
+    from radarslam.experiments import dataset, warmup
+
+    cfg = profile_config("victoria-park")
+    started: list = []
+    _dataset_state(monkeypatch, False, False, started)
+    short = dataset.first_run_plan(cfg, 300, fused=True)
+    assert short.engine == "python" and not short.compiles and "300 scans go through the Python reference" in short.announce
+    assert f"about {300 * dataset.PYTHON_SCAN_S:.0f} s" in short.announce and "pid 4242" in short.announce
+    whole = dataset.first_run_plan(cfg, 7230, fused=True)
+    assert whole.engine == "orchestrator" and whole.compiles and whole.compile_s == dataset.ORCHESTRATOR_COMPILE_S
+    assert f"about {dataset.ORCHESTRATOR_COMPILE_S:.0f} s" in whole.announce and "compiling" in whole.announce
+    # the break-even of the cost model, from its constants
+    n = int(dataset.ORCHESTRATOR_COMPILE_S / (dataset.PYTHON_SCAN_S - warmup.ORCHESTRATOR_SCAN_S))
+    assert dataset.first_run_plan(cfg, n, True).engine == "python"
+    assert dataset.first_run_plan(cfg, n + 2, True).engine == "orchestrator"
+    _dataset_state(monkeypatch, False, True, started)
+    ready = dataset.first_run_plan(cfg, 7230, fused=True)
+    assert ready.engine == "orchestrator" and not ready.compiles and "event by event" in ready.announce
+    n_started = len(started)
+    _dataset_state(monkeypatch, True, False, started)
+    assert dataset.first_run_plan(cfg, 7230, fused=True) == dataset.FirstRunPlan("fused")
+    assert len(started) == n_started
+    assert dataset.first_run_plan(to_python(cfg), 300, fused=False) == dataset.FirstRunPlan("python")
+
+
+def to_python(cfg):
+    import dataclasses
+
+    return dataclasses.replace(cfg, filter=dataclasses.replace(cfg.filter, backend="python"))
+
+
+def test_run_dataset_cold_takes_the_reference_and_equals_the_fused_engine(victoria_park_dir, tmp_path, monkeypatch,
+                                                                          capsys):
+    """The first 300 scans of Victoria Park: cold, the CLI announces the reference on its first
+    line and metrics.json says engine "python"; the run equals the fused engine's (warm) with the
+    same associations and landmark counts on every scan, poses to 1e-9."""
+    pytest.importorskip("numba")
+    from radarslam.config import profile_config
+    from radarslam.experiments.dataset import run_dataset, victoria_park_options
+
+    started: list = []
+    _dataset_state(monkeypatch, False, False, started)
+    out = tmp_path / "cold"
+    assert main(["run", "--dataset", "victoria-park", str(victoria_park_dir), "--scans", "300", "--out", str(out)]) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[0].startswith("run: first run on this machine") and "Python reference" in err[0], err[0]
+    assert json.loads((out / "metrics.json").read_text())["engine"] == "python" and len(started) == 1
+    assert not any("ETA" in ln and "ETA --" not in ln for ln in err[1:2])      # no ETA from the first scan alone
+    cfg = profile_config("victoria-park")
+    runs = {}
+    for name, fused in (("cold", False), ("warm", True)):
+        _dataset_state(monkeypatch, fused, False, started)
+        runs[name] = run_dataset("victoria-park", victoria_park_dir, cfg, n_scans=300, progress=False,
+                                 loader_options=victoria_park_options(cfg))
+    cold, warm = runs["cold"], runs["warm"]
+    assert cold.engine == "python" and warm.engine == "fused"
+    np.testing.assert_array_equal(cold.n_associated, warm.n_associated)
+    np.testing.assert_array_equal(cold.n_landmarks, warm.n_landmarks)
+    np.testing.assert_array_equal(cold.final_map.ids, warm.final_map.ids)
+    np.testing.assert_allclose(cold.poses, warm.poses, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(cold.final_map.positions, warm.final_map.positions, rtol=0, atol=1e-9)
+
+
+# --- the progress bar (experiments/montecarlo.Progress, drawn by tqdm) -------------------------------------------
+
+def test_progress_writes_one_line_per_decile_to_a_file_and_no_eta_before_a_unit_is_done():
+    import io
+
+    from radarslam.experiments.montecarlo import Progress
+
+    buf = io.StringIO()
+    p = Progress(50, 0, stream=buf, unit="scans")
+    assert buf.getvalue() == ""                               # nothing (no ETA) before the first unit
+    for _ in range(50):
+        p.update()
+    lines = buf.getvalue().split("\n")
+    assert lines[-1] == "" and "\r" not in buf.getvalue()
+    done = [int(ln.split("] ")[1].split("/")[0]) for ln in lines[:-1]]
+    assert done == [1, 5, 10, 15, 20, 25, 30, 35, 40, 45, 50]      # the first unit, then each decile
+    # a first unit that carries a compile: the clock starts after it, its line shows no ETA
+    buf = io.StringIO()
+    p = Progress(10, 0, stream=buf, unit="scans", warm_up_unit=True)
+    p.update()
+    assert buf.getvalue().rstrip().endswith("0.00 scans/s  ETA --")
+    p.update()
+    assert "ETA --" not in buf.getvalue().splitlines()[-1]

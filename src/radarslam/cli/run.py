@@ -241,7 +241,7 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
                    n: {"final": float(res.bias[-1, i]), "final_std": float(res.bias_std[-1, i]),
                        "unit": res.bias_units[i]}
                    for i, n in enumerate(res.bias_names)},
-               "filter_seconds": res.seconds, "filter_ms_per_scan": 1e3 * res.seconds / max(res.times.size, 1),
+               "engine": res.engine, "filter_seconds": res.seconds, "filter_ms_per_scan": 1e3 * res.seconds / max(res.times.size, 1),
                "load_seconds": res.load_seconds, "wall_seconds": wall}
     write_json(out / "metrics.json", metrics)
     atomic_write_text(out / "config.toml", to_toml(res.config))
