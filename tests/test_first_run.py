@@ -95,13 +95,13 @@ def test_run_recording_cold_takes_the_reference_and_equals_the_warm_run(tmp_path
     np.testing.assert_allclose(runs["cold"][1], runs["warm"][1], rtol=0, atol=1e-9)
 
 
-# --- run --dataset (experiments/dataset.py first_run_plan) -------------------------------------------------------
+# --- run --dataset (experiments/dataset_first_run.py first_run_plan) ---------------------------------------------
 
 def _dataset_state(monkeypatch, fused: bool, orchestrator: bool, started: list) -> None:
-    from radarslam.experiments import dataset
+    from radarslam.experiments import dataset_first_run
 
-    monkeypatch.setattr(dataset, "_fused_ready", lambda: fused)
-    monkeypatch.setattr(dataset, "_orchestrator_ready", lambda: orchestrator)
+    monkeypatch.setattr(dataset_first_run, "_fused_ready", lambda: fused)
+    monkeypatch.setattr(dataset_first_run, "_orchestrator_ready", lambda: orchestrator)
     monkeypatch.setattr(background, "enabled", lambda: True)
     monkeypatch.setattr(background, "busy", lambda: False)
     monkeypatch.setattr(background, "start", lambda *a, **k: started.append(a) or 4242)

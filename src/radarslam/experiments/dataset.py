@@ -4,14 +4,12 @@ from __future__ import annotations
 
 import math
 import sys
-import threading
 import time
-from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
 
-from radarslam.config import Config, to_dict, validate
+from radarslam.config import Config, validate
 from radarslam.core.errors import ConfigError, InputError
 from radarslam.core.registry import EXTENT_ESTIMATORS
 from radarslam.core.types import Odometry, Scan
@@ -20,6 +18,16 @@ from radarslam.metrics.alignment import error_against_fixes
 from radarslam.models.radar import polar_to_xy
 from radarslam.slam import _fused
 from radarslam.slam.filter import EkfSlam, MapSnapshot
+from radarslam.experiments.dataset_first_run import (  # noqa: F401  (re-exported: their former home)
+    HEARTBEAT_S,
+    ORCHESTRATOR_COMPILE_S,
+    PYTHON_SCAN_S,
+    FirstRunPlan,
+    _compile_beside,
+    _heartbeat,
+    _with_backend,
+    first_run_plan,
+)
 
 #: Radius (m) within which a reference trunk detection is attributed to the nearest landmark.
 #: Trunks in the park stand metres apart; a landmark centroid sits about pi d / 8 (< 0.4 m for
@@ -168,178 +176,6 @@ def _run_orchestrated(slam: EkfSlam, events, reference: _Reference, bar, compile
             np.array(nas), slam.snapshot(), hits, np.concatenate(nis) if nis else np.empty((0, 2)),
             np.array(bias).reshape(-1, 2 * m) if m else None)
 
-
-#: The first run of ``run --dataset`` on a machine whose numba cache is empty (measured on this
-#: 2-core machine, Victoria Park's raw laser, its 7,230 scans; load 1-3 from other jobs):
-#: the Python reference (``filter.backend = "python"``) costs 16.8 ms a scan over the first 2,000
-#: scans (13.5 s for 1,000, 33.6 s for 2,000; the whole park 629 s, as the map grows to hundreds of
-#: landmarks), the orchestrator's kernels 26.2 s to compile in one process (7.6 s within the first
-#: scan, 19.0 s within the second: the association, 10 s, and the extent step), of which the
-#: extent and clustering steps compile in a second process beside (:func:`_compile_beside`) so that
-#: this process pays ORCHESTRATOR_COMPILE_S; the run itself then costs warmup.ORCHESTRATOR_SCAN_S
-#: a scan (25.5 s for the whole park warm, 3.5 ms a scan). The reference ends sooner up to about
-#: 1,400 scans (``--scans``): a first short run starts at once.
-PYTHON_SCAN_S = 0.0168
-ORCHESTRATOR_COMPILE_S = 20.0
-#: While numba compiles in the foreground, a line every this many seconds (no silence over 20 s).
-HEARTBEAT_S = 10.0
-
-
-@dataclass(frozen=True)
-class FirstRunPlan:
-    """How :func:`run_dataset` runs the filter (:func:`first_run_plan`).
-
-    Attributes
-    ----------
-    engine : str
-        "fused", "orchestrator" or "python" (the reference, the same results to 1e-9).
-    compiles : bool
-        numba compiles the orchestrator's kernels within the first two scans of this run.
-    compile_s : float
-        The expected seconds of that compile (0 when none).
-    announce : str
-        The first line of stderr ("" for none): what runs, why, and how long it is expected to take.
-    """
-
-    engine: str
-    compiles: bool = False
-    compile_s: float = 0.0
-    announce: str = ""
-
-
-def _with_backend(config: Config, backend: str) -> Config:
-    from dataclasses import replace
-
-    return replace(config, filter=replace(config.filter, backend=backend))
-
-
-def _orchestrator_ready() -> bool:
-    """True when the kernels of a recording's run event by event are compiled or cached: the
-    associators, the M/N rules and the extent step (the last to compile)."""
-    from radarslam.experiments.first_run import ready
-    from radarslam.extent.rows import rma_efa_rows
-    from radarslam.landmarks.confirmation import rule12
-    from radarslam.slam._numba import associate_scan, batch_associate_scan
-
-    return (ready(rule12) and ready(rma_efa_rows)) and (ready(batch_associate_scan) or ready(associate_scan))
-
-
-def _fused_ready() -> bool:
-    from radarslam.experiments.first_run import ready
-    from radarslam.slam._fused import run_stream
-
-    return ready(run_stream)
-
-
-def _background_note(config: Config) -> str:
-    """Start the background compile of the fused engine (:mod:`.background`); what the first line says of it."""
-    from radarslam.experiments import background
-    from radarslam.experiments.variants import Variant, variants_to_json
-
-    where = f"log {background.lock_path().with_suffix('.log')}"
-    if background.enabled() and background.busy():
-        return f"; the fused engine still compiles in the background ({where})"
-    pid = background.start(to_dict(config), variants_to_json([Variant("run", "run", {})]))
-    if pid:
-        return f"; the fused engine compiles in the background at low priority (pid {pid}, {where}) for later runs"
-    return "; background compiling is off (RADARSLAM_BACKGROUND_COMPILE=0)"
-
-
-def first_run_plan(config: Config, n_scans: int, fused: bool) -> FirstRunPlan:
-    """What runs the filter over ``n_scans`` scans: the fused engine when ``fused`` (it covers the
-    configuration) and its machine code is ready, or when a run this long ends sooner compiling it
-    (:func:`~radarslam.experiments.warmup.first_run_engine_scans`); else event by event, the
-    compiled orchestrator when its kernels are ready, else what ends sooner by the costs above:
-    the Python reference at once, or the orchestrator after numba compiles its kernels (announced
-    with the expected seconds). The fused engine then compiles in the background for later runs.
-    Nothing is announced when everything this run needs is ready."""
-    from radarslam.experiments.warmup import (
-        COMPILING,
-        ORCHESTRATOR_SCAN_S,
-        first_run_engine_scans,
-    )
-
-    if config.filter.backend != "numba":
-        return FirstRunPlan("python")
-    if fused and _fused_ready():
-        return FirstRunPlan("fused")
-    if fused and first_run_engine_scans(n_scans) == "auto":
-        return FirstRunPlan("fused", announce=COMPILING)
-    later = _background_note(config) if fused else ""
-    if _orchestrator_ready():
-        return FirstRunPlan("orchestrator", announce=(
-            f"the fused engine is not compiled on this machine yet and {n_scans} scans end sooner without it: this "
-            f"run goes event by event (the same results){later}") if fused else "")
-    python_s = n_scans * PYTHON_SCAN_S
-    run_s = n_scans * ORCHESTRATOR_SCAN_S
-    if python_s <= ORCHESTRATOR_COMPILE_S + run_s:
-        return FirstRunPlan("python", announce=(
-            f"first run on this machine: the compiled code is not built yet, so these {n_scans} scans go through "
-            f"the Python reference (about {python_s:.0f} s; compiling first would take about "
-            f"{ORCHESTRATOR_COMPILE_S + run_s:.0f} s; the same results){later}"))
-    return FirstRunPlan("orchestrator", True, ORCHESTRATOR_COMPILE_S, (
-        f"first run on this machine: compiling the per-event engine's kernels (once per machine, about "
-        f"{ORCHESTRATOR_COMPILE_S:.0f} s on two cores), then {n_scans} scans event by event (about {run_s:.0f} s; the "
-        f"Python reference would take about {python_s:.0f} s; the same results){later}"))
-
-
-def _side_compile(cfg_dict: dict, events: list) -> None:
-    """Second process: the first scans with the Python associator and clustering, so that numba
-    compiles the other steps (the M/N rules, merging, the extent step), while the run's own
-    process compiles the association; both write the cache, each loads what the other wrote first."""
-    from radarslam.config import from_dict
-    from radarslam.core.registry import ASSOCIATORS
-    from radarslam.slam.kernels import cluster_kernel
-
-    est = from_dict(cfg_dict).estimator
-    slam = EkfSlam(est, associator=ASSOCIATORS.create(est.landmarks.associator, est, backend="python"))
-    slam._clusters = cluster_kernel("python")     # its reference; the compiled one is the run's to compile
-    for ev in events:
-        slam.predict(ev) if isinstance(ev, Odometry) else slam.update(ev)
-
-
-def _compile_beside(config: Config, events) -> object | None:
-    """Start :func:`_side_compile` on the events up to the fourth scan; the executor, or None."""
-    from concurrent.futures import ProcessPoolExecutor
-
-    head, k = [], 0
-    for ev in events:
-        head.append(ev)
-        k += isinstance(ev, Scan)
-        if k == 4:
-            break
-    try:
-        ex = ProcessPoolExecutor(max_workers=1)
-        ex.submit(_side_compile, to_dict(config), head)
-    except (OSError, RuntimeError):                 # only a speed-up: the run compiles what it needs
-        return None
-    return ex
-
-
-@contextmanager
-def _heartbeat(expected_s: float):
-    """An event to set when the compile is over; until then, with ``expected_s`` > 0, a line on
-    stderr every :data:`HEARTBEAT_S` seconds saying that numba still compiles."""
-    done = threading.Event()
-    if expected_s <= 0:
-        yield done
-        return
-    t0 = time.perf_counter()
-
-    def beat() -> None:
-        while not done.wait(HEARTBEAT_S):
-            el = time.perf_counter() - t0
-            lead = "\r" if sys.stderr.isatty() else ""
-            print(f"{lead}run: still compiling the per-event engine's kernels ({el:.0f} s of about {expected_s:.0f} s; "
-                  "once per machine)", file=sys.stderr, flush=True)
-
-    th = threading.Thread(target=beat, name="radarslam-compile-heartbeat", daemon=True)
-    th.start()
-    try:
-        yield done
-    finally:
-        done.set()
-        th.join()
 
 def _run_fused(slam: EkfSlam, events, reference: _Reference):
     """:func:`run_dataset` by the fused engine (:func:`radarslam.slam._fused.run`), recording the map
