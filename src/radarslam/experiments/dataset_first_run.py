@@ -162,9 +162,10 @@ def _compile_beside(config: Config, events) -> object | None:
 
 
 @contextmanager
-def _heartbeat(expected_s: float):
+def _heartbeat(expected_s: float, what: str = "run: still compiling the per-event engine's kernels"):
     """An event to set when the compile is over; until then, with ``expected_s`` > 0, a line on
-    stderr every :data:`HEARTBEAT_S` seconds saying that numba still compiles."""
+    stderr every :data:`HEARTBEAT_S` seconds, ``what`` and the seconds so far, saying that numba still
+    compiles (no silence longer than that while a first run compiles in the foreground)."""
     done = threading.Event()
     if expected_s <= 0:
         yield done
@@ -175,8 +176,8 @@ def _heartbeat(expected_s: float):
         while not done.wait(HEARTBEAT_S):
             el = time.perf_counter() - t0
             lead = "\r" if sys.stderr.isatty() else ""
-            print(f"{lead}run: still compiling the per-event engine's kernels ({el:.0f} s of about {expected_s:.0f} s; "
-                  "once per machine)", file=sys.stderr, flush=True)
+            print(f"{lead}{what} ({el:.0f} s of about {expected_s:.0f} s; once per machine)", file=sys.stderr,
+                  flush=True)
 
     th = threading.Thread(target=beat, name="radarslam-compile-heartbeat", daemon=True)
     th.start()

@@ -178,6 +178,11 @@ def warm_up(config: Config, variants: tuple[Variant, ...], log: Callable[[str], 
     if parallel:
         side = ProcessPoolExecutor(max_workers=1)
         job = side.submit(_side, to_dict(config), dict(variants[0].overlay))
+    from radarslam.experiments.dataset_first_run import _heartbeat
+
+    expected = ORCHESTRATOR_COMPILE_S if short else FUSED_COMPILE_S
+    beat = _heartbeat(expected, "montecarlo: still compiling the numba kernels")
+    beat.__enter__()
     try:
         if short:
             _orchestrator_trial(config, variants)
@@ -193,4 +198,5 @@ def warm_up(config: Config, variants: tuple[Variant, ...], log: Callable[[str], 
             except Exception as exc:             # only a warm-up: the first trial compiles what is missing
                 log(f"montecarlo: the second compiling process failed ({type(exc).__name__}); compiling on one core")
             side.shutdown(wait=True)
+        beat.__exit__(None, None, None)
     return "orchestrator" if short else "auto"
