@@ -45,6 +45,37 @@ def calibrated(rec, path: Path):
     return dataclasses.replace(rec, sensors=sensors)
 
 
+def doppler_dead_reckoning(rec, path: Path) -> dict:
+    """The radar alone without a map: the rig's Doppler fit (v_x, v_y, omega; c.12) at every sweep
+    integrated from the truth's first pose, a window without a fit holding the last one; its errors
+    at the truth's times (what "radar alone" is compared with in issue 36)."""
+    from radarslam.experiments.rig_odometry import rig_of
+    from radarslam.experiments.rig_velocity import rig_ego_velocity
+    from radarslam.metrics.trajectory import trajectory_errors
+
+    series = rig_ego_velocity(rig_of(rec), np.random.default_rng(0))
+    t, theta = series.t, series.theta.copy()
+    for k in range(1, t.size):                                 # hold the last valid fit
+        if not np.all(np.isfinite(theta[k])):
+            theta[k] = theta[k - 1]
+    theta = np.nan_to_num(theta)
+    tt = rec.truth_t
+    i0 = int(np.searchsorted(tt, t[0]))
+    pose = rec.truth[i0].astype(float).copy()
+    poses = np.empty((t.size, 3))
+    poses[0] = pose
+    for k in range(1, t.size):
+        dt = t[k] - t[k - 1]
+        vx, vy, w = theta[k - 1]
+        c, s = np.cos(pose[2] + 0.5 * w * dt), np.sin(pose[2] + 0.5 * w * dt)
+        pose = pose + np.array([c * vx - s * vy, s * vx + c * vy, w]) * dt
+        poses[k] = pose
+    ok = (t >= tt[0]) & (t <= tt[-1])
+    truth = np.column_stack([np.interp(t[ok], tt, rec.truth[:, 0]), np.interp(t[ok], tt, rec.truth[:, 1]),
+                             np.interp(t[ok], tt, np.unwrap(rec.truth[:, 2]))])
+    return trajectory_errors(poses[ok], truth)
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", default=str(Path(__file__).resolve().parents[2] / "shared/data/nuscenes_radar"))
@@ -54,9 +85,12 @@ def main() -> int:
           "| DR heading RMSE (deg) | landmarks | run (s) |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     ratios: dict = {}
+    doppler_dr: dict = {}
+    alone: dict = {}
     for scene in args.scenes:
         path = Path(args.data) / scene
         given = read_recording(path)
+        doppler_dr[scene] = doppler_dead_reckoning(given, path)["position_rmse_m"]
         for label, rec in (("as given", given), ("calibrated", calibrated(given, path))):
             for mode, f in MODES.items():
                 cfg = profile_config("automotive")
@@ -65,6 +99,8 @@ def main() -> int:
                 m = run_recording(rec, cfg).metrics
                 dr, r = m["dead_reckoning"], m["ratio_to_dead_reckoning"]["position_rmse"]
                 ratios.setdefault((label, mode), []).append(r)
+                if mode == "radar alone":
+                    alone[(label, scene)] = m["position_rmse_m"]
                 print(f"| {scene} | {label} | {mode} | {m['position_rmse_m']:.3f} | {dr['position_rmse_m']:.3f} | "
                       f"{r:.2f} | {m['heading_rmse_deg']:.3f} | {dr['heading_rmse_deg']:.3f} | "
                       f"{m['landmarks_final']} | {time.perf_counter() - t0:.1f} |", flush=True)
@@ -72,6 +108,11 @@ def main() -> int:
     print("|---|---|---|---|")
     for (label, mode), rs in ratios.items():
         print(f"| {label} | {mode} | {np.mean(rs):.2f} | {sum(x < 1 for x in rs)} of {len(rs)} |")
+    print("\n| scene | the rig's Doppler dead reckoning, no map: pos. RMSE (m) | radar alone / it, as given "
+          "| radar alone / it, calibrated |")
+    print("|---|---|---|---|")
+    for scene, v in doppler_dr.items():
+        print(f"| {scene} | {v:.3f} | {alone[('as given', scene)] / v:.2f} | {alone[('calibrated', scene)] / v:.2f} |")
     return 0
 
 
