@@ -118,10 +118,12 @@ def write_run_figures(out: Path, run) -> list[str]:
     rec, mp = run.recording, run.record.maps[-1]
     if rec.truth is not None:
         reference, label = rec.truth[:, :2], "truth"
+    elif run.config.filter.odometry != "odometer":      # no wheel odometry to integrate (the radar alone)
+        reference, label = None, ""
     else:
         from radarslam.experiments.recording import dead_reckoning
 
-        reference, label = dead_reckoning(run.events, run.config, run.metrics["start"]["pose"])[:, :2], \
+        reference, label = dead_reckoning(run.events, run.config, _start(run))[:, :2], \
             "dead reckoning (odometry.csv)"
     names_of = {int(k): (m.name or f"sensor {k}") for k, m in (rec.sensors or {}).items()} or {-1: "radar"}
     sensor = landmark_sensors(run.events, mp.created)
@@ -146,3 +148,10 @@ def ego_metrics(ego, rig: Rig) -> dict:
     if rig.odometry is not None and rig.odometry.shape[0] >= 2:
         out["against_odometry"] = compare_with_odometry(ego, rig.odometry)
     return out
+
+
+def _start(run) -> list:
+    """The pose the run started at: its metrics' (a recording run, issue 35 item 1), else the
+    configuration's (a run of its own start, e.g. the radar alone)."""
+    return (run.metrics.get("start") or {}).get("pose", list(run.config.filter.initial_pose))
+
