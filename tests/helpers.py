@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import os
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
+import pytest
 
 from radarslam.config import profile_config
 from radarslam.core.types import Scan
@@ -38,3 +41,35 @@ def scan(k: int, *point_sets) -> Scan:
     return Scan(t=0.16 * (k - 1), index=k, polar=xy_to_polar(POSE, pts) if pts.size else np.empty((0, 2)))
 
 
+
+
+#: The shared recordings (``../shared/data``; their licence keeps them out of the repository).
+SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
+
+
+def shared_data() -> Path:
+    """``../shared/data``: skip without it, but FAIL under CI (CI=true), which provides it."""
+    if not SHARED.is_dir():
+        if os.environ.get("CI"):
+            pytest.fail(f"{SHARED} is absent under CI")
+        pytest.skip("../shared/data absent")
+    return SHARED
+
+
+def first_seconds(src: Path, seconds: float, out: Path) -> Path:
+    """The first ``seconds`` of a shared plain recording as plain files in the new directory ``out``
+    (a temporary one, never the repository: the data's licence); odometry and truth 0.5 s beyond."""
+    from radarslam.io.recording.plain import read_plain, write_plain
+
+    rec = read_plain(src)
+    end = rec.det_t[0] + seconds
+    keep, odo = rec.det_t <= end, rec.odo_t <= end + 0.5
+    tr = None if rec.truth is None else rec.truth_t <= end + 0.5
+    cut = replace(rec, det_t=rec.det_t[keep], det_polar=rec.det_polar[keep],
+                  channels={k: v[keep] for k, v in rec.channels.items()}, odo_t=rec.odo_t[odo], odo=rec.odo[odo],
+                  truth_t=None if tr is None else rec.truth_t[tr], truth=None if tr is None else rec.truth[tr],
+                  labels=None if rec.labels is None else rec.labels[keep],
+                  det_scan=None if rec.det_scan is None else rec.det_scan[keep], scan_t=None)
+    out.mkdir(parents=True)
+    write_plain(cut, out)
+    return out

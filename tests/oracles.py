@@ -41,3 +41,13 @@ def is_psd(A: np.ndarray, tol: float = 1e-9) -> bool:
     if not np.allclose(A, A.T, atol=tol * scale, rtol=0.0):
         return False
     return bool(np.linalg.eigvalsh(symmetrize(A))[0] >= -tol * scale) if A.size else True
+
+
+def central_jacobian(fun, x0: np.ndarray, h: float) -> np.ndarray:
+    """``d fun / d x`` at ``x0`` by central differences of step ``h`` (columns by coordinate)."""
+    cols = []
+    for j in range(x0.size):
+        e = np.zeros_like(x0)
+        e[j] = h
+        cols.append((fun(x0 + e) - fun(x0 - e)) / (2 * h))
+    return np.column_stack(cols)

@@ -20,6 +20,7 @@ from radarslam.extent.measurement import (
     _scan_W,
     _select_scan_W,
 )
+from oracles import central_jacobian
 
 R_APS = np.diag([0.5**2, (math.pi / 180) ** 2])  # docs/method.md a.2
 
@@ -29,15 +30,6 @@ def f(pose: np.ndarray, s: np.ndarray) -> np.ndarray:
     x, y, th = pose
     r, phi = s
     return np.array([x + r * math.cos(th + phi), y + r * math.sin(th + phi)])
-
-
-def central_jacobian(fun, x0: np.ndarray, h: float) -> np.ndarray:
-    cols = []
-    for j in range(x0.size):
-        e = np.zeros_like(x0)
-        e[j] = h
-        cols.append((fun(x0 + e) - fun(x0 - e)) / (2 * h))
-    return np.column_stack(cols)
 
 
 def random_cov(rng: np.random.Generator, n: int, scale: float) -> np.ndarray:

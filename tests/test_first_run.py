@@ -19,6 +19,11 @@ def _state(monkeypatch, filt: bool, sim: bool, match: bool, started: list) -> No
     monkeypatch.setattr(first_run, "_filter_ready", lambda: filt)
     monkeypatch.setattr(first_run, "_simulation_ready", lambda: sim)
     monkeypatch.setattr(first_run, "_matching_ready", lambda: match)
+    _fake_background(monkeypatch, started)
+
+
+def _fake_background(monkeypatch, started: list) -> None:
+    """The background compile enabled, idle, and its start recorded in ``started`` (pid 4242)."""
     monkeypatch.setattr(background, "enabled", lambda: True)
     monkeypatch.setattr(background, "busy", lambda: False)
     monkeypatch.setattr(background, "start", lambda *a, **k: started.append(a) or 4242)
@@ -102,9 +107,7 @@ def _dataset_state(monkeypatch, fused: bool, orchestrator: bool, started: list) 
 
     monkeypatch.setattr(dataset_first_run, "_fused_ready", lambda: fused)
     monkeypatch.setattr(dataset_first_run, "_orchestrator_ready", lambda: orchestrator)
-    monkeypatch.setattr(background, "enabled", lambda: True)
-    monkeypatch.setattr(background, "busy", lambda: False)
-    monkeypatch.setattr(background, "start", lambda *a, **k: started.append(a) or 4242)
+    _fake_background(monkeypatch, started)
 
 
 def test_dataset_plan_picks_what_ends_sooner_and_says_how_long(monkeypatch):

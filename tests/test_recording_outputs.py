@@ -7,12 +7,12 @@ from __future__ import annotations
 import csv
 import dataclasses
 import json
-import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from helpers import first_seconds, shared_data
 from radarslam.cli.main import main
 from radarslam.core.types import Scan
 from radarslam.experiments.detection_flags import DetectionFlags, moving_scores
@@ -22,7 +22,6 @@ from radarslam.io.recording.plain import read_plain, write_plain
 from radarslam.io.recording.stream import stream_events
 from radarslam.io.recording.synthetic import synthetic_recording
 
-SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
 GATE = "[filter]\ndoppler_gate = true\n"
 #: A PNG file's first bytes.
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -168,31 +167,11 @@ def test_moving_scores_by_hand():
 # ------------------------------------------------------------------------------------------------
 # The shared recordings' first 5 s
 # ------------------------------------------------------------------------------------------------
-def _first_seconds(src: Path, seconds: float, out: Path) -> Path:
-    """The first ``seconds`` of a shared recording as plain files in ``out`` (a temporary directory,
-    never the repository: the data's licence)."""
-    rec = read_plain(src)
-    end = rec.det_t[0] + seconds
-    keep, odo = rec.det_t <= end, rec.odo_t <= end + 0.5
-    tr = None if rec.truth is None else rec.truth_t <= end + 0.5
-    cut = dataclasses.replace(rec, det_t=rec.det_t[keep], det_polar=rec.det_polar[keep],
-                              channels={k: v[keep] for k, v in rec.channels.items()}, odo_t=rec.odo_t[odo],
-                              odo=rec.odo[odo], truth_t=None if tr is None else rec.truth_t[tr],
-                              truth=None if tr is None else rec.truth[tr],
-                              labels=None if rec.labels is None else rec.labels[keep])
-    out.mkdir(parents=True)
-    write_plain(cut, out)
-    return out
-
-
 @pytest.fixture(scope="module")
 def shared(tmp_path_factory):
-    if not SHARED.is_dir():
-        if os.environ.get("CI"):
-            pytest.fail(f"{SHARED} is absent under CI")
-        pytest.skip("../shared/data absent")
+    data = shared_data()
     base = tmp_path_factory.mktemp("shared5s")
-    return {name: _first_seconds(SHARED / name, 5.0, base / name.replace("/", "_"))
+    return {name: first_seconds(data / name, 5.0, base / name.replace("/", "_"))
             for name in ("nuscenes_radar/scene-0061", "radarscenes/sequence_105")}
 
 

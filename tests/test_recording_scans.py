@@ -5,12 +5,11 @@ every shared recording run with every gate and odometry option (nothing ends in 
 from __future__ import annotations
 
 import json
-import os
-from pathlib import Path
 
 import numpy as np
 import pytest
 
+from helpers import first_seconds, shared_data
 from radarslam.cli.main import main
 from radarslam.core.types import Scan
 from radarslam.io.recording import plain
@@ -18,7 +17,6 @@ from radarslam.io.recording.mounting import Mounting
 from radarslam.io.recording.plain import read_plain, write_plain
 from radarslam.io.recording.stream import Recording, stream_events
 
-SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
 ODO = "t_s,speed_mps,yaw_rate_rad_s\n0,1,0\n1,1,0\n"
 
 
@@ -114,30 +112,11 @@ OPTIONS = {"default": "", "doppler_gate": "[filter]\ndoppler_gate = true\n",
            "doppler_odometry": "[filter]\nodometry = \"doppler\"\n"}
 
 
-def _first_seconds(src: Path, seconds: float, out: Path) -> Path:
-    """The first ``seconds`` of a shared recording as plain files in ``out`` (a temporary directory,
-    never the repository: the data's licence)."""
-    rec = read_plain(src)
-    keep = rec.det_t <= rec.det_t[0] + seconds
-    odo = rec.odo_t <= rec.det_t[0] + seconds + 0.5
-    tr = None if rec.truth is None else rec.truth_t <= rec.det_t[0] + seconds + 0.5
-    cut = Recording(rec.det_t[keep], rec.det_polar[keep], {k: v[keep] for k, v in rec.channels.items()},
-                    rec.odo_t[odo], rec.odo[odo], rec.odo_kind, None if tr is None else rec.truth_t[tr],
-                    None if tr is None else rec.truth[tr], sensors=rec.sensors,
-                    labels=None if rec.labels is None else rec.labels[keep])
-    out.mkdir(parents=True)
-    write_plain(cut, out)
-    return out
-
-
 @pytest.fixture(scope="module")
 def shared_recordings(tmp_path_factory):
-    if not SHARED.is_dir():
-        if os.environ.get("CI"):
-            pytest.fail(f"{SHARED} is absent under CI")
-        pytest.skip("../shared/data absent")
+    shared = shared_data()
     base = tmp_path_factory.mktemp("shared")
-    return {name: _first_seconds(SHARED / name, s, base / name.replace("/", "_")) for name, s in RECORDINGS}
+    return {name: first_seconds(shared / name, s, base / name.replace("/", "_")) for name, s in RECORDINGS}
 
 
 @pytest.mark.parametrize("option", sorted(OPTIONS))

@@ -5,7 +5,6 @@ joint fit at its time. Checked on the first 8 s of nuScenes scene-0061 against i
 from __future__ import annotations
 
 import dataclasses
-import os
 
 import numpy as np
 import pytest
@@ -15,18 +14,15 @@ from radarslam.core.types import Scan
 from radarslam.experiments.rig_odometry import rig_of, with_rig_velocity
 from radarslam.io.recording.mounting import Mounting
 from radarslam.io.recording.stream import stream_events
-from tests.test_recording_scans import SHARED, _first_seconds
+from helpers import first_seconds, shared_data
 
 
 @pytest.fixture(scope="module")
 def scene(tmp_path_factory):
-    if not SHARED.is_dir():
-        if os.environ.get("CI"):
-            pytest.fail(f"{SHARED} is absent under CI")
-        pytest.skip("../shared/data absent")
     from radarslam.io.recording import read_recording
 
-    return read_recording(_first_seconds(SHARED / "nuscenes_radar/scene-0061", 8.0, tmp_path_factory.mktemp("s") / "r"))
+    return read_recording(first_seconds(shared_data() / "nuscenes_radar/scene-0061", 8.0,
+                                        tmp_path_factory.mktemp("s") / "r"))
 
 
 def _config(odometry: str, yaw_rate: str = "gyro"):

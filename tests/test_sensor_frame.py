@@ -17,17 +17,13 @@ from radarslam.experiments.single import run_filter
 from radarslam.models.radar import range_azimuth, range_azimuth_jacobians
 from radarslam.simulation.scenario import generate_scenario
 from radarslam.slam import sensor_frame as sf
+from oracles import central_jacobian
 
 MOUNTS = [(3.5, 0.0, 0.0), (2.4, 0.8, 1.54), (-0.56, -0.62, -3.07)]
 
 
 def _fd(f, x, h=1e-6):
-    cols = []
-    for i in range(x.size):
-        e = np.zeros_like(x)
-        e[i] = h
-        cols.append((f(x + e) - f(x - e)) / (2 * h))
-    return np.column_stack(cols)
+    return central_jacobian(f, x, h)
 
 
 @pytest.mark.parametrize("mount", MOUNTS)

@@ -70,10 +70,10 @@ def _orchestrator_ready() -> bool:
 
 
 def _fused_ready() -> bool:
-    from radarslam.experiments.first_run import ready
-    from radarslam.slam._fused import run_stream
+    """True when the fused engine's machine code is ready (:func:`.first_run._filter_ready`)."""
+    from radarslam.experiments.first_run import _filter_ready
 
-    return ready(run_stream)
+    return _filter_ready()
 
 
 def _background_note(config: Config) -> str:
