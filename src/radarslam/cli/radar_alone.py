@@ -15,6 +15,7 @@ from radarslam.core.errors import InputError
 def radar_alone_cmd(args: argparse.Namespace, config) -> int:
     """Read the radar and the IMU, level, run the filter, write every output; the inputs are read
     and checked before ``--out`` is created."""
+    from radarslam.cli.recording import one_topic
     from radarslam.experiments.montecarlo import Progress
     from radarslam.experiments.radar_alone import Imu, check_radar_alone_config, run_radar_alone
     from radarslam.experiments.radar_alone_report import (dead_reckoning, plot_map, plot_speed_yaw, summary,
@@ -29,7 +30,8 @@ def radar_alone_cmd(args: argparse.Namespace, config) -> int:
     if not args.imu_topic:
         raise InputError("--imu-topic: filter.odometry 'doppler' on a recording without odometry needs the gyro "
                          "(a sensor_msgs/Imu topic), got none")
-    rec = read_bag(args.recording, args.radar_topic, None, doppler_field=args.doppler_field)
+    topic = one_topic(args, "SLAM from a radar alone (filter.odometry 'doppler')")
+    rec = read_bag(args.recording, topic, None, doppler_field=args.doppler_field)
     log_time = any("log time" in n for n in rec.notes)
     t_ns, gyro, accel, note = read_imu_samples(args.recording, args.imu_topic, log_time=log_time)
     notes = list(rec.notes) + ([note] if note else [])

@@ -18,7 +18,10 @@ def add_recording_args(p: argparse.ArgumentParser, run: bool) -> None:
     p.add_argument("--recording", metavar="PATH", required=not run,
                    help="a bag (ROS 1 .bag, a ROS 2 bag directory: sqlite3 or MCAP) or the plain format (a directory "
                         "with detections.csv and odometry.csv, or an .npz file)")
-    p.add_argument("--radar-topic", metavar="TOPIC", help="bag: sensor_msgs/PointCloud2 topic of the radar")
+    p.add_argument("--radar-topic", metavar="TOPIC", action="append",
+                   help="bag: sensor_msgs/PointCloud2 (or radar_msgs/RadarScan) topic of the radar; give it once per "
+                        "radar for a rig (or a comma-separated list): topic i is sensor_id i, its mounting from "
+                        "/tf_static for its frame (docs/recordings.md \"Bags\")")
     p.add_argument("--odom-topic", metavar="TOPIC", help="bag: nav_msgs/Odometry topic (forward speed, yaw rate)")
     p.add_argument("--truth-topic", metavar="TOPIC", help="bag: optional truth (nav_msgs/Odometry or PoseStamped)")
     p.add_argument("--imu-topic", metavar="TOPIC", help="bag: sensor_msgs/Imu topic; without --odom-topic the run "
@@ -37,11 +40,46 @@ def add_recording_args(p: argparse.ArgumentParser, run: bool) -> None:
                        "(or .mp4 with ffmpeg)")
 
 
+def radar_topics(args) -> list[str]:
+    """The ``--radar-topic`` values (each may be a comma-separated list), in the order given."""
+    return [t for a in (args.radar_topic or []) for t in a.split(",") if t]
+
+
+def topic_arg(args):
+    """What ``read_bag`` takes: None, the one topic (as before), or the list of a rig's topics."""
+    topics = radar_topics(args)
+    return None if not topics else topics[0] if len(topics) == 1 else topics
+
+
+def one_topic(args, what: str) -> str:
+    """The single ``--radar-topic`` of a run that takes one radar (``what``), refusing several."""
+    topics = radar_topics(args)
+    if len(topics) > 1:
+        raise InputError(f"--radar-topic: {what} takes one radar topic, got {len(topics)} ({', '.join(topics)})")
+    return topics[0]
+
+
+def _fallback_sensors(args):
+    """A rig's mountings from ``--sensors FILE`` for the frames /tf_static lacks (None: no file, one topic)."""
+    from pathlib import Path
+
+    path = getattr(args, "sensors", None)
+    if not path or len(radar_topics(args)) < 2:
+        return None
+    from radarslam.io.recording import sensors as S
+    from radarslam.io.recording.plain import _read_csv  # the reader's own checks and messages
+
+    if not Path(path).is_file():
+        raise InputError(f"--sensors: {path}: no such file")
+    return S.sensors_from_columns(_read_csv(Path(path), "sensors"), str(path))
+
+
 def _read(args):
     from radarslam.io.recording import read_recording
 
-    rec = read_recording(args.recording, radar_topic=args.radar_topic, odom_topic=args.odom_topic,
-                         truth_topic=args.truth_topic, doppler_field=args.doppler_field)
+    rec = read_recording(args.recording, radar_topic=topic_arg(args), odom_topic=args.odom_topic,
+                         truth_topic=args.truth_topic, doppler_field=args.doppler_field,
+                         sensors=_fallback_sensors(args))
     for note in rec.notes:
         print(f"radarslam: warning: {note}", file=sys.stderr)
     return rec
@@ -60,7 +98,7 @@ def run_recording_cmd(args: argparse.Namespace) -> int:
         raise InputError(f"--animate: expected a .gif or .mp4 file, got {args.animate}")
     refuse_finished(Path(args.out) / "run.json", "--out", args.overwrite)   # before any work
     config = config_from_args(args)
-    if not args.odom_topic and args.radar_topic:
+    if not args.odom_topic and radar_topics(args):
         if getattr(args, "sensors", None):
             raise InputError("--sensors: expected a run with odometry (a plain recording, or --odom-topic), got a "
                              "run without")
@@ -148,7 +186,8 @@ def ego_motion_cmd(args: argparse.Namespace, config) -> int:
     from radarslam.io.results import atomic_write_text, prepare_out_dir, refuse_finished, write_json
 
     t0 = time.perf_counter()
-    rec = read_bag(args.recording, args.radar_topic, None, doppler_field=args.doppler_field)
+    topic = one_topic(args, "the ego-motion from Doppler (a run without --odom-topic)")
+    rec = read_bag(args.recording, topic, None, doppler_field=args.doppler_field)
     for note in rec.notes:
         print(f"radarslam: warning: {note}", file=sys.stderr)
     gyro = None
@@ -194,7 +233,8 @@ def add_parsers(sub) -> None:
 
 
 def convert_cmd(args: argparse.Namespace) -> int:
-    """``radarslam convert --recording BAG --radar-topic T [--odom-topic T] --out DIR|FILE.npz``."""
+    """``radarslam convert --recording BAG --radar-topic T [--radar-topic T2 ...] [--odom-topic T] --out DIR|FILE.npz``
+    (several radar topics: a rig, written with its sensors.csv)."""
     from pathlib import Path
 
     from radarslam.io.recording import is_plain
@@ -202,7 +242,7 @@ def convert_cmd(args: argparse.Namespace) -> int:
     from radarslam.io.results import prepare_out_dir
 
     out = Path(args.out)
-    if not is_plain(args.recording) and not args.radar_topic:
+    if not is_plain(args.recording) and not radar_topics(args):
         raise InputError(f"--recording {args.recording}: a bag needs --radar-topic")
     target = out if out.suffix == ".npz" else out / "detections.csv"
     if target.exists() and not args.overwrite:
@@ -210,7 +250,7 @@ def convert_cmd(args: argparse.Namespace) -> int:
     if args.odom_topic is None and not is_plain(args.recording):
         from radarslam.io.recording.bag import read_bag
 
-        rec = read_bag(args.recording, args.radar_topic, None, args.truth_topic, doppler_field=args.doppler_field)
+        rec = read_bag(args.recording, topic_arg(args), None, args.truth_topic, doppler_field=args.doppler_field)
         for note in rec.notes:
             print(f"radarslam: warning: {note}", file=sys.stderr)
     else:

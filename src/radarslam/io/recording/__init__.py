@@ -21,9 +21,13 @@ def is_plain(path: str | Path) -> bool:
     return (path.is_dir() and (path / "detections.csv").exists()) or path.suffix == ".npz"
 
 
-def read_recording(path: str | Path, *, radar_topic: str | None = None, odom_topic: str | None = None,
-                   truth_topic: str | None = None, doppler_field: str | None = None):
-    """A :class:`~.stream.Recording` from a plain recording or a bag (the topics are required for a bag)."""
+def read_recording(path: str | Path, *, radar_topic: str | list[str] | None = None, odom_topic: str | None = None,
+                   truth_topic: str | None = None, doppler_field: str | None = None, sensors=None):
+    """A :class:`~.stream.Recording` from a plain recording or a bag (the topics are required for a bag).
+
+    ``radar_topic`` may be a list of topics, a rig (:func:`~.bag.read_bag`); ``sensors`` (a
+    ``dict[int, Mounting]``) gives a rig's mountings that the bag's ``/tf_static`` lacks.
+    """
     path = Path(path)
     if not path.exists():
         raise InputError(f"--recording: {path}: no such file or directory")
@@ -35,4 +39,4 @@ def read_recording(path: str | Path, *, radar_topic: str | None = None, odom_top
         raise InputError(f"--recording {path}: a bag needs --radar-topic and --odom-topic")
     from radarslam.io.recording.bag import read_bag
 
-    return read_bag(path, radar_topic, odom_topic, truth_topic, doppler_field=doppler_field)
+    return read_bag(path, radar_topic, odom_topic, truth_topic, doppler_field=doppler_field, sensors=sensors)

@@ -7,14 +7,22 @@ Topics (docs/recordings.md "Bags"): the radar as ``sensor_msgs/PointCloud2`` (fl
 an optional truth as ``nav_msgs/Odometry`` or ``geometry_msgs/PoseStamped``, and the mounting from
 ``/tf_static`` when it holds the radar's frame.
 
+Several radars (a rig): several radar topics, each one sensor (``sensor_id`` 0, 1, ... in the order
+given), each message one scan, each topic's mounting from ``/tf_static`` for its clouds'
+``frame_id`` (else from a sensors table passed in, e.g. ``run --sensors FILE``); the result holds
+:attr:`Recording.sensors` (``name`` = the topic) and ``channels["sensor_id"]``, detections merged in
+time order (:func:`_read_rig`).
+
 Time: each topic uses its header stamps; a topic whose stamps are all 0 uses the bag's log time
 (a warning in :attr:`Recording.notes`), and such a mix is refused when the header clock of another
 topic is more than :data:`MAX_CLOCK_OFFSET_S` away from the log time. Times are returned in seconds
-relative to the first radar message (``Recording.t0_ns`` is that origin).
+relative to the first radar message over every radar topic (``Recording.t0_ns`` is that origin).
 """
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -204,14 +212,23 @@ def open_bag(path: Path):
     return reader
 
 
-def read_bag(path: str | Path, radar_topic: str, odom_topic: str | None, truth_topic: str | None = None, *,
-             doppler_field: str | None = None) -> Recording:
+def read_bag(path: str | Path, radar_topic: str | Sequence[str], odom_topic: str | None,
+             truth_topic: str | None = None, *, doppler_field: str | None = None,
+             sensors: dict[int, Mounting] | None = None) -> Recording:
     """Read a recording from a bag (see the module docstring for topics, fields and time).
 
     ``odom_topic=None`` reads the radar alone (empty odometry: to inspect or convert a bag without
-    odometry; a run needs it).
+    odometry; a run needs it). ``radar_topic`` may be a list: one topic reads as a single string
+    does; several are a rig (:func:`_read_rig`), ``sensors`` then giving the mounting of a sensor
+    whose frame ``/tf_static`` does not hold (unused with one topic).
     """
     path = Path(path)
+    topics = [radar_topic] if isinstance(radar_topic, str) else list(radar_topic)
+    if not topics:
+        raise InputError(f"bag {path}: expected a radar topic, got none")
+    if len(topics) > 1:
+        return _read_rig(path, topics, odom_topic, truth_topic, doppler_field, sensors)
+    radar_topic = topics[0]
     reader = open_bag(path)
     try:
         bag = _Bag(reader, path)
@@ -257,16 +274,21 @@ def _check_clocks(path: Path, uses) -> None:
                              "refusing to mix them")
 
 
+def _check_order(path, topic, ns, strict: bool) -> None:
+    """Refuse a topic's times going backwards (or repeating, ``strict``), naming its message."""
+    d = np.diff(ns)
+    bad = np.flatnonzero(d <= 0 if strict else d < 0)
+    if bad.size:
+        i = int(bad[0]) + 1
+        raise InputError(f"bag {path} topic {topic} message {i + 1}: expected increasing times, got "
+                         f"{(ns[i] - ns[i - 1]) * 1e-9:+.6f} s after the previous (times going backwards)")
+
+
 def _assemble(path, radar_topic, odom_topic, truth_topic, radar_ns, clouds, mapping, odo_ns, odo, truth_ns, truth,
               mounting, notes) -> Recording:
     for topic, ns in ((radar_topic, radar_ns), (odom_topic, odo_ns), (truth_topic, truth_ns)):
         if ns is not None:
-            d = np.diff(ns)
-            bad = np.flatnonzero(d < 0 if topic == radar_topic else d <= 0)
-            if bad.size:
-                i = int(bad[0]) + 1
-                raise InputError(f"bag {path} topic {topic} message {i + 1}: expected increasing times, got "
-                                 f"{(ns[i] - ns[i - 1]) * 1e-9:+.6f} s after the previous (times going backwards)")
+            _check_order(path, topic, ns, topic != radar_topic)
     t0 = int(radar_ns[0])
     rel = lambda ns: (np.asarray(ns, dtype=np.int64) - t0) * 1e-9  # noqa: E731  integer first: no rounding at 1e9 s
     n = np.array([c["x"].size for c in clouds])
@@ -279,6 +301,137 @@ def _assemble(path, radar_topic, odom_topic, truth_topic, radar_ns, clouds, mapp
                     rel(odo_ns), odo, "unicycle", None if truth is None else rel(truth_ns), truth, mounting,
                     f"bag {path}", notes, scan_t, t0)
     return rec
+
+
+def _static_transforms(bag: _Bag) -> dict[str, list[tuple[str, Mounting]]]:
+    """Every ``/tf_static`` transform by child frame (no leading ``/``): ``(parent, Mounting)``, in bag order."""
+    out: dict[str, list[tuple[str, Mounting]]] = {}
+    if "/tf_static" not in bag.topics:
+        return out
+    bag.check("/tf_static", (TF_MESSAGE,), "static transform")
+    for _, msg in bag.messages("/tf_static"):
+        for tr in msg.transforms:
+            child = str(tr.child_frame_id).lstrip("/")
+            where = f"bag {bag.path} /tf_static {tr.header.frame_id} -> {child}"
+            out.setdefault(child, []).append((str(tr.header.frame_id),
+                                              mounting_from_transform(tr.transform.translation,
+                                                                      tr.transform.rotation, where)))
+    return out
+
+
+def _pose(m: Mounting) -> tuple[float, float, float]:
+    return m.x, m.y, m.yaw
+
+
+def _rig_mounting(path: Path, topic: str, sid: int, frame: str, tf, sensors) -> Mounting:
+    """Sensor ``sid``'s mounting: ``/tf_static``'s transform to ``frame``, else ``sensors[sid]``."""
+    found = tf.get(frame.lstrip("/"), []) if frame else []
+    poses = {_pose(m) for _, m in found}
+    if len(poses) > 1:
+        raise InputError(f"bag {path} topic {topic}: /tf_static holds {len(poses)} different transforms to its frame "
+                         f"{frame!r}; expected one")
+    if found:
+        m = found[0][1]
+    elif sensors and sid in sensors:
+        m = sensors[sid]
+    else:
+        raise InputError(f"bag {path} topic {topic}: no mounting for its frame {frame!r}: expected a /tf_static "
+                         f"transform to it, or a sensors table (--sensors FILE) with a row for sensor_id {sid}")
+    return dataclasses.replace(m, sensor_id=sid, name=topic)
+
+
+def _read_rig(path: Path, topics: list[str], odom_topic, truth_topic, doppler_field, sensors) -> Recording:
+    """A rig from several radar topics: topic ``i`` is sensor ``i``, each message one scan, detections
+    merged in time order (stable: equal times in topic order), times from the first radar message
+    over all topics, channels those every topic carries (a note names any left out)."""
+    seen = set()
+    for t in topics:
+        if t in seen:
+            raise InputError(f"bag {path}: --radar-topic {t} given twice; expected each radar topic once")
+        seen.add(t)
+    reader = open_bag(path)
+    try:
+        bag = _Bag(reader, path)
+        for t in topics:
+            bag.check(t, (POINTCLOUD2, RADAR_SCAN), "radar")
+        if odom_topic:
+            bag.check(odom_topic, (ODOMETRY,), "odometry")
+        if truth_topic:
+            bag.check(truth_topic, (ODOMETRY, POSE_STAMPED), "truth")
+        notes: list[str] = []
+        uses, radar = [], []
+        for sid, topic in enumerate(topics):
+            st, lg, frames, clouds, mapping = _read_radar(bag, topic, doppler_field)
+            if "sensor_id" in mapping:
+                raise InputError(f"bag {path} topic {topic}: its clouds carry a sensor_id field "
+                                 f"({mapping['sensor_id']!r}), but with several --radar-topic each topic is one "
+                                 "sensor (0, 1, ... in the order given); expected one --radar-topic, or clouds "
+                                 "without sensor_id")
+            distinct = list(dict.fromkeys(frames))
+            if len(distinct) > 1:
+                raise InputError(f"bag {path} topic {topic}: its clouds name frames {distinct[0]!r} and "
+                                 f"{distinct[1]!r}; expected one frame per radar topic")
+            ns, is_log = _times(st, lg, f"bag {path} topic {topic}", notes)
+            _check_order(path, topic, ns, False)
+            if np.any(np.diff(ns) == 0):
+                raise InputError(f"bag {path} topic {topic}: two clouds share a time; expected one cloud per "
+                                 "scan time")
+            uses.append((topic, st, lg, is_log))
+            radar.append((topic, ns, frames[0], clouds, mapping))
+        odo_ns, odo = np.empty(0, dtype=np.int64), np.empty((0, 2))
+        if odom_topic:
+            ost, olg, odo = _read_poses(bag, odom_topic, "odom")
+            odo_ns, odo_log = _times(ost, olg, f"bag {path} topic {odom_topic}", notes)
+            uses.append((odom_topic, ost, olg, odo_log))
+        truth_ns = truth = None
+        if truth_topic:
+            tst, tlg, truth = _read_poses(bag, truth_topic, "truth")
+            truth_ns, tr_log = _times(tst, tlg, f"bag {path} topic {truth_topic}", notes)
+            uses.append((truth_topic, tst, tlg, tr_log))
+        _check_clocks(path, uses)
+        tf = _static_transforms(bag)
+        rig: dict[int, Mounting] = {}
+        for sid, (topic, _, frame, _, _) in enumerate(radar):
+            rig[sid] = _rig_mounting(path, topic, sid, frame, tf, sensors)
+            for other, (otopic, _, oframe, _, _) in enumerate(radar[:sid]):
+                if oframe.lstrip("/") == frame.lstrip("/") and _pose(rig[other]) != _pose(rig[sid]):
+                    raise InputError(f"bag {path} topics {otopic} and {topic} share the frame {frame!r} but their "
+                                     f"mountings differ ({_fmt(rig[other])} and {_fmt(rig[sid])}); expected one "
+                                     "mounting per frame")
+    finally:
+        reader.close()
+    for topic, ns in ((odom_topic, odo_ns), (truth_topic, truth_ns)):
+        if ns is not None:
+            _check_order(path, topic, ns, True)
+    return _assemble_rig(path, radar, rig, odo_ns, odo, truth_ns, truth, notes)
+
+
+def _fmt(m: Mounting) -> str:
+    return f"x {m.x:g} m, y {m.y:g} m, yaw {m.yaw:g} rad"
+
+
+def _assemble_rig(path, radar, rig, odo_ns, odo, truth_ns, truth, notes) -> Recording:
+    t0 = min(int(ns[0]) for _, ns, _, _, _ in radar)
+    rel = lambda ns: (np.asarray(ns, dtype=np.int64) - t0) * 1e-9  # noqa: E731  integer first, as _assemble
+    keys = [k for k in radar[0][4] if all(k in r[4] for r in radar)]
+    dropped = sorted({k for r in radar for k in r[4]} - set(keys))
+    if dropped:
+        lacking = [r[0] for r in radar if not set(dropped) <= set(r[4])]
+        notes.append(f"bag {path}: channel(s) {', '.join(dropped)} left out: not carried by every radar topic "
+                     f"(not by {', '.join(lacking)})")
+    msg_ns = np.concatenate([ns for _, ns, _, _, _ in radar])
+    msg_sid = np.concatenate([np.full(len(r[1]), sid, dtype=np.int64) for sid, r in enumerate(radar)])
+    clouds = [(sid, c, r[4]) for sid, r in enumerate(radar) for c in r[3]]
+    order = np.lexsort((msg_sid, msg_ns))            # time, then topic order: stable
+    clouds = [clouds[i] for i in order.tolist()]
+    n = np.array([c["x"].size for _, c, _ in clouds])
+    x, y = np.concatenate([c["x"] for _, c, _ in clouds]), np.concatenate([c["y"] for _, c, _ in clouds])
+    channels = {k: np.concatenate([c[mp[k]] for _, c, mp in clouds]) for k in keys}
+    channels["sensor_id"] = np.repeat(msg_sid[order].astype(float), n)
+    scan_t = np.unique(rel(msg_ns))
+    return Recording(np.repeat(rel(msg_ns[order]), n), np.column_stack([np.hypot(x, y), np.arctan2(y, x)]), channels,
+                     rel(odo_ns), odo, "unicycle", None if truth is None else rel(truth_ns), truth, None,
+                     f"bag {path}", notes, scan_t, t0, sensors=rig)
 
 
 IMU = "sensor_msgs/msg/Imu"

@@ -5,6 +5,11 @@ Messages (docs/recordings.md "Bags"): the radar as ``sensor_msgs/PointCloud2`` w
 radar frame, the odometry as ``nav_msgs/Odometry`` (forward speed ``twist.linear.x``, yaw rate
 ``twist.angular.z``), the truth as ``nav_msgs/Odometry`` poses, and the mounting on ``/tf_static``.
 Times: ``stamp = origin + t`` in integer nanoseconds, header stamp and log time alike.
+
+A rig (``rec.sensors``) is written as one radar topic per sensor (:func:`rig_topics`), its clouds in
+the frame ``radar_<sensor_id>`` without a ``sensor_id`` field, and each frame's mounting on
+``/tf_static`` (one message holding every transform), so that :func:`~.bag.read_bag` given the
+topics in ``sensor_id`` order reads the same rig back.
 """
 
 from __future__ import annotations
@@ -60,12 +65,12 @@ class _Msgs:
         x, y, z, w = yaw_quaternion(float(yaw))
         return self.T["geometry_msgs/msg/Quaternion"](x=x, y=y, z=z, w=w)
 
-    def cloud(self, ns: int, seq: int, cols: dict[str, np.ndarray], pad: int):
+    def cloud(self, ns: int, seq: int, cols: dict[str, np.ndarray], pad: int, frame: str = FRAMES["radar"]):
         fields, data, step = encode(cols, pad=pad)
         PF = self.T["sensor_msgs/msg/PointField"]
         n = len(cols["x"])
         return self.T["sensor_msgs/msg/PointCloud2"](
-            header=self.header(ns, FRAMES["radar"], seq), height=1, width=n,
+            header=self.header(ns, frame, seq), height=1, width=n,
             fields=[PF(name=f.name, offset=f.offset, datatype=f.datatype, count=1) for f in fields],
             is_bigendian=False, point_step=step, row_step=step * n, data=np.frombuffer(data, np.uint8),
             is_dense=True)
@@ -80,12 +85,15 @@ class _Msgs:
             pose=T["geometry_msgs/msg/PoseWithCovariance"](pose=p, covariance=np.zeros(36)),
             twist=T["geometry_msgs/msg/TwistWithCovariance"](twist=tw, covariance=np.zeros(36)))
 
-    def tf_static(self, ns: int, m: Mounting):
+    def tf_static(self, ns: int, m: Mounting, frames: dict[str, Mounting] | None = None):
+        """``base_link`` -> ``radar`` at ``m``, or (``frames``) ``base_link`` -> each frame at its mounting."""
         T = self.T
-        tr = T["geometry_msgs/msg/Transform"](translation=self.vec(m.x, m.y), rotation=self.quat(m.yaw))
-        ts = T["geometry_msgs/msg/TransformStamped"](header=self.header(ns, FRAMES["base"]),
-                                                     child_frame_id=FRAMES["radar"], transform=tr)
-        return T["tf2_msgs/msg/TFMessage"](transforms=[ts])
+        out = []
+        for frame, mf in (frames or {FRAMES["radar"]: m}).items():
+            tr = T["geometry_msgs/msg/Transform"](translation=self.vec(mf.x, mf.y), rotation=self.quat(mf.yaw))
+            out.append(T["geometry_msgs/msg/TransformStamped"](header=self.header(ns, FRAMES["base"]),
+                                                               child_frame_id=frame, transform=tr))
+        return T["tf2_msgs/msg/TFMessage"](transforms=out)
 
     def serialize(self, msg, msgtype: str) -> bytes:
         return bytes(self.ts.serialize_ros1(msg, msgtype) if self.ros1 else self.ts.serialize_cdr(msg, msgtype))
@@ -102,11 +110,57 @@ def _open_writer(path: Path, fmt: str):
     return Writer(path, version=9, storage_plugin=plugin)
 
 
+def rig_topics(sensors: dict[int, Mounting]) -> dict[int, str]:
+    """Each sensor's radar topic in a written bag: its ``name`` when that is a topic (``/...``, as a
+    rig read from a bag names its sensors), else ``/radar_<sensor_id>/points``."""
+    out = {k: (m.name if m.name.startswith("/") else f"/radar_{k}/points") for k, m in sorted(sensors.items())}
+    if len(set(out.values())) < len(out):
+        raise InputError(f"bag: expected one radar topic per sensor, got {sorted(out.values())}")
+    return out
+
+
+def _rig_messages(rec: Recording, m: _Msgs, pad: int, ns_of):
+    """The radar and ``/tf_static`` messages of a rig: sensor ``k``'s scans on its topic in frame
+    ``radar_<k>``; a scan time without any detection is an empty cloud of the first sensor."""
+    topics = rig_topics(rec.sensors)
+    frames = {k: f"radar_{k}" for k in topics}
+    st = rec.scan_times()
+    out = [(TOPICS["tf_static"], "tf2_msgs/msg/TFMessage", ns_of(st[0]),
+            m.tf_static(ns_of(st[0]), None, {frames[k]: rec.sensors[k] for k in topics}))]
+    sid = rec.channels.get("sensor_id")
+    if sid is None:
+        if len(topics) > 1:
+            raise InputError(f"{rec.source}: a rig of {len(topics)} sensors needs channels['sensor_id'], got none")
+        sid = np.full(rec.det_t.size, float(next(iter(topics))))
+    ch = {CHANNEL_FIELDS[c]: v for c, v in rec.channels.items() if c != "sensor_id"}
+    seqs = dict.fromkeys(topics, 0)
+    t = rec.det_t
+    for k in topics:
+        rows = np.flatnonzero(sid == k)
+        rows = rows[np.argsort(t[rows], kind="stable")]
+        times, starts = np.unique(t[rows], return_index=True)
+        for ts, a, b in zip(times.tolist(), starts.tolist(), np.r_[starts[1:], rows.size].tolist()):
+            r, az = rec.det_polar[rows[a:b], 0], rec.det_polar[rows[a:b], 1]
+            cols = {"x": r * np.cos(az), "y": r * np.sin(az), **{n: v[rows[a:b]] for n, v in ch.items()}}
+            out.append((topics[k], "sensor_msgs/msg/PointCloud2", ns_of(ts),
+                        m.cloud(ns_of(ts), seqs[k], cols, pad, frames[k])))
+            seqs[k] += 1
+    first = next(iter(topics))
+    empty = {"x": np.empty(0), "y": np.empty(0), **{n: np.empty(0) for n in ch}}
+    for ts in np.setdiff1d(st, t).tolist():
+        out.append((topics[first], "sensor_msgs/msg/PointCloud2", ns_of(ts),
+                    m.cloud(ns_of(ts), seqs[first], empty, pad, frames[first])))
+        seqs[first] += 1
+    return out
+
+
 def _messages(rec: Recording, mounting: Mounting | None, m: _Msgs, pad: int):
     """``(topic, msgtype, ns, message)`` of every message of ``rec``, in time order."""
     ns_of = lambda t: ORIGIN_NS + int(round(float(t) * 1e9))  # noqa: E731
     out = []
-    if mounting is not None:
+    if rec.sensors:
+        out += _rig_messages(rec, m, pad, ns_of)
+    elif mounting is not None:
         out.append((TOPICS["tf_static"], "tf2_msgs/msg/TFMessage", ns_of(rec.scan_times()[0]), m.tf_static(
             ns_of(rec.scan_times()[0]), mounting)))
     order = np.argsort(rec.det_t, kind="stable")
@@ -114,7 +168,7 @@ def _messages(rec: Recording, mounting: Mounting | None, m: _Msgs, pad: int):
     ch = {CHANNEL_FIELDS[c]: v[order] for c, v in rec.channels.items()}
     st = rec.scan_times()
     a, b = np.searchsorted(t, st, "left"), np.searchsorted(t, st, "right")
-    for seq, (ts, i, j) in enumerate(zip(st.tolist(), a.tolist(), b.tolist())):
+    for seq, (ts, i, j) in enumerate(zip(st.tolist(), a.tolist(), b.tolist()) if not rec.sensors else ()):
         r, az = polar[i:j, 0], polar[i:j, 1]
         cols = {"x": r * np.cos(az), "y": r * np.sin(az)}
         cols.update({name: v[i:j] for name, v in ch.items()})
@@ -143,7 +197,8 @@ def write_bag(rec: Recording, path: str | Path, fmt: str = "mcap", *, mounting: 
         Must not exist.
     fmt : {"ros1", "sqlite3", "mcap"}
     mounting : Mounting, optional
-        Written to ``/tf_static`` (``base_link`` -> ``radar``).
+        Written to ``/tf_static`` (``base_link`` -> ``radar``). Not with a rig (``rec.sensors``:
+        one topic per sensor, :func:`rig_topics`, each frame's mounting on ``/tf_static``).
     pad : int
         Padding bytes after each point (to exercise readers).
     """
@@ -152,6 +207,9 @@ def write_bag(rec: Recording, path: str | Path, fmt: str = "mcap", *, mounting: 
     if rec.odo_kind != "unicycle":
         raise InputError(f"{rec.source}: a bag carries odometry as nav_msgs/Odometry (speed, yaw rate); "
                          f"got {rec.odo_kind!r} odometry")
+    if rec.sensors and mounting is not None:
+        raise InputError(f"{rec.source}: a rig's bag carries each sensor's own mounting (rec.sensors); expected "
+                         "no mounting argument, got one")
     path = Path(path)
     if path.exists():
         raise InputError(f"bag {path}: expected a new path, got an existing one")
