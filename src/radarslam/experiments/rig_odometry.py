@@ -34,9 +34,10 @@ def rig_of(rec) -> Rig | None:
 
 def with_rig_velocity(events: list, rec, config) -> list:
     """``events`` with every scan's ``ego`` the rig's fit at its time (module docstring) under
-    ``filter.odometry`` "doppler" and ``filter.yaw_rate`` "gyro" on a rig with Doppler; else ``events``."""
+    ``filter.odometry`` "doppler" or "both" (the wheel speed fused with it, c.10.5) and
+    ``filter.yaw_rate`` "gyro" on a rig with Doppler; else ``events``."""
     f = config.filter
-    rig = rig_of(rec) if f.odometry == "doppler" and f.yaw_rate == "gyro" else None
+    rig = rig_of(rec) if f.odometry in ("doppler", "both") and f.yaw_rate == "gyro" else None
     if rig is None:
         return events
     series = rig_ego_velocity(rig, np.random.default_rng(0))
