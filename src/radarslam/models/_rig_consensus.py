@@ -4,14 +4,17 @@ equations (:class:`Pairs`), RANSAC on minimal sets (:func:`ransac`) and the leas
 consensus (:func:`consensus_fit`). :mod:`radarslam.models._rig_robust` builds the robust fit on them;
 :func:`radarslam.models.rig_velocity.fit_rig_velocity` and ``fit_rig_windows`` call that.
 
-Every step is a numpy call over all windows of a chunk, so a recording of a million detections costs
-a few numpy passes, no loop in Python per window and no compilation.
+Every step is a numpy call over all windows of a chunk, or (the sums over each window's pairs and the
+pairs' residuals) one compiled pass over the rows of each window in place
+(:mod:`radarslam.models._doppler_compiled`), so a recording of a million detections costs a few passes
+and no loop in Python per window.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy import sparse
+
+from radarslam.models import _doppler_compiled as _C
 
 #: RANSAC's first round of minimal sets per window, and the probability of an all-static set that
 #: ends it (c.12.3): at 90% static detections 7 sets of 3 reach it.
@@ -59,30 +62,33 @@ class Pairs:
 
     def __init__(self, A: np.ndarray, d: np.ndarray, lo: np.ndarray, hi: np.ndarray):
         K, p = lo.size, A.shape[1]
-        m = hi - lo
+        m = np.ascontiguousarray(hi - lo, dtype=np.int64)
         start = np.concatenate([[0], np.cumsum(m)[:-1]])
         P = int(m.sum())
-        row = np.arange(P) - np.repeat(start, m) + np.repeat(lo, m)
-        Ap, dp = A[row], d[row]
         iu = np.triu_indices(p)
         self.K, self.p, self.P, self.lo, self.m, self.start = K, p, P, lo, m, start
         self.win = np.repeat(np.arange(K), m)
-        self._Ap, self._dp, self._iu = Ap, dp, iu
-        self._X = np.concatenate([Ap[:, iu[0]] * Ap[:, iu[1]], Ap * dp[:, None]], axis=1)   # a a^T's upper half, a d
+        # the pairs are never copied out: the compiled sums read each window's rows of A and d in place
+        self._A, self._d = np.ascontiguousarray(A, dtype=float), np.ascontiguousarray(d, dtype=float)
+        self._lo = np.ascontiguousarray(lo, dtype=np.int64)
+        self._iu = iu
         self._q = iu[0].size
-        # sums over each window's pairs as one sparse product (K x P, row k: the pairs of window k, its
-        # values the weights): ten times faster than np.add.reduceat here
-        self._seg = sparse.csr_matrix((np.ones(P), np.arange(P), np.append(start, P)), shape=(K, P))
 
-    def wsum(self, w: np.ndarray, Y: np.ndarray) -> np.ndarray:
-        """``sum w Y`` over each window's pairs, ``(K, ...)``."""
-        self._seg.data = np.ascontiguousarray(w, dtype=float)
-        return self._seg @ Y
+    def wsum(self, w: np.ndarray) -> np.ndarray:
+        """``sum w`` over each window's pairs, ``(K,)``."""
+        return _C.segment_sum(self.m, np.ascontiguousarray(w, dtype=float))
 
-    def normal(self, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``N = sum w a a^T (K, p, p)``, ``g = sum w a d (K, p)`` per window (c.12.3): one pass."""
+    def normal(self, w: np.ndarray | None, theta: np.ndarray | None = None,
+               cs: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """``N = sum w a a^T (K, p, p)``, ``g = sum w a d (K, p)`` per window (c.12.3): one pass. With ``w``
+        None, the weights are Tukey's at ``theta (K, p)`` and the scale ``cs (K,)`` of each window
+        (:func:`radarslam.models._doppler_compiled.rig_normal`)."""
         K, p, iu, q = self.K, self.p, self._iu, self._q
-        S = self.wsum(w, self._X)
+        tukey = w is None
+        S = _C.rig_normal(self._A, self._d, self._lo, self.m,
+                          np.zeros(0) if tukey else np.ascontiguousarray(w, dtype=float),
+                          np.ascontiguousarray(theta if tukey else np.zeros((0, p)), dtype=float),
+                          np.ascontiguousarray(cs if tukey else np.zeros(0), dtype=float), tukey)
         N = np.empty((K, p, p))
         N[:, iu[0], iu[1]] = S[:, :q]
         N[:, iu[1], iu[0]] = S[:, :q]
@@ -90,12 +96,12 @@ class Pairs:
 
     def residual(self, theta: np.ndarray) -> np.ndarray:
         """``d - a^T theta`` of every pair at its window's ``theta (K, p)``, ``(P,)``."""
-        return self._dp - np.einsum("ij,ij->i", self._Ap, np.repeat(theta, self.m, axis=0))   # theta[win], faster
+        return _C.rig_residual(self._A, self._d, self._lo, self.m, np.ascontiguousarray(theta, dtype=float))
 
-    def solve(self, w: np.ndarray, theta: np.ndarray) -> np.ndarray:
-        """Weighted least squares ``N^-1 g`` of every window at the pairs' weights ``w``; ``theta`` kept
-        where ``N`` is (nearly) singular."""
-        N, g = self.normal(w)
+    def solve(self, w: np.ndarray | None, theta: np.ndarray, cs: np.ndarray | None = None) -> np.ndarray:
+        """Weighted least squares ``N^-1 g`` of every window at the pairs' weights ``w`` (None: Tukey's at
+        ``theta`` and the scale ``cs (K,)``, :meth:`normal`); ``theta`` kept where ``N`` is (nearly) singular."""
+        N, g = self.normal(w, theta, cs)
         Ni, det = inv_batch(N)
         ok = np.abs(det) > 1e-12
         return np.where(ok[:, None], np.einsum("kij,kj->ki", np.where(ok[:, None, None], Ni, 0.0), g), theta)

@@ -43,7 +43,7 @@ def robust_scale(pairs: Pairs, theta: np.ndarray, threshold: float,
     K, p = pairs.K, pairs.p
     r = np.abs(pairs.residual(theta))
     cons = r <= threshold
-    k_cons = np.rint(pairs.wsum(cons, np.ones(pairs.P))).astype(np.int64)
+    k_cons = np.rint(pairs.wsum(cons)).astype(np.int64)
     key = np.sort(pairs.win + np.where(cons, r / (threshold * (1 + 1e-9)), 1.0 - 1e-12))
     mid_lo = pairs.start + np.maximum((k_cons - 1) // 2, 0)
     mid_hi = pairs.start + np.maximum(k_cons // 2, 0)
@@ -54,12 +54,10 @@ def robust_scale(pairs: Pairs, theta: np.ndarray, threshold: float,
 
 
 def biweight(pairs: Pairs, theta: np.ndarray, cs: np.ndarray, irls_steps: int) -> np.ndarray:
-    """Tukey's biweight ``(K, p)`` by IRLS from ``theta`` at the fixed ``c s`` of each pair's window
-    ``cs (P,)`` (c.12.3 step 4), until no component moves by 1e-6 (at most ``irls_steps`` steps)."""
+    """Tukey's biweight ``(K, p)`` by IRLS from ``theta`` at the fixed ``c s`` of each window ``cs (K,)``
+    (c.12.3 step 4), until no component moves by 1e-6 (at most ``irls_steps`` steps)."""
     for _ in range(irls_steps):
-        u = pairs.residual(theta) / cs
-        w = np.where(np.abs(u) < 1.0, (1.0 - u * u) ** 2, 0.0)
-        new = pairs.solve(w, theta)
+        new = pairs.solve(None, theta, cs)     # the weights (1 - u^2)^2, u = r / cs, within the sums' pass
         diff = np.abs(new - theta)
         step = float(np.max(diff[np.isfinite(diff)], initial=0.0))
         theta = new
@@ -79,7 +77,7 @@ def sandwich(pairs: Pairs, theta: np.ndarray, cs: np.ndarray,
     inside = np.abs(u) < 1.0
     t2 = np.where(inside, 1.0 - u * u, 0.0)
     w = t2 * t2
-    n_in = np.rint(pairs.wsum(inside, np.ones(pairs.P))).astype(np.int64)
+    n_in = np.rint(pairs.wsum(inside)).astype(np.int64)
     B, _ = pairs.normal(t2 * (1.0 - 5.0 * u * u))
     M, _ = pairs.normal((u * TUKEY_C * w) ** 2)          # psi(z) = z t2^2 with z = u c
     Nw, _ = pairs.normal(w)
@@ -112,9 +110,9 @@ def fit_chunk(A, d, lo, hi, rng, hypotheses, sample, threshold, sigma_floor, min
     s, k_cons = robust_scale(pairs, th, threshold, sigma_floor)
     status[(k_cons < p + 2) & (status == OK)] = NO_CONSENSUS
     # 4. Tukey's biweight by IRLS at the fixed scale s; 5. its sandwich covariance
-    cs = (TUKEY_C * s)[pairs.win]
+    cs = TUKEY_C * s
     th = biweight(pairs, th, cs, irls_steps)
-    C, Nw, n_in, w = sandwich(pairs, th, cs, s)
+    C, Nw, n_in, w = sandwich(pairs, th, cs[pairs.win], s)
     # 6. valid when n >= p + 2, n >= min_fraction m and the rank is full
     cdet = corr_det(Nw)
     status[(status == OK) & ((n_in < p + 2) | (n_in < min_fraction * m))] = NO_CONSENSUS
