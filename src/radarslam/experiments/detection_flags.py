@@ -195,9 +195,25 @@ def write_moving_csv(path: str | Path, t: np.ndarray, sensor_id: np.ndarray, fla
     used`` (docs/recordings.md "Outputs")."""
     from radarslam.io.results import atomic_write_text
 
-    rows = zip(t.tolist(), sensor_id.astype(np.int64).tolist(), flags.moving.astype(np.int64).tolist(),
-               flags.landmark.tolist(), flags.used.astype(np.int64).tolist())
-    body = "".join([f"{a:.9f},{b},{c},{d},{e}\n" for a, b, c, d, e in rows])
+    # each distinct time, sensor and (landmark, moving, used) is formatted once (a recording has a few
+    # thousand of each for a million lines); a line is the concatenation of its three pieces
+    t = np.ascontiguousarray(t, dtype=float)
+    sid = np.asarray(sensor_id).astype(np.int64)
+    lm = np.asarray(flags.landmark).astype(np.int64)
+    tail = (lm - lm.min(initial=0)) * 4 + flags.moving.astype(np.int64) * 2 + flags.used.astype(np.int64)
+    pieces = []
+    for values, fmt in ((t.view(np.int64), None), (sid, "{},"), (tail, None)):   # times by their bits: -0.0
+        keys, first, inv = np.unique(values, return_index=True, return_inverse=True)   # first: a line of each
+        if fmt is not None:
+            text = [fmt.format(v) for v in keys.tolist()]
+        elif values is tail:
+            text = [f"{int(c)},{d},{int(e)}\n" for c, d, e in zip(flags.moving[first].astype(np.int64).tolist(),
+                                                                lm[first].tolist(),
+                                                                flags.used[first].astype(np.int64).tolist())]
+        else:
+            text = [f"{a:.9f}," for a in t[first].tolist()]
+        pieces.append(np.array(text, dtype=object)[inv.reshape(-1)])
+    body = "".join((pieces[0] + pieces[1] + pieces[2]).tolist()) if t.size else ""
     atomic_write_text(path, "t_s,sensor_id,moving,landmark,used\n" + body)
 
 
