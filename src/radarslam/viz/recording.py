@@ -49,8 +49,6 @@ def plot_recording_map(path: str | Path, poses: np.ndarray, landmarks: np.ndarra
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from radarslam.viz.carpark import draw_extents
-
     fig, ax = plt.subplots(figsize=(10, 8))
     if reference is not None and len(reference):
         ref = np.asarray(reference, dtype=float).reshape(-1, 2)
@@ -66,7 +64,9 @@ def plot_recording_map(path: str | Path, poses: np.ndarray, landmarks: np.ndarra
         c = colours(j % 10)
         ax.plot(landmarks[mine, 0], landmarks[mine, 1], ".", color=c, ms=4,
                 label=f"{name}: {int(mine.sum())} landmarks")
-        draw_extents(ax, landmarks[mine], extents[mine], color=c, label=None, lw=0.7, n=24)
+        xy = _extent_contours(landmarks[mine], extents[mine], 24)
+        if xy.size:                    # every contour of this radar in one line (NaN rows between them)
+            ax.plot(xy[:, 0], xy[:, 1], "-", color=c, lw=0.7)
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
@@ -76,6 +76,23 @@ def plot_recording_map(path: str | Path, poses: np.ndarray, landmarks: np.ndarra
     fig.tight_layout()
     fig.savefig(path, dpi=130, bbox_inches="tight")
     plt.close(fig)
+
+
+def _extent_contours(centers: np.ndarray, Xs: np.ndarray, n: int) -> np.ndarray:
+    """The contours ``{c + X^{1/2} u : |u| = 1}`` (``n`` points each) of every finite extent ``Xs[i]``
+    (N, 2, 2) centred at ``centers[i]``, one after the other with a NaN row after each, ``(M, 2)``
+    (:func:`radarslam.viz.carpark.draw_extents`'s ellipses as one path)."""
+    ok = np.all(np.isfinite(Xs.reshape(-1, 4)), axis=1)
+    if not ok.any():
+        return np.empty((0, 2))
+    X = Xs[ok]
+    lam, U = np.linalg.eigh(0.5 * (X + np.swapaxes(X, 1, 2)))
+    t = np.linspace(0.0, 2.0 * math.pi, n)
+    circ = np.stack([np.cos(t), np.sin(t)])
+    pts = centers[ok][:, :, None] + (U * np.sqrt(np.maximum(lam, 0.0))[:, None, :]) @ circ     # (N, 2, n)
+    out = np.full((pts.shape[0], n + 1, 2), np.nan)
+    out[:, :n] = np.swapaxes(pts, 1, 2)
+    return out.reshape(-1, 2)
 
 
 def plot_ego_velocity(path: str | Path, t: np.ndarray, theta: np.ndarray, cov: np.ndarray, valid: np.ndarray,
