@@ -20,6 +20,10 @@ def add_parser(sub) -> None:
                    help="a plain recording directory with detections.csv (doppler_mps, sensor_id), sensors.csv and "
                         "odometry.csv")
     p.add_argument("--out", metavar="DIR", required=True, help="output directory")
+    p.add_argument("--sensors", metavar="FILE.csv", help="each radar's mounting from this sensors.csv instead of "
+                   "the recording's (and of the config's [[sensors]])")
+    p.add_argument("--config", metavar="FILE.toml", help="a config whose [[sensors]] rig replaces the recording's "
+                   "sensors.csv (docs/recordings.md \"A rig in the config\"); nothing else of it is used")
     p.add_argument("--min-speed", type=float, default=None, metavar="M/S",
                    help="sweeps whose sensor moves slower are left out (default 2.0)")
     p.add_argument("--seed", type=int, default=0, help="seed of RANSAC's draws (default 0)")
@@ -49,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
     if not (math.isfinite(min_speed) and min_speed > 0):
         raise InputError(f"--min-speed: expected a speed > 0 m/s, got {args.min_speed}")
     refuse_finished(Path(args.out) / "calibration.csv", "--out", args.overwrite)
-    rig = read_rig(args.recording)
+    rig = read_rig(args.recording, *_chosen_rig(args))
     rng = np.random.default_rng(args.seed)
     cal = calibrate_yaw(rig, rng, min_speed_mps=min_speed)
     ego = rig_ego_velocity(rig, rng, mount=cal.mount(rig))
@@ -67,3 +71,14 @@ def run(args: argparse.Namespace) -> int:
               f"    {cal.rms_before[j]:.3f} -> {cal.rms_after[j]:.3f}")
     print(f"wrote {out}/ ({', '.join(names)}) in {time.perf_counter() - t0:.1f} s")
     return 0
+
+
+def _chosen_rig(args: argparse.Namespace) -> tuple:
+    """``read_rig``'s ``(sensors, origin)`` by ``run --recording``'s precedence: ``--sensors FILE``, else
+    the ``--config``'s ``[[sensors]]``, else ``(None, "sensors.csv")`` (the recording's own)."""
+    from radarslam.cli.recording import chosen_rig
+    from radarslam.config import load_config
+
+    config = load_config(args.config) if args.config else None
+    sensors, origin = chosen_rig(args, config)
+    return sensors, (f"--sensors {args.sensors}" if args.sensors else origin or "sensors.csv")

@@ -59,27 +59,30 @@ def one_topic(args, what: str) -> str:
     return topics[0]
 
 
-def _fallback_sensors(args):
-    """A rig's mountings from ``--sensors FILE`` for the frames /tf_static lacks (None: no file, one topic)."""
-    from pathlib import Path
+def chosen_rig(args, config=None):
+    """The rig that takes the place of the recording's own, by precedence (docs/recordings.md "A rig in
+    the config"): ``--sensors FILE``, else the config's ``[[sensors]]``, else None (the recording's own:
+    its ``sensors.csv``, a bag's ``/tf_static``). Returns ``(sensors, origin)``, ``origin`` naming where
+    the mountings were looked for in the one-line refusal of a detection without one (None for
+    ``--sensors``, whose refusals read as the recording's own ``sensors.csv``'s)."""
+    from radarslam.io.recording import sensors as S
 
     path = getattr(args, "sensors", None)
-    if not path or len(radar_topics(args)) < 2:
-        return None
-    from radarslam.io.recording import sensors as S
-    from radarslam.io.recording.plain import _read_csv  # the reader's own checks and messages
-
-    if not Path(path).is_file():
-        raise InputError(f"--sensors: {path}: no such file")
-    return S.sensors_from_columns(_read_csv(Path(path), "sensors"), str(path))
+    if path:
+        return S.read_sensors_file(path), None
+    if config is not None and config.sensors:
+        where = "the config's [[sensors]]" + (f" ({args.config})" if getattr(args, "config", None) else "")
+        return S.sensors_from_config(config.sensors, where), where
+    return None, None
 
 
-def _read(args):
+def _read(args, rig=None):
+    """The recording; ``rig`` (:func:`chosen_rig`'s) gives a bag rig the mountings its /tf_static lacks."""
     from radarslam.io.recording import read_recording
 
     rec = read_recording(args.recording, radar_topic=topic_arg(args), odom_topic=args.odom_topic,
                          truth_topic=args.truth_topic, doppler_field=args.doppler_field,
-                         sensors=_fallback_sensors(args))
+                         sensors=rig if len(radar_topics(args)) > 1 else None)
     for note in rec.notes:
         print(f"radarslam: warning: {note}", file=sys.stderr)
     return rec
@@ -102,18 +105,23 @@ def run_recording_cmd(args: argparse.Namespace) -> int:
         if getattr(args, "sensors", None):
             raise InputError("--sensors: expected a run with odometry (a plain recording, or --odom-topic), got a "
                              "run without")
+        if config.sensors:
+            raise InputError("sensors: the config's [[sensors]] rig expects a run with odometry (a plain recording, "
+                             "or --odom-topic), got a run without (one radar: its mounting is [sensor])")
         if config.filter.odometry == "doppler":
             from radarslam.cli.radar_alone import radar_alone_cmd
 
             return radar_alone_cmd(args, config)
         return ego_motion_cmd(args, config)
     t0 = time.perf_counter()
-    rec = _read(args)
-    sensors_file = _sensors_file(args)
-    if args.sensors:
-        from radarslam.experiments.recording_outputs import with_sensors_file
+    rig, origin = chosen_rig(args, config)        # --sensors FILE, else the config's [[sensors]], else None
+    rec = _read(args, rig)
+    sensors_file = _sensors_file(args, config)
+    rig_from = "--sensors" if args.sensors else "config" if config.sensors else "recording" if rec.sensors else None
+    if rig is not None:
+        from radarslam.io.recording.sensors import with_sensors
 
-        rec = with_sensors_file(rec, args.sensors)
+        rec = with_sensors(rec, rig, origin)
     n = rec.scan_times().size
     from radarslam.experiments.first_run import announce, choose
 
@@ -127,7 +135,8 @@ def run_recording_cmd(args: argparse.Namespace) -> int:
     refuse_finished(out / "run.json", "--out", args.overwrite)
     names = write_recording_outputs(out, run, {"recording": str(args.recording), "version": __version__,
                                                 "argv": sys.argv, "wall_seconds": time.perf_counter() - t0,
-                                                "engine": run.record.engine, "sensors_file": sensors_file})
+                                                "engine": run.record.engine, "sensors_file": sensors_file,
+                                                "rig_from": rig_from})
     if args.animate:
         from radarslam.experiments.recording import animation_frames
         from radarslam.viz.animation import animate_run
@@ -150,12 +159,15 @@ def run_recording_cmd(args: argparse.Namespace) -> int:
     return 0
 
 
-def _sensors_file(args) -> str | None:
-    """The sensors.csv a run takes: ``--sensors``, else the plain recording's own, else None."""
+def _sensors_file(args, config=None) -> str | None:
+    """The sensors.csv a run takes: ``--sensors``, else None under a config rig, else the plain
+    recording's own, else None."""
     from pathlib import Path
 
     if args.sensors:
         return str(args.sensors)
+    if config is not None and config.sensors:
+        return None
     own = Path(args.recording) / "sensors.csv"
     return str(own) if own.is_file() else None
 

@@ -44,6 +44,7 @@ from radarslam.config.sections import (
     MAX_STEPS,
     MAX_VEHICLES,
     PARTIAL_VIEW_SPREAD_MODELS,
+    RIG_REQUIRED,
     SPREAD_FACTORS,
     Config,
     EstimatorConfig,
@@ -53,6 +54,7 @@ from radarslam.config.sections import (
     MetricsConfig,
     OdometerConfig,
     RadarConfig,
+    RigSensorConfig,
     SensorConfig,
     TrajectoryConfig,
     WorldConfig,
@@ -125,8 +127,8 @@ def load_config(path: str | Path, profile: str | None = None) -> Config:
 
 __all__ = [
     "CARPARK_VEHICLES", "MAX_DETECTIONS_PER_SCAN", "MAX_STEPS", "MAX_VEHICLES", "PARTIAL_VIEW_SPREAD_MODELS",
-    "PROFILE_DIR", "SPREAD_FACTORS", "Config", "EstimatorConfig", "ExtentConfig", "FilterConfig", "LandmarkConfig",
-    "MetricsConfig", "OdometerConfig", "RadarConfig", "SensorConfig", "TrajectoryConfig", "WorldConfig",
-    "from_dict", "list_profiles", "load_config", "merge_tables", "param", "profile_config", "profile_overlay",
-    "read_toml", "to_dict", "to_toml", "validate",
+    "PROFILE_DIR", "RIG_REQUIRED", "SPREAD_FACTORS", "Config", "EstimatorConfig", "ExtentConfig", "FilterConfig",
+    "LandmarkConfig", "MetricsConfig", "OdometerConfig", "RadarConfig", "RigSensorConfig", "SensorConfig",
+    "TrajectoryConfig", "WorldConfig", "from_dict", "list_profiles", "load_config", "merge_tables", "param",
+    "profile_config", "profile_overlay", "read_toml", "to_dict", "to_toml", "validate",
 ]

@@ -13,7 +13,13 @@ import typing
 from pathlib import Path
 from typing import Any
 
-from radarslam.config.sections import MAX_DETECTIONS_PER_SCAN, MAX_VEHICLES, Config
+from radarslam.config.sections import (
+    MAX_DETECTIONS_PER_SCAN,
+    MAX_VEHICLES,
+    RIG_REQUIRED,
+    Config,
+    RigSensorConfig,
+)
 from radarslam.core.errors import ConfigError
 
 
@@ -75,6 +81,12 @@ def _check_value(key: str, typ: Any, meta: dict, value: Any) -> Any:
     return value
 
 
+#: The key of the config's multi-radar rig, an array of tables (``[[sensors]]``): not ``[[sensor]]``,
+#: which TOML could not hold beside the single radar's ``[sensor]`` table; its name is the rig's
+#: everywhere else (``sensors.csv``, ``--sensors FILE``, ``Recording.sensors``).
+RIG_KEY = "sensors"
+
+
 def _apply(obj: Any, data: dict, prefix: str) -> None:
     """Overlay ``data`` onto the dataclass ``obj`` with full checking; unknown keys are refused."""
     fields = {f.name: f for f in dataclasses.fields(obj)}
@@ -82,13 +94,64 @@ def _apply(obj: Any, data: dict, prefix: str) -> None:
         dotted = f"{prefix}{key}"
         if key not in fields:
             raise ConfigError(f"{dotted}: unknown key (known here: {', '.join(sorted(fields))})")
+        if isinstance(obj, Config) and key == RIG_KEY:
+            obj.sensors = _apply_rig(value, dotted)
+            continue
         current = getattr(obj, key)
         if dataclasses.is_dataclass(current):
             if not isinstance(value, dict):
+                if key == "sensor" and isinstance(value, list):
+                    raise ConfigError(f"{dotted}: expected the table [sensor] (one radar's mounting), got an array "
+                                      f"of tables [[sensor]]; a rig of several radars is [[{RIG_KEY}]]")
                 raise ConfigError(f"{dotted}: expected a table, got {value!r}")
             _apply(current, value, dotted + ".")
         else:
             setattr(obj, key, _check_value(dotted, _field_type(type(obj), key), dict(fields[key].metadata), value))
+
+
+def _apply_rig(value: Any, key: str = RIG_KEY) -> list[RigSensorConfig]:
+    """The ``[[sensors]]`` tables (a list of dicts) as :class:`RigSensorConfig`, each checked: the
+    required keys, the types and ranges of :mod:`.sections`, each ``id`` once, the yaw in degrees.
+    Every fault is one :class:`ConfigError` line naming the table's index and key (``sensors[1].id``)."""
+    if not isinstance(value, list):
+        got = "a table [sensors]" if isinstance(value, dict) else repr(value)
+        raise ConfigError(f"{key}: expected an array of tables [[{RIG_KEY}]], one per radar, got {got}")
+    fields = {f.name: f for f in dataclasses.fields(RigSensorConfig)}
+    out: list[RigSensorConfig] = []
+    seen: dict[int, int] = {}
+    for i, table in enumerate(value):
+        at = f"{key}[{i}]"
+        if isinstance(table, RigSensorConfig):
+            table = {k: v for k, v in dataclasses.asdict(table).items() if v is not None}
+        if not isinstance(table, dict):
+            raise ConfigError(f"{at}: expected a table (id, x_m, y_m, yaw_deg, ...), got {table!r}")
+        if "yaw_rad" in table:
+            raise ConfigError(f"{at}.yaw_rad: unknown key; the config takes the yaw in degrees, yaw_deg "
+                              f"(sensors.csv's yaw_rad is radians), got yaw_rad = {table['yaw_rad']!r}")
+        for k in table:
+            if k not in fields:
+                raise ConfigError(f"{at}.{k}: unknown key (known here: {', '.join(fields)})")
+        for k in RIG_REQUIRED:
+            if table.get(k) is None:
+                raise ConfigError(f"{at}.{k}: missing (each [[{RIG_KEY}]] table needs {', '.join(RIG_REQUIRED)})")
+        s = RigSensorConfig()
+        for k, v in table.items():
+            if v is None:                       # an optional value not stated (TOML has no null)
+                continue
+            typ = _field_type(RigSensorConfig, k)
+            inner = [a for a in typing.get_args(typ) if a is not type(None)]
+            meta = dict(fields[k].metadata)
+            if k == "yaw_deg":              # the range check below, with the hint of a radian given
+                meta = dict(meta, low=None, high=None)
+            v = _check_value(f"{at}.{k}", inner[0] if inner else typ, meta, v)
+            if k == "yaw_deg" and abs(v) > 360.0:
+                raise ConfigError(f"{at}.yaw_deg: expected degrees within [-360, 360], got {v!r}")
+            setattr(s, k, v)
+        if s.id in seen:
+            raise ConfigError(f"{at}.id: expected each sensor once, got {s.id} again (as {key}[{seen[s.id]}])")
+        seen[s.id] = i
+        out.append(s)
+    return out
 
 
 def validate(cfg: Config) -> Config:
@@ -167,8 +230,15 @@ def read_toml(path: str | Path, what: str = "config file", error: type[Exception
 
 
 def to_dict(cfg: Any) -> dict:
-    """Plain nested dict of a config dataclass."""
-    return dataclasses.asdict(cfg)
+    """Plain nested dict of a config dataclass. A :class:`Config`'s rig (``sensors``) is left out when
+    empty (so the dict, and the hash of a stored run, of every config without a rig is as before) and
+    its optional values when not stated (None), as in TOML."""
+    d = dataclasses.asdict(cfg)
+    if isinstance(cfg, Config):
+        rig = d.pop(RIG_KEY)
+        if rig:
+            d[RIG_KEY] = [{k: v for k, v in t.items() if v is not None} for t in rig]
+    return d
 
 
 def _toml_value(v: Any) -> str:
@@ -198,4 +268,14 @@ def to_toml(cfg: Config, *, comments: bool = True) -> str:
         for g in dataclasses.fields(sub):
             doc = f"  # {g.metadata['doc']}" if comments and g.metadata.get("doc") else ""
             lines.append(f"{g.name} = {_toml_value(getattr(sub, g.name))}{doc}")
+    if comments and not cfg.sensors:
+        lines += ["", (f"# [[{RIG_KEY}]]: none. A rig of several radars, one table per radar, in place of the "
+                       "recording's sensors.csv"),
+                  ("# (docs/recordings.md \"A rig in the config\"): id, x_m, y_m, yaw_deg (DEGREES) [, name, "
+                   "max_range_m, fov_deg]")]
+    for s in to_dict(cfg).get(RIG_KEY, []):
+        lines += ["", f"[[{RIG_KEY}]]"]
+        for k, v in s.items():
+            doc = RigSensorConfig.__dataclass_fields__[k].metadata.get("doc")
+            lines.append(f"{k} = {_toml_value(v)}" + (f"  # {doc}" if comments and doc else ""))
     return "\n".join(lines) + "\n"

@@ -188,6 +188,9 @@ class LandmarkConfig:
     merge_axis_tol_m: float = param(math.inf, "also require |dx| or |dy| <= this (m); inf = no axis test", low=0.0,
                                     allow_inf=True)
     merge_max_per_scan: int = param(0, "at most this many merges per scan; 0 = unlimited", low=0)
+    retire_distance_m: float = param(0.0, "[PROP] a landmark farther than this (m) from the scan's radar leaves "
+                                     "the filter's state for the map (marginalised, never updated again; c.15); "
+                                     "0 = never", low=0.0)
     jcbb_gate_probability: float = param(0.99, "[PROP] jcbb: chi-square gate probability of individual and joint "
                                          "compatibility (c.4.1)", low=0.0, low_open=True, high=0.999999)
     jcbb_max_nodes: int = param(2000, "[PROP] jcbb: hypothesis nodes the branch and bound may visit per scan; "
@@ -345,6 +348,29 @@ class SensorConfig:
                                       "scans at rest before the first motion (its bias; c.10.6)")
 
 
+@dataclass
+class RigSensorConfig:
+    """One radar of a multi-radar rig given in the config: a ``[[sensors]]`` table, the same as one row of
+    a recording's ``sensors.csv`` (docs/recordings.md "A rig in the config") except that its yaw is in
+    degrees, as the single ``[sensor]`` table's ``mount_yaw_deg`` is. ``id``, ``x_m``, ``y_m`` and
+    ``yaw_deg`` are required (checked by :func:`radarslam.config.loading._apply_rig`); ``max_range_m``
+    and ``fov_deg`` are None when not stated (absent from the TOML, which has no null)."""
+
+    id: int = param(0, "the sensor_id of this radar's detections (a whole number >= 0)", low=0)
+    x_m: float = param(0.0, "radar position ahead of the platform origin (m)")
+    y_m: float = param(0.0, "radar position to the left of the platform origin (m)")
+    yaw_deg: float = param(0.0, "radar boresight relative to the platform heading, counter-clockwise (DEGREES; "
+                           "sensors.csv's yaw_rad is radians)", low=-360.0, high=360.0)
+    name: str = param("", "the radar's name (optional)")
+    max_range_m: float | None = param(None, "the radar's maximum range (m, > 0; optional)", low=0.0, low_open=True)
+    fov_deg: float | None = param(None, "the radar's full opening angle (deg, in (0, 360]; optional)", low=0.0,
+                                  low_open=True, high=360.0)
+
+
+#: The keys of a ``[[sensors]]`` table that must be given (as sensors.csv's required columns).
+RIG_REQUIRED = ("id", "x_m", "y_m", "yaw_deg")
+
+
 @dataclass(frozen=True)
 class EstimatorConfig:
     """The sections the estimator receives (config by owner): ``filter``, ``landmarks``, ``extent`` and
@@ -375,6 +401,12 @@ class Config:
     extent: ExtentConfig = field(default_factory=ExtentConfig)
     metrics: MetricsConfig = field(default_factory=MetricsConfig)
     sensor: SensorConfig = field(default_factory=SensorConfig)
+    #: A multi-radar rig, ``[[sensors]]`` in TOML (docs/recordings.md "A rig in the config"): one
+    #: :class:`RigSensorConfig` per radar, in place of the recording's ``sensors.csv`` (``--sensors FILE``
+    #: wins over it). Empty (the default): the recording's own rig, if any. Not a section: an array of tables.
+    sensors: list[RigSensorConfig] = field(default_factory=list, metadata={
+        "doc": "a multi-radar rig, one [[sensors]] table per radar (id, x_m, y_m, yaw_deg [, name, max_range_m, "
+               "fov_deg]); replaces the recording's sensors.csv"})
 
     @property
     def estimator(self) -> EstimatorConfig:

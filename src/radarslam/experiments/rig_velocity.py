@@ -85,19 +85,27 @@ def _table(path: Path, need: tuple[str, ...]) -> dict[str, np.ndarray]:
     return {h: a[:, j] for j, h in enumerate(head)}
 
 
-def read_rig(path: str | Path) -> Rig:
-    """Read a plain recording directory with ``sensors.csv`` (docs/recordings.md) as a :class:`Rig`."""
+def read_rig(path: str | Path, sensors: dict | None = None, origin: str = "sensors.csv") -> Rig:
+    """Read a plain recording directory with ``sensors.csv`` (docs/recordings.md) as a :class:`Rig`;
+    ``sensors`` (``dict[int, Mounting]``, e.g. ``--sensors FILE`` or the config's ``[[sensors]]``, named
+    by ``origin``) takes the place of that file."""
     path = Path(path)
-    if not (path / "detections.csv").is_file() or not (path / "sensors.csv").is_file():
+    if not (path / "detections.csv").is_file() or (sensors is None and not (path / "sensors.csv").is_file()):
         raise InputError(f"--recording {path}: expected a directory with detections.csv and sensors.csv")
     det = _table(path / "detections.csv", ("t_s", "range_m", "azimuth_rad", "doppler_mps", "sensor_id"))
-    with (path / "sensors.csv").open(newline="", encoding="utf-8") as fh:
-        rows = list(csv.DictReader(fh))
-    try:
-        ids = np.array([int(r["sensor_id"]) for r in rows])
-        mount = np.array([[float(r["x_m"]), float(r["y_m"]), float(r["yaw_rad"])] for r in rows])
-    except (KeyError, ValueError, TypeError) as exc:
-        raise InputError(f"{path / 'sensors.csv'}: expected sensor_id, x_m, y_m, yaw_rad numbers, got {exc}") from None
+    if sensors is not None:
+        rows = [{"name": sensors[k].name} for k in sorted(sensors)]
+        ids = np.array(sorted(sensors), dtype=np.int64)
+        mount = np.array([[sensors[k].x, sensors[k].y, sensors[k].yaw] for k in sorted(sensors)], dtype=float)
+    else:
+        with (path / "sensors.csv").open(newline="", encoding="utf-8") as fh:
+            rows = list(csv.DictReader(fh))
+        try:
+            ids = np.array([int(r["sensor_id"]) for r in rows])
+            mount = np.array([[float(r["x_m"]), float(r["y_m"]), float(r["yaw_rad"])] for r in rows])
+        except (KeyError, ValueError, TypeError) as exc:
+            raise InputError(f"{path / 'sensors.csv'}: expected sensor_id, x_m, y_m, yaw_rad numbers, "
+                             f"got {exc}") from None
     if ids.size == 0 or np.unique(ids).size != ids.size or not np.all(np.isfinite(mount)):
         raise InputError(f"{path / 'sensors.csv'}: expected one finite row per sensor, got ids {ids.tolist()}")
     names = [r.get("name") or str(i) for r, i in zip(rows, ids)]
@@ -105,7 +113,7 @@ def read_rig(path: str | Path) -> Rig:
     lookup = {int(k): j for j, k in enumerate(ids)}
     unknown = np.setdiff1d(np.unique(sid), ids)
     if unknown.size:
-        raise InputError(f"{path / 'detections.csv'}: sensor_id {int(unknown[0])} not in sensors.csv "
+        raise InputError(f"{path / 'detections.csv'}: sensor_id {int(unknown[0])} not in {origin} "
                          f"({', '.join(map(str, ids))})")
     sensor = np.vectorize(lookup.get, otypes=[np.int64])(sid) if sid.size else sid
     order = np.argsort(det["t_s"], kind="stable")

@@ -61,19 +61,61 @@ def sensors_from_columns(cols: dict[str, np.ndarray], where: str, row: str = "li
 
 
 def check_detection_sensors(sensor_id: np.ndarray | None, sensors: dict[int, Mounting], where: str, row: str,
-                            first: int) -> None:
+                            first: int, origin: str | None = None) -> None:
     """Refuse a detection whose ``sensor_id`` has no row in ``sensors``, or several sensors and no
-    ``sensor_id`` column (``where`` names the detections)."""
+    ``sensor_id`` column (``where`` names the detections; ``origin``, where the mountings were looked
+    for, when not the recording's own ``sensors.csv``)."""
+    ids = ', '.join(map(str, sorted(sensors)))
     if sensor_id is None:
         if len(sensors) > 1:
-            raise InputError(f"{where}: expected a sensor_id column (sensors.csv has {len(sensors)} sensors: "
-                             f"{', '.join(map(str, sorted(sensors)))}), got none")
+            raise InputError(f"{where}: expected a sensor_id column ({origin or 'sensors.csv'} has {len(sensors)} "
+                             f"sensors: {ids}), got none")
         return
     known = np.array(sorted(sensors), dtype=float)
     bad = np.flatnonzero(~np.isin(sensor_id, known))
     if bad.size:
-        raise InputError(f"{where} {row} {int(bad[0]) + first} column sensor_id: expected one of sensors.csv's "
-                         f"{', '.join(map(str, sorted(sensors)))}, got {float(sensor_id[bad[0]])!r}")
+        at, got = f"{where} {row} {int(bad[0]) + first} column sensor_id", float(sensor_id[bad[0]])
+        if origin is None:
+            raise InputError(f"{at}: expected one of sensors.csv's {ids}, got {got!r}")
+        raise InputError(f"{at}: sensor {int(got) if got.is_integer() else got} has no mounting in {origin}, which "
+                         f"holds sensors {ids} (mountings are looked for in --sensors FILE, else the config's "
+                         f"[[sensors]], else the recording's own)")
+
+
+def sensors_from_config(rig, where: str = "the config's [[sensors]]") -> dict[int, Mounting]:
+    """The config's rig (``Config.sensors``, :class:`radarslam.config.RigSensorConfig`, checked when
+    loaded) as ``sensors.csv`` would give it: each :class:`Mounting` by ``sensor_id``, the yaw and the
+    field of view in radians (``math.radians`` of the degrees, as :func:`sensors_from_columns` takes
+    ``fov_deg``), ``source`` naming ``where``."""
+    return {int(s.id): Mounting(float(s.x_m), float(s.y_m), math.radians(s.yaw_deg), where, int(s.id), s.name,
+                                None if s.max_range_m is None else float(s.max_range_m),
+                                None if s.fov_deg is None else math.radians(s.fov_deg)) for s in rig}
+
+
+def read_sensors_file(path, what: str = "--sensors") -> dict[int, Mounting]:
+    """A ``sensors.csv`` file at ``path`` (e.g. ``--sensors FILE``), refused in one line as a recording's
+    own would be (the file, line and column), or as ``{what}: PATH: no such file``."""
+    from pathlib import Path
+
+    from radarslam.io.recording.plain import (
+        _read_csv,  # the reader's own checks and messages
+    )
+
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{what}: {path}: no such file")
+    return sensors_from_columns(_read_csv(path, "sensors"), str(path))
+
+
+def with_sensors(rec, sensors: dict[int, Mounting], origin: str):
+    """``rec`` (a :class:`~.stream.Recording`) with its rig replaced by ``sensors`` (and no single
+    mounting), exactly as if they had come from its ``sensors.csv``; refuses in one line a detection
+    whose ``sensor_id`` has no mounting there, naming the sensor and ``origin`` (where they were looked for)."""
+    import dataclasses
+
+    check_detection_sensors(rec.channels.get("sensor_id"), sensors, f"{rec.source} (detections)", "detection", 1,
+                            origin)
+    return dataclasses.replace(rec, sensors=dict(sensors), mounting=None)
 
 
 def sensors_table(sensors: dict[int, Mounting]) -> dict[str, np.ndarray]:
