@@ -163,9 +163,13 @@ def write_ego_velocity_csv(path: str | Path, series: RigVelocitySeries) -> None:
 
     iu = np.triu_indices(3)
     lines = [",".join(EGO_VELOCITY_COLUMNS)]
-    fmt = lambda v: "" if not np.isfinite(v) else repr(float(v))
-    for k in range(series.t.size):
-        vals = [*series.theta[k], *series.cov[k][iu], series.sigma_mps[k]]
-        lines.append(",".join([repr(float(series.t[k]))] + [fmt(v) for v in vals]
-                              + [str(int(series.n_inliers[k])), str(int(series.n_used[k])), str(int(series.status[k]))]))
+    fmt = lambda v: repr(v) if math.isfinite(v) else ""
+    K = series.t.size
+    vals = np.column_stack([np.asarray(series.theta, dtype=float).reshape(K, 3),
+                            np.asarray(series.cov, dtype=float).reshape(K, 3, 3)[:, iu[0], iu[1]],
+                            np.asarray(series.sigma_mps, dtype=float).reshape(K)]).tolist()
+    ints = np.column_stack([np.asarray(series.n_inliers).reshape(K), np.asarray(series.n_used).reshape(K),
+                            np.asarray(series.status).reshape(K)]).astype(np.int64).tolist()
+    for tk, row, last in zip(np.asarray(series.t, dtype=float).tolist(), vals, ints):
+        lines.append(",".join([repr(tk)] + [fmt(v) for v in row] + [str(i) for i in last]))
     atomic_write_text(path, "\n".join(lines) + "\n")
