@@ -260,7 +260,10 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
     record, flags = _run_filter(config, events, on_scan, first_run)
     truth = None if rec.truth is None else truth_at(times, rec.truth_t, rec.truth)
     metrics = {"scans": int(times.size), "detections": int(record.n_detections.sum()),
-               "associated": int(record.n_associated.sum()), "landmarks_final": int(record.n_landmarks[-1]),
+               "associated": int(record.n_associated.sum()),
+               # the map: the state's landmarks and those retired from it (docs/method.md c.15)
+               "landmarks_final": int(record.maps[-1].ids.size), "landmarks_in_state": int(record.n_landmarks[-1]),
+               "landmarks_retired": int(record.maps[-1].ids.size - record.n_landmarks[-1]),
                "filter_seconds": record.seconds, "mounting": {"x_m": m.x, "y_m": m.y, "yaw_rad": m.yaw,
                                                               "source": m.source,
                                                               "sensors": {str(k): v.name or str(k) for k, v in

@@ -79,6 +79,10 @@ class MapSnapshot:
     created: np.ndarray
 
 
+#: The fields of :class:`MapSnapshot`, in order.
+MAP_FIELDS = ("ids", "positions", "covs", "rma", "efa", "created")
+
+
 class EkfSlam:
     """EKF-SLAM of the pose and landmark centroids with landmark management and extents.
 
@@ -133,6 +137,8 @@ class EkfSlam:
             self._check_fej(config)
         self._dt_since_scan = 0.0
         self._view_angle: dict[int, float] = {}        # a.12.5: bearing landmark -> sensor at the last scan
+        self._retired: list[MapSnapshot] = []           # c.15: map rows of the landmarks retired from the state
+        self._retired_ids: set[int] = set()
         self._scans = 0
         self._last_scan_t: float | None = None
         self._view = (f.max_range_m, math.radians(f.field_of_view_deg) / 2)   # the M/N view test's (c.13)
@@ -195,7 +201,15 @@ class EkfSlam:
         return self.state.bias
 
     def snapshot(self) -> MapSnapshot:
-        """The current map (copies)."""
+        """The current map (copies): the landmarks of the state, then those retired from it (c.15)."""
+        now = self._map_rows()
+        if not self._retired:
+            return now
+        parts = [now, *self._retired]
+        return MapSnapshot(*(np.concatenate([getattr(p, f) for p in parts]) for f in MAP_FIELDS))
+
+    def _map_rows(self) -> MapSnapshot:
+        """The landmarks of the state as map rows (copies)."""
         st, ext = self.state, self.extent
         nan, n = np.full((2, 2), np.nan), st.n_landmarks
         rma = [ext.matrix(e) for e in st.extents]
@@ -375,8 +389,25 @@ class EkfSlam:
                             compiled=self.config.filter.backend == "numba")
         if self._gate is not None:                                        # c.10.4.4
             drop = sorted(set(drop) | set(self._gate.moving_landmarks(st.positions, st.created(), k)))
-        gone = set(drop)
-        return [lid for lid, _ in st.remove(drop)], [a for j, a in enumerate(assoc) if j not in gone]
+        retire = self._retire(set(drop))                                  # c.15
+        gone = set(drop) | set(retire)
+        removed = [lid for lid, _ in st.remove(sorted(gone)) if lid not in self._retired_ids]
+        return removed, [a for j, a in enumerate(assoc) if j not in gone]
+
+    def _retire(self, dropped: set[int]) -> list[int]:
+        """c.15: the landmarks (state positions, ascending) farther than ``landmarks.retire_distance_m``
+        from the scan's radar, other than ``dropped``; each one's map row is kept as it leaves the state."""
+        d = self.config.landmarks.retire_distance_m
+        st = self.state
+        if d <= 0.0 or st.n_landmarks == 0:
+            return []
+        far = np.flatnonzero(np.sum((st.positions - st.x[:2]) ** 2, axis=1) > d * d).tolist()
+        retire = [j for j in far if j not in dropped]
+        if retire:
+            now = self._map_rows()
+            self._retired.append(MapSnapshot(*(getattr(now, f)[retire] for f in MAP_FIELDS)))
+            self._retired_ids.update(int(i) for i in now.ids[retire])
+        return retire
 
     def _extent_step(self, polar: np.ndarray, xy: np.ndarray, assoc: list[list[int]], prior, dt: float,
                      k: int) -> None:

@@ -87,6 +87,7 @@ def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
     tent = Tentatives(np.empty((0, 2)), np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64),
                       np.empty(0, dtype=np.int64))      # tentatives (Rule 2)
     rec, maps = new_records(S, 64, cfg.platform - 3)     # the odometry-bias states (c.11) after the pose
+    retired, n_retired = new_records(0, 16, 0)[1], 0       # the landmarks retired from the state (c.15)
     arcs, n_arcs = new_arcs(64), 0                         # visible-arc widths (a.9)
     mem, n_mem, n_now = new_memory(16), 0, 0               # the Doppler gate's memory (c.10.4)
     a_rows = np.empty((64, 3), dtype=np.int64)
@@ -132,7 +133,8 @@ def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
         x, P, out, nis = associate_step(x, P, polar, cidx, lm, N, pose_first, shapes, terms, noise, cfg)  # 4
         n_assoc, aoff, arow, a_rows, n_arows = group_associations(out, cidx, N, lm.ids, s, a_rows, n_arows)
         young = moving_young(x, lm, N, k, mem, n_now, cfg)                        # c.10.4.4
-        x, P, N, old = remove_unseen(x, P, lm, N, aoff, k, young, stream.sensor_view[s], cfg)  # 5
+        x, P, N, old, retired, n_retired = remove_unseen(x, P, lm, N, aoff, k, young, stream.sensor_view[s],
+                                                         retired, n_retired, arcs, cfg)  # 5, c.15
         xy = _to_world(x, polar)                                    # seed eq. (3), updated pose
         lm, arcs, n_arcs = extent_step(x, P, polar, xy, lm, N, old, aoff, arow, prior, dt, arcs, n_arcs,
                                        noise, cfg)                                 # 6
@@ -149,7 +151,7 @@ def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
             break
         rec = record_scan(rec, s, x, P, lm, N, polar.shape[0] + stream.moving[s], n_assoc, nis, stream.trace[s])
         if cfg.all_maps or s == S - 1:
-            maps = record_map(rec, maps, s, x, P, lm, N, arcs, cfg)
+            maps = record_map(rec, maps, s, x, P, lm, N, arcs, retired, n_retired, cfg)
         if cfg.timing:
             t1 = _clock()
             rec.seconds[s] = t1 - t_last

@@ -57,6 +57,7 @@ class FusedParams(NamedTuple):
     merge_axis_tol: float  #: landmarks.merge_axis_tol_m
     max_range: float       #: filter.max_range_m
     half_fov: float        #: half filter.field_of_view_deg, in radians
+    retire2: float         #: landmarks.retire_distance_m squared (0: never retire, c.15)
     gate: float            #: the extent estimator's gate
     gamma: float           #: extent.spread_factor
     alpha0: float          #: extent.alpha0
@@ -233,6 +234,7 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
         sift_radius=float(lc.sift_radius_m), eps=float(lc.cluster_eps_m), tentative_gate=float(lc.tentative_gate_m),
         merge_distance=float(lc.merge_distance_m), merge_axis_tol=float(lc.merge_axis_tol_m),
         max_range=float(f.max_range_m), half_fov=math.radians(f.field_of_view_deg) / 2.0,
+        retire2=float(lc.retire_distance_m) ** 2,
         gate=float(slam.extent.gate), gamma=float(ec.spread_factor),
         alpha0=float(ec.alpha0), tau=float(ec.tau_s), eig_floor=float(ec.eig_floor_m2), kappa=float(ec.kappa),
         beam_step=float(slam.extent.beam_step) if arc else 0.0,
@@ -307,11 +309,20 @@ def _stream_arrays_checked(events, defer_polar: bool, slam=None) -> Stream:
     # c.10.4, c.10.5: the whole stream's classification or fits in one compiled call where the scans allow it
     gated, fits = None, None
     sensors = any(isinstance(e, Scan) and e.sensor is not None for e in events)      # c.13: per scan, below
+    own = [mount_of(e.sensor) is not None for e in events if isinstance(e, Scan)]
     if (gate is not None or src is not None) and not sensors:
         from radarslam.slam.fused.doppler import gate_stream, odometry_stream
 
         gated = gate_stream(events, gate) if gate is not None else None
         fits = odometry_stream(events, src) if src is not None and gate is None else None
+    elif gate is not None and own and all(own):
+        # c.13: every scan in its own radar's frame, so the gate classifies each about a zero mounting,
+        # as the per-scan call below would: one compiled call, the same generator in the same order
+        from radarslam.slam.fused.doppler import gate_stream
+
+        zero = copy.copy(gate)
+        zero.mounting = (0.0, 0.0, 0.0)
+        gated = gate_stream(events, zero)
     kinds, odo, odo_dt, polars, scan_k, last_t = [], [], [], [], [], None
     vel, vel_dt, vel_U, vel_Q = [], [], [], []
     moving, remember, seen, kept = [], [], [], []

@@ -344,43 +344,64 @@ def record_scan(rec, s, x, P, lm, N, m, n_assoc, nis, trace):  # pragma: no cove
 
 
 @njit(cache=True, inline="always")
-def record_map(rec, maps, s, x, P, lm, N, arcs, cfg):  # pragma: no cover - compiled
-    """The map after scan ``s``, appended to ``maps`` (grown if needed, returned). Extents as the
+def _grown_maps(maps, n):  # pragma: no cover - compiled
+    """``maps`` with room for ``n`` rows."""
+    if n <= maps.ids.shape[0]:
+        return maps
+    return MapRows(_grow_rows(maps.ids, n), _grow_rows(maps.pos, n), _grow_rows(maps.cov, n),
+                   _grow_rows(maps.rma, n), _grow_rows(maps.efa, n), _grow_rows(maps.created, n))
+
+
+@njit(cache=True, inline="always")
+def write_map_row(maps, r, j, x, P, lm, arcs, cfg):  # pragma: no cover - compiled
+    """Row ``r`` of ``maps`` is landmark ``j`` (state order) of ``x``, ``P``, ``lm``. Extents as the
     estimator's ``matrix`` and ``baseline`` read them: RMA and EFA; under the partial view
-    (``cfg.pv.on``) its shape and RMA; with ``cfg.arc`` (visible-arc,
-    a.9) the circle of the gated mean width (once ``cfg.arc_min_scans`` are held) and RMA."""
+    (``cfg.pv.on``) its shape and RMA; with ``cfg.arc`` (visible-arc, a.9) the circle of the gated
+    mean width (once ``cfg.arc_min_scans`` are held) and RMA."""
+    i = cfg.platform + 2 * j
+    maps.ids[r] = lm.ids[j]
+    maps.created[r] = lm.created[j]
+    maps.pos[r, 0], maps.pos[r, 1] = x[i], x[i + 1]
+    maps.cov[r, 0, 0], maps.cov[r, 0, 1] = P[i, i], P[i, i + 1]
+    maps.cov[r, 1, 0], maps.cov[r, 1, 1] = P[i, i + 1], P[i + 1, i + 1]
+    maps.rma[r] = np.nan
+    maps.efa[r] = np.nan
+    if cfg.pv.on:                    # partial view (a.12.7): its shape, the RMA as baseline
+        X11, X12, X22 = _exp_sym2(lm.xi[j, 0], lm.xi[j, 1], lm.xi[j, 2])
+        maps.rma[r, 0, 0], maps.rma[r, 0, 1], maps.rma[r, 1, 0], maps.rma[r, 1, 1] = X11, X12, X12, X22
+        if lm.einit[j]:
+            maps.efa[r] = lm.X[j]
+    elif cfg.arc:
+        if lm.einit[j]:
+            maps.efa[r] = lm.X[j]
+        if lm.narc[j] >= cfg.arc_min_scans:
+            d, b = arc_values(arcs, lm, j)
+            dm = _gated_diameter(d, b)
+            if math.isfinite(dm):
+                maps.rma[r] = (0.5 * dm) ** 2 * np.eye(2)
+    elif lm.einit[j]:
+        maps.rma[r] = lm.X[j]
+        maps.efa[r] = lm.Xefa[j]
+
+
+@njit(cache=True, inline="always")
+def record_map(rec, maps, s, x, P, lm, N, arcs, retired, n_retired, cfg):  # pragma: no cover - compiled
+    """The map after scan ``s``, appended to ``maps`` (grown if needed, returned): the ``N``
+    landmarks of the state (:func:`write_map_row`), then the ``n_retired`` rows of ``retired``, the
+    landmarks retired from the state so far (c.15), as they were when they left it."""
     base = rec.map_off[s]
-    rec.map_off[s + 1] = base + N
-    n = base + N
-    if n > maps.ids.shape[0]:
-        maps = MapRows(_grow_rows(maps.ids, n), _grow_rows(maps.pos, n), _grow_rows(maps.cov, n),
-                       _grow_rows(maps.rma, n), _grow_rows(maps.efa, n), _grow_rows(maps.created, n))
+    rec.map_off[s + 1] = base + N + n_retired
+    maps = _grown_maps(maps, base + N + n_retired)
     for j in range(N):
-        i = cfg.platform + 2 * j
-        r = base + j
-        maps.ids[r] = lm.ids[j]
-        maps.created[r] = lm.created[j]
-        maps.pos[r, 0], maps.pos[r, 1] = x[i], x[i + 1]
-        maps.cov[r, 0, 0], maps.cov[r, 0, 1] = P[i, i], P[i, i + 1]
-        maps.cov[r, 1, 0], maps.cov[r, 1, 1] = P[i, i + 1], P[i + 1, i + 1]
-        maps.rma[r] = np.nan
-        maps.efa[r] = np.nan
-        if cfg.pv.on:                    # partial view (a.12.7): its shape, the RMA as baseline
-            X11, X12, X22 = _exp_sym2(lm.xi[j, 0], lm.xi[j, 1], lm.xi[j, 2])
-            maps.rma[r, 0, 0], maps.rma[r, 0, 1], maps.rma[r, 1, 0], maps.rma[r, 1, 1] = X11, X12, X12, X22
-            if lm.einit[j]:
-                maps.efa[r] = lm.X[j]
-        elif cfg.arc:
-            if lm.einit[j]:
-                maps.efa[r] = lm.X[j]
-            if lm.narc[j] >= cfg.arc_min_scans:
-                d, b = arc_values(arcs, lm, j)
-                dm = _gated_diameter(d, b)
-                if math.isfinite(dm):
-                    maps.rma[r] = (0.5 * dm) ** 2 * np.eye(2)
-        elif lm.einit[j]:
-            maps.rma[r] = lm.X[j]
-            maps.efa[r] = lm.Xefa[j]
+        write_map_row(maps, base + j, j, x, P, lm, arcs, cfg)
+    for r in range(n_retired):
+        q = base + N + r
+        maps.ids[q] = retired.ids[r]
+        maps.created[q] = retired.created[r]
+        maps.pos[q] = retired.pos[r]
+        maps.cov[q] = retired.cov[r]
+        maps.rma[q] = retired.rma[r]
+        maps.efa[q] = retired.efa[r]
     return maps
 
 

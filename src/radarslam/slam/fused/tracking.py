@@ -30,7 +30,7 @@ from radarslam.slam._numba import (
     joint_batch_associate_scan,
 )
 from radarslam.slam.layout import POSE_DIM
-from radarslam.slam.fused.storage import _drop_state_rows, _grow_rows, compact_landmarks
+from radarslam.slam.fused.storage import _drop_state_rows, _grow_rows, _grown_maps, compact_landmarks, write_map_row
 
 # The reference's own kernels, compiled as they are: seed eq. (3), and the motion models' steps and
 # Jacobians (models.motion, models.ackermann, models.body_velocity).
@@ -215,12 +215,15 @@ def group_associations(out, cidx, N, ids, s, a_rows, n_arows):  # pragma: no cov
 
 
 @njit(cache=True, inline="always")
-def remove_unseen(x, P, lm, N, aoff, k, young, sensor_view, cfg):  # pragma: no cover - compiled
+def remove_unseen(x, P, lm, N, aoff, k, young, sensor_view, retired, n_retired, arcs, cfg):  # pragma: no cover
     """Step 5: age the M/N windows of scan ``k`` and remove the landmarks seen in too few of the
     last ``cfg.removal_window`` scans they were in view (c.5), by the orchestrator's own kernel
     (landmarks.confirmation.mn_windows) compiled as it is, and those ``young`` marks (the Doppler
     gate's, c.10.4.4), in view of the scan's radar (``sensor_view``: its range and half field of
-    view, c.13). Returns ``(x, P, N, old)``: each survivor's position before the removal."""
+    view, c.13); then retire the survivors farther than ``sqrt(cfg.retire2)`` from the scan's
+    radar (c.15, ``cfg.retire2`` 0: never), each written to ``retired`` (a
+    :class:`~radarslam.slam.fused.storage.MapRows`, grown if needed) as it leaves the state.
+    Returns ``(x, P, N, old, retired, n_retired)``: ``old`` each survivor's position before."""
     view = _in_view(x, cfg.platform, N, sensor_view[0], sensor_view[1])
     hit = np.empty(N, dtype=np.bool_)
     for j in range(N):
@@ -231,9 +234,16 @@ def remove_unseen(x, P, lm, N, aoff, k, young, sensor_view, cfg):  # pragma: no 
     for j in range(N):
         if young[j]:
             keep[j] = False
+        if keep[j] and cfg.retire2 > 0.0:
+            i = cfg.platform + 2 * j
+            if (x[i] - x[0]) ** 2 + (x[i + 1] - x[1]) ** 2 > cfg.retire2:
+                keep[j] = False
+                retired = _grown_maps(retired, n_retired + 1)
+                write_map_row(retired, n_retired, j, x, P, lm, arcs, cfg)
+                n_retired += 1
         if keep[j]:
             n_keep += 1
     if n_keep < N:
         x, P = _drop_state_rows(x, P, keep)
     old = compact_landmarks(lm, keep)
-    return x, P, n_keep, old
+    return x, P, n_keep, old, retired, n_retired
