@@ -1,7 +1,7 @@
 """A car's radar: SLAM on the shared nuScenes scenes against the car's own dead reckoning (issue 36).
 
 For each scene and each prediction mode -- wheel speed + gyro + radar (``filter.odometry`` odometer),
-Doppler speed + gyro (``doppler``, ``yaw_rate`` gyro) and the radar alone (``doppler``, ``yaw_rate``
+the same with the rig's Doppler velocity fused into the prediction (``both``, c.10.5), Doppler speed + gyro (``doppler``, ``yaw_rate`` gyro) and the radar alone (``doppler``, ``yaw_rate``
 doppler) -- the ``automotive`` profile runs with the mountings as given and with the side radars'
 yaw calibrated from the static world's Doppler (``radarslam calibrate``, docs/method.md c.12.5; the
 calibration of each scene from that scene). Each row gives the position and heading RMSE over the
@@ -29,7 +29,8 @@ from radarslam.experiments.rig_velocity import read_rig
 from radarslam.io.recording import read_recording
 from radarslam.io.recording.mounting import Mounting
 
-MODES = {"wheels + gyro + radar": {}, "Doppler + gyro": {"odometry": "doppler", "yaw_rate": "gyro"},
+MODES = {"wheels + gyro + radar": {}, "wheels + gyro + radar with its Doppler": {"odometry": "both", "yaw_rate": "gyro"},
+         "Doppler + gyro": {"odometry": "doppler", "yaw_rate": "gyro"},
          "radar alone": {"odometry": "doppler", "yaw_rate": "doppler"}}
 SCENES = ("scene-0061", "scene-0103", "scene-0655", "scene-0916")
 
