@@ -38,6 +38,7 @@ from radarslam.slam.bias import (bias_states, control_noise, initial_state, meas
 from radarslam.slam.doppler_gate import DopplerGate, mounting
 from radarslam.slam import sensor_frame
 from radarslam.slam.sensor_frame import mount_of
+from radarslam.slam.map_rows import MapSnapshot, RetiredMap, state_rows
 from radarslam.slam.kernels import cluster_kernel as _cluster_kernel, step_kernels as _step_kernels
 from radarslam.slam.odometry_source import odometry_source
 from radarslam.slam.partial_view import view_components, view_corrected_centroid, view_walk
@@ -64,23 +65,6 @@ class ScanReport:
     moving: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=int))  # detections failing c.10.4
     ego: object = None  # the scan's EgoVelocity (c.10) under filter.doppler_gate, else None
     created: dict[int, np.ndarray] = field(default_factory=dict)  # new landmark id -> its cluster's detections
-
-
-@dataclass(frozen=True)
-class MapSnapshot:
-    """The map after a scan: ids ``(N,)``, centroids ``(N, 2)``, covariances ``(N, 2, 2)``,
-    RMA and EFA extents ``(N, 2, 2)`` (NaN where not initialised), creation scans ``(N,)``."""
-
-    ids: np.ndarray
-    positions: np.ndarray
-    covs: np.ndarray
-    rma: np.ndarray
-    efa: np.ndarray
-    created: np.ndarray
-
-
-#: The fields of :class:`MapSnapshot`, in order.
-MAP_FIELDS = ("ids", "positions", "covs", "rma", "efa", "created")
 
 
 class EkfSlam:
@@ -137,8 +121,7 @@ class EkfSlam:
             self._check_fej(config)
         self._dt_since_scan = 0.0
         self._view_angle: dict[int, float] = {}        # a.12.5: bearing landmark -> sensor at the last scan
-        self._retired: list[MapSnapshot] = []           # c.15: map rows of the landmarks retired from the state
-        self._retired_ids: set[int] = set()
+        self._retired = RetiredMap()                    # c.15: the landmarks retired from the state
         self._scans = 0
         self._last_scan_t: float | None = None
         self._view = (f.max_range_m, math.radians(f.field_of_view_deg) / 2)   # the M/N view test's (c.13)
@@ -202,24 +185,7 @@ class EkfSlam:
 
     def snapshot(self) -> MapSnapshot:
         """The current map (copies): the landmarks of the state, then those retired from it (c.15)."""
-        now = self._map_rows()
-        if not self._retired:
-            return now
-        parts = [now, *self._retired]
-        return MapSnapshot(*(np.concatenate([getattr(p, f) for p in parts]) for f in MAP_FIELDS))
-
-    def _map_rows(self) -> MapSnapshot:
-        """The landmarks of the state as map rows (copies)."""
-        st, ext = self.state, self.extent
-        nan, n = np.full((2, 2), np.nan), st.n_landmarks
-        rma = [ext.matrix(e) for e in st.extents]
-        efa = [ext.baseline(e) for e in st.extents]
-        return MapSnapshot(
-            ids=st.ids(), positions=st.positions, covs=st.position_covs(),
-            rma=np.array([nan if X is None else X for X in rma]).reshape(n, 2, 2),
-            efa=np.array([nan if X is None else X for X in efa]).reshape(n, 2, 2),
-            created=st.created(),
-        )
+        return self._retired.after(state_rows(self.state, self.extent))
 
     # ------------------------------------------------------------------ events
     def process(self, event: Odometry | Scan) -> ScanReport | None:
@@ -389,25 +355,12 @@ class EkfSlam:
                             compiled=self.config.filter.backend == "numba")
         if self._gate is not None:                                        # c.10.4.4
             drop = sorted(set(drop) | set(self._gate.moving_landmarks(st.positions, st.created(), k)))
-        retire = self._retire(set(drop))                                  # c.15
-        gone = set(drop) | set(retire)
-        removed = [lid for lid, _ in st.remove(sorted(gone)) if lid not in self._retired_ids]
-        return removed, [a for j, a in enumerate(assoc) if j not in gone]
-
-    def _retire(self, dropped: set[int]) -> list[int]:
-        """c.15: the landmarks (state positions, ascending) farther than ``landmarks.retire_distance_m``
-        from the scan's radar, other than ``dropped``; each one's map row is kept as it leaves the state."""
-        d = self.config.landmarks.retire_distance_m
-        st = self.state
-        if d <= 0.0 or st.n_landmarks == 0:
-            return []
-        far = np.flatnonzero(np.sum((st.positions - st.x[:2]) ** 2, axis=1) > d * d).tolist()
-        retire = [j for j in far if j not in dropped]
+        retire = self._retired.select(st, lc.retire_distance_m, set(drop))   # c.15
         if retire:
-            now = self._map_rows()
-            self._retired.append(MapSnapshot(*(getattr(now, f)[retire] for f in MAP_FIELDS)))
-            self._retired_ids.update(int(i) for i in now.ids[retire])
-        return retire
+            self._retired.keep(state_rows(st, self.extent), retire)
+        gone = set(drop) | set(retire)
+        removed = [lid for lid, _ in st.remove(sorted(gone)) if lid not in self._retired.ids]
+        return removed, [a for j, a in enumerate(assoc) if j not in gone]
 
     def _extent_step(self, polar: np.ndarray, xy: np.ndarray, assoc: list[list[int]], prior, dt: float,
                      k: int) -> None:

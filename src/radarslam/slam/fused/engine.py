@@ -95,9 +95,7 @@ def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
     status = np.zeros(2, dtype=np.int64)
     t_last = _clock() if cfg.timing else 0.0
     dt_since = 0.0
-    e_odo = 0
-    s = 0
-    e_vel = 0
+    e_odo, s, e_vel = 0, 0, 0
     for ev in range(stream.kinds.shape[0]):
         if stream.kinds[ev] != SCAN:                                               # 1
             if stream.kinds[ev] == ODOMETRY:

@@ -1,0 +1,74 @@
+"""The map a run reports: the landmarks of the filter's state and those retired from it (docs/method.md c.15).
+
+:class:`MapSnapshot` is the map after a scan; :func:`state_rows` reads the state's landmarks (with
+their extents as the estimator reports them); :class:`RetiredMap` keeps each landmark that left the
+state for being farther than ``landmarks.retire_distance_m`` from the scan's radar, as it was when
+it left, and appends them after the state's rows, as the fused engine's ``record_map`` does.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["MAP_FIELDS", "MapSnapshot", "RetiredMap", "state_rows"]
+
+
+@dataclass(frozen=True)
+class MapSnapshot:
+    """The map after a scan: ids ``(N,)``, centroids ``(N, 2)``, covariances ``(N, 2, 2)``,
+    RMA and EFA extents ``(N, 2, 2)`` (NaN where not initialised), creation scans ``(N,)``."""
+
+    ids: np.ndarray
+    positions: np.ndarray
+    covs: np.ndarray
+    rma: np.ndarray
+    efa: np.ndarray
+    created: np.ndarray
+
+
+#: The fields of :class:`MapSnapshot`, in order.
+MAP_FIELDS = ("ids", "positions", "covs", "rma", "efa", "created")
+
+
+def state_rows(state, extent) -> MapSnapshot:
+    """The landmarks of ``state`` (a :class:`~radarslam.slam.state.SlamState`) as map rows (copies),
+    their extents read by the estimator ``extent`` (``matrix``: RMA, ``baseline``: EFA)."""
+    nan, n = np.full((2, 2), np.nan), state.n_landmarks
+    rma = [extent.matrix(e) for e in state.extents]
+    efa = [extent.baseline(e) for e in state.extents]
+    return MapSnapshot(
+        ids=state.ids(), positions=state.positions, covs=state.position_covs(),
+        rma=np.array([nan if X is None else X for X in rma]).reshape(n, 2, 2),
+        efa=np.array([nan if X is None else X for X in efa]).reshape(n, 2, 2),
+        created=state.created(),
+    )
+
+
+class RetiredMap:
+    """The landmarks retired from the state so far (c.15), in the order they left, each as it left."""
+
+    def __init__(self) -> None:
+        self.parts: list[MapSnapshot] = []
+        self.ids: set[int] = set()
+
+    def select(self, state, distance_m: float, dropped: set[int]) -> list[int]:
+        """The landmarks (state positions, ascending) farther than ``distance_m`` from the pose block's
+        position (the scan's radar, c.13), other than ``dropped``; none for ``distance_m`` <= 0."""
+        if distance_m <= 0.0 or state.n_landmarks == 0:
+            return []
+        far = np.flatnonzero(np.sum((state.positions - state.x[:2]) ** 2, axis=1) > distance_m ** 2).tolist()
+        return [j for j in far if j not in dropped]
+
+    def keep(self, now: MapSnapshot, rows: list[int]) -> None:
+        """Keep ``rows`` of the state's map ``now`` (before they leave the state)."""
+        if rows:
+            self.parts.append(MapSnapshot(*(getattr(now, f)[rows] for f in MAP_FIELDS)))
+            self.ids.update(int(i) for i in now.ids[rows])
+
+    def after(self, now: MapSnapshot) -> MapSnapshot:
+        """The map: ``now`` (the state's rows), then the retired ones."""
+        if not self.parts:
+            return now
+        return MapSnapshot(*(np.concatenate([getattr(p, f) for p in (now, *self.parts)]) for f in MAP_FIELDS))
