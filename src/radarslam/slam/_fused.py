@@ -22,6 +22,6 @@ from radarslam.slam.fused import (
     why_not,
 )
 
-__all__ = ["BAD_PREDICTION", "BAD_SCAN", "DEFAULT", "OK", "Family", "FusedParams", "Noise", "Stream", "engine", "family",
-           "run", "run_stream", "why_not", "_parameters", "_stream_arrays"]
+__all__ = ["BAD_PREDICTION", "BAD_SCAN", "DEFAULT", "OK", "Family", "FusedParams", "Noise", "Stream", "engine",
+           "family", "run", "run_stream", "why_not", "_parameters", "_stream_arrays"]
 

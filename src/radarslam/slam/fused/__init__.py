@@ -34,5 +34,5 @@ arrays, :func:`run`).
 from radarslam.slam.fused.engine import BAD_PREDICTION, BAD_SCAN, DEFAULT, OK, Family, engine, run_stream
 from radarslam.slam.fused.plan import FusedParams, Noise, Stream, _parameters, _stream_arrays, family, run, why_not
 
-__all__ = ["BAD_PREDICTION", "BAD_SCAN", "DEFAULT", "OK", "Family", "FusedParams", "Noise", "Stream", "engine", "family",
-           "run", "run_stream", "why_not", "_parameters", "_stream_arrays"]
+__all__ = ["BAD_PREDICTION", "BAD_SCAN", "DEFAULT", "OK", "Family", "FusedParams", "Noise", "Stream", "engine",
+           "family", "run", "run_stream", "why_not", "_parameters", "_stream_arrays"]

@@ -62,6 +62,22 @@ def _clock():  # pragma: no cover - compiled
     return t
 
 
+@njit(cache=True, inline="always")
+def _prediction_input(stream, noise, cfg, ev, e_odo, e_vel):  # pragma: no cover - compiled
+    """The input of event ``ev``, the odometer's ``e_odo``-th reading or the ``e_vel``-th body-velocity
+    input (c.10.5): ``(u, dt, U, Q, model, e_odo, e_vel)``, the count of its kind moved on; a
+    reading's control noise grown with the turn (c.11.8), both noises scaled to its interval (c.2.2)."""
+    if stream.kinds[ev] == ODOMETRY:
+        u, dt, U, Q = stream.odo[e_odo], stream.odo_dt[e_odo], noise.U, noise.Q
+        if cfg.turn_index >= 0:                                            # c.11.8
+            U = turn_noise(noise.U, u, cfg.turn_index, cfg.turn_gain2)
+        if abs(dt - cfg.noise_ref) > 1e-9:                                 # c.2.2
+            U, Q = U * (cfg.noise_ref / dt), Q * (dt / cfg.noise_ref)
+        return u, dt, U, Q, cfg.motion, e_odo + 1, e_vel
+    return (stream.vel[e_vel], stream.vel_dt[e_vel], stream.vel_U[e_vel], stream.vel_Q[e_vel], BODY_VELOCITY, e_odo,
+            e_vel + 1)
+
+
 class Family(NamedTuple):
     """Which of :func:`run_stream`'s optional branches a configuration takes: each is a compile-time
     constant of its own compiled engine (:func:`engine`), so that numba prunes the others before
@@ -84,10 +100,9 @@ def family_of(cfg) -> Family:
 
 @functools.lru_cache(maxsize=None)
 def engine(family: Family):
-    """The compiled :func:`run_stream` of ``family``: one closure per family over its flags (plain
-    bools, which numba's on-disk cache keys the machine code by, beside the signature), built once
-    per process. The steps that dispatch on a flag are inlined into it (``inline="always"``), so
-    that the branches a family never takes are pruned with their callees."""
+    """The compiled :func:`run_stream` of ``family``, built once per process: a closure over its flags
+    (plain bools, by which numba's disk cache keys the code beside the signature), into which the steps
+    that dispatch on a flag are inlined, so that a branch it never takes is pruned with its callees."""
     view, jcbb, bias = bool(family.view), bool(family.jcbb), bool(family.bias)
 
     @njit(cache=True)
@@ -134,17 +149,7 @@ def engine(family: Family):
         e_vel = 0
         for ev in range(stream.kinds.shape[0]):
             if stream.kinds[ev] != SCAN:                                               # 1
-                if stream.kinds[ev] == ODOMETRY:
-                    u, dt, U, Q, model = stream.odo[e_odo], stream.odo_dt[e_odo], noise.U, noise.Q, cfg.motion
-                    if cfg.turn_index >= 0:                                            # c.11.8
-                        U = turn_noise(noise.U, u, cfg.turn_index, cfg.turn_gain2)
-                    if abs(dt - cfg.noise_ref) > 1e-9:                                 # c.2.2
-                        U, Q = U * (cfg.noise_ref / dt), Q * (dt / cfg.noise_ref)
-                    e_odo += 1
-                else:                                                                  # c.10.5
-                    u, dt, U, Q, model = (stream.vel[e_vel], stream.vel_dt[e_vel], stream.vel_U[e_vel],
-                                          stream.vel_Q[e_vel], BODY_VELOCITY)
-                    e_vel += 1
+                u, dt, U, Q, model, e_odo, e_vel = _prediction_input(stream, noise, cfg, ev, e_odo, e_vel)
                 if not predict_step(x, P, u, dt, U, Q, pose_first, model, cfg, bias):      # c.2, c.11.2
                     status[0], status[1] = BAD_PREDICTION, ev
                     break
