@@ -125,7 +125,7 @@ def run_recording_cmd(args: argparse.Namespace) -> int:
     n = rec.scan_times().size
     from radarslam.experiments.first_run import announce, choose
 
-    first = choose(config.filter.backend)                    # the first-run rule (experiments/first_run.py)
+    first = choose(config.filter.backend, config=config)     # the first-run rule (experiments/first_run.py)
     announce(first, config)
     bar = Progress(n, 0, unit="scans", enabled=sys.stderr.isatty())
     run = run_recording(rec, config, on_scan=bar.update, first_run=first, align=args.align)

@@ -75,7 +75,7 @@ def run(args: argparse.Namespace) -> int:
 
     from radarslam.experiments.first_run import announce, choose
 
-    first = choose(config.filter.backend, simulation=True, matching=True)       # the first-run rule
+    first = choose(config.filter.backend, simulation=True, matching=True, config=config)  # the first-run rule
     announce(first, config)
     n = config.trajectory.n_steps
     bar = Progress(n, 0, unit="scans", enabled=n >= LONG_RUN_SCANS or sys.stderr.isatty())

@@ -69,11 +69,12 @@ def _orchestrator_ready() -> bool:
     return (ready(rule12) and ready(rma_efa_rows)) and (ready(batch_associate_scan) or ready(associate_scan))
 
 
-def _fused_ready() -> bool:
-    """True when the fused engine's machine code is ready (:func:`.first_run._filter_ready`)."""
+def _fused_ready(*families) -> bool:
+    """True when the machine code of the fused engine of ``families`` (none given: the default
+    family's) is ready (:func:`.first_run._filter_ready`)."""
     from radarslam.experiments.first_run import _filter_ready
 
-    return _filter_ready()
+    return _filter_ready(*families)
 
 
 def _background_note(config: Config) -> str:
@@ -102,11 +103,12 @@ def first_run_plan(config: Config, n_scans: int, fused: bool) -> FirstRunPlan:
         COMPILING,
         ORCHESTRATOR_SCAN_S,
         first_run_engine_scans,
+        fused_families,
     )
 
     if config.filter.backend != "numba":
         return FirstRunPlan("python")
-    if fused and _fused_ready():
+    if fused and _fused_ready(*fused_families(config)):
         return FirstRunPlan("fused")
     if fused and first_run_engine_scans(n_scans) == "auto":
         return FirstRunPlan("fused", announce=COMPILING)

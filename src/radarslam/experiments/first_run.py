@@ -51,10 +51,12 @@ def ready(dispatcher) -> bool:
     return bool(getattr(dispatcher, "signatures", ())) or _has_fresh_code(dispatcher) is True
 
 
-def _filter_ready() -> bool:
-    from radarslam.slam._fused import run_stream
+def _filter_ready(*families) -> bool:
+    """True when the fused engine of each of ``families`` is ready (none given: the default
+    family's; :func:`~radarslam.experiments.warmup.fused_families`)."""
+    from radarslam.experiments.warmup import _engines
 
-    return ready(run_stream)
+    return all(ready(d) for d in _engines(families))
 
 
 def _simulation_ready() -> bool:
@@ -69,13 +71,16 @@ def _matching_ready() -> bool:
     return ready(match_scans)
 
 
-def choose(backend: str, *, simulation: bool = False, matching: bool = False) -> FirstRun:
-    """The parts of a single run that go compiled: each one whose machine code is ready. With
-    ``backend`` "python" everything is the reference already and nothing is announced."""
+def choose(backend: str, *, simulation: bool = False, matching: bool = False, config=None) -> FirstRun:
+    """The parts of a single run that go compiled: each one whose machine code is ready, the
+    filter's for the family of ``config`` (None: the default family's). With ``backend`` "python"
+    everything is the reference already and nothing is announced."""
     if backend != "numba":
         return FirstRun(None, False, False, ())
+    from radarslam.experiments.warmup import fused_families
+
     parts = []
-    f = _filter_ready()
+    f = _filter_ready(*(fused_families(config) if config is not None else ()))
     if not f:
         parts.append("filter")
     s = not simulation or _simulation_ready()

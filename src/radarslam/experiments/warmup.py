@@ -76,32 +76,61 @@ def first_run_engine_scans(n_scans: int) -> str:
 
 def _has_fresh_code(dispatcher) -> bool | None:
     """Whether numba's cache holds machine code of ``dispatcher`` for its current source (an index
-    that exists and whose source stamp matches), or None where that cannot be told."""
+    that exists and whose source stamp matches), or None where that cannot be told. A closure (a
+    family's engine, :func:`radarslam.slam.fused.engine.engine`) shares its index with the other
+    families'; its own entries are those keyed by its closure's values."""
     try:
-        cache_file = dispatcher._cache._cache_file          # numba's FunctionCache, in-tree or user-wide
+        cache = dispatcher._cache
+        cache_file = cache._cache_file                      # numba's FunctionCache, in-tree or user-wide
         if not os.path.exists(cache_file._index_path):
             return False
-        return bool(cache_file._load_index())             # {} when stale (another source stamp)
-    except (AttributeError, OSError, EOFError, ValueError):  # pragma: no cover - another numba layout
+        index = cache_file._load_index()                    # {} when stale (another source stamp)
+        if dispatcher.py_func.__closure__ is None:
+            return bool(index)
+        own = cache._index_key(None, dispatcher.targetctx.codegen())[1:]
+        return any(key[1:] == own for key in index)
+    except (AttributeError, OSError, EOFError, ValueError, TypeError):  # pragma: no cover - another numba layout
         return None
 
 
-def cache_is_cold() -> bool:
-    """True when numba has no fresh cached machine code of the fused engine, the scan simulation or
-    the evaluation's matching (an index file absent or stale), so that the next compiled run
-    compiles first. Where that cannot be told, False."""
+def fused_families(config: Config, variants: tuple[Variant, ...] = ()) -> tuple:
+    """The families of the fused engine (:class:`radarslam.slam.fused.engine.Family`) that
+    ``config`` under each of ``variants`` (none: ``config`` itself) runs with, as arguments for
+    :func:`cache_is_cold`, :func:`fused_is_cold` and :func:`.first_run._filter_ready`: empty when
+    that is the default family alone (or the fused engine covers none of them)."""
+    from radarslam.slam._fused import DEFAULT, family, why_not
+    from radarslam.slam.filter import EkfSlam
+
+    found = set()
+    for v in variants or (None,):
+        slam = EkfSlam(config if v is None else apply_variant(config, v))
+        if why_not(slam) is None:
+            found.add(family(slam))
+    return () if found <= {DEFAULT} else tuple(sorted(found))
+
+
+def _engines(families: tuple) -> list:
+    """The compiled engines of ``families`` (none: the default family's)."""
+    from radarslam.slam._fused import DEFAULT, engine
+
+    return [engine(f) for f in families or (DEFAULT,)]
+
+
+def cache_is_cold(*families) -> bool:
+    """True when numba has no fresh cached machine code of the fused engine of each of ``families``
+    (none given: the default family, :func:`fused_families`), the scan simulation or the
+    evaluation's matching (an index file absent or stale), so that the next compiled run compiles
+    first. Where that cannot be told, False."""
     from radarslam.metrics._compiled import match_scans
     from radarslam.simulation._compiled import simulate_scans
-    from radarslam.slam._fused import run_stream
 
-    return any(_has_fresh_code(d) is False for d in (run_stream, simulate_scans, match_scans))
+    return any(_has_fresh_code(d) is False for d in (*_engines(families), simulate_scans, match_scans))
 
 
-def fused_is_cold() -> bool:
-    """True when numba has no fresh cached machine code of the fused engine."""
-    from radarslam.slam._fused import run_stream
-
-    return _has_fresh_code(run_stream) is False
+def fused_is_cold(*families) -> bool:
+    """True when numba has no fresh cached machine code of the fused engine of one of ``families``
+    (none given: the default family's)."""
+    return any(_has_fresh_code(d) is False for d in _engines(families))
 
 
 def _tiny_stream() -> list:
@@ -165,9 +194,12 @@ def warm_up(config: Config, variants: tuple[Variant, ...], log: Callable[[str], 
     run with (:func:`~.single.run_filter`): ``"orchestrator"`` when ``n_trials`` (None: unknown,
     compile the fused engine) on ``jobs`` workers end sooner so (:func:`first_run_engine`), the
     fused engine then compiling in the background (:mod:`.background`); else ``"auto"``."""
-    if config.filter.backend != "numba" or not cache_is_cold():
+    if config.filter.backend != "numba":
         return "auto"
-    short = (n_trials is not None and fused_is_cold()
+    families = fused_families(config, variants)
+    if not cache_is_cold(*families):
+        return "auto"
+    short = (n_trials is not None and fused_is_cold(*families)
              and first_run_engine(n_trials, len(variants), jobs) == "orchestrator")
     if short:
         _background(config, variants, log)
@@ -187,7 +219,7 @@ def warm_up(config: Config, variants: tuple[Variant, ...], log: Callable[[str], 
         if short:
             _orchestrator_trial(config, variants)
         else:
-            for v in variants:                   # one signature covers them; variants outside the engine compile here too
+            for v in variants:                   # each variant's family; variants outside the engine compile here too
                 run_filter(apply_variant(config, v), _tiny_stream())
         if side is None:                         # one core: the simulation and the evaluation next, here
             _side(to_dict(config), dict(variants[0].overlay))

@@ -7,17 +7,21 @@ Patch :mod:`radarslam.slam.fused.plan` (not this module) to wrap the parts :func
 from radarslam.slam.fused import (
     BAD_PREDICTION,
     BAD_SCAN,
+    DEFAULT,
     OK,
+    Family,
     FusedParams,
     Noise,
     Stream,
     _parameters,
     _stream_arrays,
+    engine,
+    family,
     run,
     run_stream,
     why_not,
 )
 
-__all__ = ["BAD_PREDICTION", "BAD_SCAN", "OK", "FusedParams", "Noise", "Stream", "run", "run_stream", "why_not",
-           "_parameters", "_stream_arrays"]
+__all__ = ["BAD_PREDICTION", "BAD_SCAN", "DEFAULT", "OK", "Family", "FusedParams", "Noise", "Stream", "engine",
+           "family", "run", "run_stream", "why_not", "_parameters", "_stream_arrays"]
 

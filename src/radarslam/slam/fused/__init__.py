@@ -26,12 +26,13 @@ Modules: :mod:`.storage` (the records as arrays: growth, removal, the record aft
 :mod:`.tracking` (steps 1-5), :mod:`.extent` (step 6), :mod:`.mapping` (steps 7-10), :mod:`.gate`
 (the Doppler gate), :mod:`.bias` (the prediction with odometry-bias states), :mod:`.view` (the partial view,
 docs/method.md a.12), :mod:`.engine` (:func:`run_stream`,
-the loop of named steps), :mod:`.plan` (the Python side: :func:`why_not`, the parameters by name,
-the stream as arrays, :func:`run`).
+the loop of named steps, compiled once per :class:`~.engine.Family` of configurations: :func:`engine`),
+:mod:`.plan` (the Python side: :func:`why_not`, the parameters by name and the family, the stream as
+arrays, :func:`run`).
 """
 
-from radarslam.slam.fused.engine import BAD_PREDICTION, BAD_SCAN, OK, run_stream
-from radarslam.slam.fused.plan import FusedParams, Noise, Stream, _parameters, _stream_arrays, run, why_not
+from radarslam.slam.fused.engine import BAD_PREDICTION, BAD_SCAN, DEFAULT, OK, Family, engine, run_stream
+from radarslam.slam.fused.plan import FusedParams, Noise, Stream, _parameters, _stream_arrays, family, run, why_not
 
-__all__ = ["BAD_PREDICTION", "BAD_SCAN", "OK", "FusedParams", "Noise", "Stream", "run", "run_stream", "why_not",
-           "_parameters", "_stream_arrays"]
+__all__ = ["BAD_PREDICTION", "BAD_SCAN", "DEFAULT", "OK", "Family", "FusedParams", "Noise", "Stream", "engine",
+           "family", "run", "run_stream", "why_not", "_parameters", "_stream_arrays"]

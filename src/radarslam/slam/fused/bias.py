@@ -6,7 +6,8 @@ compiled as they are: the correction of the input by the bias and its Jacobians
 the bias states' transition (:func:`~radarslam.slam.bias.bias_transition`) and the platform block's
 prediction (:func:`~radarslam.slam.bias.platform_prediction`), around the motion model's own step and
 Jacobians (:func:`~radarslam.slam.fused.tracking._motion`). Without bias states (``cfg.platform == 3``)
-:func:`predict_platform` is :func:`~radarslam.slam.fused.tracking.predict` itself.
+:func:`predict_platform` is :func:`~radarslam.slam.fused.tracking.predict` itself; the engine calls
+:func:`predict_step`, where that is a compile-time flag of its family.
 """
 
 from __future__ import annotations
@@ -44,10 +45,23 @@ def predict_platform(x, P, u, dt, U, Q, pose_first, model, cfg):  # pragma: no c
     (``cfg.bias_scaled``, ``cfg.bias_offset``, ``cfg.bias_turn``), the bias decays and drifts
     (``cfg.bias_drift``, ``cfg.bias_tau``); with ``cfg.fej`` the pose Jacobian's heading column from
     ``pose_first``, which then becomes the new pose (c.2.1, c.11.7). Returns False, leaving the
-    state as it was, if the prediction is not finite."""
+    state as it was, if the prediction is not finite. The engine calls :func:`predict_step`."""
+    return predict_step(x, P, u, dt, U, Q, pose_first, model, cfg, cfg.platform > POSE_DIM)
+
+
+@njit(cache=True, inline="always")
+def predict_step(x, P, u, dt, U, Q, pose_first, model, cfg, bias):  # pragma: no cover - compiled
+    """:func:`predict_platform` with ``bias`` (``cfg.platform > 3``) the engine's compile-time flag
+    (engine.Family): without it the prediction of c.2 alone, and the bias states' code pruned."""
+    if bias:
+        return predict_biased(x, P, u, dt, U, Q, pose_first, model, cfg)
+    return predict(x, P, u, dt, U, Q, pose_first, model, cfg)
+
+
+@njit(cache=True)
+def predict_biased(x, P, u, dt, U, Q, pose_first, model, cfg):  # pragma: no cover - compiled
+    """:func:`predict_platform` with the bias states (c.11.2)."""
     p = cfg.platform
-    if p == POSE_DIM:
-        return predict(x, P, u, dt, U, Q, pose_first, model, cfg)
     b = x[POSE_DIM:p].copy()
     uc = _correct_input(u, b, cfg.bias_scaled, cfg.bias_offset, cfg.bias_turn)
     Cu, Cb = _input_jacobians(u, b, cfg.bias_scaled, cfg.bias_offset, cfg.bias_turn)

@@ -6,17 +6,23 @@ function of :mod:`~radarslam.slam.fused.tracking` (steps 1-5), :mod:`~radarslam.
 :mod:`~radarslam.slam.fused.mapping` (steps 7-10), under the partial view those of
 :mod:`~radarslam.slam.fused.view` (a.12), then the record after the scan
 (:mod:`~radarslam.slam.fused.storage`).
+
+It is compiled once per :class:`Family` of configurations (:func:`engine`): the partial view, JCBB
+and the odometry-bias states are compile-time constants of the loop, so that a run compiles only
+the branches its family takes (docs/architecture.md "Where the compile time goes").
 """
 
 from __future__ import annotations
 
+import functools
 import time
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit, objmode
 
 from radarslam.landmarks.confirmation import Tentatives
-from radarslam.slam.fused.bias import predict_platform
+from radarslam.slam.fused.bias import predict_step
 from radarslam.slam.fused.extent import extent_step
 from radarslam.slam.fused.gate import moving_young, remember, veto
 from radarslam.slam.fused.mapping import alpha_test, augment, cluster, confirm, merge
@@ -40,6 +46,7 @@ from radarslam.slam.fused.tracking import (
     turn_noise,
 )
 from radarslam.slam.fused.view import associate_step, sift_step, view_walk
+from radarslam.slam.layout import POSE_DIM
 
 #: Status codes of :func:`run_stream`: what made the state non-finite, at which event.
 OK, BAD_PREDICTION, BAD_SCAN = 0, 1, 2
@@ -55,105 +62,144 @@ def _clock():  # pragma: no cover - compiled
     return t
 
 
-@njit(cache=True)
-def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
-    """Run the event stream through the filter.
+@njit(cache=True, inline="always")
+def _prediction_input(stream, noise, cfg, ev, e_odo, e_vel):  # pragma: no cover - compiled
+    """The input of event ``ev``, the odometer's ``e_odo``-th reading or the ``e_vel``-th body-velocity
+    input (c.10.5): ``(u, dt, U, Q, model, e_odo, e_vel)``, the count of its kind moved on; a
+    reading's control noise grown with the turn (c.11.8), both noises scaled to its interval (c.2.2)."""
+    if stream.kinds[ev] == ODOMETRY:
+        u, dt, U, Q = stream.odo[e_odo], stream.odo_dt[e_odo], noise.U, noise.Q
+        if cfg.turn_index >= 0:                                            # c.11.8
+            U = turn_noise(noise.U, u, cfg.turn_index, cfg.turn_gain2)
+        if abs(dt - cfg.noise_ref) > 1e-9:                                 # c.2.2
+            U, Q = U * (cfg.noise_ref / dt), Q * (dt / cfg.noise_ref)
+        return u, dt, U, Q, cfg.motion, e_odo + 1, e_vel
+    return (stream.vel[e_vel], stream.vel_dt[e_vel], stream.vel_U[e_vel], stream.vel_Q[e_vel], BODY_VELOCITY, e_odo,
+            e_vel + 1)
 
-    ``stream`` is a :class:`~radarslam.slam.fused.plan.Stream`: the events ``kinds`` (ODOMETRY,
-    SCAN, VELOCITY, in order); odometry ``e`` is ``odo[e] = [v, psi]`` over ``odo_dt[e]`` (the
-    model ``cfg.motion``); a body-velocity input ``e`` (Doppler odometry, c.10.5) is ``vel[e] =
-    [v_x, v_y, omega]`` over ``vel_dt[e]`` with its ``vel_U[e]`` and ``vel_Q[e]``; scan ``s`` has
-    the detections ``polar[scan_off[s]:scan_off[s + 1]]`` and the index ``scan_k[s]`` (under the
-    Doppler gate, ``cfg.doppler_gate``, its static ones, ``moving[s]`` dropped, and its moving
-    objects' detections ``seen[seen_off[s]:seen_off[s + 1]]`` when ``remember[s]``, c.10.4). ``noise`` is
-    a :class:`~radarslam.slam.fused.plan.Noise`, ``cfg`` the parameters
-    (:class:`~radarslam.slam.fused.plan.FusedParams`). Returns a tuple: status ``(code, event)``;
-    the number of scans run; the per-scan :class:`~radarslam.slam.fused.storage.ScanRecord` (pose,
-    covariance, detections, associated detections, landmarks, NIS sum and count and every NIS, map
-    offsets, the landmarks after the scans ``stream.trace`` marks, and with ``cfg.timing`` the wall
-    time of each scan with the predictions before it, else zeros); the maps after every scan
-    (``cfg.all_maps``) or after the last (:class:`~radarslam.slam.fused.storage.MapRows`); and the
-    per-scan associations as ``(scan, detection, landmark id)`` rows. All are cut to the scans run.
-    """
-    S = stream.scan_off.shape[0] - 1
-    x = x0.copy()
-    P = P0.copy()
-    pose_first = x0[:3].copy()                             # FEJ: the first estimate of the pose (c.2.1)
-    m_max = 1
-    for s in range(S):
-        m_max = max(m_max, stream.scan_off[s + 1] - stream.scan_off[s])
-    lm = new_landmarks(16, cfg.n_init + m_max + 1)        # landmark records in state order
-    N, next_id = 0, 0
-    tent = Tentatives(np.empty((0, 2)), np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64),
-                      np.empty(0, dtype=np.int64))      # tentatives (Rule 2)
-    rec, maps = new_records(S, 64, cfg.platform - 3)     # the odometry-bias states (c.11) after the pose
-    retired, n_retired = new_records(0, 16, 0)[1], 0       # the landmarks retired from the state (c.15)
-    arcs, n_arcs = new_arcs(64), 0                         # visible-arc widths (a.9)
-    mem, n_mem, n_now = new_memory(16), 0, 0               # the Doppler gate's memory (c.10.4)
-    a_rows = np.empty((64, 3), dtype=np.int64)
-    n_arows = 0
-    status = np.zeros(2, dtype=np.int64)
-    t_last = _clock() if cfg.timing else 0.0
-    dt_since = 0.0
-    e_odo, s, e_vel = 0, 0, 0
-    for ev in range(stream.kinds.shape[0]):
-        if stream.kinds[ev] != SCAN:                                               # 1
-            if stream.kinds[ev] == ODOMETRY:
-                u, dt, U, Q, model = stream.odo[e_odo], stream.odo_dt[e_odo], noise.U, noise.Q, cfg.motion
-                if cfg.turn_index >= 0:                                            # c.11.8
-                    U = turn_noise(noise.U, u, cfg.turn_index, cfg.turn_gain2)
-                if abs(dt - cfg.noise_ref) > 1e-9:                                 # c.2.2
-                    U, Q = U * (cfg.noise_ref / dt), Q * (dt / cfg.noise_ref)
-                e_odo += 1
-            else:                                                                  # c.10.5
-                u, dt, U, Q, model = (stream.vel[e_vel], stream.vel_dt[e_vel], stream.vel_U[e_vel],
-                                      stream.vel_Q[e_vel], BODY_VELOCITY)
-                e_vel += 1
-            if not predict_platform(x, P, u, dt, U, Q, pose_first, model, cfg):      # c.2, c.11.2
-                status[0], status[1] = BAD_PREDICTION, ev
-                break
-            dt_since += dt
-            continue
-        # ------------------------------------------------------------ one scan (a.8 steps 2-10)
-        polar = stream.polar[stream.scan_off[s]:stream.scan_off[s + 1]]
-        k = stream.scan_k[s]
-        first_platform = pose_first
-        pose_first = enter_sensor(x, P, stream, s, pose_first)                    # c.13: about its own radar
-        if cfg.doppler_gate and stream.remember[s]:                                # c.10.4.3
-            seen = stream.seen[stream.seen_off[s]:stream.seen_off[s + 1]]
-            mem, n_mem, n_now = remember(mem, n_mem, seen, x, k, cfg)
-        dt = dt_since if s > 0 else 0.0
+
+class Family(NamedTuple):
+    """Which of :func:`run_stream`'s optional branches a configuration takes: each is a compile-time
+    constant of its own compiled engine (:func:`engine`), so that numba prunes the others before
+    typing and never compiles what they call (docs/architecture.md "Where the compile time goes")."""
+
+    view: bool   #: the partial view's sifting, association and shapes (docs/method.md a.12)
+    jcbb: bool   #: the JCBB associator (c.4.1); else nearest neighbour, batch or batch-joint (``cfg.assoc``)
+    bias: bool   #: the odometry-bias states' prediction (c.11, ``cfg.platform > 3``)
+
+
+#: The family of every shipped profile but the partial view's, JCBB's and the bias states' (the car
+#: parks' three variants, the automotive profile, both Victoria Park modes).
+DEFAULT = Family(False, False, False)
+
+
+def family_of(cfg) -> Family:
+    """The :class:`Family` of the parameters ``cfg`` (:class:`~radarslam.slam.fused.plan.FusedParams`)."""
+    return Family(bool(cfg.pv.on), cfg.assoc == 3, cfg.platform > POSE_DIM)
+
+
+@functools.lru_cache(maxsize=None)
+def engine(family: Family):
+    """The compiled :func:`run_stream` of ``family``, built once per process: a closure over its flags
+    (plain bools, by which numba's disk cache keys the code beside the signature), into which the steps
+    that dispatch on a flag are inlined, so that a branch it never takes is pruned with its callees."""
+    view, jcbb, bias = bool(family.view), bool(family.jcbb), bool(family.bias)
+
+    @njit(cache=True)
+    def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
+        """Run the event stream through the filter.
+
+        ``stream`` is a :class:`~radarslam.slam.fused.plan.Stream`: the events ``kinds`` (ODOMETRY,
+        SCAN, VELOCITY, in order); odometry ``e`` is ``odo[e] = [v, psi]`` over ``odo_dt[e]`` (the
+        model ``cfg.motion``); a body-velocity input ``e`` (Doppler odometry, c.10.5) is ``vel[e] =
+        [v_x, v_y, omega]`` over ``vel_dt[e]`` with its ``vel_U[e]`` and ``vel_Q[e]``; scan ``s`` has
+        the detections ``polar[scan_off[s]:scan_off[s + 1]]`` and the index ``scan_k[s]`` (under the
+        Doppler gate, ``cfg.doppler_gate``, its static ones, ``moving[s]`` dropped, and its moving
+        objects' detections ``seen[seen_off[s]:seen_off[s + 1]]`` when ``remember[s]``, c.10.4). ``noise`` is
+        a :class:`~radarslam.slam.fused.plan.Noise`, ``cfg`` the parameters
+        (:class:`~radarslam.slam.fused.plan.FusedParams`). Returns a tuple: status ``(code, event)``;
+        the number of scans run; the per-scan :class:`~radarslam.slam.fused.storage.ScanRecord` (pose,
+        covariance, detections, associated detections, landmarks, NIS sum and count and every NIS, map
+        offsets, the landmarks after the scans ``stream.trace`` marks, and with ``cfg.timing`` the wall
+        time of each scan with the predictions before it, else zeros); the maps after every scan
+        (``cfg.all_maps``) or after the last (:class:`~radarslam.slam.fused.storage.MapRows`); and the
+        per-scan associations as ``(scan, detection, landmark id)`` rows. All are cut to the scans run.
+        """
+        S = stream.scan_off.shape[0] - 1
+        x = x0.copy()
+        P = P0.copy()
+        pose_first = x0[:3].copy()                             # FEJ: the first estimate of the pose (c.2.1)
+        m_max = 1
+        for s in range(S):
+            m_max = max(m_max, stream.scan_off[s + 1] - stream.scan_off[s])
+        lm = new_landmarks(16, cfg.n_init + m_max + 1)        # landmark records in state order
+        N, next_id = 0, 0
+        tent = Tentatives(np.empty((0, 2)), np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64),
+                          np.empty(0, dtype=np.int64))      # tentatives (Rule 2)
+        rec, maps = new_records(S, 64, cfg.platform - 3)     # the odometry-bias states (c.11) after the pose
+        retired, n_retired = new_records(0, 16, 0)[1], 0       # the landmarks retired from the state (c.15)
+        arcs, n_arcs = new_arcs(64), 0                         # visible-arc widths (a.9)
+        mem, n_mem, n_now = new_memory(16), 0, 0               # the Doppler gate's memory (c.10.4)
+        a_rows = np.empty((64, 3), dtype=np.int64)
+        n_arows = 0
+        status = np.zeros(2, dtype=np.int64)
+        t_last = _clock() if cfg.timing else 0.0
         dt_since = 0.0
-        view_walk(x, P, lm, N, cfg)                                                # a.12.5 (partial view)
-        prior = _blocks(x, P, cfg.platform)                                        # Decision 3
-        cand, shapes, terms = sift_step(x, P, polar, lm, N, prior, noise, cfg)     # 3
-        cidx = np.flatnonzero(cand)
-        x, P, out, nis = associate_step(x, P, polar, cidx, lm, N, pose_first, shapes, terms, noise, cfg)  # 4
-        n_assoc, aoff, arow, a_rows, n_arows = group_associations(out, cidx, N, lm.ids, s, a_rows, n_arows)
-        young = moving_young(x, lm, N, k, mem, n_now, cfg)                        # c.10.4.4
-        x, P, N, old, retired, n_retired = remove_unseen(x, P, lm, N, aoff, k, young, stream.sensor_view[s],
-                                                         retired, n_retired, arcs, cfg)  # 5, c.15
-        xy = _to_world(x, polar)                                    # seed eq. (3), updated pose
-        lm, arcs, n_arcs = extent_step(x, P, polar, xy, lm, N, old, aoff, arow, prior, dt, arcs, n_arcs,
-                                       noise, cfg)                                 # 6
-        clusters = cluster(xy, polar, cand, cfg)                                   # 7
-        fresh = alpha_test(x, P, polar, clusters, noise, cfg)                      # 7
-        fresh = veto(fresh, clusters, xy, mem, n_mem, cfg)                         # c.10.4.3
-        confirmed, tent = confirm(tent, fresh, clusters, xy, cfg)                  # 8
-        x, P, lm, N, next_id = augment(x, P, lm, N, next_id, confirmed, clusters, polar, k, noise, cfg)  # 9
-        x, P, lm, N = merge(x, P, lm, N, arcs, cfg)                                # 10
-        leave_sensor(x, P, stream, s)                                              # c.13
-        pose_first = first_platform
-        if not _all_finite(x, P):
-            status[0], status[1] = BAD_SCAN, ev
-            break
-        rec = record_scan(rec, s, x, P, lm, N, polar.shape[0] + stream.moving[s], n_assoc, nis, stream.trace[s])
-        if cfg.all_maps or s == S - 1:
-            maps = record_map(rec, maps, s, x, P, lm, N, arcs, retired, n_retired, cfg)
-        if cfg.timing:
-            t1 = _clock()
-            rec.seconds[s] = t1 - t_last
-            t_last = t1
-        s += 1
-    return status, s, cut_records(rec, maps, s), a_rows[:n_arows]
+        e_odo, s, e_vel = 0, 0, 0
+        for ev in range(stream.kinds.shape[0]):
+            if stream.kinds[ev] != SCAN:                                               # 1
+                u, dt, U, Q, model, e_odo, e_vel = _prediction_input(stream, noise, cfg, ev, e_odo, e_vel)
+                if not predict_step(x, P, u, dt, U, Q, pose_first, model, cfg, bias):      # c.2, c.11.2
+                    status[0], status[1] = BAD_PREDICTION, ev
+                    break
+                dt_since += dt
+                continue
+            # ------------------------------------------------------------ one scan (a.8 steps 2-10)
+            polar = stream.polar[stream.scan_off[s]:stream.scan_off[s + 1]]
+            k = stream.scan_k[s]
+            first_platform = pose_first
+            pose_first = enter_sensor(x, P, stream, s, pose_first)                    # c.13: about its own radar
+            if cfg.doppler_gate and stream.remember[s]:                                # c.10.4.3
+                seen = stream.seen[stream.seen_off[s]:stream.seen_off[s + 1]]
+                mem, n_mem, n_now = remember(mem, n_mem, seen, x, k, cfg)
+            dt = dt_since if s > 0 else 0.0
+            dt_since = 0.0
+            view_walk(x, P, lm, N, cfg)                                                # a.12.5 (partial view)
+            prior = _blocks(x, P, cfg.platform)                                        # Decision 3
+            cand, shapes, terms = sift_step(x, P, polar, lm, N, prior, noise, cfg, view)  # 3
+            cidx = np.flatnonzero(cand)
+            x, P, out, nis = associate_step(x, P, polar, cidx, lm, N, pose_first, shapes, terms, noise, cfg,
+                                            view, jcbb)                                # 4
+            n_assoc, aoff, arow, a_rows, n_arows = group_associations(out, cidx, N, lm.ids, s, a_rows, n_arows)
+            young = moving_young(x, lm, N, k, mem, n_now, cfg)                        # c.10.4.4
+            x, P, N, old, retired, n_retired = remove_unseen(x, P, lm, N, aoff, k, young, stream.sensor_view[s],
+                                                             retired, n_retired, arcs, cfg)  # 5, c.15
+            xy = _to_world(x, polar)                                    # seed eq. (3), updated pose
+            lm, arcs, n_arcs = extent_step(x, P, polar, xy, lm, N, old, aoff, arow, prior, dt, arcs, n_arcs,
+                                           noise, cfg, view)                           # 6
+            clusters = cluster(xy, polar, cand, cfg)                                   # 7
+            fresh = alpha_test(x, P, polar, clusters, noise, cfg)                      # 7
+            fresh = veto(fresh, clusters, xy, mem, n_mem, cfg)                         # c.10.4.3
+            confirmed, tent = confirm(tent, fresh, clusters, xy, cfg)                  # 8
+            x, P, lm, N, next_id = augment(x, P, lm, N, next_id, confirmed, clusters, polar, k, noise, cfg)  # 9
+            x, P, lm, N = merge(x, P, lm, N, arcs, cfg)                                # 10
+            leave_sensor(x, P, stream, s)                                              # c.13
+            pose_first = first_platform
+            if not _all_finite(x, P):
+                status[0], status[1] = BAD_SCAN, ev
+                break
+            rec = record_scan(rec, s, x, P, lm, N, polar.shape[0] + stream.moving[s], n_assoc, nis, stream.trace[s])
+            if cfg.all_maps or s == S - 1:
+                maps = record_map(rec, maps, s, x, P, lm, N, arcs, retired, n_retired, cfg)
+            if cfg.timing:
+                t1 = _clock()
+                rec.seconds[s] = t1 - t_last
+                t_last = t1
+            s += 1
+        return status, s, cut_records(rec, maps, s), a_rows[:n_arows]
 
+    return run_stream
+
+
+#: The default family's engine (:data:`DEFAULT`), under its former name.
+run_stream = engine(DEFAULT)

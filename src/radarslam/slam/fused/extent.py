@@ -34,12 +34,12 @@ def _arc_widths(polar, lm, N, old, aoff, arow, arcs, n_arcs, cfg):  # pragma: no
 
 
 @njit(cache=True, inline="always")
-def extent_step(x, P, polar, xy, lm, N, old, aoff, arow, prior, dt, arcs, n_arcs, noise, cfg):  # pragma: no cover - compiled
+def extent_step(x, P, polar, xy, lm, N, old, aoff, arow, prior, dt, arcs, n_arcs, noise, cfg, view):  # pragma: no cover - compiled
     """Step 6: the extent step (a.3-a.5) with the detections ``xy`` in the world frame of the
     updated pose, about the posterior centroids (``cfg.posterior``) or the prior ones (``prior``,
     by the rows before the removal, ``old``); with ``cfg.mem`` MEM-EKF* (a.10) instead of the
     random-matrix step; with ``cfg.arc`` the visible-arc widths (a.9); under the partial view
-    (``cfg.pv.on``) the shapes of a.12.7 after it.
+    (``view``: ``cfg.pv.on``, the engine's compile-time flag, engine.Family) the shapes of a.12.7 after it.
     Returns ``(lm, arcs, n_arcs)`` (buffers may grow)."""
     if not cfg.track or N == 0:
         return lm, arcs, n_arcs
@@ -68,7 +68,7 @@ def extent_step(x, P, polar, xy, lm, N, old, aoff, arow, prior, dt, arcs, n_arcs
                      dt, cfg.tau, cfg.gamma, cfg.eig_floor, cfg.upper, True)
     if cfg.arc:                                                                                        # a.9
         arcs, n_arcs = _arc_widths(polar, lm, N, old, aoff, arow, arcs, n_arcs, cfg)
-    if cfg.pv.on:                                                                                      # a.12.7
+    if view:                                                                                           # a.12.7
         v = cfg.pv
         view_rows(lm, N, old, aoff, arow, polar, xy, cents, ccovs, pose, noise.R_ext, v.Q, v.qv2, v.rel, v.spread_only,
                   v.shape_step)

@@ -1,7 +1,8 @@
 """The fused engine's Python side: which configurations it covers (:func:`why_not`), its
 parameters by name (:class:`FusedParams`, from the configuration by :func:`_parameters`), the event
 stream as arrays (:class:`Stream`, :func:`_stream_arrays`), and :func:`run`, which calls the
-compiled :func:`~radarslam.slam.fused.engine.run_stream` and names what it returns.
+compiled :func:`~radarslam.slam.fused.engine.run_stream` of the configuration's family
+(:func:`~radarslam.slam.fused.engine.engine`, :func:`family`) and names what it returns.
 
 The records passed to the compiled code are named tuples (:class:`typing.NamedTuple`) of fixed
 types (int64, float64, bool, and float64 or int64 arrays), so that numba compiles one
@@ -15,7 +16,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from radarslam.slam.fused.engine import BAD_PREDICTION, ODOMETRY, OK, SCAN, VELOCITY, run_stream
+from radarslam.slam.fused.engine import BAD_PREDICTION, ODOMETRY, OK, SCAN, VELOCITY, engine, family_of
 from radarslam.slam.fused.view import ViewParams, view_parameters
 from radarslam.slam.sensor_frame import mount_of
 
@@ -188,6 +189,13 @@ def why_not(slam, events=None) -> str | None:
         if big > DENSE_MAX:
             return f"a scan of {big} detections (the fused engine clusters up to {DENSE_MAX})"
     return None
+
+
+def family(slam):
+    """The :class:`~radarslam.slam.fused.engine.Family` of ``slam``'s compiled engine (``slam`` one
+    :func:`why_not` accepts): the optional branches its configuration takes (from the same
+    :func:`_parameters` :func:`run` passes)."""
+    return family_of(_parameters(slam))
 
 
 def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParams:
@@ -446,7 +454,7 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None):
     Cp0 = np.asarray(ext.Cp0, dtype=float) if cfg.mem else np.zeros((3, 3))
     noise = Noise(slam.R, ext.R_extent, slam.U, slam.Q, np.ascontiguousarray(prior_spread, dtype=float), gates, Cp0,
                   np.ascontiguousarray(slam.R_assoc, dtype=float))
-    status, n_scans, (rec, maps), arows = run_stream(stream, st.x, st.P, noise, cfg)
+    status, n_scans, (rec, maps), arows = engine(family_of(cfg))(stream, st.x, st.P, noise, cfg)
     if status[0] != OK:
         raise InputError(_failure(events, stream, status, n_scans))
     if stream.kept.shape[0] and arows.shape[0]:           # the gate's kept rows back to the scan's detections

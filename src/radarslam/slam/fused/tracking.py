@@ -159,16 +159,9 @@ def _linearisation(x, lm, N, pose_first, platform):  # pragma: no cover - compil
 
 
 @njit(cache=True, inline="always")
-def associate_and_update(x, P, polar, cidx, lm, N, pose_first, noise, cfg):  # pragma: no cover - compiled
-    """Step 4: associate the candidates ``cidx`` and update (c.4, a.7.2-a.7.3) with the
-    nearest-neighbour (``cfg.assoc`` 0), batch (1), batch-joint (2) or JCBB (3, c.4.1) associator, the noise
-    inflated by the spread of initialised extents (``cfg.inflate``) and, before, by the prior
-    spread (``cfg.pre_prior``); with ``cfg.fej`` the Jacobians at the first estimates (c.2.1).
-    Returns ``(x, P, landmark per candidate or -1, NIS values)``."""
-    out = np.full(cidx.shape[0], -1, dtype=np.int64)
-    nis = np.empty(0)
-    if N == 0:
-        return x, P, out, nis
+def _inflation(lm, N, noise, cfg):  # pragma: no cover - compiled
+    """Step 4's noise inflation: ``(gX, has)``, the spread of initialised extents (``cfg.inflate``)
+    and, before, the prior spread (``cfg.pre_prior``)."""
     gX = np.zeros((N, 2, 2))
     has = np.zeros(N, dtype=np.bool_)
     if cfg.inflate:
@@ -179,20 +172,36 @@ def associate_and_update(x, P, polar, cidx, lm, N, pose_first, noise, cfg):  # p
             elif cfg.pre_prior:
                 gX[j] = noise.prior_spread
                 has[j] = True
+    return gX, has
+
+
+@njit(cache=True, inline="always")
+def associate_and_update(x, P, polar, cidx, lm, N, pose_first, noise, cfg):  # pragma: no cover - compiled
+    """Step 4: associate the candidates ``cidx`` and update (c.4, a.7.2-a.7.3) with the
+    nearest-neighbour (``cfg.assoc`` 0), batch (1) or batch-joint (2) associator (JCBB:
+    :func:`jcbb_and_update`), the noise inflated (:func:`_inflation`); with ``cfg.fej`` the
+    Jacobians at the first estimates (c.2.1). Returns ``(x, P, landmark per candidate or -1, NIS
+    values)``."""
+    if N == 0:
+        return x, P, np.full(cidx.shape[0], -1, dtype=np.int64), np.empty(0)
+    gX, has = _inflation(lm, N, noise, cfg)
     R = noise.R_assoc                                   # c.11.9: n_c R (R for independent errors)
     xlin = _linearisation(x, lm, N, pose_first, cfg.platform) if cfg.fej else np.empty(0)
     if cfg.assoc == 0:
-        x, P, out, nis = associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta, cfg.platform, xlin)
-    elif cfg.assoc == 3:
-        x, P, out, nis, _ = jcbb_associate_scan(x, P, polar, cidx, R, gX, has, cfg.platform, cfg.jcbb_eps,
-                                                cfg.jcbb_min_samples, cfg.jcbb_prefilter, noise.gates,
-                                                cfg.jcbb_max_nodes)
-    elif cfg.assoc == 1:
-        x, P, out, nis = batch_associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta,
-                                              cfg.platform, xlin)
-    else:
-        x, P, out, nis = joint_batch_associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta,
-                                                    cfg.platform, xlin)
+        return associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta, cfg.platform, xlin)
+    if cfg.assoc == 1:
+        return batch_associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta, cfg.platform, xlin)
+    return joint_batch_associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta, cfg.platform, xlin)
+
+
+@njit(cache=True)
+def jcbb_and_update(x, P, polar, cidx, lm, N, noise, cfg):  # pragma: no cover - compiled
+    """Step 4 with the JCBB associator (``cfg.assoc`` 3, c.4.1), as :func:`associate_and_update`."""
+    if N == 0:
+        return x, P, np.full(cidx.shape[0], -1, dtype=np.int64), np.empty(0)
+    gX, has = _inflation(lm, N, noise, cfg)
+    x, P, out, nis, _ = jcbb_associate_scan(x, P, polar, cidx, noise.R_assoc, gX, has, cfg.platform, cfg.jcbb_eps,
+                                            cfg.jcbb_min_samples, cfg.jcbb_prefilter, noise.gates, cfg.jcbb_max_nodes)
     return x, P, out, nis
 
 

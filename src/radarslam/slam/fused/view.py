@@ -30,7 +30,7 @@ from radarslam.slam._numba import (_joseph_update_inplace, _polar_to_sensor_xy, 
 from radarslam.slam._view_compiled import (corrected_centroid, exp_sym2, innovation_cov, model_error_rows, polar_row,
                                            polar_rows, sensor_xy_rows, shape_error_one, shape_error_rows, view_batch_noise,
                                            view_log_distance, view_rows, view_walk_rows, view_xi_rows)
-from radarslam.slam.fused.tracking import _to_world, associate_and_update, sift
+from radarslam.slam.fused.tracking import _to_world, associate_and_update, jcbb_and_update, sift
 from radarslam.slam.layout import POSE_DIM
 
 #: ``ViewParams.shape_mode``: the arc model's shape (extent.view_shape).
@@ -138,12 +138,13 @@ def view_sift(x, P, polar, N, prior, terms, noise, cfg):  # pragma: no cover - c
     return compiled_candidates(xy, pos_prior, cfg.sift_radius * cfg.sift_radius, inside, has)   # c.3's decision
 
 
-@njit(cache=True)
-def sift_step(x, P, polar, lm, N, prior, noise, cfg):  # pragma: no cover - compiled
+@njit(cache=True, inline="always")
+def sift_step(x, P, polar, lm, N, prior, noise, cfg, view):  # pragma: no cover - compiled
     """Step 3 (:func:`~radarslam.slam.fused.tracking.sift`, or :func:`view_sift` under the partial
-    view). Returns ``(cand, shapes, terms)``: the shapes and ``(mu, B, S)`` of every landmark at
-    the predicted state under the partial view (empty otherwise), which association reads too."""
-    if cfg.pv.on:
+    view, ``view``: ``cfg.pv.on``, the engine's compile-time flag, engine.Family). Returns ``(cand,
+    shapes, terms)``: the shapes and ``(mu, B, S)`` of every landmark at the predicted state under
+    the partial view (empty otherwise), which association reads too."""
+    if view:
         shapes = view_shapes(lm, N, cfg)
         terms = view_terms(x, shapes, N, cfg)
         return view_sift(x, P, polar, N, prior, terms, noise, cfg), shapes, terms
@@ -151,12 +152,16 @@ def sift_step(x, P, polar, lm, N, prior, noise, cfg):  # pragma: no cover - comp
     return sift(x, P, polar, lm, N, prior, noise, cfg), e2, (np.empty((0, 2)), e2, e2, np.empty((0, 2, 3)))
 
 
-@njit(cache=True)
-def associate_step(x, P, polar, cidx, lm, N, pose_first, shapes, terms, noise, cfg):  # pragma: no cover - compiled
-    """Step 4 (:func:`~radarslam.slam.fused.tracking.associate_and_update`, or :func:`view_associate`
-    under the partial view). Returns ``(x, P, landmark per candidate or -1, NIS values)``."""
-    if cfg.pv.on:
+@njit(cache=True, inline="always")
+def associate_step(x, P, polar, cidx, lm, N, pose_first, shapes, terms, noise, cfg, view, jcbb):  # pragma: no cover - compiled
+    """Step 4 (:func:`~radarslam.slam.fused.tracking.associate_and_update`, with ``jcbb``
+    :func:`~radarslam.slam.fused.tracking.jcbb_and_update`, or :func:`view_associate` under the
+    partial view, ``view``; both the engine's compile-time flags, engine.Family). Returns ``(x, P,
+    landmark per candidate or -1, NIS values)``."""
+    if view:
         return view_associate(x, P, polar, cidx, lm, N, shapes, terms, noise, cfg)
+    if jcbb:
+        return jcbb_and_update(x, P, polar, cidx, lm, N, noise, cfg)
     return associate_and_update(x, P, polar, cidx, lm, N, pose_first, noise, cfg)
 
 
