@@ -241,22 +241,29 @@ def read_bag(path: str | Path, radar_topic: str | Sequence[str], odom_topic: str
         st, lg, frames, clouds, mapping = _read_radar(bag, radar_topic, doppler_field)
         radar_ns, radar_log = _times(st, lg, f"bag {path} topic {radar_topic}", notes)
         uses = [(radar_topic, st, lg, radar_log)]
-        odo_ns, odo = np.empty(0, dtype=np.int64), np.empty((0, 2))
-        if odom_topic:
-            ost, olg, odo = _read_poses(bag, odom_topic, "odom")
-            odo_ns, odo_log = _times(ost, olg, f"bag {path} topic {odom_topic}", notes)
-            uses.append((odom_topic, ost, olg, odo_log))
-        truth_ns = truth = None
-        if truth_topic:
-            tst, tlg, truth = _read_poses(bag, truth_topic, "truth")
-            truth_ns, tr_log = _times(tst, tlg, f"bag {path} topic {truth_topic}", notes)
-            uses.append((truth_topic, tst, tlg, tr_log))
+        odo_ns, odo, truth_ns, truth = _read_odometry_and_truth(bag, path, odom_topic, truth_topic, notes, uses)
         _check_clocks(path, uses)
         mounting = _mounting(bag, frames[0], notes)
     finally:
         reader.close()
     return _assemble(path, radar_topic, odom_topic, truth_topic, radar_ns, clouds, mapping, odo_ns, odo,
                      truth_ns, truth, mounting, notes)
+
+
+def _read_odometry_and_truth(bag: _Bag, path: Path, odom_topic, truth_topic, notes: list[str], uses: list):
+    """The odometry ``(times ns, rows)`` (empty without ``odom_topic``) and the truth ``(times ns, poses)``
+    (None without ``truth_topic``); each topic's clock use is appended to ``uses`` (:func:`_check_clocks`)."""
+    odo_ns, odo = np.empty(0, dtype=np.int64), np.empty((0, 2))
+    if odom_topic:
+        ost, olg, odo = _read_poses(bag, odom_topic, "odom")
+        odo_ns, odo_log = _times(ost, olg, f"bag {path} topic {odom_topic}", notes)
+        uses.append((odom_topic, ost, olg, odo_log))
+    truth_ns = truth = None
+    if truth_topic:
+        tst, tlg, truth = _read_poses(bag, truth_topic, "truth")
+        truth_ns, tr_log = _times(tst, tlg, f"bag {path} topic {truth_topic}", notes)
+        uses.append((truth_topic, tst, tlg, tr_log))
+    return odo_ns, odo, truth_ns, truth
 
 
 def _check_clocks(path: Path, uses) -> None:
@@ -378,16 +385,7 @@ def _read_rig(path: Path, topics: list[str], odom_topic, truth_topic, doppler_fi
                                  "scan time")
             uses.append((topic, st, lg, is_log))
             radar.append((topic, ns, frames[0], clouds, mapping))
-        odo_ns, odo = np.empty(0, dtype=np.int64), np.empty((0, 2))
-        if odom_topic:
-            ost, olg, odo = _read_poses(bag, odom_topic, "odom")
-            odo_ns, odo_log = _times(ost, olg, f"bag {path} topic {odom_topic}", notes)
-            uses.append((odom_topic, ost, olg, odo_log))
-        truth_ns = truth = None
-        if truth_topic:
-            tst, tlg, truth = _read_poses(bag, truth_topic, "truth")
-            truth_ns, tr_log = _times(tst, tlg, f"bag {path} topic {truth_topic}", notes)
-            uses.append((truth_topic, tst, tlg, tr_log))
+        odo_ns, odo, truth_ns, truth = _read_odometry_and_truth(bag, path, odom_topic, truth_topic, notes, uses)
         _check_clocks(path, uses)
         tf = _static_transforms(bag)
         rig: dict[int, Mounting] = {}
