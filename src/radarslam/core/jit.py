@@ -13,6 +13,7 @@ import types
 
 import numpy as np
 from numba import njit
+from numba.core.registry import CPUDispatcher
 from numba.extending import overload
 
 
@@ -49,3 +50,30 @@ def compile_kernels(*funcs, replace=None):
     for g in spaces:
         g.update(compiled)
     return compiled
+
+
+class CompiledOnly(CPUDispatcher):
+    """A numba dispatcher for a function that only compiled code calls (:func:`compiled_only`):
+    called from Python it refuses in one line instead of jumping to an entry point that was never
+    built."""
+
+    def __call__(self, *args, **kwargs):
+        raise TypeError(f"{self.py_func.__module__}.{self.py_func.__qualname__} is compiled without a Python "
+                        "entry point (core.jit.compiled_only): call it from compiled code")
+
+
+def compiled_only(func):
+    """``njit(cache=True)`` for a function that only other compiled functions call: its machine code
+    without the two entry points numba builds for every compiled function, the one Python calls (it
+    unboxes each argument from a Python object: for the fused engine's configuration and landmark
+    tuples, dozens of fields) and the C one (a first-class function pointer). Neither is ever used
+    by a callee, and together with inlining every step into its caller they were a fifth of the
+    fused engine's compile (docs/architecture.md "Where the compile time goes"). Numerically the same code.
+
+    The cache keys a function by its file and qualified name, not by these options, so the same
+    function must never also be compiled with the entry points (:class:`CompiledOnly` refuses a
+    Python call rather than compiling one)."""
+    disp = CompiledOnly(py_func=func, locals={},
+                        targetoptions={"nopython": True, "no_cpython_wrapper": True, "no_cfunc_wrapper": True})
+    disp.enable_caching()
+    return disp

@@ -28,6 +28,12 @@ PYTHON_SCAN_S = 0.0168
 ORCHESTRATOR_COMPILE_S = 20.0
 #: While numba compiles in the foreground, a line every this many seconds (no silence over 20 s).
 HEARTBEAT_S = 10.0
+#: The fused engine's cost a scan once its code is ready: it runs the whole stream in one compiled
+#: call, which prints nothing until it returns (Victoria Park's 7,230 scans warm: 12.7-15.3 s, with
+#: the other core busy, 1.8-2.1 ms a scan as the map grows). A run expected to take longer than
+#: ANNOUNCE_S says so on its first line, with the expected seconds (issue 34: first line within 3 s).
+FUSED_SCAN_S = 0.0018
+ANNOUNCE_S = 3.0
 
 
 @dataclass(frozen=True)
@@ -50,6 +56,16 @@ class FirstRunPlan:
     compiles: bool = False
     compile_s: float = 0.0
     announce: str = ""
+
+
+def _one_call_note(n_scans: int) -> str:
+    """What the first line says of a warm fused run of ``n_scans`` scans: nothing when it is short
+    (under :data:`ANNOUNCE_S`), else the scans, the one compiled call and its expected seconds."""
+    expected = n_scans * FUSED_SCAN_S
+    if expected < ANNOUNCE_S:
+        return ""
+    return (f"{n_scans} scans through the compiled fused engine in one call (about {expected:.0f} s at "
+            f"{1e3 * FUSED_SCAN_S:.1f} ms a scan; it prints nothing until it returns)")
 
 
 def _with_backend(config: Config, backend: str) -> Config:
@@ -109,7 +125,7 @@ def first_run_plan(config: Config, n_scans: int, fused: bool) -> FirstRunPlan:
     if config.filter.backend != "numba":
         return FirstRunPlan("python")
     if fused and _fused_ready(*fused_families(config)):
-        return FirstRunPlan("fused")
+        return FirstRunPlan("fused", announce=_one_call_note(n_scans))
     if fused and first_run_engine_scans(n_scans) == "auto":
         return FirstRunPlan("fused", announce=COMPILING)
     later = _background_note(config) if fused else ""

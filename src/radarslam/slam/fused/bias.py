@@ -16,7 +16,7 @@ import math
 
 from numba import njit
 
-from radarslam.core.jit import compile_kernels
+from radarslam.core.jit import compile_kernels, compiled_only
 from radarslam.models.input_bias import correct_input, input_jacobians, turn_terms
 from radarslam.slam.bias import bias_transition, platform_jacobian, platform_prediction
 from radarslam.slam.fused.tracking import _fej_motion_jacobian, _motion, predict
@@ -30,7 +30,7 @@ _bias_transition = _K["bias_transition"]
 _platform_prediction = _K["platform_prediction"]
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def _finite(a):  # pragma: no cover - compiled
     for v in a.ravel():
         if not math.isfinite(v):
@@ -58,7 +58,7 @@ def predict_step(x, P, u, dt, U, Q, pose_first, model, cfg, bias):  # pragma: no
     return predict(x, P, u, dt, U, Q, pose_first, model, cfg)
 
 
-@njit(cache=True)
+@compiled_only
 def predict_biased(x, P, u, dt, U, Q, pose_first, model, cfg):  # pragma: no cover - compiled
     """:func:`predict_platform` with the bias states (c.11.2)."""
     p = cfg.platform

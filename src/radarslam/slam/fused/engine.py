@@ -21,6 +21,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit, objmode
 
+from radarslam.core.jit import compiled_only
 from radarslam.landmarks.confirmation import Tentatives
 from radarslam.slam.fused.bias import predict_step
 from radarslam.slam.fused.extent import extent_step
@@ -62,7 +63,7 @@ def _clock():  # pragma: no cover - compiled
     return t
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def _prediction_input(stream, noise, cfg, ev, e_odo, e_vel):  # pragma: no cover - compiled
     """The input of event ``ev``, the odometer's ``e_odo``-th reading or the ``e_vel``-th body-velocity
     input (c.10.5): ``(u, dt, U, Q, model, e_odo, e_vel)``, the count of its kind moved on; a
@@ -133,19 +134,19 @@ def engine(family: Family):
         for s in range(S):
             m_max = max(m_max, stream.scan_off[s + 1] - stream.scan_off[s])
         lm = new_landmarks(16, cfg.n_init + m_max + 1)        # landmark records in state order
-        N, next_id = 0, 0
+        zero = np.int64(0)    # counters: from a literal 0 numba compiles each callee twice (Literal[int](0), int64)
+        N, next_id = zero, zero
         tent = Tentatives(np.empty((0, 2)), np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64),
                           np.empty(0, dtype=np.int64))      # tentatives (Rule 2)
         rec, maps = new_records(S, 64, cfg.platform - 3)     # the odometry-bias states (c.11) after the pose
-        retired, n_retired = new_records(0, 16, 0)[1], 0       # the landmarks retired from the state (c.15)
-        arcs, n_arcs = new_arcs(64), 0                         # visible-arc widths (a.9)
-        mem, n_mem, n_now = new_memory(16), 0, 0               # the Doppler gate's memory (c.10.4)
-        a_rows = np.empty((64, 3), dtype=np.int64)
-        n_arows = 0
+        retired, n_retired = new_records(0, 16, 0)[1], zero    # the landmarks retired from the state (c.15)
+        arcs, n_arcs = new_arcs(64), zero                      # visible-arc widths (a.9)
+        mem, n_mem, n_now = new_memory(16), zero, zero         # the Doppler gate's memory (c.10.4)
+        a_rows, n_arows = np.empty((64, 3), dtype=np.int64), zero
         status = np.zeros(2, dtype=np.int64)
         t_last = _clock() if cfg.timing else 0.0
         dt_since = 0.0
-        e_odo, s, e_vel = 0, 0, 0
+        e_odo, s, e_vel = zero, zero, zero
         for ev in range(stream.kinds.shape[0]):
             if stream.kinds[ev] != SCAN:                                               # 1
                 u, dt, U, Q, model, e_odo, e_vel = _prediction_input(stream, noise, cfg, ev, e_odo, e_vel)

@@ -13,12 +13,13 @@ import math
 import numpy as np
 from numba import njit
 
+from radarslam.core.jit import compiled_only
 from radarslam.extent._compiled import (arc_widths_rows, buffer_need, initialise_rows, mem_ekf_initialise_rows,
                                         mem_ekf_rows, rma_efa_rows, view_rows)
 from radarslam.slam.fused.storage import _blocks, add_arc, with_buffer
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def _arc_widths(polar, lm, N, old, aoff, arow, arcs, n_arcs, cfg):  # pragma: no cover - compiled
     """The visible-arc part (a.9): each landmark's width of this scan
     (:func:`radarslam.extent.visible_arc.arc_widths_rows`), kept in its list when finite.

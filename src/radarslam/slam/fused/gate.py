@@ -19,12 +19,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from radarslam.core.jit import compiled_only
 from radarslam.slam.fused.storage import Memory, _grow_rows
 
 
-@njit(cache=True)
+@compiled_only
 def remember(mem, n_mem, seen, x, k, cfg):  # pragma: no cover - compiled
     """DopplerGate._remember of scan ``k``: its moving detections ``seen`` (platform frame) in the
     world frame of the pose ``x[:3]`` become the current ones; the memory forgets those of
@@ -49,7 +49,7 @@ def remember(mem, n_mem, seen, x, k, cfg):  # pragma: no cover - compiled
     return Memory(xy, ks, now), q, m
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def _near(px, py, pts, n, r2):  # pragma: no cover - compiled
     """Whether ``(px, py)`` lies within ``sqrt(r2)`` of one of the first ``n`` rows of ``pts``."""
     for i in range(n):
@@ -60,7 +60,7 @@ def _near(px, py, pts, n, r2):  # pragma: no cover - compiled
     return False
 
 
-@njit(cache=True)
+@compiled_only
 def moving_young(x, lm, N, k, mem, n_now, cfg):  # pragma: no cover - compiled
     """DopplerGate.moving_landmarks (c.10.4.4): per landmark, whether it was created less than
     ``cfg.gate_probation`` scans before scan ``k`` and lies within ``cfg.gate_radius`` of the
@@ -75,7 +75,7 @@ def moving_young(x, lm, N, k, mem, n_now, cfg):  # pragma: no cover - compiled
     return out
 
 
-@njit(cache=True)
+@compiled_only
 def veto(fresh, clusters, xy, mem, n_mem, cfg):  # pragma: no cover - compiled
     """DopplerGate.veto (c.10.4.3): the clusters ``fresh`` with no detection (world positions
     ``xy``) within ``cfg.gate_radius`` of a remembered moving detection, in order."""

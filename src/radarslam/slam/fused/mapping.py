@@ -9,9 +9,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
-from radarslam.core.jit import compile_kernels
+from radarslam.core.jit import compile_kernels, compiled_only
 from radarslam.extent._compiled import merge_rows
 from radarslam.landmarks._compiled import compiled_add_record
 from radarslam.landmarks._compiled import compiled_closest_pair as _closest_pair
@@ -38,7 +37,7 @@ _augment = _K["augment"]
 _augment_point = _K["augment_point"]
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def cluster(xy, polar, cand, cfg):  # pragma: no cover - compiled
     """Step 7: DBSCAN of the detections no landmark claimed (c.6), as :class:`Clusters`."""
     rest = np.flatnonzero(~cand)
@@ -63,7 +62,7 @@ def cluster(xy, polar, cand, cfg):  # pragma: no cover - compiled
     return Clusters(rest, labels, cl_centre, cl_size)
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def alpha_test(x, P, polar, clusters, noise, cfg):  # pragma: no cover - compiled
     """Step 7: the clusters whose centre is farther than ``cfg.alpha`` (minimum log-distance to
     the ``cfg.n_new`` nearest landmarks) from every landmark, in order."""
@@ -79,7 +78,7 @@ def alpha_test(x, P, polar, clusters, noise, cfg):  # pragma: no cover - compile
     return fresh[:nf]
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def confirm(tent, fresh, clusters, xy, cfg):  # pragma: no cover - compiled
     """Step 8: Rule 2 then Rule 1 (c.7) of the fresh clusters, the orchestrator's own kernel
     (landmarks.confirmation.rule12) compiled as it is. Returns ``(confirmed clusters, tent)``."""
@@ -99,7 +98,7 @@ def confirm(tent, fresh, clusters, xy, cfg):  # pragma: no cover - compiled
     return confirmed, Tentatives(centre, count, window, npts)
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def _augment_mean(x, P, polar, R, spread, has_spread):  # pragma: no cover - compiled
     """ekf.augment_mean: a landmark at the mean of detections ``polar``, with the mean's noise and
     the prior spread (c.8, [PROP])."""
@@ -117,7 +116,7 @@ def _augment_mean(x, P, polar, R, spread, has_spread):  # pragma: no cover - com
     return _augment_point(x, P, np.array([p0, p1]), Gx, C)
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def augment(x, P, lm, N, next_id, confirmed, clusters, polar, k, noise, cfg):  # pragma: no cover - compiled
     """Step 9: a landmark per confirmed cluster (c.8), created at scan ``k``, at the mean of its
     detections (``cfg.init_cluster``) or at its centre detection. Returns ``(x, P, lm, N, next_id)``."""
@@ -146,7 +145,7 @@ def augment(x, P, lm, N, next_id, confirmed, clusters, polar, k, noise, cfg):  #
     return x, P, lm, N, next_id
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def merge(x, P, lm, N, arcs, cfg):  # pragma: no cover - compiled
     """Step 10: merging (c.9): repeatedly drop the later-created landmark of the closest eligible
     pair (at most ``cfg.merge_max`` a scan, 0 for no limit); the survivor pools the other's

@@ -3,9 +3,8 @@
 
 from __future__ import annotations
 
-from numba import njit
 
-from radarslam.core.jit import compile_kernels
+from radarslam.core.jit import compile_kernels, compiled_only
 from radarslam.slam import sensor_frame as _sf
 
 _K = compile_kernels(_sf.lever_column, _sf.sensor_pose, _sf.platform_pose, _sf.shear, _sf.to_sensor_xyz,
@@ -13,7 +12,7 @@ _K = compile_kernels(_sf.lever_column, _sf.sensor_pose, _sf.platform_pose, _sf.s
 sensor_pose, to_sensor, to_platform = _K["sensor_pose"], _K["to_sensor_xyz"], _K["to_platform_xyz"]
 
 
-@njit(cache=True)
+@compiled_only
 def enter_sensor(x, P, stream, s, pose_first):  # pragma: no cover - compiled
     """Before scan ``s``: the pose block of ``(x, P)`` becomes its radar's (in place) when the scan is
     in its radar's frame (``stream.has_mount[s]``); returns the FEJ first estimate moved likewise."""
@@ -24,7 +23,7 @@ def enter_sensor(x, P, stream, s, pose_first):  # pragma: no cover - compiled
     return sensor_pose(pose_first, m[0], m[1], m[2])
 
 
-@njit(cache=True)
+@compiled_only
 def leave_sensor(x, P, stream, s):  # pragma: no cover - compiled
     """After scan ``s``: the inverse of :func:`enter_sensor` (in place)."""
     if stream.has_mount[s]:

@@ -13,8 +13,8 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 
+from radarslam.core.jit import compiled_only
 from radarslam.extent._compiled import gated_diameter as compiled_gated_diameter
 from radarslam.landmarks._compiled import compiled_compact_records, compiled_grown, compiled_grown_inner, compiled_with_room
 from radarslam.landmarks.records import Records
@@ -121,7 +121,7 @@ _grow_rows = compiled_grown
 _grow_buffer = compiled_grown_inner
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def _drop_state_rows(x, P, keep):  # pragma: no cover - compiled
     """``x`` and ``P`` without the landmarks whose ``keep`` is False (ekf.remove_landmarks); the
     platform block is what precedes the ``keep.shape[0]`` landmarks."""
@@ -146,7 +146,7 @@ def _drop_state_rows(x, P, keep):  # pragma: no cover - compiled
     return x_new, P_new
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def _blocks(x, P, platform):  # pragma: no cover - compiled
     """Landmark centroids ``(N, 2)`` and their 2 x 2 covariance blocks ``(N, 2, 2)`` after a
     platform block of ``platform`` entries."""
@@ -164,7 +164,7 @@ def _blocks(x, P, platform):  # pragma: no cover - compiled
     return pos, cov
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def _all_finite(x, P):  # pragma: no cover - compiled
     for i in range(x.shape[0]):
         if not math.isfinite(x[i]):
@@ -177,7 +177,7 @@ def _all_finite(x, P):  # pragma: no cover - compiled
 
 
 # ---------------------------------------------------------------------------------------- landmarks
-@njit(cache=True, inline="always")
+@compiled_only
 def new_landmarks(cap, buf_len):  # pragma: no cover - compiled
     """Empty landmark records with room for ``cap`` landmarks of ``buf_len`` buffered points."""
     return Landmarks(np.empty(cap, dtype=np.int64), np.empty(cap, dtype=np.int64), np.empty(cap, dtype=np.int64),
@@ -188,13 +188,13 @@ def new_landmarks(cap, buf_len):  # pragma: no cover - compiled
                      np.zeros((cap, 3)), np.zeros((cap, 3, 3)), np.zeros(cap, dtype=np.int64), np.full(cap, np.nan))
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def records(lm):  # pragma: no cover - compiled
     """The bookkeeping of ``lm`` as :class:`~radarslam.landmarks.records.Records` (the same arrays)."""
     return Records(lm.ids, lm.created, lm.mbits, lm.rbits, lm.first)
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def grow_landmarks(lm, n):  # pragma: no cover - compiled
     """``lm`` with room for at least ``n`` landmarks (landmarks.records.with_room, the estimators'
     states alike)."""
@@ -209,7 +209,7 @@ def grow_landmarks(lm, n):  # pragma: no cover - compiled
                      _grow_rows(lm.nview, c), _grow_rows(lm.vangle, c))
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def with_buffer(lm, n):  # pragma: no cover - compiled
     """``lm`` with room for ``n`` buffered points per landmark."""
     if lm.buf.shape[1] >= n:
@@ -219,7 +219,7 @@ def with_buffer(lm, n):  # pragma: no cover - compiled
                      lm.Pxi, lm.nview, lm.vangle)
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def compact_landmarks(lm, keep):  # pragma: no cover - compiled
     """Move the records whose ``keep`` is True to the front, in order, in place: the bookkeeping by
     landmarks.records.compact_records, the estimators' states alike. Returns each survivor's
@@ -239,20 +239,20 @@ def compact_landmarks(lm, keep):  # pragma: no cover - compiled
 
 
 # ---------------------------------------------------------------------------------------- Doppler gate
-@njit(cache=True, inline="always")
+@compiled_only
 def new_memory(cap):  # pragma: no cover - compiled
     """An empty :class:`Memory` with room for ``cap`` detections."""
     return Memory(np.empty((cap, 2)), np.empty(cap, dtype=np.int64), np.empty((cap, 2)))
 
 
 # ---------------------------------------------------------------------------------------- visible arcs
-@njit(cache=True, inline="always")
+@compiled_only
 def new_arcs(cap):  # pragma: no cover - compiled
     """Empty :class:`Arcs` with room for ``cap`` widths."""
     return Arcs(np.empty(cap), np.empty(cap), np.empty(cap, dtype=np.int64))
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def add_arc(arcs, n, lm, j, d, b):  # pragma: no cover - compiled
     """Append the width ``(d, b)`` to landmark ``j``'s list (``n`` entries in use). Returns ``arcs``
     (grown if needed)."""
@@ -268,7 +268,7 @@ def add_arc(arcs, n, lm, j, d, b):  # pragma: no cover - compiled
     return arcs
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def pool_arcs(arcs, lm, i, j):  # pragma: no cover - compiled
     """Landmark ``i`` takes landmark ``j``'s widths after its own (a merge, c.9)."""
     if lm.narc[j] == 0:
@@ -281,7 +281,7 @@ def pool_arcs(arcs, lm, i, j):  # pragma: no cover - compiled
     lm.narc[i] += lm.narc[j]
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def arc_values(arcs, lm, j):  # pragma: no cover - compiled
     """Landmark ``j``'s widths in order: ``(d (n,), b (n,))``."""
     n = lm.narc[j]
@@ -295,7 +295,7 @@ def arc_values(arcs, lm, j):  # pragma: no cover - compiled
 
 
 # ---------------------------------------------------------------------------------------- outputs
-@njit(cache=True, inline="always")
+@compiled_only
 def new_records(S, cap, m):  # pragma: no cover - compiled
     """The per-scan record of ``S`` scans with ``m`` odometry-bias states and map rows with room for
     ``cap`` landmarks."""
@@ -309,7 +309,7 @@ def new_records(S, cap, m):  # pragma: no cover - compiled
     return rec, maps
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def record_scan(rec, s, x, P, lm, N, m, n_assoc, nis, trace):  # pragma: no cover - compiled
     """The record after scan ``s`` (run_filter): pose, counts, the NIS of every update and, with
     ``trace``, the landmarks' ids and centroids; the odometry-bias states and their covariance (c.11).
@@ -343,7 +343,7 @@ def record_scan(rec, s, x, P, lm, N, m, n_assoc, nis, trace):  # pragma: no cove
                       rec.map_off, rec.seconds, n_log, rec.nis_off, rec.trace_off, ids, pos, rec.bias, rec.bias_covs)
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def _grown_maps(maps, n):  # pragma: no cover - compiled
     """``maps`` with room for ``n`` rows."""
     if n <= maps.ids.shape[0]:
@@ -352,7 +352,7 @@ def _grown_maps(maps, n):  # pragma: no cover - compiled
                    _grow_rows(maps.rma, n), _grow_rows(maps.efa, n), _grow_rows(maps.created, n))
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def write_map_row(maps, r, j, x, P, lm, arcs, cfg):  # pragma: no cover - compiled
     """Row ``r`` of ``maps`` is landmark ``j`` (state order) of ``x``, ``P``, ``lm``. Extents as the
     estimator's ``matrix`` and ``baseline`` read them: RMA and EFA; under the partial view
@@ -384,7 +384,7 @@ def write_map_row(maps, r, j, x, P, lm, arcs, cfg):  # pragma: no cover - compil
         maps.efa[r] = lm.Xefa[j]
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def record_map(rec, maps, s, x, P, lm, N, arcs, retired, n_retired, cfg):  # pragma: no cover - compiled
     """The map after scan ``s``, appended to ``maps`` (grown if needed, returned): the ``N``
     landmarks of the state (:func:`write_map_row`), then the ``n_retired`` rows of ``retired``, the
@@ -405,7 +405,7 @@ def record_map(rec, maps, s, x, P, lm, N, arcs, retired, n_retired, cfg):  # pra
     return maps
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def cut_records(rec, maps, s):  # pragma: no cover - compiled
     """``(rec, maps)`` cut to the first ``s`` scans."""
     n = rec.map_off[s]

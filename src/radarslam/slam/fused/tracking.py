@@ -13,7 +13,7 @@ import numpy as np
 from numba import njit
 
 from radarslam.core.angles import wrap_2pi_scalar
-from radarslam.core.jit import compile_kernels
+from radarslam.core.jit import compile_kernels, compiled_only
 from radarslam.extent._compiled import abt_plus_cdt, literal_inside, measurement_contour, small_matmul
 from radarslam.landmarks._compiled import compiled_by_landmark, compiled_candidates, compiled_in_view as _in_view
 from radarslam.landmarks._compiled import compiled_mn_windows as _mn_windows
@@ -52,7 +52,7 @@ turn_noise = compile_kernels(_turn_noise_kernel)["turn_noise"]
 UNICYCLE, ACKERMANN, BODY_VELOCITY = 0, 1, 2
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def _matmul(A, B):  # pragma: no cover - compiled
     """``A @ B`` for small matrices, each entry summed over k in order (core.small_matrices.matmul_into)."""
     return small_matmul(A, B, np.empty((A.shape[0], B.shape[1])))
@@ -120,7 +120,7 @@ def predict(x, P, u, dt, U, Q, pose_first, model, cfg):  # pragma: no cover - co
     return True
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def sift(x, P, polar, lm, N, prior, noise, cfg):  # pragma: no cover - compiled
     """Step 3: the detections that are candidates for association (c.3; a.7.1), at the predicted
     state whose centroids and covariance blocks ``prior`` holds: inside an initialised landmark's
@@ -146,7 +146,7 @@ def sift(x, P, polar, lm, N, prior, noise, cfg):  # pragma: no cover - compiled
     return compiled_candidates(xy, pos_prior, cfg.sift_radius * cfg.sift_radius, inside, has)
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def _linearisation(x, lm, N, pose_first, platform):  # pragma: no cover - compiled
     """The first estimates (c.2.1) as the compiled associators take them (``xlin``,
     SlamState.linearisation_all): ``x`` with the pose ``pose_first`` (the prediction) and every
@@ -158,7 +158,7 @@ def _linearisation(x, lm, N, pose_first, platform):  # pragma: no cover - compil
     return xlin
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def _inflation(lm, N, noise, cfg):  # pragma: no cover - compiled
     """Step 4's noise inflation: ``(gX, has)``, the spread of initialised extents (``cfg.inflate``)
     and, before, the prior spread (``cfg.pre_prior``)."""
@@ -175,7 +175,7 @@ def _inflation(lm, N, noise, cfg):  # pragma: no cover - compiled
     return gX, has
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def associate_and_update(x, P, polar, cidx, lm, N, pose_first, noise, cfg):  # pragma: no cover - compiled
     """Step 4: associate the candidates ``cidx`` and update (c.4, a.7.2-a.7.3) with the
     nearest-neighbour (``cfg.assoc`` 0), batch (1) or batch-joint (2) associator (JCBB:
@@ -194,7 +194,7 @@ def associate_and_update(x, P, polar, cidx, lm, N, pose_first, noise, cfg):  # p
     return joint_batch_associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta, cfg.platform, xlin)
 
 
-@njit(cache=True)
+@compiled_only
 def jcbb_and_update(x, P, polar, cidx, lm, N, noise, cfg):  # pragma: no cover - compiled
     """Step 4 with the JCBB associator (``cfg.assoc`` 3, c.4.1), as :func:`associate_and_update`."""
     if N == 0:
@@ -205,7 +205,7 @@ def jcbb_and_update(x, P, polar, cidx, lm, N, noise, cfg):  # pragma: no cover -
     return x, P, out, nis
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def group_associations(out, cidx, N, ids, s, a_rows, n_arows):  # pragma: no cover - compiled
     """The associations of step 4 by landmark, ``assoc[j] = arow[aoff[j]:aoff[j + 1]]``, by the
     orchestrator's own kernel (landmarks.grouping.by_landmark) compiled as it is, and the ``(scan,
@@ -223,7 +223,7 @@ def group_associations(out, cidx, N, ids, s, a_rows, n_arows):  # pragma: no cov
     return n_assoc, aoff, arow, a_rows, n_arows
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def remove_unseen(x, P, lm, N, aoff, k, young, sensor_view, retired, n_retired, arcs, cfg):  # pragma: no cover
     """Step 5: age the M/N windows of scan ``k`` and remove the landmarks seen in too few of the
     last ``cfg.removal_window`` scans they were in view (c.5), by the orchestrator's own kernel

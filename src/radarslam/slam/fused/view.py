@@ -23,6 +23,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from radarslam.core.jit import compiled_only
 from radarslam.extent._compiled import measurement_contour, sift_spreads
 from radarslam.landmarks._compiled import compiled_candidates, compiled_seen_landmarks
 from radarslam.slam._numba import (_joseph_update_inplace, _polar_to_sensor_xy, _smallest, _wrap_pi, joint_update_loops,
@@ -77,7 +78,7 @@ def view_parameters(slam) -> ViewParams:
                       np.ascontiguousarray(log_matrix_to_X(ext.xi0), dtype=float), float(ext.shape_step))
 
 
-@njit(cache=True)
+@compiled_only
 def view_walk(x, P, lm, N, cfg):  # pragma: no cover - compiled
     """a.12.5's walk of the centroids with the viewing angle, in place on ``P``, and each
     landmark's bearing kept for the next scan (none under a zero walk, as the orchestrator)."""
@@ -85,7 +86,7 @@ def view_walk(x, P, lm, N, cfg):  # pragma: no cover - compiled
         lm.vangle[:N] = view_walk_rows(x, P, lm.vangle[:N].copy(), cfg.pv.walk, POSE_DIM)
 
 
-@njit(cache=True)
+@compiled_only
 def view_shapes(lm, N, cfg):  # pragma: no cover - compiled
     """``(N, 2, 2)``: the arc model's shape of every landmark (``PartialViewEstimator.view_shapes``):
     its estimate ``expm(xi)``, its RMA (the prior before it has one) or the prior."""
@@ -102,14 +103,14 @@ def view_shapes(lm, N, cfg):  # pragma: no cover - compiled
     return X
 
 
-@njit(cache=True)
+@compiled_only
 def _analytic_cov(pv):  # pragma: no cover - compiled
     """True when the model error takes the shape's uncertainty with the analytic ``J`` (a.12.9);
     ``pv`` the :class:`ViewParams`."""
     return pv.with_cov and pv.shape_step == 0.0
 
 
-@njit(cache=True)
+@compiled_only
 def view_terms(x, shapes, N, cfg):  # pragma: no cover - compiled
     """``(mu, B, S, J)`` of every landmark at the state ``x`` (a.12.4), with the model error's
     ``J = dg/dxi (N, 2, 3)`` from the same pass under :func:`_analytic_cov` (else ``(0, 2, 3)``)."""
@@ -119,7 +120,7 @@ def view_terms(x, shapes, N, cfg):  # pragma: no cover - compiled
     return mu, B, S, np.empty((0, 2, 3))
 
 
-@njit(cache=True)
+@compiled_only
 def view_sift(x, P, polar, N, prior, terms, noise, cfg):  # pragma: no cover - compiled
     """Step 3 under the partial view (a.7.1, a.12.5): with ``cfg.contour`` the measurement contour
     of every landmark about its predicted detection mean, with the arc's spread plus ``Q_v`` and
@@ -178,7 +179,7 @@ class _Scores(NamedTuple):
     have: np.ndarray       #: (N,) bool
 
 
-@njit(cache=True)
+@compiled_only
 def _scores(x, terms, N, R, cfg):  # pragma: no cover - compiled
     """The polar terms of every landmark with the model error ``Q_v`` (``h``, ``Hs`` and ``ok``
     do not depend on it; :func:`_complete` adds the shape's part to ``Rj`` where it is needed)."""
@@ -190,13 +191,13 @@ def _scores(x, terms, N, R, cfg):  # pragma: no cover - compiled
     return _Scores(h, Hs, Rj, ok, Q, np.empty((N, 2, 2)), np.zeros(N, dtype=np.bool_))
 
 
-@njit(cache=True, inline="always")
+@compiled_only
 def _block_row(j, r):  # pragma: no cover - compiled
     """The state row of entry ``r`` of landmark ``j``'s block ``(x, y, theta, p_j)``."""
     return r if r < 3 else POSE_DIM + 2 * j + r - 3
 
 
-@njit(cache=True)
+@compiled_only
 def _block_index(j):  # pragma: no cover - compiled
     """The rows ``(x, y, theta, p_j)`` of landmark ``j`` in the state."""
     idx = np.empty(5, dtype=np.int64)
@@ -205,7 +206,7 @@ def _block_index(j):  # pragma: no cover - compiled
     return idx
 
 
-@njit(cache=True)
+@compiled_only
 def _complete(x, P, xi, Pxi, js, terms, R, sc, pv):  # pragma: no cover - compiled
     """The model error (with the shape's uncertainty ``Pxi`` of the shapes ``xi``, ``pv.with_cov``),
     ``Rj`` and ``Sn`` of the landmarks ``js`` not yet done, in ``sc`` (the orchestrator's
@@ -243,7 +244,7 @@ def _complete(x, P, xi, Pxi, js, terms, R, sc, pv):  # pragma: no cover - compil
         sc.Sn[j] = innovation_cov(sc.Hs[j], Pb, sc.Rj[j])
 
 
-@njit(cache=True)
+@compiled_only
 def _nearest_best(x, P, xi, Pxi, z0, z1, d2, N, count, terms, R, sc, pv):  # pragma: no cover - compiled
     """The landmark of smallest log distance among the ``count`` nearest by ``d2`` (ties by
     position, the first minimum; ``inf`` where ``d2`` or ``Sn`` rule it out): ``(j, D)``."""
@@ -265,7 +266,7 @@ def _nearest_best(x, P, xi, Pxi, z0, z1, d2, N, count, terms, R, sc, pv):  # pra
     return best_j, best_D
 
 
-@njit(cache=True)
+@compiled_only
 def _view_nn(x, P, polar, cidx, lm, N, shapes, terms, R, cfg):  # pragma: no cover - compiled
     """``PartialViewNearestNeighbour``: each candidate against its ``cfg.n_near`` landmarks nearest
     by their predicted means, updated at once when below ``cfg.beta`` (the terms recomputed then)."""
@@ -295,7 +296,7 @@ def _view_nn(x, P, polar, cidx, lm, N, shapes, terms, R, cfg):  # pragma: no cov
     return x, P, out, nis[:n_up]
 
 
-@njit(cache=True)
+@compiled_only
 def _view_scores(x, P, polar, cidx, lm, N, terms, R, sc, cfg):  # pragma: no cover - compiled
     """``PartialViewBatch.scores``: the landmark of each candidate (-1 for none), all scored at
     the state ``x``, ``P`` against their ``cfg.n_near`` landmarks nearest by the predicted means
@@ -318,7 +319,7 @@ def _view_scores(x, P, polar, cidx, lm, N, terms, R, sc, cfg):  # pragma: no cov
     return out
 
 
-@njit(cache=True)
+@compiled_only
 def _batch_rows(x, polar, rows, R, mu, B, S, Q):  # pragma: no cover - compiled
     """One landmark's batch measurement (``_batch_measurements``, a.12.5) from its ``mu``, ``B``,
     ``S`` ``(1, ...)`` and model error ``Q (2, 2)`` at ``x``: ``(e (2,), Hs (2, 5), noise (2, 2))``."""
@@ -330,7 +331,7 @@ def _batch_rows(x, polar, rows, R, mu, B, S, Q):  # pragma: no cover - compiled
     return e, Hs[0], view_batch_noise(x[2], S[0], Q, R_xy, rows.shape[0])
 
 
-@njit(cache=True)
+@compiled_only
 def _one_landmark(x, shapes, lm, j, cfg):  # pragma: no cover - compiled
     """Landmark ``j``'s ``mu``, ``B``, ``S`` ``(1, ...)`` and model error ``(2, 2)`` at ``x``
     (``view_model_terms`` of one landmark)."""
@@ -344,7 +345,7 @@ def _one_landmark(x, shapes, lm, j, cfg):  # pragma: no cover - compiled
     return mu, B, S, cfg.pv.Qv.copy()
 
 
-@njit(cache=True)
+@compiled_only
 def view_associate(x, P, polar, cidx, lm, N, shapes, terms, noise, cfg):  # pragma: no cover - compiled
     """Step 4 under the partial view (a.12.5) with the nearest-neighbour (``cfg.assoc`` 0), batch
     (1) or batch-joint (2) associator of ``slam.partial_view``: the batch forms score every candidate
@@ -380,7 +381,7 @@ def view_associate(x, P, polar, cidx, lm, N, shapes, terms, noise, cfg):  # prag
     return x, P, out, joint_update_loops(x, P, e, Hs_all, idx_all, Rb)
 
 
-@njit(cache=True)
+@compiled_only
 def view_newborn(x, lm, n, cfg):  # pragma: no cover - compiled
     """Landmark ``n``, just added as the last of ``x``: the prior shape, no view yet and, with
     ``cfg.pv.init_correct``, its centroid moved so that the prior shape's arc mean seen from the
