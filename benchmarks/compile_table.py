@@ -41,6 +41,7 @@ class CompileTimes(event.Listener):
     def __init__(self) -> None:
         self.open: list = []                     # the compilations under way, innermost last
         self.records: list[tuple[str, str, float, float]] = []
+        self.args: dict[str, list[tuple[str, ...]]] = {}     # each compilation's argument types, by function
 
     def on_start(self, ev) -> None:
         self.open.append([time.process_time(), 0.0])
@@ -52,6 +53,7 @@ class CompileTimes(event.Listener):
             self.open[-1][1] += dt
         f = ev.data["dispatcher"].py_func
         self.records.append((f"{f.__module__}.{f.__qualname__}", str(ev.data["args"]), dt, dt - inner))
+        self.args.setdefault(f"{f.__module__}.{f.__qualname__}", []).append(tuple(str(a) for a in ev.data["args"]))
 
 
 def _tiny(config) -> None:
@@ -126,9 +128,25 @@ def main() -> int:
     print("| function | compilations | signatures | inclusive CPU s | self CPU s |\n|---|---|---|---|---|")
     for name, (n, longest, sigs, own) in sorted(per.items(), key=lambda kv: -kv[1][1])[:args.top]:
         print(f"| {name} | {n} | {len(sigs)} | {longest:.1f} | {own:.1f} |")
+    _several_signatures(listener)
     for fam in sorted(_compiled_families()):
         _passes(fam)
     return 0
+
+
+def _several_signatures(listener: CompileTimes) -> None:
+    """Each function compiled for more than one signature, with the arguments in which they differ
+    (a literal constant against its type, a layout, a read-only array: each is a whole compile)."""
+    rows = []
+    for name, sigs in sorted(listener.args.items()):
+        distinct = list(dict.fromkeys(sigs))
+        if len(distinct) > 1:
+            diff = {i for a in distinct[1:] for i, (x, y) in enumerate(zip(distinct[0], a)) if x != y}
+            what = "; ".join(f"arg {i}: " + " / ".join(sorted({sig[i][:60] for sig in distinct})) for i in sorted(diff))
+            rows.append(f"| {name} | {len(distinct)} | {what or 'arity'} |")
+    print(f"\nfunctions compiled for several signatures: {len(rows)}")
+    if rows:
+        print("| function | signatures | arguments that differ |\n|---|---|---|\n" + "\n".join(rows))
 
 
 def _compiled_families() -> set:

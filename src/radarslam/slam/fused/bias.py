@@ -30,7 +30,7 @@ _bias_transition = _K["bias_transition"]
 _platform_prediction = _K["platform_prediction"]
 
 
-@compiled_only
+@njit(cache=True, inline="always")
 def _finite(a):  # pragma: no cover - compiled
     for v in a.ravel():
         if not math.isfinite(v):

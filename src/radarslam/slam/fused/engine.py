@@ -21,7 +21,6 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit, objmode
 
-from radarslam.core.jit import compiled_only
 from radarslam.landmarks.confirmation import Tentatives
 from radarslam.slam.fused.bias import predict_step
 from radarslam.slam.fused.extent import extent_step
@@ -63,7 +62,7 @@ def _clock():  # pragma: no cover - compiled
     return t
 
 
-@compiled_only
+@njit(cache=True, inline="always")
 def _prediction_input(stream, noise, cfg, ev, e_odo, e_vel):  # pragma: no cover - compiled
     """The input of event ``ev``, the odometer's ``e_odo``-th reading or the ``e_vel``-th body-velocity
     input (c.10.5): ``(u, dt, U, Q, model, e_odo, e_vel)``, the count of its kind moved on; a

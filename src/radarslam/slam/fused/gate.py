@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 
 from radarslam.core.jit import compiled_only
 from radarslam.slam.fused.storage import Memory, _grow_rows
@@ -49,7 +50,7 @@ def remember(mem, n_mem, seen, x, k, cfg):  # pragma: no cover - compiled
     return Memory(xy, ks, now), q, m
 
 
-@compiled_only
+@njit(cache=True, inline="always")
 def _near(px, py, pts, n, r2):  # pragma: no cover - compiled
     """Whether ``(px, py)`` lies within ``sqrt(r2)`` of one of the first ``n`` rows of ``pts``."""
     for i in range(n):

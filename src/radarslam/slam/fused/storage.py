@@ -13,6 +13,7 @@ import math
 from typing import NamedTuple
 
 import numpy as np
+from numba import njit
 
 from radarslam.core.jit import compiled_only
 from radarslam.extent._compiled import gated_diameter as compiled_gated_diameter
@@ -146,7 +147,7 @@ def _drop_state_rows(x, P, keep):  # pragma: no cover - compiled
     return x_new, P_new
 
 
-@compiled_only
+@njit(cache=True, inline="always")
 def _blocks(x, P, platform):  # pragma: no cover - compiled
     """Landmark centroids ``(N, 2)`` and their 2 x 2 covariance blocks ``(N, 2, 2)`` after a
     platform block of ``platform`` entries."""
@@ -164,7 +165,7 @@ def _blocks(x, P, platform):  # pragma: no cover - compiled
     return pos, cov
 
 
-@compiled_only
+@njit(cache=True, inline="always")
 def _all_finite(x, P):  # pragma: no cover - compiled
     for i in range(x.shape[0]):
         if not math.isfinite(x[i]):
@@ -177,7 +178,7 @@ def _all_finite(x, P):  # pragma: no cover - compiled
 
 
 # ---------------------------------------------------------------------------------------- landmarks
-@compiled_only
+@njit(cache=True, inline="always")
 def new_landmarks(cap, buf_len):  # pragma: no cover - compiled
     """Empty landmark records with room for ``cap`` landmarks of ``buf_len`` buffered points."""
     return Landmarks(np.empty(cap, dtype=np.int64), np.empty(cap, dtype=np.int64), np.empty(cap, dtype=np.int64),
@@ -188,7 +189,7 @@ def new_landmarks(cap, buf_len):  # pragma: no cover - compiled
                      np.zeros((cap, 3)), np.zeros((cap, 3, 3)), np.zeros(cap, dtype=np.int64), np.full(cap, np.nan))
 
 
-@compiled_only
+@njit(cache=True, inline="always")
 def records(lm):  # pragma: no cover - compiled
     """The bookkeeping of ``lm`` as :class:`~radarslam.landmarks.records.Records` (the same arrays)."""
     return Records(lm.ids, lm.created, lm.mbits, lm.rbits, lm.first)
@@ -239,20 +240,20 @@ def compact_landmarks(lm, keep):  # pragma: no cover - compiled
 
 
 # ---------------------------------------------------------------------------------------- Doppler gate
-@compiled_only
+@njit(cache=True, inline="always")
 def new_memory(cap):  # pragma: no cover - compiled
     """An empty :class:`Memory` with room for ``cap`` detections."""
     return Memory(np.empty((cap, 2)), np.empty(cap, dtype=np.int64), np.empty((cap, 2)))
 
 
 # ---------------------------------------------------------------------------------------- visible arcs
-@compiled_only
+@njit(cache=True, inline="always")
 def new_arcs(cap):  # pragma: no cover - compiled
     """Empty :class:`Arcs` with room for ``cap`` widths."""
     return Arcs(np.empty(cap), np.empty(cap), np.empty(cap, dtype=np.int64))
 
 
-@compiled_only
+@njit(cache=True, inline="always")
 def add_arc(arcs, n, lm, j, d, b):  # pragma: no cover - compiled
     """Append the width ``(d, b)`` to landmark ``j``'s list (``n`` entries in use). Returns ``arcs``
     (grown if needed)."""
@@ -281,7 +282,7 @@ def pool_arcs(arcs, lm, i, j):  # pragma: no cover - compiled
     lm.narc[i] += lm.narc[j]
 
 
-@compiled_only
+@njit(cache=True, inline="always")
 def arc_values(arcs, lm, j):  # pragma: no cover - compiled
     """Landmark ``j``'s widths in order: ``(d (n,), b (n,))``."""
     n = lm.narc[j]
@@ -295,7 +296,7 @@ def arc_values(arcs, lm, j):  # pragma: no cover - compiled
 
 
 # ---------------------------------------------------------------------------------------- outputs
-@compiled_only
+@njit(cache=True, inline="always")
 def new_records(S, cap, m):  # pragma: no cover - compiled
     """The per-scan record of ``S`` scans with ``m`` odometry-bias states and map rows with room for
     ``cap`` landmarks."""

@@ -52,7 +52,7 @@ turn_noise = compile_kernels(_turn_noise_kernel)["turn_noise"]
 UNICYCLE, ACKERMANN, BODY_VELOCITY = 0, 1, 2
 
 
-@compiled_only
+@njit(cache=True, inline="always")
 def _matmul(A, B):  # pragma: no cover - compiled
     """``A @ B`` for small matrices, each entry summed over k in order (core.small_matrices.matmul_into)."""
     return small_matmul(A, B, np.empty((A.shape[0], B.shape[1])))
@@ -146,7 +146,7 @@ def sift(x, P, polar, lm, N, prior, noise, cfg):  # pragma: no cover - compiled
     return compiled_candidates(xy, pos_prior, cfg.sift_radius * cfg.sift_radius, inside, has)
 
 
-@compiled_only
+@njit(cache=True, inline="always")
 def _linearisation(x, lm, N, pose_first, platform):  # pragma: no cover - compiled
     """The first estimates (c.2.1) as the compiled associators take them (``xlin``,
     SlamState.linearisation_all): ``x`` with the pose ``pose_first`` (the prediction) and every
@@ -158,7 +158,7 @@ def _linearisation(x, lm, N, pose_first, platform):  # pragma: no cover - compil
     return xlin
 
 
-@compiled_only
+@njit(cache=True, inline="always")
 def _inflation(lm, N, noise, cfg):  # pragma: no cover - compiled
     """Step 4's noise inflation: ``(gX, has)``, the spread of initialised extents (``cfg.inflate``)
     and, before, the prior spread (``cfg.pre_prior``)."""

@@ -191,7 +191,7 @@ def _scores(x, terms, N, R, cfg):  # pragma: no cover - compiled
     return _Scores(h, Hs, Rj, ok, Q, np.empty((N, 2, 2)), np.zeros(N, dtype=np.bool_))
 
 
-@compiled_only
+@njit(cache=True, inline="always")
 def _block_row(j, r):  # pragma: no cover - compiled
     """The state row of entry ``r`` of landmark ``j``'s block ``(x, y, theta, p_j)``."""
     return r if r < 3 else POSE_DIM + 2 * j + r - 3
