@@ -137,8 +137,8 @@ def test_dataset_plan_picks_what_ends_sooner_and_says_how_long(monkeypatch):
     _dataset_state(monkeypatch, True, False, started)
     warm = dataset.first_run_plan(cfg, 7230, fused=True)          # one compiled call: its expected seconds first
     assert warm.engine == "fused" and not warm.compiles and "7230 scans" in warm.announce
-    assert f"about {7230 * dataset.FUSED_SCAN_S:.0f} s" in warm.announce and "in one call" in warm.announce
-    short = int(dataset.ANNOUNCE_S / dataset.FUSED_SCAN_S) - 1
+    assert f"about {7230 * warmup.FUSED_SCAN_S:.0f} s" in warm.announce and "in one call" in warm.announce
+    short = int(dataset.ANNOUNCE_S / warmup.FUSED_SCAN_S) - 1
     assert dataset.first_run_plan(cfg, short, fused=True) == dataset.FirstRunPlan("fused")      # short: nothing to say
     assert len(started) == n_started
     assert dataset.first_run_plan(to_python(cfg), 300, fused=False) == dataset.FirstRunPlan("python")

@@ -20,7 +20,6 @@ from radarslam.slam import _fused
 from radarslam.slam.filter import EkfSlam, MapSnapshot
 from radarslam.experiments.dataset_first_run import (  # noqa: F401  (re-exported: their former home)
     ANNOUNCE_S,
-    FUSED_SCAN_S,
     HEARTBEAT_S,
     ORCHESTRATOR_COMPILE_S,
     PYTHON_SCAN_S,

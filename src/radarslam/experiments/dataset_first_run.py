@@ -28,11 +28,10 @@ PYTHON_SCAN_S = 0.0168
 ORCHESTRATOR_COMPILE_S = 20.0
 #: While numba compiles in the foreground, a line every this many seconds (no silence over 20 s).
 HEARTBEAT_S = 10.0
-#: The fused engine's cost a scan once its code is ready: it runs the whole stream in one compiled
-#: call, which prints nothing until it returns (Victoria Park's 7,230 scans warm: 12.7-15.3 s, with
-#: the other core busy, 1.8-2.1 ms a scan as the map grows). A run expected to take longer than
-#: ANNOUNCE_S says so on its first line, with the expected seconds (issue 34: first line within 3 s).
-FUSED_SCAN_S = 0.0018
+#: A warm fused run goes through the whole stream in one compiled call, which prints nothing until
+#: it returns (Victoria Park's 7,230 scans: about 8 s quiet, 13-15 s with the other core busy): a run
+#: expected to take longer than this says so on its first line, with the expected seconds at
+#: warmup.FUSED_SCAN_S a scan (issue 34: the first line within 3 s).
 ANNOUNCE_S = 3.0
 
 
@@ -61,6 +60,8 @@ class FirstRunPlan:
 def _one_call_note(n_scans: int) -> str:
     """What the first line says of a warm fused run of ``n_scans`` scans: nothing when it is short
     (under :data:`ANNOUNCE_S`), else the scans, the one compiled call and its expected seconds."""
+    from radarslam.experiments.warmup import FUSED_SCAN_S
+
     expected = n_scans * FUSED_SCAN_S
     if expected < ANNOUNCE_S:
         return ""

@@ -45,14 +45,18 @@ COMPILING_SHORT = ("compiling the numba kernels the per-event engine uses (once 
 #: core): seconds per variant and trial with a warm cache, fused engine and orchestrator; wall
 #: seconds to fill a cold cache for each.
 FUSED_S, ORCHESTRATOR_S = 0.0105, 0.0432
-FUSED_COMPILE_S, ORCHESTRATOR_COMPILE_S = 178.0, 20.0
+#: FUSED_COMPILE_S: the default family's engine alone since the fused steps compile once as functions
+#: without entry points (issue 34; ``NUMBA_CACHE_DIR=$(mktemp -d) python benchmarks/compile_table.py
+#: --cases carpark``: 130.4-146.5 s of CPU in four runs, mean 138; 178 s before, when one engine held
+#: every family's branches).
+FUSED_COMPILE_S, ORCHESTRATOR_COMPILE_S = 140.0, 20.0
 
 
 def first_run_engine(n_trials: int, n_variants: int, jobs: int) -> str:
     """The engine that ends a run of ``n_trials`` trials of ``n_variants`` variants on ``jobs``
     workers sooner from a cold cache: ``"auto"`` (compile the fused engine first) or
     ``"orchestrator"``. With the constants above and three variants on two workers the
-    orchestrator is chosen up to 3,221 trials."""
+    orchestrator is chosen up to 2,446 trials."""
     par = max(1, min(int(jobs), int(n_trials)))
     work = n_trials * n_variants / par
     fused = FUSED_COMPILE_S + work * FUSED_S
@@ -68,7 +72,7 @@ ORCHESTRATOR_SCAN_S, FUSED_SCAN_S = 0.003, 0.0011
 
 def first_run_engine_scans(n_scans: int) -> str:
     """:func:`first_run_engine` for one run of ``n_scans`` scans of a recording, on one core:
-    ``"orchestrator"`` up to about 83,000 scans with the constants above."""
+    ``"orchestrator"`` up to about 63,000 scans with the constants above."""
     fused = FUSED_COMPILE_S + n_scans * FUSED_SCAN_S
     orchestrator = ORCHESTRATOR_COMPILE_S + n_scans * ORCHESTRATOR_SCAN_S
     return "orchestrator" if orchestrator < fused else "auto"
