@@ -104,8 +104,9 @@ def run_dataset(name: str, path, config: Config, *, first_scan: int | None = Non
     if plan.engine == "fused":
         if plan.announce and progress:
             print(f"run: {plan.announce}", file=sys.stderr, flush=True)
+        bar = Progress(n, 0, enabled=progress, unit="scans")      # its clock from the call's start: the true rate
         out = _run_fused(slam, data.events, reference)
-        Progress(n, 0, enabled=progress, unit="scans").update(n)
+        bar.update(n)
     else:
         if plan.engine == "python":
             slam = EkfSlam(_with_backend(config, "python"))
