@@ -107,3 +107,23 @@ def test_each_configuration_names_its_family():
         assert _fused.family(slam) == family, name
         assert fused_families(cfg, (v,)) == (family,), name
         assert fused_families(cfg, (DEFAULT_VARIANTS[0], v)) == tuple(sorted((_fused.DEFAULT, family))), name
+
+
+def test_a_step_compiled_only_for_compiled_callers_refuses_a_python_call_in_one_line():
+    """core.jit.compiled_only: a fused step built without a Python entry point raises a TypeError that
+    names it, instead of jumping to an address that was never built; a kernel with its entry point
+    (negative control) still runs from Python."""
+    import numpy as np
+    import pytest
+
+    from radarslam.core.jit import CompiledOnly
+    from radarslam.slam.fused import mapping, storage
+
+    assert isinstance(mapping.augment, CompiledOnly) and isinstance(storage.record_map, CompiledOnly)
+    with pytest.raises(TypeError, match=r"^radarslam\.slam\.fused\.mapping\.augment is compiled without a Python "
+                                        r"entry point \(core\.jit\.compiled_only\)"):
+        mapping.augment(1, 2)
+    from radarslam.landmarks._compiled import compiled_grown
+
+    assert not isinstance(compiled_grown, CompiledOnly)
+    assert compiled_grown(np.zeros(2), 3).shape[0] >= 3
