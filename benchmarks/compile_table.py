@@ -40,8 +40,7 @@ class CompileTimes(event.Listener):
 
     def __init__(self) -> None:
         self.open: list = []                     # the compilations under way, innermost last
-        self.records: list[tuple[str, str, float, float]] = []
-        self.args: dict[str, list[tuple[str, ...]]] = {}     # each compilation's argument types, by function
+        self.records: list[tuple[str, tuple[str, ...], float, float]] = []   # argument types one by one
 
     def on_start(self, ev) -> None:
         self.open.append([time.process_time(), 0.0])
@@ -52,8 +51,7 @@ class CompileTimes(event.Listener):
         if self.open:
             self.open[-1][1] += dt
         f = ev.data["dispatcher"].py_func
-        self.records.append((f"{f.__module__}.{f.__qualname__}", str(ev.data["args"]), dt, dt - inner))
-        self.args.setdefault(f"{f.__module__}.{f.__qualname__}", []).append(tuple(str(a) for a in ev.data["args"]))
+        self.records.append((f"{f.__module__}.{f.__qualname__}", tuple(str(a) for a in ev.data["args"]), dt, dt - inner))
 
 
 def _tiny(config) -> None:
@@ -137,8 +135,11 @@ def main() -> int:
 def _several_signatures(listener: CompileTimes) -> None:
     """Each function compiled for more than one signature, with the arguments in which they differ
     (a literal constant against its type, a layout, a read-only array: each is a whole compile)."""
+    by_function: dict[str, list[tuple[str, ...]]] = {}
+    for name, sig, _, _ in listener.records:
+        by_function.setdefault(name, []).append(sig)
     rows = []
-    for name, sigs in sorted(listener.args.items()):
+    for name, sigs in sorted(by_function.items()):
         distinct = list(dict.fromkeys(sigs))
         if len(distinct) > 1:
             diff = {i for a in distinct[1:] for i, (x, y) in enumerate(zip(distinct[0], a)) if x != y}

@@ -115,7 +115,7 @@ def test_dataset_plan_picks_what_ends_sooner_and_says_how_long(monkeypatch):
     kernels first (with the expected seconds); either way the fused engine goes to the background.
     Warm (negative controls): the fused engine, nothing announced, nothing started."""
     from radarslam.config import profile_config
-    from radarslam.experiments import dataset, warmup
+    from radarslam.experiments import dataset, dataset_first_run, warmup
 
     cfg = profile_config("victoria-park")
     started: list = []
@@ -138,7 +138,7 @@ def test_dataset_plan_picks_what_ends_sooner_and_says_how_long(monkeypatch):
     warm = dataset.first_run_plan(cfg, 7230, fused=True)          # one compiled call: its expected seconds first
     assert warm.engine == "fused" and not warm.compiles and "7230 scans" in warm.announce
     assert f"about {7230 * warmup.FUSED_SCAN_S:.0f} s" in warm.announce and "in one call" in warm.announce
-    short = int(dataset.ANNOUNCE_S / warmup.FUSED_SCAN_S) - 1
+    short = int(dataset_first_run.ANNOUNCE_S / warmup.FUSED_SCAN_S) - 1
     assert dataset.first_run_plan(cfg, short, fused=True) == dataset.FirstRunPlan("fused")      # short: nothing to say
     assert len(started) == n_started
     assert dataset.first_run_plan(to_python(cfg), 300, fused=False) == dataset.FirstRunPlan("python")

@@ -19,7 +19,6 @@ from radarslam.models.radar import polar_to_xy
 from radarslam.slam import _fused
 from radarslam.slam.filter import EkfSlam, MapSnapshot
 from radarslam.experiments.dataset_first_run import (  # noqa: F401  (re-exported: their former home)
-    ANNOUNCE_S,
     HEARTBEAT_S,
     ORCHESTRATOR_COMPILE_S,
     PYTHON_SCAN_S,
