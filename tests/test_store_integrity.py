@@ -9,6 +9,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from dataclasses import replace
@@ -194,6 +195,60 @@ def test_an_interrupt_stops_the_pool_between_trials_never_inside_one(monkeypatch
     assert started and started == ended
     assert not _manager_threads_alive()
     assert (signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGINT)) == before
+
+
+def _big_trial(cfg_dict, seed, trial, variants, chash, engine):
+    return b"x" * (16 << 20)                   # a worker spends nearly all its time handing this back
+
+
+def test_a_worker_ended_while_handing_back_a_trial_leaves_no_thread_waiting(monkeypatch, tmp_path):
+    """SIGTERM while workers hand back large trials: the pool's manager thread ends and the spool
+    directory is gone. Trials' bytes once went back over the result pipe; a worker ended in the
+    middle of one left the manager thread waiting for the rest for ever, and the command hung at
+    exit (CI, test_sigterm_is_handled_like_ctrl_c_and_leaves_no_worker). The negative control below
+    shows that hang with the bytes sent back."""
+    monkeypatch.setattr(mc, "compute_trial", _big_trial)
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    stored = []
+    with mc._sigterm_as_interrupt():
+        _sigterm_in(0.5)
+        with pytest.raises(KeyboardInterrupt):
+            mc._run_pool({}, 1, (), list(range(1, 401)), lambda t, data: stored.append(len(data)), 2, "h")
+    assert stored and set(stored) == {16 << 20}
+    assert not _manager_threads_alive()
+    assert list(tmp_path.iterdir()) == []
+
+
+_BYTES_OVER_THE_PIPE = """
+import os, signal, sys, threading, time
+from concurrent.futures import ProcessPoolExecutor, wait, FIRST_COMPLETED
+
+def big(i):
+    return b"x" * (16 << 20)
+
+if __name__ == "__main__":
+    ex = ProcessPoolExecutor(2, initializer=signal.signal, initargs=(signal.SIGTERM, signal.SIG_DFL))
+    pending = {ex.submit(big, i) for i in range(400)}
+    t0 = time.time()
+    while time.time() - t0 < 0.5:
+        done, pending = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
+    for p in list(ex._processes.values()):
+        p.terminate()
+    ex.shutdown(wait=False, cancel_futures=True)
+    time.sleep(5)
+    alive = [t for t in threading.enumerate() if type(t).__name__ == "_ExecutorManagerThread"]
+    print("stuck" if alive else "ended", flush=True)
+    os._exit(0)
+"""
+
+
+def test_negative_control_a_worker_ended_while_sending_bytes_leaves_the_manager_stuck(tmp_path):
+    """The hazard that the spool avoids, seen: a plain pool whose workers send 16 MB results back,
+    ended while they do, leaves its manager thread blocked (the script leaves with os._exit)."""
+    script = tmp_path / "pipe.py"
+    script.write_text(_BYTES_OVER_THE_PIPE)
+    out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120)
+    assert out.stdout.strip() == "stuck", out.stderr
 
 
 def test_negative_control_a_raising_handler_does_cut_a_slow_step_short():

@@ -334,24 +334,43 @@ def _interrupts_as_flag():
             signal.signal(s, h)
 
 
+def _spooled_trial(spool: str, cfg_dict: dict, seed: int, trial: int, variants, chash: str, engine: str) -> str:
+    """A pool worker's task: compute one trial, write its bytes to a file of ``spool`` and return
+    only that file's name. A trial's bytes (about 90 kB) sent back over the pool's result pipe take
+    several writes; a worker ended by an interrupt in the middle of them left the parent's manager
+    thread waiting for the rest for ever (its own copy of the pipe's write end keeps it open), and
+    the command hung at exit after saying it was interrupted (seen in CI). A name of a few dozen
+    bytes goes in one write, which a pipe makes atomic (POSIX ``PIPE_BUF``)."""
+    data = compute_trial(cfg_dict, seed, trial, variants, chash, engine)
+    part = Path(spool) / f"trial_{trial}.part"
+    part.write_bytes(data)
+    done = part.with_suffix(".npz")
+    part.replace(done)         # a worker ended while writing leaves only a .part, removed with the spool
+    return done.name
+
+
 def _run_pool(cfg_dict: dict, seed: int, variants: tuple[Variant, ...], todo: list[int], finish,
               jobs: int, chash: str, engine: str = "auto", poll_s: float = 0.2) -> None:
+    import tempfile
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
     from concurrent.futures.process import BrokenProcessPool
 
-    with _interrupts_as_flag() as stop:
+    with _interrupts_as_flag() as stop, tempfile.TemporaryDirectory(prefix="radarslam-pool-") as spool:
         ex = ProcessPoolExecutor(max_workers=jobs, initializer=_init_pool_worker)
         try:
-            pending = {ex.submit(compute_trial, cfg_dict, seed, t, variants, chash, engine): t for t in todo}
+            pending = {ex.submit(_spooled_trial, spool, cfg_dict, seed, t, variants, chash, engine): t for t in todo}
             while pending:
                 done, _ = wait(pending, timeout=poll_s, return_when=FIRST_COMPLETED)
                 for f in done:
                     t = pending.pop(f)
                     try:
-                        data = f.result()
+                        name = f.result()
                     except BrokenProcessPool:
                         raise RadarSlamError("a worker process died; every finished trial is stored, "
                                              "rerun the same command to resume") from None
+                    spooled = Path(spool) / name
+                    data = spooled.read_bytes()
+                    spooled.unlink()
                     finish(t, data)
                 if stop.is_set():
                     raise KeyboardInterrupt
