@@ -127,9 +127,9 @@ def test_first_run_engine_takes_the_orchestrator_while_it_ends_sooner():
     count where compiling the fused engine first pays for itself, computed from the measured
     costs, and the fused engine beyond it; more workers move the boundary up in proportion."""
     per = warmup.ORCHESTRATOR_S - warmup.FUSED_S
-    saved = warmup.FUSED_COMPILE_S - warmup.ORCHESTRATOR_COMPILE_S
+    saved = warmup.FUSED_COMPILE_S - warmup.ORCHESTRATOR_WARM_UP_S
     boundary = int(saved / per * 2 / 3)                  # three variants on two workers
-    assert boundary == 2446
+    assert boundary == 2303
     assert warmup.first_run_engine(200, 3, 2) == "orchestrator"           # the README's main job
     assert warmup.first_run_engine(boundary, 3, 2) == "orchestrator"
     assert warmup.first_run_engine(boundary + 1, 3, 2) == "auto"
@@ -158,7 +158,7 @@ def test_a_short_cold_run_uses_the_orchestrator_and_stores_the_same_results(tmp_
     monkeypatch.setattr(background, "start", lambda *a: started.append(a) or 4242)
     logs: list[str] = []
     mc.run_montecarlo(cfg, 5, 2, tmp_path / "short", jobs=2, progress=False, log=logs.append)
-    assert sum(warmup.COMPILING_SHORT in line for line in logs) == 1
+    assert sum(warmup.COMPILING_SHORT.format(s=warmup.ORCHESTRATOR_WARM_UP_S) in line for line in logs) == 1
     assert len(started) == 1 and any("pid 4242" in line for line in logs)
     # the orchestrator's kernels cached, the fused engine still compiling: no compiling line, no
     # second background process, the trials by the orchestrator again
@@ -180,6 +180,48 @@ def test_a_short_cold_run_uses_the_orchestrator_and_stores_the_same_results(tmp_
         np.testing.assert_allclose(b["poses"], a["poses"], rtol=0, atol=1e-9)
     rep = write_report(tmp_path / "short", n_boot=50)
     assert rep["fig2"]["matches_stored"] is True
+
+
+def test_a_short_warm_up_splits_the_variants_over_its_two_processes(monkeypatch):
+    """A short cold run's warm-up (warmup._short_side): the second process simulates and compiles
+    the last variant's kernels, this one the others and the evaluation; one variant stays here (the
+    second process then only simulates); on one core everything runs here, the simulation and the
+    evaluation by a Python-filter trial (warmup._side)."""
+    from concurrent.futures import Future
+
+    from radarslam.experiments import background
+
+    calls: list = []
+
+    class Inline:                                  # the second process, recorded instead of started
+        def __init__(self, max_workers):
+            pass
+
+        def submit(self, f, *args):
+            calls.append((f.__name__, args[1:]))
+            done = Future()
+            done.set_result(None)
+            return done
+
+        def shutdown(self, wait=True):
+            pass
+
+    for name in ("cache_is_cold", "fused_is_cold", "_orchestrator_is_cold"):
+        monkeypatch.setattr(warmup, name, lambda *families: True)
+    monkeypatch.setattr(background, "start", lambda *a: None)
+    monkeypatch.setattr(warmup, "ProcessPoolExecutor", Inline)
+    monkeypatch.setattr(warmup, "_orchestrator_trial",
+                        lambda cfg, variants, evaluation=False: calls.append(("here", [v.name for v in variants], evaluation)))
+    monkeypatch.setattr(warmup, "_side", lambda cfg_dict, overlay: calls.append(("_side", overlay)))
+    cfg, variants = profile_config(), mc.DEFAULT_VARIANTS
+    assert warmup.warm_up(cfg, variants, lambda s: None, parallel=True, n_trials=200, jobs=2) == "orchestrator"
+    assert calls == [("_short_side", ([dict(variants[-1].overlay)],)), ("here", ["noext", "ext"], True)]
+    calls.clear()
+    assert warmup.warm_up(cfg, variants[:1], lambda s: None, parallel=True, n_trials=200, jobs=2) == "orchestrator"
+    assert calls == [("_short_side", ([],)), ("here", ["noext"], True)]
+    calls.clear()
+    assert warmup.warm_up(cfg, variants, lambda s: None, parallel=False, n_trials=200, jobs=1) == "orchestrator"
+    assert calls == [("here", ["noext", "ext", "consistent"], False), ("_side", dict(variants[0].overlay))]
 
 
 def test_background_compilation_runs_once_per_cache(tmp_path, monkeypatch):

@@ -11,7 +11,7 @@ Both write numba's cache, from which the first real trial and every worker then 
 not touched: the warm-up's outputs are thrown away.
 
 Compiling the fused engine costs far more (about 215 s of the 235 s on one core) than compiling the
-kernels the per-event orchestrator calls (about 20 s on two cores), while a trial then runs about 4x
+kernels the per-event orchestrator calls (about 27 s on two cores), while a trial then runs about 4x
 faster. A Monte Carlo short enough to end sooner without it (:func:`first_run_engine`, from the
 costs measured by ``benchmarks/bench_compile.py``) therefore runs its trials with the
 orchestrator, the same associations and values to 1e-9, and leaves the fused engine to a detached
@@ -35,7 +35,7 @@ from radarslam.experiments.variants import Variant, apply_variant
 #: What the progress output says while the cache is filled.
 COMPILING = "compiling the numba kernels (once per machine, about three minutes); later runs load them in about a second"
 #: ... and when this run's trials go through the orchestrator (:func:`first_run_engine`).
-COMPILING_SHORT = ("compiling the numba kernels the per-event engine uses (once per machine, about 20 s); "
+COMPILING_SHORT = ("compiling the numba kernels the per-event engine uses (once per machine, about {s:.0f} s); "
                    "this run is short, so it does not wait for the fused engine")
 
 #: Costs on two cores of this kind of machine (``python benchmarks/bench_compile.py``, quiet machine:
@@ -50,17 +50,24 @@ FUSED_S, ORCHESTRATOR_S = 0.0105, 0.0432
 #: --cases carpark``: 130.4-146.5 s of CPU in four runs, mean 138; 178 s before, when one engine held
 #: every family's branches).
 FUSED_COMPILE_S, ORCHESTRATOR_COMPILE_S = 140.0, 20.0
+#: A short Monte Carlo's warm-up (:func:`warm_up`), wall seconds on two cores: the default variants'
+#: orchestrator kernels, the simulation and the evaluation, split over two processes
+#: (:func:`_short_side`). Measured (``radarslam reproduce --trials 200`` from an empty cache, the
+#: first line to the first trial): 27.2 s, and 26.3 / 26.4 s for the two processes alone; 31.4 s
+#: before the split, when its progress line said "about 20 s" (this constant was
+#: ORCHESTRATOR_COMPILE_S, one configuration's kernels, then).
+ORCHESTRATOR_WARM_UP_S = 27.0
 
 
 def first_run_engine(n_trials: int, n_variants: int, jobs: int) -> str:
     """The engine that ends a run of ``n_trials`` trials of ``n_variants`` variants on ``jobs``
     workers sooner from a cold cache: ``"auto"`` (compile the fused engine first) or
     ``"orchestrator"``. With the constants above and three variants on two workers the
-    orchestrator is chosen up to 2,446 trials."""
+    orchestrator is chosen up to 2,303 trials."""
     par = max(1, min(int(jobs), int(n_trials)))
     work = n_trials * n_variants / par
     fused = FUSED_COMPILE_S + work * FUSED_S
-    orchestrator = ORCHESTRATOR_COMPILE_S + work * ORCHESTRATOR_S
+    orchestrator = ORCHESTRATOR_WARM_UP_S + work * ORCHESTRATOR_S
     return "orchestrator" if orchestrator < fused else "auto"
 
 
@@ -155,14 +162,34 @@ def _side(cfg_dict: dict, overlay: dict) -> None:
     compute_trial(cfg, 1, 1, (Variant("warmup", "warm-up", python),))
 
 
-def _orchestrator_trial(config: Config, variants: tuple[Variant, ...]) -> None:
+def _orchestrator_trial(config: Config, variants: tuple[Variant, ...], evaluation: bool = False) -> None:
     """One car park (the reference simulation, which compiles nothing) through every variant with
-    the orchestrator: what a real trial makes numba compile of the orchestrator's kernels."""
+    the orchestrator: what a real trial makes numba compile of the orchestrator's kernels; with
+    ``evaluation``, the evaluation's matching of the first variant's run too."""
+    from radarslam.experiments.single import evaluate
     from radarslam.simulation.scenario import generate_scenario
 
     scenario = generate_scenario(config, np.random.default_rng(0), compiled=False)
-    for v in variants:
-        run_filter(apply_variant(config, v), scenario.events, engine="orchestrator")
+    for i, v in enumerate(variants):
+        rec = run_filter(apply_variant(config, v), scenario.events, engine="orchestrator")
+        if evaluation and i == 0:
+            evaluate(apply_variant(config, v), scenario, rec)
+
+
+def _short_side(cfg_dict: dict, overlays: list) -> None:
+    """Second process of a short first run: the scan simulation, then the variants of ``overlays``
+    through the orchestrator (the main process takes the others and the evaluation). Measured from
+    an empty cache (``python benchmarks/compile_table.py``-style, CPU s): the three default variants'
+    orchestrator kernels 31.2 (17.3 + 1.0 + 12.9, the last one's batch-joint associator most of
+    its share), the simulation 10.7 and the evaluation about 5.5; one process each side: about 24
+    and 27 s, against 31 and 16 when the main process compiled every variant."""
+    from radarslam.simulation.scenario import generate_scenario
+
+    config = from_dict(cfg_dict)
+    scenario = generate_scenario(config, np.random.default_rng(0))
+    for overlay in overlays:
+        run_filter(apply_variant(config, Variant("warmup", "warm-up", overlay)), scenario.events,
+                   engine="orchestrator")
 
 
 def _orchestrator_is_cold() -> bool:
@@ -209,19 +236,24 @@ def warm_up(config: Config, variants: tuple[Variant, ...], log: Callable[[str], 
         _background(config, variants, log)
         if not _orchestrator_is_cold():
             return "orchestrator"
-    log(f"montecarlo: {COMPILING_SHORT if short else COMPILING}")
+    log(f"montecarlo: {COMPILING_SHORT.format(s=ORCHESTRATOR_WARM_UP_S) if short else COMPILING}")
     side = None
+    mine, theirs = variants, ()
     if parallel:
         side = ProcessPoolExecutor(max_workers=1)
-        job = side.submit(_side, to_dict(config), dict(variants[0].overlay))
+        if short:     # the last variant's kernels beside the simulation; this process evaluates
+            mine, theirs = (variants[:-1], variants[-1:]) if len(variants) > 1 else (variants, ())
+            job = side.submit(_short_side, to_dict(config), [dict(v.overlay) for v in theirs])
+        else:
+            job = side.submit(_side, to_dict(config), dict(variants[0].overlay))
     from radarslam.experiments.dataset_first_run import _heartbeat
 
-    expected = ORCHESTRATOR_COMPILE_S if short else FUSED_COMPILE_S
+    expected = ORCHESTRATOR_WARM_UP_S if short else FUSED_COMPILE_S
     beat = _heartbeat(expected, "montecarlo: still compiling the numba kernels")
     beat.__enter__()
     try:
         if short:
-            _orchestrator_trial(config, variants)
+            _orchestrator_trial(config, mine, evaluation=side is not None)
         else:
             for v in variants:                   # each variant's family; variants outside the engine compile here too
                 run_filter(apply_variant(config, v), _tiny_stream())
