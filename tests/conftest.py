@@ -90,8 +90,18 @@ def _one_process_at_a_time(path: Path):
             fcntl.flock(fh, fcntl.LOCK_UN)
 
 
+@pytest.fixture(scope="session")
+def family_evidence_path(tmp_path_factory) -> Path:
+    """Where the session's warm-up leaves what its cold compile of the default family touched
+    (tests/family_evidence.py): one file for every pytest-xdist worker of the session."""
+    import family_evidence
+
+    base = tmp_path_factory.getbasetemp()
+    return (base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base) / family_evidence.NAME
+
+
 @pytest.fixture(scope="session", autouse=True)
-def _fused_engine_compiled():
+def _fused_engine_compiled(family_evidence_path):
     """Compile the fused engine once before the first test when numba's cache is cold, so that
     every Monte Carlo in the session runs its trials with the engine the results are compared
     against (a short run on a cold cache would take the orchestrator, equal only to 1e-9,
@@ -109,8 +119,14 @@ def _fused_engine_compiled():
     from radarslam.experiments.variants import DEFAULT_VARIANTS
     from radarslam.experiments.warmup import warm_up
 
+    import family_evidence
+    from radarslam.experiments.warmup import fused_is_cold
+
     workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
     # keyed like the background compilation's lock: the package's location and NUMBA_CACHE_DIR
     with _one_process_at_a_time(background.lock_path().with_suffix(".tests.lock")):
+        measure = fused_is_cold() and family_evidence.untouched()
         warm_up(profile_config("apsipa"), DEFAULT_VARIANTS, lambda s: None, parallel=workers > 1)
+        if measure:   # a cold compile of the default family just ran here: its evidence, once
+            family_evidence.record(family_evidence_path, family_evidence.counts())
     yield

@@ -6,80 +6,34 @@ about the family a command uses."""
 
 from __future__ import annotations
 
-import json
-import os
-import subprocess
-import sys
-
 from radarslam.config import profile_config
 from radarslam.experiments.variants import Variant, apply_variant
 from radarslam.slam import _fused
 from radarslam.slam.filter import EkfSlam
 
+import family_evidence
 from conftest import require
 
-#: A cold process: the default variants' and the consistent one's run (nearest neighbour and
-#: batch-joint, the default family), then what numba compiled of the other families' code.
-COLD = """
-import json
-from radarslam.config import profile_config
-from radarslam.experiments.single import run_filter
-from radarslam.experiments.variants import DEFAULT_VARIANTS, apply_variant
-from radarslam.experiments.warmup import _tiny_stream
-from radarslam.slam import _fused, _numba, _jcbb_numba
-from radarslam.slam.fused import bias, view
-from radarslam.extent import _compiled as extent_compiled
-for v in DEFAULT_VARIANTS:
-    run_filter(apply_variant(profile_config(), v), _tiny_stream())
-n = lambda d: len(d.signatures)
-print(json.dumps({
-    "engine": n(_fused.engine(_fused.DEFAULT)),
-    "nearest": n(_numba.associate_scan), "joint": n(_numba.joint_batch_associate_scan),
-    "view_associate": n(view.view_associate), "view_terms": n(view.view_terms), "view_sift": n(view.view_sift),
-    "view_rows": n(extent_compiled.view_rows), "jcbb": n(_jcbb_numba.jcbb_associate_scan),
-    "bias": n(bias._platform_prediction),
-    "others": [n(_fused.engine(f)) for f in (_fused.Family(True, False, False), _fused.Family(False, True, False),
-                                             _fused.Family(False, False, True))],
-}))
-"""
 
-#: A second process on the same cache: what the first-run rule reads from disk.
-WARM = """
-import json
-from radarslam.experiments import first_run, warmup
-from radarslam.experiments.single import run_filter
-from radarslam.config import profile_config
-from radarslam.slam import _fused
-view = _fused.Family(True, False, False)
-out = {"default_ready": first_run._filter_ready(), "view_ready": first_run._filter_ready(view),
-       "both_ready": first_run._filter_ready(_fused.DEFAULT, view), "fused_cold": warmup.fused_is_cold(),
-       "view_cold": warmup.fused_is_cold(view)}
-run_filter(profile_config(), warmup._tiny_stream())
-out["hits"] = sum(_fused.engine(_fused.DEFAULT).stats.cache_hits.values())
-out["misses"] = sum(_fused.engine(_fused.DEFAULT).stats.cache_misses.values())
-print(json.dumps(out))
-"""
-
-
-def _python(code: str, cache) -> dict:
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache))
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
-    return json.loads(out.stdout.strip().splitlines()[-1])
-
-
-def test_a_default_run_compiles_its_family_alone_and_the_cache_keeps_families_apart(tmp_path):
+def test_a_default_run_compiles_its_family_alone_and_the_cache_keeps_families_apart(tmp_path, family_evidence_path):
     """Cold (an empty NUMBA_CACHE_DIR): the default family's engine and its associators compile,
     the partial view's association, sifting and shapes, JCBB and the bias states' prediction do
     not, nor another family's engine (before the cut, one engine compiled them all). Warm (a second
     process on that cache): the default family is ready and loads from disk without compiling; the
-    partial view's is not, alone or beside the default."""
+    partial view's is not, alone or beside the default. Measured by the session's warm-up when it
+    met a cold cache (a fresh clone: the one cold compile serves both), else here on an empty cache
+    (tests/family_evidence.py)."""
     require("numba")
-    cold = _python(COLD, tmp_path / "cache")
+    evidence = family_evidence.read(family_evidence_path)
+    if evidence is None:        # this session's cache was warm: measure on an empty cache of our own
+        cold = family_evidence.python(family_evidence.COLD, tmp_path / "cache")
+        warm = family_evidence.python(family_evidence.WARM, tmp_path / "cache")
+    else:                       # the session's warm-up compiled the default family cold (conftest.py)
+        cold, warm = evidence
     assert cold["engine"] == 1 and cold["nearest"] == 1 and cold["joint"] == 1        # what the default runs
     for name in ("view_associate", "view_terms", "view_sift", "view_rows", "jcbb", "bias"):
         assert cold[name] == 0, name
     assert cold["others"] == [0, 0, 0]
-    warm = _python(WARM, tmp_path / "cache")
     assert warm["default_ready"] is True and warm["fused_cold"] is False
     assert warm["view_ready"] is False and warm["both_ready"] is False and warm["view_cold"] is True
     assert warm["hits"] == 1 and warm["misses"] == 0
