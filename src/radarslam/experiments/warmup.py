@@ -179,10 +179,11 @@ def _orchestrator_trial(config: Config, variants: tuple[Variant, ...], evaluatio
 def _short_side(cfg_dict: dict, overlays: list) -> None:
     """Second process of a short first run: the scan simulation, then the variants of ``overlays``
     through the orchestrator (the main process takes the others and the evaluation). Measured from
-    an empty cache (``python benchmarks/compile_table.py``-style, CPU s): the three default variants'
-    orchestrator kernels 31.2 (17.3 + 1.0 + 12.9, the last one's batch-joint associator most of
-    its share), the simulation 10.7 and the evaluation about 5.5; one process each side: about 24
-    and 27 s, against 31 and 16 when the main process compiled every variant."""
+    an empty cache (``python benchmarks/compile_table.py --cases orchestrator,simulation``, CPU s):
+    the three default variants' orchestrator kernels 31.2 (17.3 + 1.0 + 12.9, the last one's
+    batch-joint associator most of its share), the simulation and the evaluation 16.2; split so,
+    26.3 and 26.4 s of wall for the two processes side by side (some callees compile in both),
+    against 31 and 16 when the main process compiled every variant."""
     from radarslam.simulation.scenario import generate_scenario
 
     config = from_dict(cfg_dict)
