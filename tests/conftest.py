@@ -108,8 +108,7 @@ def _fused_engine_compiled(family_evidence_path):
     experiments/warmup.py). Without numba, nothing to do.
 
     Under pytest-xdist one worker compiles (on both cores: the others wait for its lock, so the
-    warm-up's second process and tests/precompile.py take the idle core) and the others then find
-    the cache warm."""
+    warm-up's second process takes the idle core) and the others then find the cache warm."""
     try:
         import numba  # noqa: F401
     except ImportError:
@@ -121,21 +120,16 @@ def _fused_engine_compiled(family_evidence_path):
     from radarslam.experiments.warmup import warm_up
 
     import family_evidence
-    import precompile
     from radarslam.experiments.warmup import fused_is_cold
 
     workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
-    helper = None
     # keyed like the background compilation's lock: the package's location and NUMBA_CACHE_DIR
     with _one_process_at_a_time(background.lock_path().with_suffix(".tests.lock")):
-        cold = fused_is_cold()
-        measure = cold and family_evidence.untouched()
-        if cold and workers > 1:   # the core that the warm-up leaves idle compiles for later tests
-            helper = precompile.start(family_evidence_path.with_name("precompile.log"))
-        warm_up(profile_config("apsipa"), DEFAULT_VARIANTS, lambda s: None, parallel=workers > 1)
-        if measure:   # a cold compile of the default family just ran here: its evidence, once
+        measure = fused_is_cold() and family_evidence.cache_empty() and family_evidence.untouched()
+        # To measure, the simulation and the evaluation compile after the engine, here: compiled
+        # beside it in the warm-up's second process, a function they share with it could reach
+        # the cache first, and the engine would load it without going through its callees.
+        warm_up(profile_config("apsipa"), DEFAULT_VARIANTS, lambda s: None, parallel=workers > 1 and not measure)
+        if measure:   # a compile from nothing just ran here: its evidence, once
             family_evidence.record(family_evidence_path, family_evidence.counts())
     yield
-    if helper is not None and helper.poll() is None:      # never left running after the session
-        helper.terminate()
-        helper.wait(10)
