@@ -107,8 +107,10 @@ def _fused_engine_compiled(family_evidence_path):
     against (a short run on a cold cache would take the orchestrator, equal only to 1e-9,
     experiments/warmup.py). Without numba, nothing to do.
 
-    Under pytest-xdist one worker compiles (on both cores: the others wait for its lock, so the
-    warm-up's second process takes the idle core) and the others then find the cache warm."""
+    Under pytest-xdist one worker compiles and the others wait for its lock, then find the cache
+    warm. The warm-up's second process (the simulation and the evaluation) takes the idle core,
+    except on a cache empty of the package (a fresh clone), where the compile is also the record of
+    tests/family_evidence.py and nothing else may write to the cache meanwhile."""
     try:
         import numba  # noqa: F401
     except ImportError:
