@@ -56,21 +56,14 @@ class CompileTimes(event.Listener):
         self.records.append((f"{f.__module__}.{f.__qualname__}", tuple(str(a) for a in ev.data["args"]), dt, dt - inner))
 
 
-def _tiny(config) -> None:
-    from radarslam.experiments.single import run_filter
-    from radarslam.experiments.warmup import _tiny_stream
-
-    run_filter(config, _tiny_stream())
-
-
 def run_case(name: str) -> None:
     """Run case ``name`` (module docstring) as its command would on a machine whose code is ready."""
     from radarslam.config import profile_config
-    from radarslam.experiments.variants import DEFAULT_VARIANTS, apply_variant
+    from radarslam.experiments.variants import DEFAULT_VARIANTS, Variant
+    from radarslam.experiments.warmup import compile_fused
 
     if name == "carpark":
-        for v in DEFAULT_VARIANTS:
-            _tiny(apply_variant(profile_config(), v))
+        compile_fused(profile_config(), DEFAULT_VARIANTS)
     elif name == "simulation":
         from radarslam.config import to_dict
         from radarslam.experiments.warmup import _side
@@ -95,9 +88,7 @@ def run_case(name: str) -> None:
 
         _orchestrator_trial(profile_config(), DEFAULT_VARIANTS)
     else:
-        from radarslam.experiments.variants import Variant
-
-        _tiny(apply_variant(profile_config(), Variant(name, name, OTHER_CASES[name])))
+        compile_fused(profile_config(), (Variant(name, name, OTHER_CASES[name]),))
 
 
 def main() -> int:

@@ -84,12 +84,10 @@ def cache_empty() -> bool:
 def default_run_counts() -> dict:
     """The COLD measurement in this process (module docstring)."""
     from radarslam.config import profile_config
-    from radarslam.experiments.single import run_filter
-    from radarslam.experiments.variants import DEFAULT_VARIANTS, apply_variant
-    from radarslam.experiments.warmup import _tiny_stream
+    from radarslam.experiments.variants import DEFAULT_VARIANTS
+    from radarslam.experiments.warmup import compile_fused
 
-    for v in DEFAULT_VARIANTS:
-        run_filter(apply_variant(profile_config(), v), _tiny_stream())
+    compile_fused(profile_config(), DEFAULT_VARIANTS)          # what the session's warm-up runs
     return counts()
 
 

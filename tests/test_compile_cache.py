@@ -215,10 +215,10 @@ def test_a_short_warm_up_splits_the_variants_over_its_two_processes(monkeypatch)
     monkeypatch.setattr(warmup, "_side", lambda cfg_dict, overlay: calls.append(("_side", overlay)))
     cfg, variants = profile_config(), mc.DEFAULT_VARIANTS
     assert warmup.warm_up(cfg, variants, lambda s: None, parallel=True, n_trials=200, jobs=2) == "orchestrator"
-    assert calls == [("_short_side", ([dict(variants[-1].overlay)],)), ("here", ["noext", "ext"], True)]
+    assert calls == [("_short_side", (variants[-1:],)), ("here", ["noext", "ext"], True)]
     calls.clear()
     assert warmup.warm_up(cfg, variants[:1], lambda s: None, parallel=True, n_trials=200, jobs=2) == "orchestrator"
-    assert calls == [("_short_side", ([],)), ("here", ["noext"], True)]
+    assert calls == [("_short_side", ((),)), ("here", ["noext"], True)]
     calls.clear()
     assert warmup.warm_up(cfg, variants, lambda s: None, parallel=False, n_trials=200, jobs=1) == "orchestrator"
     assert calls == [("here", ["noext", "ext", "consistent"], False), ("_side", dict(variants[0].overlay))]

@@ -100,9 +100,8 @@ def main(job: str) -> int:
     """The detached process: under the lock, run the warm-up's tiny stream through each variant
     with the fused engine (numba compiles it whole and caches it). 0 when done or not needed."""
     from radarslam.config import from_dict
-    from radarslam.experiments.single import run_filter
-    from radarslam.experiments.variants import apply_variant, variants_from_json
-    from radarslam.experiments.warmup import _tiny_stream
+    from radarslam.experiments.variants import variants_from_json
+    from radarslam.experiments.warmup import compile_fused
 
     try:
         data = json.loads(Path(job).read_text())
@@ -114,8 +113,7 @@ def main(job: str) -> int:
             return 0
         config = from_dict(data["config"])
         variants = variants_from_json(data["variants"])
-        for v in variants:
-            run_filter(apply_variant(config, v), _tiny_stream())
+        compile_fused(config, variants)
         print("radarslam: the fused engine is compiled and cached", flush=True)
         if config.filter.motion_model == "unicycle":       # the car park's simulation and evaluation too
             from radarslam.experiments.warmup import _side

@@ -153,6 +153,13 @@ def _tiny_stream() -> list:
                  channels={"doppler_mps": np.array([-1.0, -1.0, -1.0])})]
 
 
+def compile_fused(config: Config, variants: tuple[Variant, ...]) -> None:
+    """The warm-up's tiny stream through each variant of ``config``: numba compiles the fused
+    engine of each variant's family whole (and, for a variant outside the engine, what it runs)."""
+    for v in variants:
+        run_filter(apply_variant(config, v), _tiny_stream())
+
+
 def _side(cfg_dict: dict, overlay: dict) -> None:
     """Second process: one simulated trial with the Python filter compiles the scan simulation and
     the evaluation's matching (and nothing of the filter)."""
@@ -162,35 +169,31 @@ def _side(cfg_dict: dict, overlay: dict) -> None:
     compute_trial(cfg, 1, 1, (Variant("warmup", "warm-up", python),))
 
 
-def _orchestrator_trial(config: Config, variants: tuple[Variant, ...], evaluation: bool = False) -> None:
-    """One car park (the reference simulation, which compiles nothing) through every variant with
-    the orchestrator: what a real trial makes numba compile of the orchestrator's kernels; with
-    ``evaluation``, the evaluation's matching of the first variant's run too."""
+def _orchestrator_trial(config: Config, variants: tuple[Variant, ...], evaluation: bool = False,
+                        simulation: bool = False) -> None:
+    """One car park through every variant with the orchestrator: what a real trial makes numba
+    compile of the orchestrator's kernels; with ``evaluation``, the evaluation's matching of the
+    first variant's run too; with ``simulation``, the car park by the compiled scan simulation
+    (else by its reference, which compiles nothing)."""
     from radarslam.experiments.single import evaluate
     from radarslam.simulation.scenario import generate_scenario
 
-    scenario = generate_scenario(config, np.random.default_rng(0), compiled=False)
+    scenario = generate_scenario(config, np.random.default_rng(0), compiled=simulation)
     for i, v in enumerate(variants):
         rec = run_filter(apply_variant(config, v), scenario.events, engine="orchestrator")
         if evaluation and i == 0:
             evaluate(apply_variant(config, v), scenario, rec)
 
 
-def _short_side(cfg_dict: dict, overlays: list) -> None:
-    """Second process of a short first run: the scan simulation, then the variants of ``overlays``
-    through the orchestrator (the main process takes the others and the evaluation). Measured from
+def _short_side(cfg_dict: dict, variants: tuple[Variant, ...]) -> None:
+    """Second process of a short first run: the scan simulation, then ``variants`` through the
+    orchestrator (the main process takes the others and the evaluation). Measured from
     an empty cache (``python benchmarks/compile_table.py --cases orchestrator,simulation``, CPU s):
     the three default variants' orchestrator kernels 31.2 (17.3 + 1.0 + 12.9, the last one's
     batch-joint associator most of its share), the simulation and the evaluation 16.2; split so,
     26.3 and 26.4 s of wall for the two processes side by side (some callees compile in both),
     against 31 and 16 when the main process compiled every variant."""
-    from radarslam.simulation.scenario import generate_scenario
-
-    config = from_dict(cfg_dict)
-    scenario = generate_scenario(config, np.random.default_rng(0))
-    for overlay in overlays:
-        run_filter(apply_variant(config, Variant("warmup", "warm-up", overlay)), scenario.events,
-                   engine="orchestrator")
+    _orchestrator_trial(from_dict(cfg_dict), variants, simulation=True)
 
 
 def _orchestrator_is_cold() -> bool:
@@ -244,7 +247,7 @@ def warm_up(config: Config, variants: tuple[Variant, ...], log: Callable[[str], 
         side = ProcessPoolExecutor(max_workers=1)
         if short:     # the last variant's kernels beside the simulation; this process evaluates
             mine, theirs = (variants[:-1], variants[-1:]) if len(variants) > 1 else (variants, ())
-            job = side.submit(_short_side, to_dict(config), [dict(v.overlay) for v in theirs])
+            job = side.submit(_short_side, to_dict(config), theirs)
         else:
             job = side.submit(_side, to_dict(config), dict(variants[0].overlay))
     from radarslam.experiments.dataset_first_run import _heartbeat
@@ -256,8 +259,7 @@ def warm_up(config: Config, variants: tuple[Variant, ...], log: Callable[[str], 
         if short:
             _orchestrator_trial(config, mine, evaluation=side is not None)
         else:
-            for v in variants:                   # each variant's family; variants outside the engine compile here too
-                run_filter(apply_variant(config, v), _tiny_stream())
+            compile_fused(config, variants)      # each variant's family
         if side is None:                         # one core: the simulation and the evaluation next, here
             _side(to_dict(config), dict(variants[0].overlay))
     finally:
