@@ -32,8 +32,8 @@ def _signature():
     import numba
 
     from radarslam.config import profile_config
-    from radarslam.experiments.single import run_filter
-    from radarslam.experiments.warmup import _tiny_stream
+    from radarslam.slam.driver import run_filter
+    from radarslam.compiling.warmup import _tiny_stream
     from radarslam.slam.fused import plan
 
     captured, real = {}, plan.engine
@@ -84,8 +84,8 @@ def compare(module, n_trials: int) -> tuple[int, int, float, float]:
     """Trials ``1..n_trials`` of the three default variants through both engines: (runs, identical
     runs, JIT seconds, AOT seconds). Each scan's wall time (``seconds``) is left out of the comparison."""
     from radarslam.config import profile_config
-    from radarslam.experiments.single import run_trial
-    from radarslam.experiments.variants import DEFAULT_VARIANTS, apply_variant
+    from radarslam.simulation.trial import run_trial
+    from radarslam.config.variants import DEFAULT_VARIANTS, apply_variant
     from radarslam.slam.fused import plan
 
     runs, real = [], plan.engine

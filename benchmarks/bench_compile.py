@@ -7,7 +7,7 @@ runs the same job in fresh interpreters against an empty cache directory:
 1. cold: the first process compiles everything it uses and writes the cache;
 2. warm: a second process loads the cache (what every later run and every Monte Carlo worker pays);
 3. both again with the trials run by the per-event orchestrator (``engine="orchestrator"``, what a
-   short first run uses while the fused engine compiles in the background, experiments/warmup.py);
+   short first run uses while the fused engine compiles in the background, compiling/warmup.py);
 4. python: the same job with ``filter.backend = "python"`` (no numba code runs).
 
 The job is one complete car-park trial (all three Monte Carlo variants, so the batch associator and
@@ -27,7 +27,7 @@ import time
 t0 = time.perf_counter()
 from dataclasses import replace
 from radarslam.config import profile_config
-from radarslam.experiments.montecarlo import compute_trial
+from radarslam.montecarlo.trials import compute_trial
 cfg = profile_config()
 cfg = replace(cfg, filter=replace(cfg.filter, backend={backend!r}))
 t1 = time.perf_counter()
@@ -69,7 +69,7 @@ def main() -> None:
     for i, name in ((0, "fused engine"), (2, "orchestrator")):
         (_, _, (_, c1, _)), (_, _, (_, w1, tn)) = rows[i], rows[i + 1]
         print(f"{name}: compilation on first use {c1 - w1:.1f} s on one core; {tn / 3 * 1e3:.1f} ms per variant "
-              f"and trial warm (experiments/warmup.py FUSED_S / ORCHESTRATOR_S)")
+              f"and trial warm (compiling/warmup.py FUSED_S / ORCHESTRATOR_S)")
     print(f"fused engine's cache {size / 1e6:.1f} MB")
 
 

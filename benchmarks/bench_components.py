@@ -35,9 +35,9 @@ import _common  # noqa: F401  (single-threaded BLAS)
 import numpy as np
 
 from radarslam.config import from_dict, merge_tables, profile_config, to_dict
-from radarslam.experiments.montecarlo import trial_seed
-from radarslam.experiments.single import run_filter
-from radarslam.experiments.variants import CONSISTENT, PAPER_VARIANTS
+from radarslam.montecarlo.trials import trial_seed
+from radarslam.slam.driver import run_filter
+from radarslam.config.variants import CONSISTENT, PAPER_VARIANTS
 from radarslam.simulation.scenario import generate_scenario
 from radarslam.slam import _fused
 from radarslam.slam.filter import EkfSlam

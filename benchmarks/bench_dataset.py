@@ -17,8 +17,7 @@ from pathlib import Path
 import _common  # noqa: F401  (single-threaded BLAS)
 
 from radarslam.config import profile_config
-from radarslam.experiments.dataset import (compare_tree_diameters, evaluate_against_gps, run_dataset,
-                                           victoria_park_options)
+from radarslam.runs.dataset import compare_tree_diameters, evaluate_against_gps, run_dataset, victoria_park_options
 from radarslam.io.datasets.victoria_park import INPUT_PROFILES
 from radarslam.slam import _fused
 from radarslam.slam.filter import EkfSlam

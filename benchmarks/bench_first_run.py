@@ -45,13 +45,13 @@ SHOWN = {
     "reproduce": "radarslam reproduce --trials 200",
 }
 #: What fills a cache with everything the commands use: the background compile a user's first run
-#: leaves running (experiments/background.py: the fused engine for the Monte Carlo's variants, the
+#: leaves running (compiling/background.py: the fused engine for the Monte Carlo's variants, the
 #: scan simulation, the evaluation's matching), here in the foreground; then each command once
 #: more, so that its own kernels are cached too.
 FILL = ("import json, tempfile\n"
         "from radarslam.config import profile_config, to_dict\n"
-        "from radarslam.experiments import background\n"
-        "from radarslam.experiments.variants import DEFAULT_VARIANTS, variants_to_json\n"
+        "from radarslam.compiling import background\n"
+        "from radarslam.config.variants import DEFAULT_VARIANTS, variants_to_json\n"
         "job = tempfile.NamedTemporaryFile('w', suffix='.json', delete=False)\n"
         "json.dump({'config': to_dict(profile_config()), 'variants': variants_to_json(DEFAULT_VARIANTS)}, job)\n"
         "job.close()\n"

@@ -8,7 +8,7 @@ from dataclasses import replace
 import _common  # noqa: F401
 
 from radarslam.config import profile_config
-from radarslam.experiments.montecarlo import run_montecarlo
+from radarslam.montecarlo.trials import run_montecarlo
 
 
 def rate(trials: int, jobs: int, backend: str) -> float:

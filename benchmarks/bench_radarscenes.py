@@ -40,8 +40,8 @@ def child(path: str, profile: str, out: str) -> dict:
     """One ``radarslam run`` in this process with each phase's function wrapped by a timer."""
     t0 = time.perf_counter()
     times: dict = {}
-    import radarslam.experiments.recording as rec_mod
-    import radarslam.experiments.recording_outputs as outs
+    import radarslam.runs.recording as rec_mod
+    import radarslam.runs.recording_outputs as outs
     import radarslam.io.recording as io_rec
     import radarslam.slam.fused.plan as plan
     from radarslam.cli.main import main

@@ -14,7 +14,7 @@ from pathlib import Path
 import _common  # noqa: F401  (one BLAS thread)
 import numpy as np
 
-from radarslam.experiments.rig_velocity import compare_with_odometry, read_rig, rig_ego_velocity
+from radarslam.egomotion.rig import compare_with_odometry, read_rig, rig_ego_velocity
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
 DEFAULT = [SHARED / "nuscenes_radar" / f"scene-{s}" for s in ("0061", "0103", "0655", "0916")] + [

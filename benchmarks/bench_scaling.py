@@ -25,7 +25,7 @@ import numpy as np
 from radarslam.config import profile_config
 from radarslam.core.types import Scan
 from radarslam.config import merge_tables
-from radarslam.experiments.variants import CONSISTENT, PAPER_VARIANTS, Variant, apply_variant
+from radarslam.config.variants import CONSISTENT, PAPER_VARIANTS, Variant, apply_variant
 from radarslam.simulation.scenario import generate_scenario
 from radarslam.slam import _fused
 from radarslam.slam.filter import EkfSlam

@@ -1,6 +1,6 @@
 """Wall time of one complete Monte Carlo trial on one core, and every stage's share of it.
 
-A trial is what a Monte Carlo worker does (``experiments.montecarlo.compute_trial``): simulate the
+A trial is what a Monte Carlo worker does (``montecarlo.trials.compute_trial``): simulate the
 car park, run the filter of each variant on it (RMA and EFA tracked), evaluate every run and encode
 the result. Two passes over the same trials:
 
@@ -25,8 +25,8 @@ import _common  # noqa: F401  (single-threaded BLAS)
 import numpy as np
 
 from radarslam.config import profile_config
-from radarslam.experiments import montecarlo
-from radarslam.experiments.variants import DEFAULT_VARIANTS, PAPER_VARIANTS
+from radarslam.montecarlo import trials as montecarlo
+from radarslam.config.variants import DEFAULT_VARIANTS, PAPER_VARIANTS
 from radarslam.slam.fused import plan as _fused
 from radarslam.slam.filter import EkfSlam
 

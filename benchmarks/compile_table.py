@@ -59,32 +59,32 @@ class CompileTimes(event.Listener):
 def run_case(name: str) -> None:
     """Run case ``name`` (module docstring) as its command would on a machine whose code is ready."""
     from radarslam.config import profile_config
-    from radarslam.experiments.variants import DEFAULT_VARIANTS, Variant
-    from radarslam.experiments.warmup import compile_fused
+    from radarslam.config.variants import DEFAULT_VARIANTS, Variant
+    from radarslam.compiling.warmup import compile_fused
 
     if name == "carpark":
         compile_fused(profile_config(), DEFAULT_VARIANTS)
     elif name == "simulation":
         from radarslam.config import to_dict
-        from radarslam.experiments.warmup import _side
+        from radarslam.compiling.warmup import _side
 
         _side(to_dict(profile_config()), {})
     elif name == "automotive":
-        from radarslam.experiments.recording import run_recording
+        from radarslam.runs.recording import run_recording
         from radarslam.io.recording import read_recording
 
         rec = read_recording(DATA / "nuscenes_radar" / "scene-0061")
         run_recording(rec, profile_config("automotive"))
     elif name == "victoria-park":
-        from radarslam.experiments import dataset_first_run
-        from radarslam.experiments.dataset import run_dataset, victoria_park_options
+        from radarslam.compiling import stream_plan as dataset_first_run
+        from radarslam.runs.dataset import run_dataset, victoria_park_options
 
         dataset_first_run._fused_ready = lambda *families: True      # as on a machine whose code is ready
         cfg = profile_config("victoria-park")
         run_dataset("victoria-park", DATA / "victoria_park", cfg, n_scans=300, progress=False,
                     loader_options=victoria_park_options(cfg))
     elif name == "orchestrator":
-        from radarslam.experiments.warmup import _orchestrator_trial
+        from radarslam.compiling.warmup import _orchestrator_trial
 
         _orchestrator_trial(profile_config(), DEFAULT_VARIANTS)
     else:

@@ -21,8 +21,8 @@ def main() -> int:
     ap.add_argument("--top", type=int, default=15, help="functions to list (default 15)")
     args = ap.parse_args()
     from radarslam.config import profile_config
-    from radarslam.experiments.single import run_filter
-    from radarslam.experiments.warmup import _tiny_stream
+    from radarslam.slam.driver import run_filter
+    from radarslam.compiling.warmup import _tiny_stream
     from radarslam.slam import _fused
 
     t0 = time.process_time()

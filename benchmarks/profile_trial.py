@@ -7,7 +7,7 @@ import pstats
 import _common  # noqa: F401
 
 from radarslam.config import profile_config
-from radarslam.experiments.montecarlo import compute_trial
+from radarslam.montecarlo.trials import compute_trial
 
 
 def main() -> None:

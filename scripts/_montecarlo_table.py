@@ -10,7 +10,7 @@ from pathlib import Path
 
 from radarslam.config import profile_config, to_dict
 from radarslam.core.registry import BACKENDS
-from radarslam.experiments.montecarlo import load_results, run_montecarlo
+from radarslam.montecarlo.trials import load_results, run_montecarlo
 
 
 def main(doc: str, variants: list, table: Callable[[dict], list[dict]], markdown: Callable[[list[dict], dict], str],
@@ -56,7 +56,7 @@ def run_ablation_table(cfg, variants: list, seed: int, trials: int, out: str, jo
     write it as ``out/stem.md`` and, with the rows, seed and configuration, ``out/stem.json``."""
     from ablation_consistent import markdown, table
 
-    from radarslam.experiments.report import nees_summary
+    from radarslam.montecarlo.report import nees_summary
 
     run_montecarlo(cfg, seed, trials, out, jobs=jobs, variants=variants)
     res = load_results(out)

@@ -16,8 +16,8 @@ import sys
 import _montecarlo_table
 import numpy as np
 
-from radarslam.experiments.report import nees_summary, nis_summary
-from radarslam.experiments.variants import CONSISTENT, DEFAULT_VARIANTS, Variant
+from radarslam.montecarlo.report import nees_summary, nis_summary
+from radarslam.config.variants import CONSISTENT, DEFAULT_VARIANTS, Variant
 from radarslam.metrics.pose import avg_rmse
 from radarslam.metrics.statistics import bootstrap_avg_rmse, bootstrap_counts, percentile_interval
 

@@ -23,9 +23,9 @@ from pathlib import Path
 import numpy as np
 
 from radarslam.config import profile_config, validate
-from radarslam.experiments.calibrate import calibrate_yaw
-from radarslam.experiments.recording import run_recording
-from radarslam.experiments.rig_velocity import read_rig
+from radarslam.egomotion.calibrate import calibrate_yaw
+from radarslam.runs.recording import run_recording
+from radarslam.egomotion.rig import read_rig
 from radarslam.io.recording import read_recording
 from radarslam.io.recording.mounting import Mounting
 
@@ -50,8 +50,8 @@ def doppler_dead_reckoning(rec, path: Path) -> dict:
     """The radar alone without a map: the rig's Doppler fit (v_x, v_y, omega; c.12) at every sweep
     integrated from the truth's first pose, a window without a fit holding the last one; its errors
     at the truth's times (what "radar alone" is compared with in issue 36)."""
-    from radarslam.experiments.rig_odometry import rig_of
-    from radarslam.experiments.rig_velocity import rig_ego_velocity
+    from radarslam.egomotion.rig_odometry import rig_of
+    from radarslam.egomotion.rig import rig_ego_velocity
     from radarslam.metrics.trajectory import trajectory_errors
 
     series = rig_ego_velocity(rig_of(rec), np.random.default_rng(0))

@@ -25,7 +25,7 @@ from dataclasses import replace
 from _montecarlo_table import run_ablation_table
 
 from radarslam.config import profile_config, validate
-from radarslam.experiments.variants import CONSISTENT, PAPER_VARIANTS, Variant
+from radarslam.config.variants import CONSISTENT, PAPER_VARIANTS, Variant
 
 MODES = {"odometer": {"odometry": "odometer"}, "doppler": {"odometry": "doppler"}, "both": {"odometry": "both"},
          "radar-alone": {"odometry": "doppler", "yaw_rate": "doppler"}}

@@ -12,9 +12,9 @@ import sys
 from pathlib import Path
 
 from radarslam.config import profile_config
-from radarslam.experiments.montecarlo import load_results, run_montecarlo
-from radarslam.experiments.report.tables import table1
-from radarslam.experiments.variants import CONSISTENT, Variant
+from radarslam.montecarlo.trials import load_results, run_montecarlo
+from radarslam.montecarlo.report.tables import table1
+from radarslam.config.variants import CONSISTENT, Variant
 
 from spread_models import _settled, shape_curves
 

@@ -24,8 +24,8 @@ from dataclasses import replace
 from pathlib import Path
 
 from radarslam.config import profile_config, to_dict
-from radarslam.experiments.doppler_study import GATE_SETTINGS, LASTING_SCANS, gate_study
-from radarslam.experiments.montecarlo import trial_seed
+from _doppler_study import GATE_SETTINGS, LASTING_SCANS, gate_study
+from radarslam.montecarlo.trials import trial_seed
 
 
 def _pct(ci) -> str:

@@ -21,8 +21,9 @@ from scipy import stats
 
 from radarslam.config import profile_config
 from radarslam.core.angles import wrap_pi
-from radarslam.experiments.montecarlo import trial_seed, variant_config
-from radarslam.experiments.single import run_filter, with_initial_estimate
+from radarslam.montecarlo.trials import trial_seed, variant_config
+from radarslam.slam.driver import run_filter
+from radarslam.simulation.trial import with_initial_estimate
 from radarslam.simulation.scenario import generate_scenario
 
 

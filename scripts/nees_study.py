@@ -19,8 +19,8 @@ import sys
 import _montecarlo_table
 import numpy as np
 
-from radarslam.experiments.report import nees_summary
-from radarslam.experiments.variants import CONSISTENT, Variant
+from radarslam.montecarlo.report import nees_summary
+from radarslam.config.variants import CONSISTENT, Variant
 from radarslam.metrics.pose import avg_rmse
 
 #: First scan of the late stretch where the fixed-offset run sits above the band (issue 22).

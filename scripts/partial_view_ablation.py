@@ -19,7 +19,7 @@ import sys
 
 from _montecarlo_table import run_under_spread_model
 
-from radarslam.experiments.variants import CONSISTENT, Variant
+from radarslam.config.variants import CONSISTENT, Variant
 
 PARTS = (
     ("shape-rma", "partial view, the RMA's shape in the arc model", {"extent": {"view_shape": "rma"}}),

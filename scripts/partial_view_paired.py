@@ -24,9 +24,10 @@ METRICS = ("position_m", "heading_deg", "nees")
 
 def run(seed: int, trials: int, out: str, extent: dict) -> None:
     from radarslam.config import from_dict, merge_tables, profile_config, to_dict
-    from radarslam.experiments.montecarlo import trial_seed, variant_config
-    from radarslam.experiments.single import evaluate, run_filter, with_initial_estimate
-    from radarslam.experiments.variants import CONSISTENT
+    from radarslam.montecarlo.trials import trial_seed, variant_config
+    from radarslam.simulation.trial import evaluate, with_initial_estimate
+    from radarslam.slam.driver import run_filter
+    from radarslam.config.variants import CONSISTENT
     from radarslam.simulation.scenario import generate_scenario
 
     view = {"radar": {"spread_model": "visible-faces"}, "extent": {"spread_model": "visible-faces", **extent}}

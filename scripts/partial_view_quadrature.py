@@ -32,9 +32,9 @@ REF = 512
 def collect(seed: int, trials: int) -> np.ndarray:
     """``(K, 5)``: ``(dx, dy, X11, X12, X22)`` of every shape update of the trials (orchestrator)."""
     from radarslam.config import from_dict, merge_tables, profile_config, to_dict
-    from radarslam.experiments.montecarlo import trial_seed
-    from radarslam.experiments.single import run_filter
-    from radarslam.experiments.variants import CONSISTENT, apply_variant
+    from radarslam.montecarlo.trials import trial_seed
+    from radarslam.slam.driver import run_filter
+    from radarslam.config.variants import CONSISTENT, apply_variant
     from radarslam.extent import view_estimator as ve
     from radarslam.simulation.scenario import generate_scenario
 

@@ -18,7 +18,7 @@ import sys
 
 from _montecarlo_table import run_under_spread_model
 
-from radarslam.experiments.variants import CONSISTENT, Variant
+from radarslam.config.variants import CONSISTENT, Variant
 
 GRID = {
     "view_model_error_m": (0.3, 0.7),

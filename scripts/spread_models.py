@@ -29,12 +29,12 @@ from pathlib import Path
 import numpy as np
 
 from radarslam.config import profile_config, to_dict
-from radarslam.experiments.montecarlo import load_results, run_montecarlo
-from radarslam.experiments.report.tables import GWD_SETTLED_FROM, gwd_curves, table1
+from radarslam.montecarlo.trials import load_results, run_montecarlo
+from radarslam.montecarlo.report.tables import GWD_SETTLED_FROM, gwd_curves, table1
 from radarslam.metrics.pose import avg_rmse
 from radarslam.metrics.statistics import (bootstrap_avg_rmse, bootstrap_counts, percentile_interval,
                                           rmse_over_defined)
-from radarslam.experiments.variants import CONSISTENT, Variant
+from radarslam.config.variants import CONSISTENT, Variant
 
 MODELS = ("surface", "contour", "visible-faces", "scatter-centres")
 #: What each variant's "rma" slot holds (its estimator's matrix); the "efa" slot is the EFA baseline.

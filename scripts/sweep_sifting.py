@@ -17,7 +17,7 @@ import sys
 import _montecarlo_table
 import numpy as np
 
-from radarslam.experiments.variants import Variant
+from radarslam.config.variants import Variant
 from radarslam.metrics.pose import avg_rmse
 from radarslam.metrics.statistics import bootstrap_avg_rmse, bootstrap_counts, percentile_interval
 

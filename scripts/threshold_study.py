@@ -30,7 +30,7 @@ import _montecarlo_table
 import numpy as np
 
 from radarslam.config import profile_config
-from radarslam.experiments.variants import DEFAULT_VARIANTS, Variant
+from radarslam.config.variants import DEFAULT_VARIANTS, Variant
 from radarslam.metrics.pose import avg_rmse
 
 #: The landmark-management thresholds studied (docs/method.md c.1) and their symbols.

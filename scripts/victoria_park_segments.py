@@ -45,7 +45,7 @@ def main(argv=None) -> None:
     ap.add_argument("--window", type=float, default=50.0)
     ap.add_argument("--focus", type=float, nargs=2, default=(995.0, 1110.0))
     a = ap.parse_args(argv)
-    from radarslam.experiments.dataset import evaluate_published, run_dataset, victoria_park_options
+    from radarslam.runs.dataset import evaluate_published, run_dataset, victoria_park_options
 
     d = copy.deepcopy(to_dict(profile_config(PROFILES[a.input])))
     if a.config is not None:

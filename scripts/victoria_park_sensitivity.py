@@ -83,8 +83,7 @@ def run_variant(name: str, mode: str, path: Path, scans: int | None, backend: st
                 overlay: dict | None = None) -> dict:
     """One full run of variant ``name`` in input ``mode`` (the profile with ``overlay``, a config
     dict, laid over it first): its figures as a dict."""
-    from radarslam.experiments.dataset import (evaluate_against_gps, evaluate_published, nis_fraction,
-                                               position_consistency, run_dataset, victoria_park_options)
+    from radarslam.runs.dataset import (evaluate_against_gps, evaluate_published, nis_fraction, position_consistency, run_dataset, victoria_park_options)
     from radarslam.io.datasets.victoria_park import PUBLISHED_START
 
     change, loader = VARIANTS[name]

@@ -16,7 +16,7 @@ import pytest
 from hypothesis import HealthCheck, settings
 
 # A Monte Carlo that meets a cold numba cache would start a detached compilation of the fused
-# engine (experiments/background.py); the tests that need it say so themselves.
+# engine (compiling/background.py); the tests that need it say so themselves.
 os.environ.setdefault("RADARSLAM_BACKGROUND_COMPILE", "0")
 
 settings.register_profile("ci", derandomize=True, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -105,7 +105,7 @@ def _fused_engine_compiled(family_evidence_path):
     """Compile the fused engine once before the first test when numba's cache is cold, so that
     every Monte Carlo in the session runs its trials with the engine the results are compared
     against (a short run on a cold cache would take the orchestrator, equal only to 1e-9,
-    experiments/warmup.py). Without numba, nothing to do.
+    compiling/warmup.py). Without numba, nothing to do.
 
     Under pytest-xdist one worker compiles and the others wait for its lock, then find the cache
     warm. The warm-up's second process (the simulation and the evaluation) takes the idle core,
@@ -117,12 +117,12 @@ def _fused_engine_compiled(family_evidence_path):
         yield
         return
     from radarslam.config import profile_config
-    from radarslam.experiments import background
-    from radarslam.experiments.variants import DEFAULT_VARIANTS
-    from radarslam.experiments.warmup import warm_up
+    from radarslam.compiling import background
+    from radarslam.config.variants import DEFAULT_VARIANTS
+    from radarslam.compiling.warmup import warm_up
 
     import family_evidence
-    from radarslam.experiments.warmup import fused_is_cold
+    from radarslam.compiling.warmup import fused_is_cold
 
     workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
     # keyed like the background compilation's lock: the package's location and NUMBA_CACHE_DIR

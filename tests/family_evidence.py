@@ -84,8 +84,8 @@ def cache_empty() -> bool:
 def default_run_counts() -> dict:
     """The COLD measurement in this process (module docstring)."""
     from radarslam.config import profile_config
-    from radarslam.experiments.variants import DEFAULT_VARIANTS
-    from radarslam.experiments.warmup import compile_fused
+    from radarslam.config.variants import DEFAULT_VARIANTS
+    from radarslam.compiling.warmup import compile_fused
 
     compile_fused(profile_config(), DEFAULT_VARIANTS)          # what the session's warm-up runs
     return counts()
@@ -96,8 +96,8 @@ COLD = "import json, family_evidence; print(json.dumps(family_evidence.default_r
 #: A second process on the same cache: what the first-run rule reads from disk.
 WARM = """
 import json
-from radarslam.experiments import first_run, warmup
-from radarslam.experiments.single import run_filter
+from radarslam.compiling import first_run, warmup
+from radarslam.slam.driver import run_filter
 from radarslam.config import profile_config
 from radarslam.slam import _fused
 view = _fused.Family(True, False, False)

@@ -7,7 +7,7 @@ from dataclasses import replace
 import numpy as np
 
 from radarslam.config import profile_config
-from radarslam.experiments.single import run_trial
+from radarslam.simulation.trial import run_trial
 
 from conftest import require
 

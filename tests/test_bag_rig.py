@@ -142,7 +142,7 @@ def test_topics_in_another_order_are_sensors_in_that_order(tmp_path):
 def test_the_rig_from_a_bag_runs_as_from_the_plain_format(tmp_path):
     """plain rig -> bag of three topics -> read back -> run_recording: the plain format's run to 1e-12."""
     require("rosbags")
-    from radarslam.experiments.recording import run_recording
+    from radarslam.runs.recording import run_recording
     from radarslam.io.recording import read_recording
     from radarslam.io.recording.bag_write import write_bag
     from radarslam.io.recording.plain import write_plain

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from radarslam.cli.main import main
-from radarslam.experiments.calibrate import calibrate_yaw
-from radarslam.experiments.rig_velocity import Rig
+from radarslam.egomotion.calibrate import calibrate_yaw
+from radarslam.egomotion.rig import Rig
 from radarslam.models.rig_velocity import static_doppler
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
@@ -92,7 +92,7 @@ def test_command_writes_the_tables_and_refuses_bad_input(tmp_path, capsys):
 def test_first_seconds_of_each_recording(name):
     """The first 8 s: every radar's offset estimated, within 3 deg of its mounting (a sanity bound:
     the measured tables are in docs/method.md c.12.6), the radars' mean static residual not raised by it."""
-    from radarslam.experiments.rig_velocity import read_rig
+    from radarslam.egomotion.rig import read_rig
 
     p = SHARED / name
     if not p.is_dir():

@@ -2,7 +2,7 @@
 
 docs/architecture.md "Backends": numba caches machine code beside the sources, or in a user cache
 directory when the package directory cannot be written (a system install); the first Monte Carlo
-on a machine says that it is compiling and compiles on two cores (experiments/warmup.py).
+on a machine says that it is compiling and compiles on two cores (compiling/warmup.py).
 """
 
 from __future__ import annotations
@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 import radarslam
 from radarslam.config import profile_config
-from radarslam.experiments import montecarlo as mc
-from radarslam.experiments import warmup
+from radarslam.montecarlo import trials as mc
+from radarslam.compiling import warmup
 
 from conftest import require
 
@@ -74,7 +74,7 @@ def test_cache_is_cold_in_an_empty_cache_directory(tmp_path):
     interpreter, nothing compiled), False in this process once the engine's code is cached."""
     require("numba")
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "empty"))
-    code = "from radarslam.experiments.warmup import cache_is_cold; print(cache_is_cold())"
+    code = "from radarslam.compiling.warmup import cache_is_cold; print(cache_is_cold())"
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "True"
     warmup.warm_up(profile_config(), mc.DEFAULT_VARIANTS, lambda s: None, parallel=False)
@@ -114,7 +114,7 @@ def test_a_stale_index_counts_as_cold(monkeypatch):
     assert fresh is not None, "numba's cache layout is not the one cache_is_cold reads"
     cache_file = run_stream._cache._cache_file
     if not fresh:                # the warm-up only compiles a cold engine; make sure it is cached
-        from radarslam.experiments.single import run_filter
+        from radarslam.slam.driver import run_filter
         run_filter(profile_config(), warmup._tiny_stream())
     assert warmup._has_fresh_code(run_stream) is True
     monkeypatch.setattr(cache_file, "_source_stamp", ("another source", 0))
@@ -123,7 +123,7 @@ def test_a_stale_index_counts_as_cold(monkeypatch):
 
 
 def test_first_run_engine_takes_the_orchestrator_while_it_ends_sooner():
-    """The choice of a cold first run (experiments/warmup.py): the orchestrator up to the trial
+    """The choice of a cold first run (compiling/warmup.py): the orchestrator up to the trial
     count where compiling the fused engine first pays for itself, computed from the measured
     costs, and the fused engine beyond it; more workers move the boundary up in proportion."""
     per = warmup.ORCHESTRATOR_S - warmup.FUSED_S
@@ -146,8 +146,8 @@ def test_a_short_cold_run_uses_the_orchestrator_and_stores_the_same_results(tmp_
     run's trials record the fused engine."""
     require("numba")
     require("matplotlib")
-    from radarslam.experiments import background
-    from radarslam.experiments.report import write_report
+    from radarslam.compiling import background
+    from radarslam.montecarlo.report import write_report
 
     cfg = profile_config()
     mc.run_montecarlo(cfg, 5, 2, tmp_path / "plain", jobs=1, progress=False, log=lambda s: None)
@@ -189,7 +189,7 @@ def test_a_short_warm_up_splits_the_variants_over_its_two_processes(monkeypatch)
     evaluation by a Python-filter trial (warmup._side)."""
     from concurrent.futures import Future
 
-    from radarslam.experiments import background
+    from radarslam.compiling import background
 
     calls: list = []
 
@@ -232,8 +232,8 @@ def test_background_compilation_runs_once_per_cache(tmp_path, monkeypatch):
     require("numba")
     import json
 
-    from radarslam.experiments import background
-    from radarslam.experiments.variants import variants_to_json
+    from radarslam.compiling import background
+    from radarslam.config.variants import variants_to_json
 
     monkeypatch.setattr(background, "lock_path", lambda: tmp_path / "compile.lock")
     monkeypatch.setenv(background.ENV, "1")

@@ -12,7 +12,7 @@ import pytest
 from radarslam.config import from_dict, load_config, to_dict
 from radarslam.core.errors import ConfigError
 from radarslam.core.registry import ASSOCIATORS, EXTENT_ESTIMATORS, MOTION_MODELS, Registry
-from radarslam.experiments.single import run_trial
+from radarslam.simulation.trial import run_trial
 from radarslam.models.motion import UnicycleModel
 from radarslam.slam import EkfSlam, ekf
 from radarslam.slam.association import BatchAssociator, NearestNeighbourAssociator, Spreads

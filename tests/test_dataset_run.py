@@ -12,8 +12,7 @@ import pytest
 
 from radarslam.config import profile_config
 from radarslam.core.errors import InputError
-from radarslam.experiments.dataset import (REFERENCE_GATE_M, DatasetRun, _attribute_reference,
-                                           compare_tree_diameters, trunk_diameter)
+from radarslam.runs.dataset import (REFERENCE_GATE_M, DatasetRun, _attribute_reference, compare_tree_diameters, trunk_diameter)
 from radarslam.slam.filter import MapSnapshot
 
 
@@ -110,7 +109,7 @@ def test_attribute_reference_gate_and_nearest():
 
 
 def test_duplicate_landmarks_counts_pairs_by_radius():
-    from radarslam.experiments.dataset import duplicate_landmarks
+    from radarslam.runs.dataset import duplicate_landmarks
 
     run = _run_with([1, 2, 3, 4], np.zeros((4, 2, 2)), None)
     pos = np.array([[0.0, 0.0], [0.3, 0.0], [1.7, 0.0], [10.0, 0.0]])
@@ -129,7 +128,7 @@ def test_position_consistency_counts_the_bound_per_axis_with_the_gps_std():
     the first is."""
     from types import SimpleNamespace
 
-    from radarslam.experiments.dataset import position_consistency
+    from radarslam.runs.dataset import position_consistency
 
     poses = np.array([[1.0, 0.0, 0.0], [3.0, 0.0, 0.0], [5.0, 0.0, 0.0]])
     covs = np.tile(np.diag([1.0, 1.0, 0.01]), (3, 1, 1))

@@ -196,7 +196,7 @@ def test_int16_doppler_field_is_read_as_its_values(tmp_path):
 
 
 def test_mounting_quaternion_and_roll_pitch_yaw_agree():
-    from radarslam.experiments.ego_motion import mounting_3d
+    from radarslam.egomotion.single_radar import mounting_3d
 
     q = from_dict({"sensor": {"mount_quaternion": [0.91868123, -0.38694684, -0.07175711, -0.03388005]}}).sensor
     e = from_dict({"sensor": {"mount_roll_deg": -179.6102, "mount_pitch_deg": 9.0945,

@@ -98,9 +98,10 @@ def _position_rmse(doppler_std_scale: float, modes=("odometer", "doppler")) -> d
     from dataclasses import replace
 
     from radarslam.config import Config
-    from radarslam.experiments.montecarlo import trial_seed, variant_config
-    from radarslam.experiments.single import evaluate, run_filter, with_initial_estimate
-    from radarslam.experiments.variants import Variant
+    from radarslam.montecarlo.trials import trial_seed, variant_config
+    from radarslam.simulation.trial import evaluate, with_initial_estimate
+    from radarslam.slam.driver import run_filter
+    from radarslam.config.variants import Variant
     from radarslam.simulation.scenario import generate_scenario
 
     cfg = Config()

@@ -7,7 +7,7 @@ about the family a command uses."""
 from __future__ import annotations
 
 from radarslam.config import profile_config
-from radarslam.experiments.variants import Variant, apply_variant
+from radarslam.config.variants import Variant, apply_variant
 from radarslam.slam import _fused
 from radarslam.slam.filter import EkfSlam
 
@@ -43,8 +43,8 @@ def test_each_configuration_names_its_family():
     """The family :func:`run` compiles for (plan.family) and the one the first-run rule asks about
     (warmup.fused_families): the default for the car parks' variants, the automotive profile and
     Victoria Park; its own for the partial view, JCBB and the bias states."""
-    from radarslam.experiments.warmup import fused_families
-    from radarslam.experiments.variants import DEFAULT_VARIANTS
+    from radarslam.compiling.warmup import fused_families
+    from radarslam.config.variants import DEFAULT_VARIANTS
 
     cfg = profile_config()
     assert fused_families(cfg, DEFAULT_VARIANTS) == ()

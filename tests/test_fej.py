@@ -176,7 +176,7 @@ def test_fej_filter_runs_and_the_fused_engine_covers_it():
     """The consistent variant with FEJ runs 40 scans of a trial (finite, within 1 m of the standard
     run's pose, and not the standard run); the fused engine covers it (tests/test_fused.py checks
     that it makes the orchestrator's run)."""
-    from radarslam.experiments.single import run_trial
+    from radarslam.simulation.trial import run_trial
 
     fej = run_trial(_short("fej"), 777)
     std = run_trial(_short("standard"), 777)
@@ -192,7 +192,7 @@ def test_compiled_fej_associators_equal_the_python_ones(associator):
     reference does (``SlamState.linearisation_all`` against ``linearisation(j)``): 60 scans of a
     trial, orchestrator by orchestrator, the same associations and poses to rounding; and not the
     standard Jacobians' run (negative control)."""
-    from radarslam.experiments.single import run_trial
+    from radarslam.simulation.trial import run_trial
 
     def run(backend, jacobians="fej"):
         cfg = _short(jacobians, backend=backend, fused=False)

@@ -1,4 +1,4 @@
-"""The first-run rule of the single commands (experiments/first_run.py): a part whose compiled code
+"""The first-run rule of the single commands (compiling/first_run.py): a part whose compiled code
 is not ready runs through its Python reference, the run says so on its first line and starts the
 background compile; the results equal a run whose compiled code is ready. The compile state is
 faked (no timed assertions)."""
@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from radarslam.cli.main import main
-from radarslam.experiments import background, first_run
+from radarslam.compiling import background, first_run
 from radarslam.io.recording.plain import write_plain
 
 
@@ -78,7 +78,7 @@ def test_run_seed_cold_takes_the_reference_announces_it_and_equals_the_warm_run(
 def test_run_recording_cold_takes_the_reference_and_equals_the_warm_run(tmp_path, monkeypatch, capsys):
     pytest.importorskip("numba")
     from radarslam.config import profile_config
-    from radarslam.experiments.recording import recording_from_scenario
+    from radarslam.runs.recording import recording_from_scenario
     from radarslam.simulation.scenario import generate_scenario
 
     cfg = profile_config("apsipa")
@@ -100,10 +100,10 @@ def test_run_recording_cold_takes_the_reference_and_equals_the_warm_run(tmp_path
     np.testing.assert_allclose(runs["cold"][1], runs["warm"][1], rtol=0, atol=1e-9)
 
 
-# --- run --dataset (experiments/dataset_first_run.py first_run_plan) ---------------------------------------------
+# --- run --dataset (compiling/stream_plan.py first_run_plan) ---------------------------------------------
 
 def _dataset_state(monkeypatch, fused: bool, orchestrator: bool, started: list) -> None:
-    from radarslam.experiments import dataset_first_run
+    from radarslam.compiling import stream_plan as dataset_first_run
 
     monkeypatch.setattr(dataset_first_run, "_fused_ready", lambda: fused)
     monkeypatch.setattr(dataset_first_run, "_orchestrator_ready", lambda: orchestrator)
@@ -115,7 +115,8 @@ def test_dataset_plan_picks_what_ends_sooner_and_says_how_long(monkeypatch):
     kernels first (with the expected seconds); either way the fused engine goes to the background.
     Warm (negative controls): the fused engine, nothing announced, nothing started."""
     from radarslam.config import profile_config
-    from radarslam.experiments import dataset, dataset_first_run, warmup
+    from radarslam.runs import dataset
+    from radarslam.compiling import stream_plan as dataset_first_run, warmup
 
     cfg = profile_config("victoria-park")
     started: list = []
@@ -157,7 +158,7 @@ def test_run_dataset_cold_takes_the_reference_and_equals_the_fused_engine(victor
     same associations and landmark counts on every scan, poses to 1e-9."""
     pytest.importorskip("numba")
     from radarslam.config import profile_config
-    from radarslam.experiments.dataset import run_dataset, victoria_park_options
+    from radarslam.runs.dataset import run_dataset, victoria_park_options
 
     started: list = []
     _dataset_state(monkeypatch, False, False, started)
@@ -182,12 +183,12 @@ def test_run_dataset_cold_takes_the_reference_and_equals_the_fused_engine(victor
     np.testing.assert_allclose(cold.final_map.positions, warm.final_map.positions, rtol=0, atol=1e-9)
 
 
-# --- the progress bar (experiments/montecarlo.Progress, drawn by tqdm) -------------------------------------------
+# --- the progress bar (runs/progress.Progress, drawn by tqdm) -------------------------------------------
 
 def test_progress_writes_one_line_per_decile_to_a_file_and_no_eta_before_a_unit_is_done():
     import io
 
-    from radarslam.experiments.montecarlo import Progress
+    from radarslam.runs.progress import Progress
 
     buf = io.StringIO()
     p = Progress(50, 0, stream=buf, unit="scans")
@@ -215,7 +216,7 @@ def test_run_dataset_warm_says_first_what_its_one_compiled_call_will_take(victor
     pytest.importorskip("numba")
     import re
 
-    from radarslam.experiments import warmup
+    from radarslam.compiling import warmup
 
     _dataset_state(monkeypatch, True, False, [])
     out = tmp_path / "warm"

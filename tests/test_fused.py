@@ -21,9 +21,9 @@ from radarslam.config import from_dict, profile_config, to_dict  # noqa: E402
 from radarslam.config import merge_tables  # noqa: E402
 from radarslam.core.errors import InputError  # noqa: E402
 from radarslam.core.types import Odometry, Scan  # noqa: E402
-from radarslam.experiments.montecarlo import trial_seed  # noqa: E402
-from radarslam.experiments.single import run_filter  # noqa: E402
-from radarslam.experiments.variants import CONSISTENT, DEFAULT_VARIANTS, PAPER_VARIANTS, apply_variant  # noqa: E402
+from radarslam.montecarlo.trials import trial_seed  # noqa: E402
+from radarslam.slam.driver import run_filter  # noqa: E402
+from radarslam.config.variants import CONSISTENT, DEFAULT_VARIANTS, PAPER_VARIANTS, apply_variant  # noqa: E402
 from radarslam.simulation.scenario import generate_scenario  # noqa: E402
 from radarslam.slam import _fused  # noqa: E402
 from radarslam.slam.filter import EkfSlam  # noqa: E402

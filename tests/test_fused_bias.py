@@ -24,7 +24,7 @@ from conftest import require
 require("numba")
 
 from radarslam.config import merge_tables, profile_config  # noqa: E402
-from radarslam.experiments.variants import CONSISTENT  # noqa: E402
+from radarslam.config.variants import CONSISTENT  # noqa: E402
 from radarslam.models.ackermann import AckermannModel  # noqa: E402
 from radarslam.models.body_velocity import BodyVelocityModel  # noqa: E402
 from radarslam.models.motion import UnicycleModel  # noqa: E402

@@ -21,7 +21,7 @@ from conftest import require
 require("numba")
 
 from radarslam.config import from_dict, merge_tables, profile_config, to_dict  # noqa: E402
-from radarslam.experiments.dataset import run_dataset, victoria_park_options  # noqa: E402
+from radarslam.runs.dataset import run_dataset, victoria_park_options  # noqa: E402
 from radarslam.io.datasets import get_dataset  # noqa: E402
 from radarslam.io.datasets.victoria_park import INPUT_PROFILES  # noqa: E402
 from radarslam.models.ackermann import AckermannModel  # noqa: E402
@@ -180,7 +180,7 @@ def test_run_dataset_same_by_either_engine(vp, victoria_park_dir, monkeypatch):
     assert calls == []                                     # filter.fused false: event by event
     run_dataset("victoria-park", victoria_park_dir, cfg, n_scans=30, progress=False, loader_options=opts)
     assert calls == [1]                                    # the profile: the fused engine
-    from radarslam.experiments import background, dataset_first_run
+    from radarslam.compiling import background, dataset_first_run
     started = []
     monkeypatch.setattr(dataset_first_run, "_fused_ready", lambda: False)      # the first run's rule
     monkeypatch.setattr(background, "enabled", lambda: True)

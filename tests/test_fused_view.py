@@ -15,7 +15,7 @@ from test_fused import _assert_same_run, _overlay, _scenario
 require("numba")
 
 from radarslam.config import profile_config  # noqa: E402
-from radarslam.experiments.variants import CONSISTENT, apply_variant  # noqa: E402
+from radarslam.config.variants import CONSISTENT, apply_variant  # noqa: E402
 from radarslam.slam import _fused  # noqa: E402
 from radarslam.slam.filter import EkfSlam  # noqa: E402
 

@@ -11,7 +11,7 @@ from scipy import stats
 
 from radarslam.config import from_dict, profile_config
 from radarslam.core.errors import ConfigError
-from radarslam.experiments.montecarlo import trial_seed
+from radarslam.montecarlo.trials import trial_seed
 from radarslam.simulation.scenario import generate_scenario, initial_estimate
 
 N_DRAWS = 4000

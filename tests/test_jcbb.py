@@ -13,7 +13,7 @@ import pytest
 from radarslam.config import from_dict, profile_config
 from radarslam.core.errors import ConfigError, InputError
 from radarslam.core.registry import ASSOCIATORS
-from radarslam.experiments.variants import CONSISTENT, Variant, apply_variant
+from radarslam.config.variants import CONSISTENT, Variant, apply_variant
 from radarslam.simulation.scenario import generate_scenario
 from radarslam.slam import EkfSlam
 from radarslam.slam.association import BatchAssociator, Spreads

@@ -9,7 +9,7 @@ import pytest
 
 from conftest import require
 from radarslam.config import profile_config
-from radarslam.experiments.montecarlo import trial_seed
+from radarslam.montecarlo.trials import trial_seed
 from radarslam.simulation.scenario import generate_scenario
 from radarslam.slam import ekf
 from radarslam.slam.filter import EkfSlam

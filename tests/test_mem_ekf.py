@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 from radarslam.config import from_dict
 from radarslam.core.errors import ConfigError, InputError
 from radarslam.core.registry import EXTENT_ESTIMATORS
-from radarslam.experiments.single import run_filter
+from radarslam.slam.driver import run_filter
 from radarslam.extent.mem_ekf import (
     AXIS_FLOOR,
     MemEkfEstimator,

@@ -10,23 +10,14 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-import radarslam.experiments.montecarlo as mc
+import radarslam.montecarlo.trials as mc
 from radarslam.config import profile_config
 from radarslam.core.errors import ConfigError, InputError, RadarSlamError
-from radarslam.experiments.montecarlo import load_results, run_montecarlo, trial_seed
-from radarslam.experiments.single import run_trial
-from radarslam.experiments.store import (
-    TrialStore,
-    config_hash,
-    decode_trial,
-    encode_trial,
-)
-from radarslam.experiments.variants import (
-    DEFAULT_VARIANTS,
-    PAPER_VARIANTS,
-    Variant,
-    apply_variant,
-)
+from radarslam.montecarlo.trials import load_results, run_montecarlo, trial_seed
+from radarslam.runs.progress import Progress
+from radarslam.simulation.trial import run_trial
+from radarslam.montecarlo.store import TrialStore, config_hash, decode_trial, encode_trial
+from radarslam.config.variants import DEFAULT_VARIANTS, PAPER_VARIANTS, Variant, apply_variant
 
 #: A third variant: the extent in SLAM without its contour sifting (an ablation).
 NOSIFT = Variant("nosift", "With extent, no contour sifting", {"extent": {"use_in_slam": True, "contour_sifting": False}})
@@ -203,7 +194,7 @@ def _parse_progress(line):
 
 
 def test_progress_line_counts_rate_and_eta():
-    p = mc.Progress(10, 2, enabled=False)
+    p = Progress(10, 2, enabled=False)
     p.t0 = 100.0
     p.update(3)  # 5 of 10 done, 3 new in 1.5 s: 2 trials/s, 5 left: ETA 2.5 s
     fill, empty, done, total, rate, eta = _parse_progress(p.line(now=101.5))
@@ -215,7 +206,7 @@ def test_progress_without_tty_writes_a_first_line_then_one_per_decile():
     import io
 
     buf = io.StringIO()
-    p = mc.Progress(20, 0, stream=buf)
+    p = Progress(20, 0, stream=buf)
     for _ in range(20):
         p.update()
     lines = buf.getvalue().splitlines()
@@ -462,7 +453,7 @@ def test_trial_seed_refuses_bad_numbers_in_one_line(seed, trial, key):
     """Trials are numbered from 1 and seeds are non-negative integers: anything else is refused with
     the argument's name (numpy's own message named neither)."""
     from radarslam.core.errors import InputError
-    from radarslam.experiments.montecarlo import trial_seed
+    from radarslam.montecarlo.trials import trial_seed
 
     with pytest.raises(InputError, match=rf"^{key}: expected an integer"):
         trial_seed(seed, trial)

@@ -112,7 +112,7 @@ def test_moving_cars_kept_out_of_the_map_gate_on_against_off():
     becomes a landmark in >= 10 of them; the per-detection test alone leaves several; the full gate
     (c.10.4.1-c.10.4.4, its defaults) at most 1 that lasts, and drops >= 93% of the moving cars'
     detections and <= 9% of the parked cars'."""
-    from radarslam.experiments.doppler_study import GATE_SETTINGS, gate_study
+    from _doppler_study import GATE_SETTINGS, gate_study
 
     r = gate_study(Config(), range(1, 13), reference=False,
                    settings={k: GATE_SETTINGS[k] for k in ("off", "detection", "full")})

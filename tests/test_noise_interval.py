@@ -74,7 +74,7 @@ def test_the_fused_engine_scales_the_noise_as_the_orchestrator():
     """A stream at 100 Hz odometry (not the reference interval) with scans: the fused engine and
     the Python reference give the same poses and covariances (to 1e-9)."""
     pytest.importorskip("numba")
-    from radarslam.experiments.single import run_filter
+    from radarslam.slam.driver import run_filter
     from radarslam.simulation.scenario import generate_scenario
 
     cfg = profile_config("apsipa")

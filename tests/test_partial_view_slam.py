@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from radarslam.config import from_dict, profile_config, to_dict
-from radarslam.experiments.single import run_trial
+from radarslam.simulation.trial import run_trial
 from radarslam.extent.ellipse import ellipse_to_matrix
 from radarslam.extent.view_estimator import PartialViewEstimator, log_matrix_to_X, X_to_log_matrix
 from radarslam.metrics.gwd import gaussian_wasserstein_distance as gwd

@@ -86,8 +86,8 @@ MOUNT = {"mount_x_m": 0.03, "mount_y_m": 0.03, "mount_z_m": -0.06, "mount_roll_d
 def _synthetic(v_world=(1.0, 0.4), pitch=math.radians(10.0), n_scans=21, seed=5, mover=True):
     """A body pitched by ``pitch`` moving at ``v_world`` (no rotation) past static points at several
     heights, seen by the radar of MOUNT; one point per scan moves at 2 m/s."""
-    from radarslam.experiments.ego_motion import mounting_3d
-    from radarslam.experiments.radar_alone import Imu
+    from radarslam.egomotion.single_radar import mounting_3d
+    from radarslam.runs.radar_alone import Imu
 
     rng = np.random.default_rng(seed)
     cfg = from_dict({"sensor": MOUNT})
@@ -128,7 +128,7 @@ def _radar_alone_config(**sensor):
 
 def test_levelled_velocity_heights_and_gates_against_the_truth():
     from radarslam.core.types import Odometry, Scan
-    from radarslam.experiments.radar_alone import level_recording
+    from radarslam.runs.radar_alone import level_recording
 
     rec, imu, heights, horiz = _synthetic()
     cfg = _radar_alone_config(elevation_gate_deg=10.0, gyro_bias_from_rest=False)
@@ -159,7 +159,7 @@ def test_levelled_velocity_heights_and_gates_against_the_truth():
 
 def test_negative_control_a_yaw_only_mounting_of_the_upside_down_radar_is_wrong():
     """The same data with the roll left out: the velocity comes out mirrored, far from the truth."""
-    from radarslam.experiments.radar_alone import level_recording
+    from radarslam.runs.radar_alone import level_recording
 
     rec, imu, _, _ = _synthetic(mover=False)
     lev = level_recording(rec, imu, _radar_alone_config(mount_roll_deg=0.0, gyro_bias_from_rest=False),
@@ -170,7 +170,7 @@ def test_negative_control_a_yaw_only_mounting_of_the_upside_down_radar_is_wrong(
 
 
 def test_rest_bias_is_the_gyro_mean_before_the_first_motion():
-    from radarslam.experiments.radar_alone import Imu, rest_bias
+    from radarslam.runs.radar_alone import Imu, rest_bias
     from radarslam.models.doppler import EgoVelocity
 
     def fit(rest):
@@ -189,7 +189,7 @@ def test_rest_bias_is_the_gyro_mean_before_the_first_motion():
 
 def test_radar_alone_configuration_is_refused_in_one_line():
     from radarslam.core.errors import ConfigError
-    from radarslam.experiments.radar_alone import check_radar_alone_config
+    from radarslam.runs.radar_alone import check_radar_alone_config
 
     with pytest.raises(ConfigError, match=r"filter.motion_model: expected 'body-velocity'"):
         check_radar_alone_config(from_dict({"filter": {"odometry": "doppler"}}))

@@ -152,7 +152,7 @@ def test_radar_alone_end_to_end_against_the_odometer():
     control: the Doppler noise 100x (10 m/s) makes it at least 2x worse."""
     import dataclasses
 
-    from radarslam.experiments.single import run_filter
+    from radarslam.slam.driver import run_filter
     from radarslam.metrics.pose import avg_rmse, pose_errors
     from radarslam.simulation.scenario import generate_scenario
 

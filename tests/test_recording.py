@@ -314,8 +314,8 @@ def test_round_trip_through_a_bag_and_the_plain_format_equals_the_simulation(tmp
     import dataclasses
 
     from radarslam.config import load_config
-    from radarslam.experiments.recording import export_simulation, run_recording
-    from radarslam.experiments.single import run_trial
+    from radarslam.runs.recording import export_simulation, run_recording
+    from radarslam.simulation.trial import run_trial
     from radarslam.io.recording import read_recording
 
     cfg = _small_config()
@@ -360,7 +360,7 @@ def test_cli_export_run_convert_and_refuse_to_overwrite(tmp_path, capsys):
 def test_animation_is_written(tmp_path):
     require("rosbags")
     require("matplotlib")
-    from radarslam.experiments.recording import animation_frames, run_recording
+    from radarslam.runs.recording import animation_frames, run_recording
     from radarslam.viz.animation import animate_run
 
     rec = small_recording(n_scans=4, per_scan=5, channels=False)

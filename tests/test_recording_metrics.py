@@ -15,7 +15,7 @@ import pytest
 from conftest import require
 from radarslam.cli.main import main
 from radarslam.config import profile_config
-from radarslam.experiments.recording import run_recording
+from radarslam.runs.recording import run_recording
 from radarslam.io.recording.plain import write_plain
 from radarslam.io.recording.synthetic import synthetic_recording
 from radarslam.metrics.pose import avg_rmse, pose_errors

@@ -15,8 +15,8 @@ import pytest
 from helpers import first_seconds, shared_data
 from radarslam.cli.main import main
 from radarslam.core.types import Scan
-from radarslam.experiments.detection_flags import DetectionFlags, moving_scores
-from radarslam.experiments.rig_velocity import EGO_VELOCITY_COLUMNS
+from radarslam.runs.detection_flags import DetectionFlags, moving_scores
+from radarslam.egomotion.rig import EGO_VELOCITY_COLUMNS
 from radarslam.io.recording.mounting import Mounting
 from radarslam.io.recording.plain import read_plain, write_plain
 from radarslam.io.recording.stream import stream_events
@@ -59,7 +59,7 @@ def test_sensors_file_replaces_the_recordings_and_run_json_names_it(rig_recordin
     code, err = _run(["--recording", str(rig_recording), "--sensors", str(f), "--out", str(out)], capsys)
     assert code == 0, err
     assert json.loads((out / "run.json").read_text())["sensors_file"] == str(f)
-    from radarslam.experiments.recording_outputs import with_sensors_file
+    from radarslam.runs.recording_outputs import with_sensors_file
 
     rec = with_sensors_file(read_plain(rig_recording), f)
     assert rec.sensors[0].yaw == 0.01 and rec.sensors[1].yaw == 3.13 and rec.sensors[1].name == "rear"
@@ -211,7 +211,7 @@ def test_landmark_column_is_the_filters_associations(shared, scene_runs):
     """An independent path: the orchestrator scan by scan, each scan carrying its rows' numbers as a
     channel, its ScanReport's moving rows and associations put back at those rows."""
     from radarslam.config import load_config
-    from radarslam.experiments.recording import effective_mounting, start_pose
+    from radarslam.runs.recording import effective_mounting, start_pose
     from radarslam.slam.filter import EkfSlam
 
     src = shared["nuscenes_radar/scene-0061"]

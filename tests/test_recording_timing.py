@@ -17,8 +17,8 @@ import pytest
 
 from radarslam.config import profile_config
 from radarslam.core.types import Odometry, Scan
-from radarslam.experiments.recording import run_recording, start_pose, truth_at
-from radarslam.experiments.single import run_filter
+from radarslam.runs.recording import run_recording, start_pose, truth_at
+from radarslam.slam.driver import run_filter
 from radarslam.io.recording.mounting import Mounting
 from radarslam.io.recording.stream import platform_polar, stream_events, to_events
 from radarslam.io.recording.synthetic import synthetic_recording
@@ -172,7 +172,7 @@ def test_a_recording_starts_at_the_truths_first_pose_else_at_zero(config):
 def test_ackermann_starts_at_the_sensors_pose_on_the_truth():
     """Under ackermann the filter's pose is the sensor's (L + a ahead, b left): the start is the
     truth's pose moved there."""
-    from radarslam.experiments.recording import filter_to_platform, platform_to_filter
+    from radarslam.runs.recording import filter_to_platform, platform_to_filter
 
     cfg = profile_config("victoria-park")
     rec = synthetic_recording(duration_s=1.0, turn_rate_rad_s=0.0)

@@ -18,17 +18,9 @@ from scipy.stats import chi2
 
 from radarslam.config import profile_config
 from radarslam.core.errors import InputError
-from radarslam.experiments.montecarlo import load_results, run_montecarlo
-from radarslam.experiments.report import (
-    GWD_KEY_STEPS,
-    REPORT_CONVENTIONS,
-    gwd_curves,
-    landmark_table,
-    nees_summary,
-    table1,
-    write_report,
-)
-from radarslam.experiments.variants import PAPER_VARIANTS, Variant
+from radarslam.montecarlo.trials import load_results, run_montecarlo
+from radarslam.montecarlo.report import (GWD_KEY_STEPS, REPORT_CONVENTIONS, gwd_curves, landmark_table, nees_summary, table1, write_report)
+from radarslam.config.variants import PAPER_VARIANTS, Variant
 from radarslam.metrics.pose import avg_rmse, chi2_band
 from radarslam.metrics.statistics import rmse_over_defined
 from radarslam.viz import have_matplotlib
@@ -523,8 +515,8 @@ def test_figures_draw_every_variant_distinctly(mc3_dir, tmp_path):
 
 def test_fig2_regenerates_trial_1_exactly(mc_dir, report, res, tmp_path):
     require("matplotlib")
-    from radarslam.experiments.montecarlo import trial_seed
-    from radarslam.experiments.single import run_trial
+    from radarslam.montecarlo.trials import trial_seed
+    from radarslam.simulation.trial import run_trial
     from radarslam.viz.report import plot_fig2
 
     assert report["fig2"] == {"trial": 1, "variant": "ext", "label": "With extent", "matches_stored": True}
@@ -614,7 +606,7 @@ def test_nis_summary_pools_updates_and_tests_them_against_the_chi2_band():
     draws scaled by 2 (an overconfident filter) are above it everywhere (negative control)."""
     from scipy import stats
 
-    from radarslam.experiments.report import nis_summary
+    from radarslam.montecarlo.report import nis_summary
 
     rng = np.random.default_rng(4)
     N, K = 50, 120
@@ -635,7 +627,7 @@ def test_nis_summary_pools_updates_and_tests_them_against_the_chi2_band():
 def test_claims_say_plainly_what_reproduces():
     """Table 1 direction holds only when the paired CI lies below zero; size against the paper's
     With-extent values; Fig. 3 'below at every k >= 10' needs 100%, 'flatter' needs a lower std."""
-    from radarslam.experiments.report.tables import claims
+    from radarslam.montecarlo.report.tables import claims
 
     def metric(ext, change_ci):
         return {"noext": {"estimate": 1.2, "ci": [1.1, 1.3]}, "ext": {"estimate": ext, "ci": [ext - 0.1, ext + 0.1]},

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from radarslam.config import profile_config, validate
-from radarslam.experiments.recording import run_recording
+from radarslam.runs.recording import run_recording
 from radarslam.io.recording.synthetic import synthetic_recording
 
 RANGE_M = 25.0

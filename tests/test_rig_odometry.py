@@ -1,4 +1,4 @@
-"""Doppler odometry from the whole rig (experiments/rig_odometry.py; docs/method.md c.12, c.10.5):
+"""Doppler odometry from the whole rig (egomotion/rig_odometry.py; docs/method.md c.12, c.10.5):
 under filter.odometry "doppler" with the gyro, each scan of a multi-radar recording carries the rig's
 joint fit at its time. Checked on the first 8 s of nuScenes scene-0061 against its wheel speed."""
 
@@ -11,7 +11,7 @@ import pytest
 
 from radarslam.config import profile_config, validate
 from radarslam.core.types import Scan
-from radarslam.experiments.rig_odometry import rig_of, with_rig_velocity
+from radarslam.egomotion.rig_odometry import rig_of, with_rig_velocity
 from radarslam.io.recording.mounting import Mounting
 from radarslam.io.recording.stream import stream_events
 from helpers import first_seconds, shared_data
@@ -63,7 +63,7 @@ def test_other_modes_leave_the_scans_alone(scene, odometry, yaw_rate):
 
 
 def test_a_doppler_and_gyro_run_uses_it_and_tracks_the_truth(scene):
-    from radarslam.experiments.recording import run_recording
+    from radarslam.runs.recording import run_recording
 
     m = run_recording(scene, _config("doppler")).metrics
     assert m["position_rmse_m"] < 1.0 and np.isfinite(m["heading_rmse_deg"])

@@ -57,7 +57,7 @@ def test_compiled_sums_equal_the_numpy_forms_to_the_bit(p):
 
 
 def test_moving_csv_equals_the_line_by_line_form(tmp_path):
-    from radarslam.experiments.detection_flags import DetectionFlags, write_moving_csv
+    from radarslam.runs.detection_flags import DetectionFlags, write_moving_csv
 
     rng = np.random.default_rng(0)
     n = 5000
@@ -78,7 +78,7 @@ def test_moving_csv_equals_the_line_by_line_form(tmp_path):
 
 
 def test_ego_velocity_csv_equals_the_row_by_row_form(tmp_path):
-    from radarslam.experiments.rig_velocity import RigVelocitySeries, write_ego_velocity_csv
+    from radarslam.egomotion.rig import RigVelocitySeries, write_ego_velocity_csv
 
     rng = np.random.default_rng(1)
     K = 60

@@ -180,14 +180,7 @@ def shared(name: str) -> Path:
 def test_first_seconds_of_each_recording_against_its_odometry(name, tmp_path):
     """The first 5 s: nearly every window valid, speed within 0.2 m/s RMS and yaw rate within 5 deg/s
     RMS of the odometry (loose: a sanity bound, not the measured figures of c.12.6), and the CSV."""
-    from radarslam.experiments.rig_velocity import (
-        EGO_VELOCITY_COLUMNS,
-        Rig,
-        compare_with_odometry,
-        read_rig,
-        rig_ego_velocity,
-        write_ego_velocity_csv,
-    )
+    from radarslam.egomotion.rig import (EGO_VELOCITY_COLUMNS, Rig, compare_with_odometry, read_rig, rig_ego_velocity, write_ego_velocity_csv)
 
     rig = read_rig(shared(name))
     keep = rig.t < rig.t[0] + 5.0

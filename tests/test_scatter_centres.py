@@ -151,7 +151,7 @@ def test_extent_spread_model_accepts_it_and_its_factor_matches_the_measured_scat
 
 
 def test_a_car_park_trial_runs_and_maps_the_cars():
-    from radarslam.experiments.single import run_trial
+    from radarslam.simulation.trial import run_trial
 
     d = to_dict(profile_config("apsipa"))
     d["radar"]["spread_model"] = d["extent"]["spread_model"] = "scatter-centres"

@@ -13,7 +13,7 @@ import pytest
 
 from radarslam.config import profile_config
 from radarslam.core.types import Scan, Sensor
-from radarslam.experiments.single import run_filter
+from radarslam.slam.driver import run_filter
 from radarslam.models.radar import range_azimuth, range_azimuth_jacobians
 from radarslam.simulation.scenario import generate_scenario
 from radarslam.slam import sensor_frame as sf
@@ -177,7 +177,7 @@ def test_the_fused_engine_takes_scans_from_their_own_radars_as_the_orchestrator(
 
 
 def _nis_and_rmse(rec, cfg):
-    from radarslam.experiments.recording import run_recording
+    from radarslam.runs.recording import run_recording
 
     run = run_recording(rec, cfg)
     r = run.record

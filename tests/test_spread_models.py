@@ -65,7 +65,7 @@ def test_spread_model_key_is_checked_and_every_model_runs_a_scenario():
     d["radar"]["spread_model"] = "edges"
     with pytest.raises(ConfigError, match="radar.spread_model"):
         from_dict(d)
-    from radarslam.experiments.single import run_trial
+    from radarslam.simulation.trial import run_trial
 
     counts = {}
     for model in ("surface", "contour", "visible-faces"):

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from radarslam.config import profile_config
-from radarslam.experiments.single import run_trial
+from radarslam.simulation.trial import run_trial
 from radarslam.metrics.pose import avg_rmse
 
 from conftest import scaled
@@ -58,8 +58,9 @@ def test_negative_control_overconfident_radar_model_leaves_the_band():
 
 def _paired(cfgs: dict, n: int, seed: int) -> dict:
     """Per-step position and heading errors ``(n, K)`` of each config, every config on the same data."""
-    from radarslam.experiments.montecarlo import trial_seed
-    from radarslam.experiments.single import evaluate, run_filter
+    from radarslam.montecarlo.trials import trial_seed
+    from radarslam.simulation.trial import evaluate
+    from radarslam.slam.driver import run_filter
     from radarslam.simulation.scenario import generate_scenario
 
     out = {k: ([], []) for k in cfgs}
@@ -112,7 +113,7 @@ def test_consistent_variant_is_consistent_and_beats_with_extent():
     """The consistent variant (docs/method.md a.7.3) on training seed 2001: time-averaged pose NEES
     within [2, 4.5] and a lower position error than With extent; the paper's With extent on the
     same data is far above (negative control: time-averaged NEES > 6)."""
-    from radarslam.experiments.variants import CONSISTENT, apply_variant
+    from radarslam.config.variants import CONSISTENT, apply_variant
 
     base = profile_config("apsipa")
     base = replace(base, filter=replace(base.filter, backend="numba"))
@@ -121,8 +122,9 @@ def test_consistent_variant_is_consistent_and_beats_with_extent():
     n = scaled(80, minimum=24)
     nees = {"ext": [], "cons": []}
     pos = {"ext": [], "cons": []}
-    from radarslam.experiments.montecarlo import trial_seed
-    from radarslam.experiments.single import evaluate, run_filter
+    from radarslam.montecarlo.trials import trial_seed
+    from radarslam.simulation.trial import evaluate
+    from radarslam.slam.driver import run_filter
     from radarslam.simulation.scenario import generate_scenario
 
     for t in range(1, n + 1):

@@ -19,9 +19,9 @@ import pytest
 
 from radarslam.config import profile_config, to_toml
 from radarslam.core.errors import InputError
-from radarslam.experiments import montecarlo as mc
-from radarslam.experiments.montecarlo import load_results, run_montecarlo
-from radarslam.experiments.store import ForeignTrial, TrialStore, decode_trial
+from radarslam.montecarlo import trials as mc
+from radarslam.montecarlo.trials import load_results, run_montecarlo
+from radarslam.montecarlo.store import ForeignTrial, TrialStore, decode_trial
 
 from conftest import require
 
@@ -119,7 +119,7 @@ def test_jobs_are_capped_at_the_trials_to_compute(run_a, tmp_path, monkeypatch):
     assert used == [2]                                             # two trials to compute: two workers, not eight
     used.clear()
     run_montecarlo(short(), 5, 5, out, jobs=8, progress=False, log=lambda s: None)
-    # numba: two trials left (a cold compiled-code cache is filled here first, experiments/warmup.py),
+    # numba: two trials left (a cold compiled-code cache is filled here first, compiling/warmup.py),
     # so two workers; never eight
     assert used == [2]
     used.clear()
@@ -265,7 +265,7 @@ def test_negative_control_a_raising_handler_does_cut_a_slow_step_short():
 
 
 def _trial_bytes() -> bytes:
-    from radarslam.experiments.store import encode_trial
+    from radarslam.montecarlo.store import encode_trial
 
     rng = np.random.default_rng(2)
     arrays = {"true_poses": rng.normal(size=(120, 3)), "noext/n_landmarks": np.arange(120),
@@ -279,7 +279,7 @@ def test_fast_trial_reader_equals_numpy_and_falls_back():
     the same arrays, dtypes and shapes as np.load; a compressed .npz goes to np.load."""
     import io
 
-    from radarslam.experiments.store import _read_npz_stored
+    from radarslam.montecarlo.store import _read_npz_stored
 
     raw = _trial_bytes()
     fast = _read_npz_stored(raw)
@@ -299,7 +299,7 @@ def test_fast_trial_reader_equals_numpy_and_falls_back():
 @pytest.mark.parametrize("where", ["data", "header", "truncated"])
 def test_fast_trial_reader_refuses_damage(where):
     """A flipped byte in an array's data or .npy header, or a cut file: CorruptTrial, never values."""
-    from radarslam.experiments.store import CorruptTrial
+    from radarslam.montecarlo.store import CorruptTrial
 
     raw = bytearray(_trial_bytes())
     at = raw.find(b"\x93NUMPY", raw.find(b"true_poses.npy"))

@@ -10,9 +10,7 @@ import pytest
 
 from radarslam.config import profile_config, to_dict
 from radarslam.core.errors import ConfigError, InputError
-from radarslam.experiments.variants import (DEFAULT_VARIANTS, PAPER_VARIANTS, Variant, apply_variant, check_variants,
-                                            overlay_to_toml, parse_variant_arg, variants_from_json,
-                                            variants_to_json)
+from radarslam.config.variants import (DEFAULT_VARIANTS, PAPER_VARIANTS, Variant, apply_variant, check_variants, overlay_to_toml, parse_variant_arg, variants_from_json, variants_to_json)
 
 
 def test_default_variants_are_the_papers_two_and_the_consistent_one():

@@ -26,7 +26,7 @@ import numpy as np
 import pytest
 
 from radarslam.config import profile_config
-from radarslam.experiments.dataset import compare_tree_diameters, dead_reckoning, evaluate_against_gps, run_dataset
+from radarslam.runs.dataset import compare_tree_diameters, dead_reckoning, evaluate_against_gps, run_dataset
 
 N_SCANS = 500
 RMSE_BOUND_500 = 1.3
@@ -177,7 +177,7 @@ def published500(request, victoria_park_dir):
 
 
 def test_first_500_scans_published_protocol_each_input_mode(published500):
-    from radarslam.experiments.dataset import evaluate_published, nis_fraction
+    from radarslam.runs.dataset import evaluate_published, nis_fraction
 
     mode, run = published500
     pub = evaluate_published(run)
@@ -196,7 +196,7 @@ def test_first_500_scans_position_bound_contains_the_gps_error(published500):
     GPS's own 1 m (this fix and the first) contains the error at all 71 scans in both modes (mean
     squared Mahalanobis distance 1.00 trees, 1.33 laser; 2 expected); the filter's covariance alone
     contains it at none (negative control: the first fix's error is a translation it omits)."""
-    from radarslam.experiments.dataset import evaluate_published, position_consistency
+    from radarslam.runs.dataset import evaluate_published, position_consistency
 
     mode, run = published500
     c = position_consistency(run, evaluate_published(run))

@@ -35,17 +35,8 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from radarslam.core.errors import InputError
-    from radarslam.experiments.calibrate import (
-        MIN_SPEED_MPS,
-        calibrate_yaw,
-        write_calibration,
-    )
-    from radarslam.experiments.rig_velocity import (
-        compare_with_odometry,
-        read_rig,
-        rig_ego_velocity,
-        write_ego_velocity_csv,
-    )
+    from radarslam.egomotion.calibrate import MIN_SPEED_MPS, calibrate_yaw, write_calibration
+    from radarslam.egomotion.rig import compare_with_odometry, read_rig, rig_ego_velocity, write_ego_velocity_csv
     from radarslam.io.results import prepare_out_dir, refuse_finished, write_json
 
     t0 = time.perf_counter()

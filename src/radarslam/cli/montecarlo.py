@@ -69,14 +69,14 @@ def add_parser(sub) -> None:
 
 def variants_from_args(args: argparse.Namespace) -> tuple:
     """The default variants followed by every ``--variant NAME=FILE.toml``, names unique."""
-    from radarslam.experiments.variants import DEFAULT_VARIANTS, check_variants, parse_variant_arg
+    from radarslam.config.variants import DEFAULT_VARIANTS, check_variants, parse_variant_arg
 
     return check_variants(DEFAULT_VARIANTS + tuple(parse_variant_arg(a) for a in args.variant), what="--variant")
 
 
 def _execute(config, args) -> int:
-    from radarslam.experiments.montecarlo import run_montecarlo
-    from radarslam.experiments.variants import apply_variant
+    from radarslam.montecarlo.trials import run_montecarlo
+    from radarslam.config.variants import apply_variant
 
     if args.seed < 0:
         raise InputError(f"--seed: expected an integer >= 0, got {args.seed}")
@@ -85,7 +85,7 @@ def _execute(config, args) -> int:
     if args.jobs < 1:
         raise InputError(f"--jobs: expected an integer >= 1, got {args.jobs}")
     variants = variants_from_args(args)
-    from radarslam.experiments.single import check_simulation_config
+    from radarslam.simulation.trial import check_simulation_config
 
     for v in variants:  # an unknown overlay key fails before the directory is created
         check_simulation_config(apply_variant(config, v))
@@ -94,7 +94,7 @@ def _execute(config, args) -> int:
         summary = run_montecarlo(config, args.seed, args.trials, out, jobs=args.jobs, scheduler=args.scheduler,
                                  dask_local=args.dask_local, progress=not args.quiet, variants=variants)
     except KeyboardInterrupt:
-        from radarslam.experiments.store import TrialStore
+        from radarslam.montecarlo.store import TrialStore
 
         n = len(TrialStore.read(out).stored())
         print(f"\nradarslam: interrupted; {n} finished trials are stored in {out}; rerun the same command to resume",
@@ -103,7 +103,7 @@ def _execute(config, args) -> int:
     print(f"montecarlo: {summary.n_trials} trials in {out} ({summary.computed} computed, {summary.resumed} resumed, "
           f"{summary.recomputed_corrupt} corrupt recomputed) in {summary.seconds:.1f} s", file=sys.stderr)
     if not args.no_report:
-        from radarslam.experiments.report import write_report
+        from radarslam.montecarlo.report import write_report
 
         rep = write_report(out)
         print((out / "report" / "report.md").read_text(encoding="utf-8"), end="")
@@ -125,8 +125,8 @@ def run_reproduce_cmd(args: argparse.Namespace) -> int:
 
 
 def _study(config, args: argparse.Namespace) -> int:
-    """``reproduce --study partial-view`` (experiments/partial_view_study.py)."""
-    from radarslam.experiments.partial_view_study import run_study
+    """``reproduce --study partial-view`` (montecarlo/partial_view_study.py)."""
+    from radarslam.montecarlo.partial_view_study import run_study
 
     if args.variant or args.scheduler or args.dask_local:
         raise InputError("--study partial-view: runs its own variants on local workers; --variant, --scheduler and "

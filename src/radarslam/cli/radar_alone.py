@@ -16,11 +16,10 @@ def radar_alone_cmd(args: argparse.Namespace, config) -> int:
     """Read the radar and the IMU, level, run the filter, write every output; the inputs are read
     and checked before ``--out`` is created."""
     from radarslam.cli.recording import one_topic
-    from radarslam.experiments.montecarlo import Progress
-    from radarslam.experiments.radar_alone import Imu, check_radar_alone_config, run_radar_alone
-    from radarslam.experiments.radar_alone_report import (dead_reckoning, plot_map, plot_speed_yaw, summary,
-                                                          write_ego_velocity)
-    from radarslam.experiments.recording import write_recording_outputs
+    from radarslam.runs.progress import Progress
+    from radarslam.runs.radar_alone import Imu, check_radar_alone_config, run_radar_alone
+    from radarslam.runs.radar_alone_report import (dead_reckoning, plot_map, plot_speed_yaw, summary, write_ego_velocity)
+    from radarslam.runs.recording import write_recording_outputs
     from radarslam.io.recording.bag import read_bag, read_imu_samples
     from radarslam.io.results import prepare_out_dir, refuse_finished, write_json
     from radarslam.viz import have_matplotlib

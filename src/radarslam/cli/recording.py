@@ -90,8 +90,8 @@ def _read(args, rig=None):
 
 def run_recording_cmd(args: argparse.Namespace) -> int:
     """``radarslam run --recording PATH ... --out DIR``."""
-    from radarslam.experiments.montecarlo import Progress
-    from radarslam.experiments.recording import run_recording, write_recording_outputs
+    from radarslam.runs.progress import Progress
+    from radarslam.runs.recording import run_recording, write_recording_outputs
     from radarslam.io.results import prepare_out_dir, refuse_finished
     from pathlib import Path
 
@@ -123,9 +123,9 @@ def run_recording_cmd(args: argparse.Namespace) -> int:
 
         rec = with_sensors(rec, rig, origin)
     n = rec.scan_times().size
-    from radarslam.experiments.first_run import announce, choose
+    from radarslam.compiling.first_run import announce, choose
 
-    first = choose(config.filter.backend, config=config)     # the first-run rule (experiments/first_run.py)
+    first = choose(config.filter.backend, config=config)     # the first-run rule (compiling/first_run.py)
     announce(first, config)
     bar = Progress(n, 0, unit="scans", enabled=sys.stderr.isatty())
     run = run_recording(rec, config, on_scan=bar.update, first_run=first, align=args.align)
@@ -138,7 +138,7 @@ def run_recording_cmd(args: argparse.Namespace) -> int:
                                                 "engine": run.record.engine, "sensors_file": sensors_file,
                                                 "rig_from": rig_from})
     if args.animate:
-        from radarslam.experiments.recording import animation_frames
+        from radarslam.runs.recording import animation_frames
         from radarslam.viz.animation import animate_run
 
         frames = animation_frames(run)
@@ -193,7 +193,7 @@ def ego_motion_cmd(args: argparse.Namespace, config) -> int:
     import numpy as np
 
     from radarslam.config import to_toml
-    from radarslam.experiments.ego_motion import ego_motion, summary, write_ego_motion
+    from radarslam.egomotion.single_radar import ego_motion, summary, write_ego_motion
     from radarslam.io.recording.bag import read_bag, read_imu
     from radarslam.io.results import atomic_write_text, prepare_out_dir, refuse_finished, write_json
 
@@ -282,8 +282,8 @@ def convert_cmd(args: argparse.Namespace) -> int:
 
 def export_cmd(args: argparse.Namespace) -> int:
     """``radarslam export --seed N --out DIR``: the simulated trial as a bag + plain files + truth."""
-    from radarslam.experiments.recording import export_simulation
-    from radarslam.experiments.single import check_simulation_config
+    from radarslam.runs.recording import export_simulation
+    from radarslam.simulation.trial import check_simulation_config
     from radarslam.io.recording.mounting import Mounting
     from radarslam.io.results import prepare_out_dir
 

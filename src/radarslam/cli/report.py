@@ -18,7 +18,7 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from radarslam.experiments.report import write_report
+    from radarslam.montecarlo.report import write_report
 
     if args.bootstrap < 1:
         raise InputError(f"--bootstrap: expected an integer >= 1, got {args.bootstrap}")

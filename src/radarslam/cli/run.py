@@ -53,7 +53,7 @@ LONG_RUN_SCANS = 2000
 
 
 def run(args: argparse.Namespace) -> int:
-    from radarslam.experiments.single import check_simulation_config, run_trial
+    from radarslam.simulation.trial import check_simulation_config, run_trial
 
     if args.recording:
         from radarslam.cli.recording import run_recording_cmd
@@ -71,9 +71,9 @@ def run(args: argparse.Namespace) -> int:
     refuse_finished(out / "run.json", "--out", args.overwrite)
     t0 = time.perf_counter()
     # a long single run shows its progress (a terminal, or more than LONG_RUN_SCANS scans)
-    from radarslam.experiments.montecarlo import Progress
+    from radarslam.runs.progress import Progress
 
-    from radarslam.experiments.first_run import announce, choose
+    from radarslam.compiling.first_run import announce, choose
 
     first = choose(config.filter.backend, simulation=True, matching=True, config=config)  # the first-run rule
     announce(first, config)
@@ -165,9 +165,7 @@ def write_outputs(out, res, wall: float, argv=None) -> None:
 
 def run_dataset_cmd(args: argparse.Namespace) -> int:
     """``radarslam run --dataset NAME PATH``: the whole recording, evaluated against its GPS."""
-    from radarslam.experiments.dataset import (compare_tree_diameters, dead_reckoning, evaluate_against_gps,
-                                               duplicate_landmarks, evaluate_published, nis_fraction,
-                                               position_consistency, run_dataset, victoria_park_options)
+    from radarslam.runs.dataset import (compare_tree_diameters, dead_reckoning, evaluate_against_gps, duplicate_landmarks, evaluate_published, nis_fraction, position_consistency, run_dataset, victoria_park_options)
     from radarslam.io.datasets import list_datasets
 
     name, path = args.dataset

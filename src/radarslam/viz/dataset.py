@@ -47,7 +47,7 @@ def plot_dataset_map(path: str | Path, poses: np.ndarray, landmarks: np.ndarray,
     dead_reckoning : (ndarray (K, 3), dict), optional
         The odometry-only poses and their own ``error_against_fixes`` (aligned by its own fit).
     diameters : dict, optional
-        :func:`~radarslam.experiments.dataset.compare_tree_diameters`: adds a second panel of
+        :func:`~radarslam.runs.dataset.compare_tree_diameters`: adds a second panel of
         ``estimate_m`` against ``reference_m``.
     extent_label : str
         Legend entry of the drawn extents (the run's extent estimator).
@@ -129,7 +129,7 @@ def plot_dataset_errors(path: str | Path, error_t: np.ndarray, error_m: np.ndarr
     error_t, error_m : ndarray (n,)
         Time (s) and position error (m) at each evaluated fix (the published or the aligned protocol).
     nis : dict
-        :func:`~radarslam.experiments.dataset.nis_fraction` of the run: ``band``, ``inside``, ``mean``
+        :func:`~radarslam.runs.dataset.nis_fraction` of the run: ``band``, ``inside``, ``mean``
         and the per-window series ``window_scan``, ``window_mean``, ``window_inside``.
     protocol : str
         Named in the title ("published" or "aligned").
@@ -142,7 +142,7 @@ def plot_dataset_errors(path: str | Path, error_t: np.ndarray, error_m: np.ndarr
         raise InputError(f"error_m: expected the shape of error_t {error_t.shape}, got {error_m.shape}")
     missing = [k for k in ("band", "inside", "mean", "window_scan", "window_mean", "window_inside") if k not in nis]
     if missing:
-        raise InputError(f"nis: expected the dict of experiments.dataset.nis_fraction, missing {missing}")
+        raise InputError(f"nis: expected the dict of runs.dataset.nis_fraction, missing {missing}")
 
     import matplotlib
 
@@ -217,12 +217,12 @@ def plot_consistency(path: str | Path, cons: dict, *, name: str = "dataset") -> 
     """Save the GPS error of the published protocol per axis (east, north) over time with the
     filter's +-2 sigma bound, alone and with the GPS's own std added (docs/method.md v.7).
 
-    ``cons`` is :func:`~radarslam.experiments.dataset.position_consistency`'s dict (``t``,
+    ``cons`` is :func:`~radarslam.runs.dataset.position_consistency`'s dict (``t``,
     ``error_m``, ``sigma_filter_m``, ``gps_std_m`` and the fractions)."""
     missing = [k for k in ("t", "error_m", "sigma_filter_m", "gps_std_m", "inside_east", "inside_north",
                            "inside_both", "inside_both_filter_only") if k not in cons]
     if missing:
-        raise InputError(f"cons: expected the dict of experiments.dataset.position_consistency, missing {missing}")
+        raise InputError(f"cons: expected the dict of runs.dataset.position_consistency, missing {missing}")
     t = np.asarray(cons["t"], dtype=float)
     e, sf = np.asarray(cons["error_m"], dtype=float), np.asarray(cons["sigma_filter_m"], dtype=float)
     if e.shape != (t.size, 2) or sf.shape != e.shape:

@@ -54,7 +54,7 @@ def plot_gwd_curves(path: str | Path, curves: dict, convention: str, *,
     ----------
     path : str or Path
     curves : dict
-        From :func:`radarslam.experiments.report.gwd_curves`.
+        From :func:`radarslam.montecarlo.report.gwd_curves`.
     convention : str
         The ground-truth convention, named in the title.
     reference : dict, optional
@@ -107,7 +107,7 @@ def plot_nees(path: str | Path, summary: dict) -> list[tuple[str, object, str]]:
     ----------
     path : str or Path
     summary : dict
-        From :func:`radarslam.experiments.report.nees_summary`.
+        From :func:`radarslam.montecarlo.report.nees_summary`.
 
     Returns
     -------
@@ -142,7 +142,7 @@ def plot_fig2(path: str | Path, trial, label: str = "With extent") -> None:
     ----------
     path : str or Path
     trial : TrialResult
-        Trial 1 in one variant, re-run by :func:`radarslam.experiments.report.write_report`.
+        Trial 1 in one variant, re-run by :func:`radarslam.montecarlo.report.write_report`.
     label : str
         The variant's label, named in the title.
     """
@@ -159,7 +159,7 @@ def plot_nis(path: str | Path, summary: dict) -> list[tuple[str, object, str]]:
     Parameters
     ----------
     summary : dict
-        From :func:`radarslam.experiments.report.tables.nis_summary`.
+        From :func:`radarslam.montecarlo.report.tables.nis_summary`.
     """
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(10.0, 4.2))

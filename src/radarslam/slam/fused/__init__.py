@@ -9,7 +9,7 @@ estimator and associators, DBSCAN, the standard or first-estimates Jacobians, th
 states: every shipped profile, the car parks and both Victoria Park modes) this package runs the
 same steps over the whole stream inside numba, with the landmark records held in arrays (ids,
 creation scans, M/N windows, extent states and their buffers) instead of Python objects, and records what
-:func:`radarslam.experiments.single.run_filter` records after every scan.
+:func:`radarslam.slam.driver.run_filter` records after every scan.
 
 It has no maths of its own. Every step calls the compiled kernels the numba backend uses
 (:mod:`radarslam.slam._numba` for association and the Joseph update, :mod:`radarslam.extent._compiled`

@@ -82,7 +82,7 @@ class Clusters(NamedTuple):
 
 
 class ScanRecord(NamedTuple):
-    """What :func:`radarslam.experiments.single.run_filter` records after every scan (``S`` rows)."""
+    """What :func:`radarslam.slam.driver.run_filter` records after every scan (``S`` rows)."""
 
     poses: np.ndarray      #: (S, 3)
     pose_covs: np.ndarray  #: (S, 3, 3)

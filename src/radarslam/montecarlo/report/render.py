@@ -14,8 +14,8 @@ import math
 
 import numpy as np
 
-from radarslam.experiments.report.paper import PAPER_FIG3, PAPER_TABLE1, PAPER_TABLE2
-from radarslam.experiments.report.tables import ESTIMATORS, GWD_KEY_STEPS, GWD_SETTLED_FROM, REPORT_CONVENTIONS
+from radarslam.montecarlo.report.paper import PAPER_FIG3, PAPER_TABLE1, PAPER_TABLE2
+from radarslam.montecarlo.report.tables import ESTIMATORS, GWD_KEY_STEPS, GWD_SETTLED_FROM, REPORT_CONVENTIONS
 from radarslam.io.results import to_jsonable
 
 

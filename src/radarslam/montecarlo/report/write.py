@@ -7,14 +7,14 @@ from pathlib import Path
 import numpy as np
 
 from radarslam.core.errors import InputError, RadarSlamError
-from radarslam.experiments.montecarlo import load_results
-from radarslam.experiments.report.paper import PAPER_FIG3
-from radarslam.experiments.report.render import (gwd_csv, nees_csv, nis_csv, report_markdown, table1_csv, table1_markdown,
+from radarslam.montecarlo.trials import load_results
+from radarslam.montecarlo.report.paper import PAPER_FIG3
+from radarslam.montecarlo.report.render import (gwd_csv, nees_csv, nis_csv, report_markdown, table1_csv, table1_markdown,
                                                  table2_csv, table2_markdown, trial_ranges)
-from radarslam.experiments.report.tables import (REPORT_CONVENTIONS, gwd_curves, landmark_table, nees_summary,
+from radarslam.montecarlo.report.tables import (REPORT_CONVENTIONS, gwd_curves, landmark_table, nees_summary,
                                                  claims, nis_summary, table1,
                                                  variant_labels)
-from radarslam.experiments.variants import Variant, variants_to_json
+from radarslam.config.variants import Variant, variants_to_json
 
 #: The variant that seed Fig. 2 shows (re-run from trial 1's seed) when the run has it.
 FIG2_VARIANT = "ext"
@@ -28,7 +28,7 @@ def write_report(out_dir: str | Path, n_boot: int = 2000, *, rng_seed: int = 0, 
     Parameters
     ----------
     out_dir : str or Path
-        A directory written by :func:`~radarslam.experiments.montecarlo.run_montecarlo`.
+        A directory written by :func:`~radarslam.montecarlo.trials.run_montecarlo`.
     n_boot : int
         Bootstrap resamples for the Table 1 intervals.
     rng_seed : int
@@ -130,13 +130,13 @@ def _write_figures(rdir: Path, rep: dict, res: dict, variants: tuple[Variant, ..
         vr.plot_nis(rdir / "nis.png", rep["nis"])
         files.append("nis.png")
     if 1 in trials:
-        from radarslam.experiments.montecarlo import trial_seed
-        from radarslam.experiments.single import run_trial
-        from radarslam.experiments.variants import apply_variant
+        from radarslam.montecarlo.trials import trial_seed
+        from radarslam.simulation.trial import run_trial
+        from radarslam.config.variants import apply_variant
 
         v = next((x for x in variants if x.name == FIG2_VARIANT), variants[-1])
         # the engine that ran the stored trial (a first run's trials may have used the orchestrator,
-        # experiments/warmup.py), so that the figure's run is that trial bit for bit
+        # compiling/warmup.py), so that the figure's run is that trial bit for bit
         engine = "orchestrator" if res["engines"][v.name][trials.index(1)] == "orchestrator" else "auto"
         tr = run_trial(apply_variant(res["config"], v), trial_seed(res["seed"], 1), engine=engine)
         vr.plot_fig2(rdir / "fig2_trial1.png", tr, label=v.label)

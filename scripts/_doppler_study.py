@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from radarslam.config import Config, validate
-from radarslam.experiments.single import with_initial_estimate
+from radarslam.simulation.trial import with_initial_estimate
 from radarslam.metrics.pose import avg_rmse, pose_errors
 from radarslam.metrics.statistics import bootstrap_avg_rmse, bootstrap_counts, clopper_pearson, percentile_interval
 from radarslam.simulation.doppler import is_moving_source

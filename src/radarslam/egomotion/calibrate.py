@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from radarslam.core.errors import InputError
-from radarslam.experiments.rig_velocity import Rig
+from radarslam.egomotion.rig import Rig
 from radarslam.models.rig_velocity import (
     DEFAULTS,
     fit_rig_windows,

@@ -30,7 +30,7 @@ import numpy as np
 from radarslam.config import Config, validate
 from radarslam.core.errors import ConfigError, InputError
 from radarslam.core.types import Odometry, Scan
-from radarslam.experiments.ego_motion import mounting_3d
+from radarslam.egomotion.single_radar import mounting_3d
 from radarslam.models.attitude import headings, integrate_attitude, levelling
 from radarslam.models.doppler import EgoVelocity, directions, fit_ego_velocity, moving_mask
 
@@ -214,8 +214,8 @@ def level_recording(rec, imu: Imu, config: Config, rng: np.random.Generator) -> 
 
 def run_radar_alone(rec, imu: Imu, config: Config, *, on_scan=None):
     """Level ``rec`` and run :class:`~radarslam.slam.EkfSlam` over it: ``(RecordingRun, LevelledRecording)``."""
-    from radarslam.experiments.recording import RecordingRun
-    from radarslam.experiments.single import run_filter
+    from radarslam.runs.recording import RecordingRun
+    from radarslam.slam.driver import run_filter
     from radarslam.io.recording.mounting import Mounting
 
     config = check_radar_alone_config(config)

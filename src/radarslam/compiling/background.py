@@ -1,7 +1,7 @@
 """Compile the fused engine in a detached, low-priority process, for the runs that come after.
 
 The first Monte Carlo on a machine runs its trials with the per-event orchestrator when that ends
-sooner than compiling the fused engine first (:func:`radarslam.experiments.warmup.first_run_engine`).
+sooner than compiling the fused engine first (:func:`radarslam.compiling.warmup.first_run_engine`).
 The fused engine is then compiled here, in a process of its own that outlives the command: at the
 lowest CPU priority (``nice 19``), so that it takes the cores only when the run leaves them idle,
 in a process group of its own (Ctrl-C on the command does not reach it), with its output in a log
@@ -15,7 +15,7 @@ the package's location and ``NUMBA_CACHE_DIR``; a second one finds it held and e
 ``RADARSLAM_BACKGROUND_COMPILE=0`` turns the whole thing off (the fused engine then compiles in the
 foreground of the first run long enough to pay for it).
 
-Run as ``python -m radarslam.experiments.background JOB.json`` (what :func:`start` does): the job
+Run as ``python -m radarslam.compiling.background JOB.json`` (what :func:`start` does): the job
 file holds the configuration and the variants, and is deleted once read.
 """
 
@@ -89,7 +89,7 @@ def start(cfg_dict: dict, variants_json: list, log_file: Path | None = None) -> 
         json.dump({"config": cfg_dict, "variants": variants_json}, fh)
     log_file = log_file or lock_path().with_suffix(".log")
     with open(log_file, "w") as out:
-        proc = subprocess.Popen([sys.executable, "-m", "radarslam.experiments.background", job],
+        proc = subprocess.Popen([sys.executable, "-m", "radarslam.compiling.background", job],
                                 stdin=subprocess.DEVNULL, stdout=out, stderr=subprocess.STDOUT,
                                 process_group=0, close_fds=True,
                                 preexec_fn=_lower_priority if os.name == "posix" else None)
@@ -100,8 +100,8 @@ def main(job: str) -> int:
     """The detached process: under the lock, run the warm-up's tiny stream through each variant
     with the fused engine (numba compiles it whole and caches it). 0 when done or not needed."""
     from radarslam.config import from_dict
-    from radarslam.experiments.variants import variants_from_json
-    from radarslam.experiments.warmup import compile_fused
+    from radarslam.config.variants import variants_from_json
+    from radarslam.compiling.warmup import compile_fused
 
     try:
         data = json.loads(Path(job).read_text())
@@ -116,7 +116,7 @@ def main(job: str) -> int:
         compile_fused(config, variants)
         print("radarslam: the fused engine is compiled and cached", flush=True)
         if config.filter.motion_model == "unicycle":       # the car park's simulation and evaluation too
-            from radarslam.experiments.warmup import _side
+            from radarslam.compiling.warmup import _side
 
             _side(data["config"], dict(variants[0].overlay) if variants else {})
             print("radarslam: the scan simulation and the evaluation's matching are compiled and cached", flush=True)

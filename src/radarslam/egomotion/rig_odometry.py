@@ -11,7 +11,7 @@ import dataclasses
 import numpy as np
 
 from radarslam.core.types import Scan
-from radarslam.experiments.rig_velocity import Rig, rig_ego_velocity
+from radarslam.egomotion.rig import Rig, rig_ego_velocity
 from radarslam.models.doppler import EgoVelocity
 
 #: A fit held as valid (models.rig_velocity status 0).

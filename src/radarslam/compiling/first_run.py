@@ -10,7 +10,7 @@ So a single command (``radarslam run``) runs each part compiled only when its ma
 ready (cached or already compiled in this process) and otherwise through its reference, says so
 on its first line, and leaves the compile to a detached low-priority process
 (:mod:`.background`) for the runs that come after. The Monte Carlo applies the same rule through
-:func:`radarslam.experiments.warmup.warm_up`.
+:func:`radarslam.compiling.warmup.warm_up`.
 """
 
 from __future__ import annotations
@@ -46,15 +46,15 @@ class FirstRun:
 def ready(dispatcher) -> bool:
     """True when numba need not compile ``dispatcher`` for its next call: it was compiled in this
     process, or its cache holds fresh machine code."""
-    from radarslam.experiments.warmup import _has_fresh_code
+    from radarslam.compiling.warmup import _has_fresh_code
 
     return bool(getattr(dispatcher, "signatures", ())) or _has_fresh_code(dispatcher) is True
 
 
 def _filter_ready(*families) -> bool:
     """True when the fused engine of each of ``families`` is ready (none given: the default
-    family's; :func:`~radarslam.experiments.warmup.fused_families`)."""
-    from radarslam.experiments.warmup import _engines
+    family's; :func:`~radarslam.compiling.warmup.fused_families`)."""
+    from radarslam.compiling.warmup import _engines
 
     return all(ready(d) for d in _engines(families))
 
@@ -77,7 +77,7 @@ def choose(backend: str, *, simulation: bool = False, matching: bool = False, co
     everything is the reference already and nothing is announced."""
     if backend != "numba":
         return FirstRun(None, False, False, ())
-    from radarslam.experiments.warmup import fused_families
+    from radarslam.compiling.warmup import fused_families
 
     parts = []
     f = _filter_ready(*(fused_families(config) if config is not None else ()))
@@ -98,8 +98,8 @@ def announce(choice: FirstRun, config, stream=None) -> int | None:
     if not choice.reference_parts:
         return None
     from radarslam.config import to_dict
-    from radarslam.experiments import background
-    from radarslam.experiments.variants import Variant, variants_to_json
+    from radarslam.compiling import background
+    from radarslam.config.variants import Variant, variants_to_json
 
     stream = stream or sys.stderr
     busy = background.enabled() and background.busy()

@@ -11,16 +11,16 @@ The trial bootstrap and the RMSE over defined values are generic statistics of
 :mod:`radarslam.metrics.statistics`, re-exported here for existing callers.
 """
 
-from radarslam.experiments.report.paper import PAPER_FIG3, PAPER_SOURCES, PAPER_TABLE1, PAPER_TABLE2
-from radarslam.experiments.report.render import (gwd_csv, gwd_markdown, nees_csv, nees_markdown, nis_csv, nis_markdown,
+from radarslam.montecarlo.report.paper import PAPER_FIG3, PAPER_SOURCES, PAPER_TABLE1, PAPER_TABLE2
+from radarslam.montecarlo.report.render import (gwd_csv, gwd_markdown, nees_csv, nees_markdown, nis_csv, nis_markdown,
                                                  report_markdown,
                                                  table1_csv, table1_markdown, table2_csv, table2_markdown,
                                                  trial_ranges, variants_markdown)
-from radarslam.experiments.report.tables import (ESTIMATORS, GWD_KEY_STEPS, GWD_SETTLED_FROM, REPORT_CONVENTIONS,
+from radarslam.montecarlo.report.tables import (ESTIMATORS, GWD_KEY_STEPS, GWD_SETTLED_FROM, REPORT_CONVENTIONS,
                                                  TABLE1_METRICS, gwd_curves, landmark_table, nees_summary, nis_summary,
                                                  table1,
                                                  variant_labels)
-from radarslam.experiments.report.write import FIG2_VARIANT, write_report
+from radarslam.montecarlo.report.write import FIG2_VARIANT, write_report
 from radarslam.metrics.statistics import bootstrap_avg_rmse, bootstrap_counts, percentile_interval, rmse_over_defined
 
 __all__ = [

@@ -14,12 +14,7 @@ import numpy as np
 
 from radarslam.core.errors import InputError
 from radarslam.core.types import Scan
-from radarslam.experiments.rig_velocity import (
-    Rig,
-    compare_with_odometry,
-    rig_ego_velocity,
-    write_ego_velocity_csv,
-)
+from radarslam.egomotion.rig import Rig, compare_with_odometry, rig_ego_velocity, write_ego_velocity_csv
 from radarslam.io.recording.mounting import Mounting
 from radarslam.io.recording.stream import Recording
 
@@ -48,7 +43,7 @@ def with_sensors_file(rec: Recording, path: str | Path) -> Recording:
 
 
 def recording_rig(rec: Recording, mounting: Mounting) -> Rig | None:
-    """The recording as a :class:`~radarslam.experiments.rig_velocity.Rig` (time order; zero-range
+    """The recording as a :class:`~radarslam.egomotion.rig.Rig` (time order; zero-range
     detections left out, as the stream leaves them), or None without ``doppler_mps``: its sensors
     (``rec.sensors``), else ``mounting`` as sensor 0."""
     d = rec.channels.get("doppler_mps")
@@ -88,8 +83,8 @@ def landmark_sensors(events: list, created: np.ndarray) -> np.ndarray:
 
 def write_run_tables(out: Path, run) -> list[str]:
     """``ego_velocity.csv`` (with a rig fit) and ``moving.csv`` (under the Doppler gate) of ``run``
-    (a :class:`~radarslam.experiments.recording.RecordingRun`); returns the names written."""
-    from radarslam.experiments.detection_flags import write_moving_csv
+    (a :class:`~radarslam.runs.recording.RecordingRun`); returns the names written."""
+    from radarslam.runs.detection_flags import write_moving_csv
 
     names = []
     if run.ego is not None:
@@ -121,7 +116,7 @@ def write_run_figures(out: Path, run) -> list[str]:
     elif run.config.filter.odometry != "odometer":      # no wheel odometry to integrate (the radar alone)
         reference, label = None, ""
     else:
-        from radarslam.experiments.recording import dead_reckoning
+        from radarslam.runs.recording import dead_reckoning
 
         reference, label = dead_reckoning(run.events, run.config, _start(run))[:, :2], \
             "dead reckoning (odometry.csv)"
@@ -142,7 +137,7 @@ def write_run_figures(out: Path, run) -> list[str]:
 
 def ego_metrics(ego, rig: Rig) -> dict:
     """``metrics.json["ego_velocity"]``: the fit's windows, and its speed and yaw rate against the
-    odometry (:func:`~radarslam.experiments.rig_velocity.compare_with_odometry`) when there is one."""
+    odometry (:func:`~radarslam.egomotion.rig.compare_with_odometry`) when there is one."""
     out = {"windows": int(ego.t.size), "valid": int(ego.valid.sum()), "sensors": int(rig.sensor_ids.size),
            "model": "v_x, v_y, omega" if rig.sensor_ids.size >= 2 else "v_x, omega (no sideslip: one radar)"}
     if rig.odometry is not None and rig.odometry.shape[0] >= 2:

@@ -33,8 +33,7 @@ import numpy as np
 from radarslam import __version__
 from radarslam.config import Config, SensorConfig, from_dict, to_dict, to_toml
 from radarslam.core.errors import InputError, RadarSlamError
-from radarslam.experiments.variants import (DEFAULT_VARIANTS, PAPER_VARIANTS, Variant, check_variants, variant_hash_data,
-                                            variants_from_json, variants_to_json)
+from radarslam.config.variants import (DEFAULT_VARIANTS, PAPER_VARIANTS, Variant, check_variants, variant_hash_data, variants_from_json, variants_to_json)
 from radarslam.io.results import atomic_write_bytes, atomic_write_text, make_dir, to_jsonable, write_json
 
 FORMAT = 1

@@ -60,7 +60,7 @@ class FirstRunPlan:
 def _one_call_note(n_scans: int) -> str:
     """What the first line says of a warm fused run of ``n_scans`` scans: nothing when it is short
     (under :data:`ANNOUNCE_S`), else the scans, the one compiled call and its expected seconds."""
-    from radarslam.experiments.warmup import FUSED_SCAN_S
+    from radarslam.compiling.warmup import FUSED_SCAN_S
 
     expected = n_scans * FUSED_SCAN_S
     if expected < ANNOUNCE_S:
@@ -78,7 +78,7 @@ def _with_backend(config: Config, backend: str) -> Config:
 def _orchestrator_ready() -> bool:
     """True when the kernels of a recording's run event by event are compiled or cached: the
     associators, the M/N rules and the extent step (the last to compile)."""
-    from radarslam.experiments.first_run import ready
+    from radarslam.compiling.first_run import ready
     from radarslam.extent.rows import rma_efa_rows
     from radarslam.landmarks.confirmation import rule12
     from radarslam.slam._numba import associate_scan, batch_associate_scan
@@ -89,15 +89,15 @@ def _orchestrator_ready() -> bool:
 def _fused_ready(*families) -> bool:
     """True when the machine code of the fused engine of ``families`` (none given: the default
     family's) is ready (:func:`.first_run._filter_ready`)."""
-    from radarslam.experiments.first_run import _filter_ready
+    from radarslam.compiling.first_run import _filter_ready
 
     return _filter_ready(*families)
 
 
 def _background_note(config: Config) -> str:
     """Start the background compile of the fused engine (:mod:`.background`); what the first line says of it."""
-    from radarslam.experiments import background
-    from radarslam.experiments.variants import Variant, variants_to_json
+    from radarslam.compiling import background
+    from radarslam.config.variants import Variant, variants_to_json
 
     where = f"log {background.lock_path().with_suffix('.log')}"
     if background.enabled() and background.busy():
@@ -111,17 +111,12 @@ def _background_note(config: Config) -> str:
 def first_run_plan(config: Config, n_scans: int, fused: bool) -> FirstRunPlan:
     """What runs the filter over ``n_scans`` scans: the fused engine when ``fused`` (it covers the
     configuration) and its machine code is ready, or when a run this long ends sooner compiling it
-    (:func:`~radarslam.experiments.warmup.first_run_engine_scans`); else event by event, the
+    (:func:`~radarslam.compiling.warmup.first_run_engine_scans`); else event by event, the
     compiled orchestrator when its kernels are ready, else what ends sooner by the costs above:
     the Python reference at once, or the orchestrator after numba compiles its kernels (announced
     with the expected seconds). The fused engine then compiles in the background for later runs.
     Nothing is announced when everything this run needs is ready."""
-    from radarslam.experiments.warmup import (
-        COMPILING,
-        ORCHESTRATOR_SCAN_S,
-        first_run_engine_scans,
-        fused_families,
-    )
+    from radarslam.compiling.warmup import COMPILING, ORCHESTRATOR_SCAN_S, first_run_engine_scans, fused_families
 
     if config.filter.backend != "numba":
         return FirstRunPlan("python")

@@ -22,7 +22,7 @@ import numpy as np
 
 from radarslam.config import Config
 from radarslam.core.types import Scan
-from radarslam.experiments.single import FilterRecord, run_filter
+from radarslam.slam.driver import FilterRecord, run_filter
 from radarslam.slam import _fused
 from radarslam.slam.filter import EkfSlam, MapSnapshot
 
@@ -107,7 +107,7 @@ class _ReportingSlam(EkfSlam):
 
 def run_with_flags(config: Config, events: list, *, on_scan=None, engine: str = "auto") -> tuple[FilterRecord,
                                                                                                  ScanFlags]:
-    """:func:`~radarslam.experiments.single.run_filter` (the same record, the same engine choice) and
+    """:func:`~radarslam.slam.driver.run_filter` (the same record, the same engine choice) and
     every scan detection's :class:`ScanFlags`."""
     slam = _ReportingSlam(config)
     if engine == "auto" and _fused.why_not(slam, events) is None:

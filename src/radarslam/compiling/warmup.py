@@ -29,8 +29,8 @@ import numpy as np
 
 from radarslam.config import Config, from_dict, to_dict
 from radarslam.core.types import Odometry, Scan
-from radarslam.experiments.single import run_filter
-from radarslam.experiments.variants import Variant, apply_variant
+from radarslam.slam.driver import run_filter
+from radarslam.config.variants import Variant, apply_variant
 
 #: What the progress output says while the cache is filled.
 COMPILING = "compiling the numba kernels (once per machine, about three minutes); later runs load them in about a second"
@@ -163,7 +163,7 @@ def compile_fused(config: Config, variants: tuple[Variant, ...]) -> None:
 def _side(cfg_dict: dict, overlay: dict) -> None:
     """Second process: one simulated trial with the Python filter compiles the scan simulation and
     the evaluation's matching (and nothing of the filter)."""
-    from radarslam.experiments.montecarlo import compute_trial
+    from radarslam.montecarlo.trials import compute_trial
     cfg = from_dict(cfg_dict)
     python = {**overlay, "filter": {**overlay.get("filter", {}), "backend": "python"}}
     compute_trial(cfg, 1, 1, (Variant("warmup", "warm-up", python),))
@@ -175,7 +175,7 @@ def _orchestrator_trial(config: Config, variants: tuple[Variant, ...], evaluatio
     compile of the orchestrator's kernels; with ``evaluation``, the evaluation's matching of the
     first variant's run too; with ``simulation``, the car park by the compiled scan simulation
     (else by its reference, which compiles nothing)."""
-    from radarslam.experiments.single import evaluate
+    from radarslam.simulation.trial import evaluate
     from radarslam.simulation.scenario import generate_scenario
 
     scenario = generate_scenario(config, np.random.default_rng(0), compiled=simulation)
@@ -208,8 +208,8 @@ def _orchestrator_is_cold() -> bool:
 
 def _background(config: Config, variants: tuple[Variant, ...], log: Callable[[str], None]) -> None:
     """Start the detached compilation of the fused engine (:mod:`.background`), or say that one runs."""
-    from radarslam.experiments import background
-    from radarslam.experiments.variants import variants_to_json
+    from radarslam.compiling import background
+    from radarslam.config.variants import variants_to_json
 
     where = f"log {background.lock_path().with_suffix('.log')}"
     if background.enabled() and background.busy():
@@ -250,7 +250,7 @@ def warm_up(config: Config, variants: tuple[Variant, ...], log: Callable[[str], 
             job = side.submit(_short_side, to_dict(config), theirs)
         else:
             job = side.submit(_side, to_dict(config), dict(variants[0].overlay))
-    from radarslam.experiments.dataset_first_run import _heartbeat
+    from radarslam.compiling.stream_plan import _heartbeat
 
     expected = ORCHESTRATOR_WARM_UP_S if short else FUSED_COMPILE_S
     beat = _heartbeat(expected, "montecarlo: still compiling the numba kernels")

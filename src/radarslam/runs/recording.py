@@ -14,8 +14,8 @@ from radarslam.config import Config, to_toml, validate
 from radarslam.core.angles import wrap_pi
 from radarslam.core.errors import ConfigError, InputError
 from radarslam.core.types import Scan
-from radarslam.experiments.rig_odometry import with_rig_velocity
-from radarslam.experiments.single import FilterRecord, run_filter
+from radarslam.egomotion.rig_odometry import with_rig_velocity
+from radarslam.slam.driver import FilterRecord, run_filter
 from radarslam.io.recording.mounting import Mounting, to_sensor
 from radarslam.io.recording.stream import Recording, StreamReport, check_motion_model, stream_events
 from radarslam.metrics.trajectory import DEFINITIONS, trajectory_errors
@@ -279,9 +279,9 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
 
 
 def _run_filter(config: Config, events: list, on_scan, first_run):
-    """The filter over ``events`` (the first-run rule's engine, experiments/first_run.py) and, under
-    ``filter.doppler_gate``, every scan detection's flags (experiments/detection_flags.py)."""
-    from radarslam.experiments.detection_flags import run_with_flags
+    """The filter over ``events`` (the first-run rule's engine, compiling/first_run.py) and, under
+    ``filter.doppler_gate``, every scan detection's flags (runs/detection_flags.py)."""
+    from radarslam.runs.detection_flags import run_with_flags
 
     python = first_run is not None and first_run.filter_backend == "python"
     if python:
@@ -299,8 +299,8 @@ def _run_filter(config: Config, events: list, on_scan, first_run):
 def _doppler_outputs(rec: Recording, m: Mounting, flags, metrics: dict):
     """The rig's ego-motion (None without Doppler) and, with ``flags``, each input detection's in
     input order; ``metrics`` gains ``ego_velocity`` and, with the annotation, ``moving_scores``."""
-    from radarslam.experiments.detection_flags import detection_flags, moving_scores, stream_rows
-    from radarslam.experiments.recording_outputs import ego_metrics, recording_rig, rig_velocity_of
+    from radarslam.runs.detection_flags import detection_flags, moving_scores, stream_rows
+    from radarslam.runs.recording_outputs import ego_metrics, recording_rig, rig_velocity_of
 
     rig = recording_rig(rec, m)
     ego = None if rig is None else rig_velocity_of(rig)
@@ -363,7 +363,7 @@ def map_rows(run: RecordingRun) -> list[dict]:
 
 def write_recording_outputs(out: Path, run: RecordingRun, extra: dict) -> list[str]:
     """Every result file of a recording run in ``out``; returns their names (``run.json`` last, the marker)."""
-    from radarslam.experiments.recording_outputs import write_run_figures, write_run_tables
+    from radarslam.runs.recording_outputs import write_run_figures, write_run_tables
     from radarslam.io.results import atomic_write_text, write_json, write_trajectory_csv, write_tum
 
     t, poses = run.times, run.record.poses
@@ -412,7 +412,7 @@ def export_simulation(config: Config, seed: int, out: Path, *, fmt: str = "mcap"
     """Simulate the car-park trial ``seed`` and write it as a bag (``out/bag``, ``out/bag.bag`` for
     ROS 1), the plain format (``out/plain/``), its truth (``out/groundtruth_tum.txt``) and the
     configuration to run it with (``out/config.toml``, with the mounting)."""
-    from radarslam.experiments.single import check_simulation_config
+    from radarslam.simulation.trial import check_simulation_config
     from radarslam.io.recording.bag_write import write_bag
     from radarslam.io.recording.plain import write_plain
     from radarslam.io.results import atomic_write_text, make_dir, write_tum

@@ -18,7 +18,7 @@ from radarslam.metrics.alignment import error_against_fixes
 from radarslam.models.radar import polar_to_xy
 from radarslam.slam import _fused
 from radarslam.slam.filter import EkfSlam, MapSnapshot
-from radarslam.experiments.dataset_first_run import (  # noqa: F401  (re-exported: their former home)
+from radarslam.compiling.stream_plan import (  # noqa: F401  (re-exported: their former home)
     HEARTBEAT_S,
     ORCHESTRATOR_COMPILE_S,
     PYTHON_SCAN_S,
@@ -81,7 +81,7 @@ def run_dataset(name: str, path, config: Config, *, first_scan: int | None = Non
     same run (docs/architecture.md "The fused engine"); any other runs event by event. On a machine
     whose compiled code is not built yet, :func:`first_run_plan` picks what ends sooner and says so
     on the first line of stderr."""
-    from radarslam.experiments.montecarlo import Progress
+    from radarslam.runs.progress import Progress
     from radarslam.io.datasets import get_dataset
 
     config = validate(config)

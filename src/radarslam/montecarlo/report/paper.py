@@ -1,7 +1,7 @@
 """The seed papers' published values the report sets its results beside (docs/method.md f.1, f.2, f.4).
 
 Each constant is keyed by the report's metric names; where a paper compares "No extent" and
-"With extent" the keys are the names of :data:`~radarslam.experiments.variants.DEFAULT_VARIANTS`.
+"With extent" the keys are the names of :data:`~radarslam.config.variants.DEFAULT_VARIANTS`.
 """
 
 from __future__ import annotations

@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from radarslam.experiments.radar_alone import LevelledRecording
+from radarslam.runs.radar_alone import LevelledRecording
 
 #: Window (s) over which the velocity's change is compared with the integrated accelerometer.
 ACCEL_WINDOW_S = 1.0

@@ -1,8 +1,8 @@
 """The report's tables as dicts: seed Table 1, seed Fig. 3 curves, APSIPA Table II, pose NEES (docs/method.md f).
 
-Every function is pure computation on the dict of :func:`~radarslam.experiments.montecarlo.load_results`
+Every function is pure computation on the dict of :func:`~radarslam.montecarlo.trials.load_results`
 and covers every variant of ``res["variants"]`` in order (without that key: the two
-:data:`~radarslam.experiments.variants.DEFAULT_VARIANTS`); the first variant is the *baseline* of
+:data:`~radarslam.config.variants.DEFAULT_VARIANTS`); the first variant is the *baseline* of
 the relative changes.
 
 Definitions (docs/method.md e, f.1; the statistics are [PROP], :mod:`radarslam.metrics.statistics`):
@@ -25,7 +25,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from radarslam.core.errors import InputError
-from radarslam.experiments.variants import PAPER_VARIANTS, Variant
+from radarslam.config.variants import PAPER_VARIANTS, Variant
 from radarslam.metrics.extent import CONVENTIONS
 from radarslam.metrics.pose import avg_rmse, chi2_band
 from radarslam.metrics.statistics import bootstrap_avg_rmse, bootstrap_counts, percentile_interval, rmse_over_defined
@@ -48,7 +48,7 @@ TABLE1_METRICS = ("position_avg_rmse_m", "heading_avg_rmse_deg")
 def variant_labels(res: dict) -> dict[str, str]:
     """``{name: label}`` of the variants of ``res``, in order (the first is the baseline).
 
-    ``res["variants"]`` may hold :class:`~radarslam.experiments.variants.Variant` objects, dicts with
+    ``res["variants"]`` may hold :class:`~radarslam.config.variants.Variant` objects, dicts with
     ``name`` (and ``label``) or plain names; without the key, the default two.
     """
     if not isinstance(res, dict):
@@ -107,7 +107,7 @@ def table1(res: dict, n_boot: int = 2000, rng_seed: int = 0, level: float = 0.95
     Parameters
     ----------
     res : dict
-        From :func:`~radarslam.experiments.montecarlo.load_results`; reads ``position_error_m`` and
+        From :func:`~radarslam.montecarlo.trials.load_results`; reads ``position_error_m`` and
         ``heading_error_rad`` ``(N, K)`` of every variant.
     n_boot : int
         Bootstrap resamples (>= 1).
@@ -386,7 +386,7 @@ def claims(t1: dict, gwd: dict[str, dict], paper_table1: dict | None = None) -> 
     list of dict
         ``claim``, ``variant``, ``holds`` (bool, or None when undefined) and ``evidence`` (a sentence).
     """
-    from radarslam.experiments.report.paper import PAPER_TABLE1
+    from radarslam.montecarlo.report.paper import PAPER_TABLE1
 
     paper = paper_table1 or PAPER_TABLE1
     base = t1["baseline"]

@@ -30,10 +30,10 @@ from pathlib import Path
 import numpy as np
 
 from radarslam.config import Config, PARTIAL_VIEW_SPREAD_MODELS, to_dict
-from radarslam.experiments.montecarlo import load_results, run_montecarlo
-from radarslam.experiments.report import write_report
-from radarslam.experiments.report.tables import nees_summary, table1
-from radarslam.experiments.variants import CONSISTENT, DEFAULT_VARIANTS, PAPER_VARIANTS, Variant
+from radarslam.montecarlo.trials import load_results, run_montecarlo
+from radarslam.montecarlo.report import write_report
+from radarslam.montecarlo.report.tables import nees_summary, table1
+from radarslam.config.variants import CONSISTENT, DEFAULT_VARIANTS, PAPER_VARIANTS, Variant
 
 MODELS = ("surface", "visible-faces", "scatter-centres")
 #: Scans from which the shape GWD is averaged (the first ones hold the newborns' priors).
