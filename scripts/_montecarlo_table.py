@@ -8,8 +8,13 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 
+import numpy as np
+
 from radarslam.config import profile_config, to_dict
 from radarslam.core.registry import BACKENDS
+from radarslam.metrics.pose import avg_rmse
+from radarslam.metrics.statistics import bootstrap_avg_rmse, bootstrap_counts, percentile_interval
+from radarslam.montecarlo.report import nees_summary, nis_summary
 from radarslam.montecarlo.trials import load_results, run_montecarlo
 
 
@@ -54,10 +59,6 @@ def run_ablation_table(cfg, variants: list, seed: int, trials: int, out: str, jo
     """Run (or resume) the Monte Carlo of ``variants`` on ``cfg``'s simulated data, print the
     ablation-style table (position, heading, NEES, NIS; ``title`` in place of its first words) and
     write it as ``out/stem.md`` and, with the rows, seed and configuration, ``out/stem.json``."""
-    from ablation_consistent import markdown, table
-
-    from radarslam.montecarlo.report import nees_summary
-
     run_montecarlo(cfg, seed, trials, out, jobs=jobs, variants=variants)
     res = load_results(out)
     rows = table(res)
@@ -81,3 +82,36 @@ def run_under_spread_model(variants: list, spread_model: str, seed: int, trials:
     cfg = replace(cfg, radar=replace(cfg.radar, spread_model=spread_model),
                   extent=replace(cfg.extent, spread_model=spread_model))
     return run_ablation_table(cfg, variants, seed, trials, out, jobs, stem)
+
+
+# --- the ablation-style table (position, heading, NEES, NIS) of a Monte Carlo's variants ---
+
+
+def table(res: dict, n_boot: int = 2000) -> list[dict]:
+    n = res["trials"].size
+    counts = bootstrap_counts(n, n_boot, np.random.default_rng(0))
+    ns, nis = nees_summary(res), nis_summary(res)
+    rows = []
+    for v in res["variants"]:
+        b = res[v.name]
+        pe, he = b["position_error_m"], np.degrees(b["heading_error_rad"])
+        c = ns["configs"][v.name]
+        rows.append({"variant": v.name, "label": v.label,
+                     "position_m": avg_rmse(pe), "position_ci": percentile_interval(bootstrap_avg_rmse(pe, counts)),
+                     "heading_deg": avg_rmse(he), "heading_ci": percentile_interval(bootstrap_avg_rmse(he, counts)),
+                     "nees_inside": c["frac_inside"], "nees_time_avg": c["time_avg"],
+                     "nis_mean": nis["configs"][v.name]["overall"] if v.name in nis["configs"] else float("nan"),
+                     "nis_inside": nis["configs"][v.name]["frac_inside"] if v.name in nis["configs"] else float("nan")})
+    return rows
+
+
+def markdown(rows: list[dict], n: int, seed: int, band) -> str:
+    out = [f"Ablation of the consistent variant, {n} trials, seed {seed}; NEES band [{band[0]:.2f}, {band[1]:.2f}]", "",
+           "| variant | position avg. RMSE (m) [95% CI] | heading avg. RMSE (deg) [95% CI] | NEES inside band "
+           "| time-avg. NEES (3) | mean NIS (2) | NIS inside band |", "|---|---|---|---|---|---|---|"]
+    for r in rows:
+        out.append(f"| {r['label']} | {r['position_m']:.3f} [{r['position_ci'][0]:.3f}, {r['position_ci'][1]:.3f}] "
+                   f"| {r['heading_deg']:.2f} [{r['heading_ci'][0]:.2f}, {r['heading_ci'][1]:.2f}] "
+                   f"| {100 * r['nees_inside']:.0f}% | {r['nees_time_avg']:.2f} | {r['nis_mean']:.2f} "
+                   f"| {100 * r['nis_inside']:.0f}% |")
+    return "\n".join(out)

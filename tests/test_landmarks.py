@@ -13,7 +13,7 @@ from radarslam.core.errors import InputError
 from radarslam.core.types import Odometry, Scan
 from radarslam.landmarks.clustering import dbscan_labels
 from radarslam.landmarks.confirmation import push_bit, should_remove
-from radarslam.landmarks.merging import next_merge
+from radarslam.landmarks.steps import next_merge
 from radarslam.models.radar import xy_to_polar
 from radarslam.slam import ekf
 from radarslam.slam.filter import EkfSlam

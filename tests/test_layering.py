@@ -5,7 +5,9 @@
 - ``radarslam.viz`` and ``radarslam.io`` import nothing of the estimation (``slam``, ``landmarks``,
   ``extent``), the simulation or the experiments (``io`` not the CLI either);
 - the estimation packages (``slam``, ``landmarks``, ``extent``, ``models``) import nothing of
-  ``metrics``, ``io``, ``viz``, ``experiments`` or ``cli``.
+  ``metrics``, ``io``, ``viz``, the packages that run commands or ``cli``;
+- every package imports only packages before it in :data:`ORDER` (docs/architecture.md "Packages"),
+  and no file of the tree (``src``, ``scripts``, ``benchmarks``) takes part in a circle of imports.
 """
 
 from __future__ import annotations
@@ -20,9 +22,15 @@ import radarslam
 SRC = Path(radarslam.__file__).resolve().parent
 
 ESTIMATION = ("radarslam.slam", "radarslam.landmarks", "radarslam.extent", "radarslam.models")
-OUTSIDE_ESTIMATION = ("radarslam.metrics", "radarslam.io", "radarslam.viz", "radarslam.experiments", "radarslam.cli")
-NOT_FOR_VIZ = ("radarslam.slam", "radarslam.landmarks", "radarslam.extent", "radarslam.simulation",
-               "radarslam.experiments")
+#: The packages from the bottom up: each imports only packages before it (the deprecated
+#: ``experiments`` shim, which hands over moved modules by name, stands outside).
+ORDER = ("core", "config", "landmarks", "extent", "metrics", "io", "models", "viz", "slam", "simulation", "egomotion",
+         "compiling", "runs", "montecarlo", "cli")
+#: The packages that run what a command does (above the estimation, the simulation and the outputs).
+COMMANDS = ("radarslam.egomotion", "radarslam.compiling", "radarslam.runs", "radarslam.montecarlo",
+            "radarslam.experiments")
+OUTSIDE_ESTIMATION = ("radarslam.metrics", "radarslam.io", "radarslam.viz", "radarslam.cli") + COMMANDS
+NOT_FOR_VIZ = ("radarslam.slam", "radarslam.landmarks", "radarslam.extent", "radarslam.simulation") + COMMANDS
 NOT_FOR_IO = NOT_FOR_VIZ + ("radarslam.metrics", "radarslam.viz", "radarslam.cli")
 
 #: Known violations, marked xfail(strict=True) one module at a time: ``{module: reason}``. The last
@@ -49,8 +57,11 @@ def _is_module(name: str) -> bool:
     return base.with_suffix(".py").is_file() or (base / "__init__.py").is_file()
 
 
-def radarslam_imports(name: str, path: Path) -> set[str]:
-    """Every ``radarslam...`` module imported anywhere in the file (top level or inside functions)."""
+def radarslam_imports(name: str, path: Path, packages_of_submodules: bool = True) -> set[str]:
+    """Every ``radarslam...`` module imported anywhere in the file (top level or inside functions).
+    ``from P import m`` of a submodule ``m`` counts ``P`` too, unless ``packages_of_submodules`` is
+    False (then ``P`` counts only when a name is not a submodule: what the circle check reads, for
+    which a package's ``__init__`` re-exporting its modules is no circle)."""
     tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
     is_pkg = path.name == "__init__.py"
     out: set[str] = set()
@@ -64,10 +75,10 @@ def radarslam_imports(name: str, path: Path) -> set[str]:
                 mod = ".".join(base + ([node.module] if node.module else []))
             else:
                 mod = node.module or ""
-            out.add(mod)
-            for a in node.names:  # "from radarslam import metrics" imports the subpackage
-                if _is_module(f"{mod}.{a.name}"):
-                    out.add(f"{mod}.{a.name}")
+            subs = [a for a in node.names if _is_module(f"{mod}.{a.name}")]
+            out.update(f"{mod}.{a.name}" for a in subs)  # "from radarslam import metrics" imports the subpackage
+            if packages_of_submodules or len(subs) < len(node.names):
+                out.add(mod)
     return {m for m in out if m == "radarslam" or m.startswith("radarslam.")}
 
 
@@ -173,3 +184,120 @@ def test_numba_cache_refresh_deletes_stale_machine_code(tmp_path):
     os.utime(src, ns=(st.st_atime_ns, st.st_mtime_ns + 10**9))
     assert numba_cache.refresh(tmp_path)
     assert not (cache / "_fused.run_stream-1.py311.nbi").exists()
+
+
+# --- the order of the packages, and no circle anywhere ------------------------------------------
+
+ROOT = SRC.parents[1]
+
+
+def _package(module: str) -> str:
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else ""
+
+
+def test_the_order_names_every_package():
+    on_disk = {p.name for p in SRC.iterdir() if (p / "__init__.py").is_file()} - {"experiments"}
+    assert on_disk == set(ORDER), f"ORDER lacks {sorted(on_disk - set(ORDER))} or names gone {sorted(set(ORDER) - on_disk)}"
+
+
+@pytest.mark.parametrize("package", ORDER)
+def test_a_package_imports_only_packages_below_it(package):
+    below = set(ORDER[:ORDER.index(package)]) | {package, ""}
+    bad = sorted({f"{name} -> {m}" for name, path in modules_of(f"radarslam.{package}")
+                  for m in radarslam_imports(name, path) if _package(m) not in below})
+    assert not bad, f"upward imports: {bad}"
+
+
+def test_nothing_imports_the_deprecated_experiments_package():
+    users = sorted(name for pkg in ORDER for name, path in modules_of(f"radarslam.{pkg}")
+                   if any(_inside(m, ("radarslam.experiments",)) for m in radarslam_imports(name, path)))
+    assert not users
+
+
+def _local_imports(path: Path, local: set[str]) -> set[str]:
+    """The modules of ``local`` (the top-level names of a folder's scripts) that ``path`` imports."""
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    out = set()
+    for node in ast.walk(tree):
+        names = ([a.name for a in node.names] if isinstance(node, ast.Import)
+                 else [node.module] if isinstance(node, ast.ImportFrom) and not node.level and node.module else [])
+        out.update(n.split(".")[0] for n in names if n.split(".")[0] in local)
+    return out
+
+
+def import_graph() -> dict[str, set[str]]:
+    """Every file of the tree and the files it imports: the package's modules by name (a package's
+    ``__init__`` as the package), ``scripts/`` and ``benchmarks/`` by their folder and file name."""
+    graph = {name: {m for m in radarslam_imports(name, path, False) if m != name}
+             for name, path in modules_of("radarslam")}
+    for folder in ("scripts", "benchmarks"):
+        files = {p.stem: p for p in (ROOT / folder).glob("*.py")}
+        for stem, path in files.items():
+            graph[f"{folder}/{stem}"] = ({f"{folder}/{m}" for m in _local_imports(path, set(files)) if m != stem}
+                                         | radarslam_imports(stem, path, False))
+    return graph
+
+
+def circles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components of more than one file (Tarjan's algorithm, iterative)."""
+    index, low, stack, on, out, n = {}, {}, [], set(), [], 0
+    for root in sorted(graph):
+        if root in index:
+            continue
+        work = [(root, iter(sorted(graph.get(root, ()))))]
+        index[root] = low[root] = n
+        n += 1
+        stack.append(root)
+        on.add(root)
+        while work:
+            v, it = work[-1]
+            w = next(it, None)
+            if w is not None:
+                if w not in index:
+                    index[w] = low[w] = n
+                    n += 1
+                    stack.append(w)
+                    on.add(w)
+                    work.append((w, iter(sorted(graph.get(w, ())))))
+                elif w in on:
+                    low[v] = min(low[v], index[w])
+                continue
+            work.pop()
+            if work:
+                low[work[-1][0]] = min(low[work[-1][0]], low[v])
+            if low[v] == index[v]:
+                comp = []
+                while True:
+                    w = stack.pop()
+                    on.discard(w)
+                    comp.append(w)
+                    if w == v:
+                        break
+                if len(comp) > 1:
+                    out.append(sorted(comp))
+    return out
+
+
+def test_the_circle_finder_finds_a_circle():
+    """Negative control: a made-up graph with one circle of three and a tail."""
+    g = {"a": {"b"}, "b": {"c"}, "c": {"a", "d"}, "d": set(), "e": {"a"}}
+    assert circles(g) == [["a", "b", "c"]]
+    assert circles({"a": {"b"}, "b": set()}) == []
+
+
+def test_a_circle_made_in_a_copy_of_the_tree_is_found(tmp_path):
+    """Negative control on real files: the resolver reads a lazy import inside a function."""
+    a, b = tmp_path / "a.py", tmp_path / "b.py"
+    a.write_text("from radarslam.slam import filter\n")
+    b.write_text("def f():\n    from radarslam.slam.filter import EkfSlam\n")
+    g = {"radarslam.slam.filter": radarslam_imports("radarslam.slam.filter", b, False) | {"radarslam.slam.x"},
+         "radarslam.slam.x": radarslam_imports("radarslam.slam.x", a, False)}
+    assert circles(g) == [["radarslam.slam.filter", "radarslam.slam.x"]]
+
+
+def test_no_circle_of_imports_in_the_whole_tree():
+    graph = import_graph()
+    assert "scripts/_montecarlo_table" in graph and "radarslam.slam.filter" in graph   # it saw the whole tree
+    assert "scripts/_montecarlo_table" in graph["scripts/nees_study"]
+    assert not circles(graph), circles(graph)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from radarslam.config import Config, list_profiles, load_config, profile_config, validate
+from radarslam.core.errors import InputError
 from radarslam.core.registry import BACKENDS
 
 
@@ -35,3 +36,25 @@ def config_from_args(args: argparse.Namespace) -> Config:
     else:
         cfg = validate(profile_config(args.profile or "apsipa"))
     return with_backend(cfg, args)
+
+
+# --- the radar topics of a bag (--radar-topic) ---
+
+
+def radar_topics(args) -> list[str]:
+    """The ``--radar-topic`` values (each may be a comma-separated list), in the order given."""
+    return [t for a in (args.radar_topic or []) for t in a.split(",") if t]
+
+
+def topic_arg(args):
+    """What ``read_bag`` takes: None, the one topic (as before), or the list of a rig's topics."""
+    topics = radar_topics(args)
+    return None if not topics else topics[0] if len(topics) == 1 else topics
+
+
+def one_topic(args, what: str) -> str:
+    """The single ``--radar-topic`` of a run that takes one radar (``what``), refusing several."""
+    topics = radar_topics(args)
+    if len(topics) > 1:
+        raise InputError(f"--radar-topic: {what} takes one radar topic, got {len(topics)} ({', '.join(topics)})")
+    return topics[0]

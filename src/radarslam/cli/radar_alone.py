@@ -15,7 +15,7 @@ from radarslam.core.errors import InputError
 def radar_alone_cmd(args: argparse.Namespace, config) -> int:
     """Read the radar and the IMU, level, run the filter, write every output; the inputs are read
     and checked before ``--out`` is created."""
-    from radarslam.cli.recording import one_topic
+    from radarslam.cli.common import one_topic
     from radarslam.runs.progress import Progress
     from radarslam.runs.radar_alone import Imu, check_radar_alone_config, run_radar_alone
     from radarslam.runs.radar_alone_report import (dead_reckoning, plot_map, plot_speed_yaw, summary, write_ego_velocity)

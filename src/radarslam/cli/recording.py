@@ -9,7 +9,7 @@ import sys
 import time
 
 from radarslam import __version__
-from radarslam.cli.common import add_config_args, config_from_args
+from radarslam.cli.common import add_config_args, config_from_args, one_topic, radar_topics, topic_arg
 from radarslam.core.errors import InputError
 
 
@@ -40,25 +40,6 @@ def add_recording_args(p: argparse.ArgumentParser, run: bool) -> None:
                        "(or .mp4 with ffmpeg)")
 
 
-def radar_topics(args) -> list[str]:
-    """The ``--radar-topic`` values (each may be a comma-separated list), in the order given."""
-    return [t for a in (args.radar_topic or []) for t in a.split(",") if t]
-
-
-def topic_arg(args):
-    """What ``read_bag`` takes: None, the one topic (as before), or the list of a rig's topics."""
-    topics = radar_topics(args)
-    return None if not topics else topics[0] if len(topics) == 1 else topics
-
-
-def one_topic(args, what: str) -> str:
-    """The single ``--radar-topic`` of a run that takes one radar (``what``), refusing several."""
-    topics = radar_topics(args)
-    if len(topics) > 1:
-        raise InputError(f"--radar-topic: {what} takes one radar topic, got {len(topics)} ({', '.join(topics)})")
-    return topics[0]
-
-
 def chosen_rig(args, config=None):
     """The rig that takes the place of the recording's own, by precedence (docs/recordings.md "A rig in
     the config"): ``--sensors FILE``, else the config's ``[[sensors]]``, else None (the recording's own:
@@ -69,7 +50,9 @@ def chosen_rig(args, config=None):
 
     path = getattr(args, "sensors", None)
     if path:
-        return S.read_sensors_file(path), None
+        from radarslam.io.recording.plain import read_sensors_file
+
+        return read_sensors_file(path), None
     if config is not None and config.sensors:
         where = "the config's [[sensors]]" + (f" ({args.config})" if getattr(args, "config", None) else "")
         return S.sensors_from_config(config.sensors, where), where

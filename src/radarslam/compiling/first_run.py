@@ -18,6 +18,9 @@ from __future__ import annotations
 import sys
 from dataclasses import dataclass
 
+from radarslam.compiling.readiness import engines as _engines
+from radarslam.compiling.readiness import fused_families, ready
+
 #: What the first line says when a part runs through its reference.
 ANNOUNCE = ("run: first run on this machine: the compiled code is not built yet, so this run takes the Python "
             "reference ({parts}; the same results){later}")
@@ -43,19 +46,9 @@ class FirstRun:
     reference_parts: tuple[str, ...] = ()
 
 
-def ready(dispatcher) -> bool:
-    """True when numba need not compile ``dispatcher`` for its next call: it was compiled in this
-    process, or its cache holds fresh machine code."""
-    from radarslam.compiling.warmup import _has_fresh_code
-
-    return bool(getattr(dispatcher, "signatures", ())) or _has_fresh_code(dispatcher) is True
-
-
 def _filter_ready(*families) -> bool:
     """True when the fused engine of each of ``families`` is ready (none given: the default
     family's; :func:`~radarslam.compiling.warmup.fused_families`)."""
-    from radarslam.compiling.warmup import _engines
-
     return all(ready(d) for d in _engines(families))
 
 
@@ -77,8 +70,6 @@ def choose(backend: str, *, simulation: bool = False, matching: bool = False, co
     everything is the reference already and nothing is announced."""
     if backend != "numba":
         return FirstRun(None, False, False, ())
-    from radarslam.compiling.warmup import fused_families
-
     parts = []
     f = _filter_ready(*(fused_families(config) if config is not None else ()))
     if not f:

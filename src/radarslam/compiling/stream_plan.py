@@ -4,35 +4,17 @@ foreground compile's heartbeat."""
 
 from __future__ import annotations
 
-import sys
-import threading
-import time
-from contextlib import contextmanager
 from dataclasses import dataclass
 
+from radarslam.compiling.costs import (ANNOUNCE_S, FUSED_SCAN_S, HEARTBEAT_S, ORCHESTRATOR_COMPILE_S,  # noqa: F401
+                                     ORCHESTRATOR_SCAN_S, PYTHON_SCAN_S, first_run_engine_scans)
+from radarslam.compiling.first_run import _filter_ready, ready
+from radarslam.compiling.heartbeat import _heartbeat  # noqa: F401  (runs.dataset's)
+from radarslam.compiling.readiness import fused_families
+from radarslam.compiling.warmup import COMPILING
 from radarslam.config import Config, to_dict
 from radarslam.core.types import Odometry, Scan
 from radarslam.slam.filter import EkfSlam
-
-#: The first run of ``run --dataset`` on a machine whose numba cache is empty (measured on this
-#: 2-core machine, Victoria Park's raw laser, its 7,230 scans; load 1-3 from other jobs):
-#: the Python reference (``filter.backend = "python"``) costs 16.8 ms a scan over the first 2,000
-#: scans (13.5 s for 1,000, 33.6 s for 2,000; the whole park 629 s, as the map grows to hundreds of
-#: landmarks), the orchestrator's kernels 26.2 s to compile in one process (7.6 s within the first
-#: scan, 19.0 s within the second: the association, 10 s, and the extent step), of which the
-#: extent and clustering steps compile in a second process beside (:func:`_compile_beside`) so that
-#: this process pays ORCHESTRATOR_COMPILE_S; the run itself then costs warmup.ORCHESTRATOR_SCAN_S
-#: a scan (25.5 s for the whole park warm, 3.5 ms a scan). The reference ends sooner up to about
-#: 1,400 scans (``--scans``): a first short run starts at once.
-PYTHON_SCAN_S = 0.0168
-ORCHESTRATOR_COMPILE_S = 20.0
-#: While numba compiles in the foreground, a line every this many seconds (no silence over 20 s).
-HEARTBEAT_S = 10.0
-#: A warm fused run goes through the whole stream in one compiled call, which prints nothing until
-#: it returns (Victoria Park's 7,230 scans: about 8 s quiet, 13-15 s with the other core busy): a run
-#: expected to take longer than this says so on its first line, with the expected seconds at
-#: warmup.FUSED_SCAN_S a scan (issue 34: the first line within 3 s).
-ANNOUNCE_S = 3.0
 
 
 @dataclass(frozen=True)
@@ -60,8 +42,6 @@ class FirstRunPlan:
 def _one_call_note(n_scans: int) -> str:
     """What the first line says of a warm fused run of ``n_scans`` scans: nothing when it is short
     (under :data:`ANNOUNCE_S`), else the scans, the one compiled call and its expected seconds."""
-    from radarslam.compiling.warmup import FUSED_SCAN_S
-
     expected = n_scans * FUSED_SCAN_S
     if expected < ANNOUNCE_S:
         return ""
@@ -78,7 +58,6 @@ def _with_backend(config: Config, backend: str) -> Config:
 def _orchestrator_ready() -> bool:
     """True when the kernels of a recording's run event by event are compiled or cached: the
     associators, the M/N rules and the extent step (the last to compile)."""
-    from radarslam.compiling.first_run import ready
     from radarslam.extent.rows import rma_efa_rows
     from radarslam.landmarks.confirmation import rule12
     from radarslam.slam._numba import associate_scan, batch_associate_scan
@@ -89,8 +68,6 @@ def _orchestrator_ready() -> bool:
 def _fused_ready(*families) -> bool:
     """True when the machine code of the fused engine of ``families`` (none given: the default
     family's) is ready (:func:`.first_run._filter_ready`)."""
-    from radarslam.compiling.first_run import _filter_ready
-
     return _filter_ready(*families)
 
 
@@ -116,7 +93,6 @@ def first_run_plan(config: Config, n_scans: int, fused: bool) -> FirstRunPlan:
     the Python reference at once, or the orchestrator after numba compiles its kernels (announced
     with the expected seconds). The fused engine then compiles in the background for later runs.
     Nothing is announced when everything this run needs is ready."""
-    from radarslam.compiling.warmup import COMPILING, ORCHESTRATOR_SCAN_S, first_run_engine_scans, fused_families
 
     if config.filter.backend != "numba":
         return FirstRunPlan("python")
@@ -175,28 +151,3 @@ def _compile_beside(config: Config, events) -> object | None:
     return ex
 
 
-@contextmanager
-def _heartbeat(expected_s: float, what: str = "run: still compiling the per-event engine's kernels"):
-    """An event to set when the compile is over; until then, with ``expected_s`` > 0, a line on
-    stderr every :data:`HEARTBEAT_S` seconds, ``what`` and the seconds so far, saying that numba still
-    compiles (no silence longer than that while a first run compiles in the foreground)."""
-    done = threading.Event()
-    if expected_s <= 0:
-        yield done
-        return
-    t0 = time.perf_counter()
-
-    def beat() -> None:
-        while not done.wait(HEARTBEAT_S):
-            el = time.perf_counter() - t0
-            lead = "\r" if sys.stderr.isatty() else ""
-            print(f"{lead}{what} ({el:.0f} s of about {expected_s:.0f} s; once per machine)", file=sys.stderr,
-                  flush=True)
-
-    th = threading.Thread(target=beat, name="radarslam-compile-heartbeat", daemon=True)
-    th.start()
-    try:
-        yield done
-    finally:
-        done.set()
-        th.join()

@@ -21,127 +21,24 @@ which engine ran it.
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
+from radarslam.compiling.costs import FUSED_COMPILE_S, ORCHESTRATOR_WARM_UP_S, first_run_engine
+from radarslam.compiling.heartbeat import _heartbeat
+from radarslam.compiling.readiness import _orchestrator_is_cold, cache_is_cold, fused_families, fused_is_cold
 from radarslam.config import Config, from_dict, to_dict
+from radarslam.config.variants import Variant, apply_variant
 from radarslam.core.types import Odometry, Scan
 from radarslam.slam.driver import run_filter
-from radarslam.config.variants import Variant, apply_variant
 
 #: What the progress output says while the cache is filled.
 COMPILING = "compiling the numba kernels (once per machine, about three minutes); later runs load them in about a second"
 #: ... and when this run's trials go through the orchestrator (:func:`first_run_engine`).
 COMPILING_SHORT = ("compiling the numba kernels the per-event engine uses (once per machine, about {s:.0f} s); "
                    "this run is short, so it does not wait for the fused engine")
-
-#: Costs on two cores of this kind of machine (``python benchmarks/bench_compile.py``, quiet machine:
-#: 10.5 and 43.2 ms per variant and trial warm; 198.3 s (233.7 s the stop before, whose engine
-#: inlined its array growth at every use) and 34.3 s to compile on one core, the
-#: simulation and the evaluation's ~20 s included, which the warm-up compiles beside on the second
-#: core): seconds per variant and trial with a warm cache, fused engine and orchestrator; wall
-#: seconds to fill a cold cache for each.
-FUSED_S, ORCHESTRATOR_S = 0.0105, 0.0432
-#: FUSED_COMPILE_S: the default family's engine alone since the fused steps compile once as functions
-#: without entry points (issue 34; ``NUMBA_CACHE_DIR=$(mktemp -d) python benchmarks/compile_table.py
-#: --cases carpark``: 130.4-146.5 s of CPU in four runs, mean 138; 178 s before, when one engine held
-#: every family's branches).
-FUSED_COMPILE_S, ORCHESTRATOR_COMPILE_S = 140.0, 20.0
-#: A short Monte Carlo's warm-up (:func:`warm_up`), wall seconds on two cores: the default variants'
-#: orchestrator kernels, the simulation and the evaluation, split over two processes
-#: (:func:`_short_side`). Measured (``radarslam reproduce --trials 200`` from an empty cache, the
-#: first line to the first trial): 27.2 s, and 26.3 / 26.4 s for the two processes alone; 31.4 s
-#: before the split, when its progress line said "about 20 s" (this constant was
-#: ORCHESTRATOR_COMPILE_S, one configuration's kernels, then).
-ORCHESTRATOR_WARM_UP_S = 27.0
-
-
-def first_run_engine(n_trials: int, n_variants: int, jobs: int) -> str:
-    """The engine that ends a run of ``n_trials`` trials of ``n_variants`` variants on ``jobs``
-    workers sooner from a cold cache: ``"auto"`` (compile the fused engine first) or
-    ``"orchestrator"``. With the constants above and three variants on two workers the
-    orchestrator is chosen up to 2,303 trials."""
-    par = max(1, min(int(jobs), int(n_trials)))
-    work = n_trials * n_variants / par
-    fused = FUSED_COMPILE_S + work * FUSED_S
-    orchestrator = ORCHESTRATOR_WARM_UP_S + work * ORCHESTRATOR_S
-    return "orchestrator" if orchestrator < fused else "auto"
-
-
-#: Seconds per scan of a real recording, orchestrator and fused engine (``python
-#: benchmarks/bench_dataset.py``: Victoria Park's raw laser, the slower mode, over the whole run;
-#: the orchestrator's figure is its first 1,000 scans' 1.5 ms, doubled for the larger map later).
-ORCHESTRATOR_SCAN_S, FUSED_SCAN_S = 0.003, 0.0011
-
-
-def first_run_engine_scans(n_scans: int) -> str:
-    """:func:`first_run_engine` for one run of ``n_scans`` scans of a recording, on one core:
-    ``"orchestrator"`` up to about 63,000 scans with the constants above."""
-    fused = FUSED_COMPILE_S + n_scans * FUSED_SCAN_S
-    orchestrator = ORCHESTRATOR_COMPILE_S + n_scans * ORCHESTRATOR_SCAN_S
-    return "orchestrator" if orchestrator < fused else "auto"
-
-
-def _has_fresh_code(dispatcher) -> bool | None:
-    """Whether numba's cache holds machine code of ``dispatcher`` for its current source (an index
-    that exists and whose source stamp matches), or None where that cannot be told. A closure (a
-    family's engine, :func:`radarslam.slam.fused.engine.engine`) shares its index with the other
-    families'; its own entries are those keyed by its closure's values."""
-    try:
-        cache = dispatcher._cache
-        cache_file = cache._cache_file                      # numba's FunctionCache, in-tree or user-wide
-        if not os.path.exists(cache_file._index_path):
-            return False
-        index = cache_file._load_index()                    # {} when stale (another source stamp)
-        if dispatcher.py_func.__closure__ is None:
-            return bool(index)
-        own = cache._index_key(None, dispatcher.targetctx.codegen())[1:]
-        return any(key[1:] == own for key in index)
-    except (AttributeError, OSError, EOFError, ValueError, TypeError):  # pragma: no cover - another numba layout
-        return None
-
-
-def fused_families(config: Config, variants: tuple[Variant, ...] = ()) -> tuple:
-    """The families of the fused engine (:class:`radarslam.slam.fused.engine.Family`) that
-    ``config`` under each of ``variants`` (none: ``config`` itself) runs with, as arguments for
-    :func:`cache_is_cold`, :func:`fused_is_cold` and :func:`.first_run._filter_ready`: empty when
-    that is the default family alone (or the fused engine covers none of them)."""
-    from radarslam.slam._fused import DEFAULT, family, why_not
-    from radarslam.slam.filter import EkfSlam
-
-    found = set()
-    for v in variants or (None,):
-        slam = EkfSlam(config if v is None else apply_variant(config, v))
-        if why_not(slam) is None:
-            found.add(family(slam))
-    return () if found <= {DEFAULT} else tuple(sorted(found))
-
-
-def _engines(families: tuple) -> list:
-    """The compiled engines of ``families`` (none: the default family's)."""
-    from radarslam.slam._fused import DEFAULT, engine
-
-    return [engine(f) for f in families or (DEFAULT,)]
-
-
-def cache_is_cold(*families) -> bool:
-    """True when numba has no fresh cached machine code of the fused engine of each of ``families``
-    (none given: the default family, :func:`fused_families`), the scan simulation or the
-    evaluation's matching (an index file absent or stale), so that the next compiled run compiles
-    first. Where that cannot be told, False."""
-    from radarslam.metrics._compiled import match_scans
-    from radarslam.simulation._compiled import simulate_scans
-
-    return any(_has_fresh_code(d) is False for d in (*_engines(families), simulate_scans, match_scans))
-
-
-def fused_is_cold(*families) -> bool:
-    """True when numba has no fresh cached machine code of the fused engine of one of ``families``
-    (none given: the default family's)."""
-    return any(_has_fresh_code(d) is False for d in _engines(families))
 
 
 def _tiny_stream() -> list:
@@ -162,11 +59,11 @@ def compile_fused(config: Config, variants: tuple[Variant, ...]) -> None:
 
 def _side(cfg_dict: dict, overlay: dict) -> None:
     """Second process: one simulated trial with the Python filter compiles the scan simulation and
-    the evaluation's matching (and nothing of the filter)."""
-    from radarslam.montecarlo.trials import compute_trial
-    cfg = from_dict(cfg_dict)
+    the evaluation's matching (and nothing of the filter): what a Monte Carlo trial runs of them."""
+    from radarslam.simulation.trial import run_trial
+
     python = {**overlay, "filter": {**overlay.get("filter", {}), "backend": "python"}}
-    compute_trial(cfg, 1, 1, (Variant("warmup", "warm-up", python),))
+    run_trial(apply_variant(from_dict(cfg_dict), Variant("warmup", "warm-up", python)), np.random.SeedSequence(1))
 
 
 def _orchestrator_trial(config: Config, variants: tuple[Variant, ...], evaluation: bool = False,
@@ -194,16 +91,6 @@ def _short_side(cfg_dict: dict, variants: tuple[Variant, ...]) -> None:
     26.3 and 26.4 s of wall for the two processes side by side (some callees compile in both),
     against 31 and 16 when the main process compiled every variant."""
     _orchestrator_trial(from_dict(cfg_dict), variants, simulation=True)
-
-
-def _orchestrator_is_cold() -> bool:
-    """True when the kernels a short first run needs (the simulation, the evaluation's matching
-    and the orchestrator's nearest-neighbour associator) have no fresh cached code."""
-    from radarslam.metrics._compiled import match_scans
-    from radarslam.simulation._compiled import simulate_scans
-    from radarslam.slam._numba import associate_scan
-
-    return any(_has_fresh_code(d) is False for d in (simulate_scans, match_scans, associate_scan))
 
 
 def _background(config: Config, variants: tuple[Variant, ...], log: Callable[[str], None]) -> None:
@@ -250,8 +137,6 @@ def warm_up(config: Config, variants: tuple[Variant, ...], log: Callable[[str], 
             job = side.submit(_short_side, to_dict(config), theirs)
         else:
             job = side.submit(_side, to_dict(config), dict(variants[0].overlay))
-    from radarslam.compiling.stream_plan import _heartbeat
-
     expected = ORCHESTRATOR_WARM_UP_S if short else FUSED_COMPILE_S
     beat = _heartbeat(expected, "montecarlo: still compiling the numba kernels")
     beat.__enter__()

@@ -60,16 +60,8 @@ from radarslam.config.sections import (
     WorldConfig,
     param,
 )
+from radarslam.config.profile_files import PROFILE_DIR, list_profiles
 from radarslam.core.errors import ConfigError
-
-#: Where the profiles live: one TOML overlay per profile, its comments giving the reasons.
-PROFILE_DIR = "profiles"
-
-
-def list_profiles() -> list[str]:
-    """The shipped profiles (``src/radarslam/profiles/*.toml``), sorted."""
-    return sorted(p.name[:-5] for p in resources.files("radarslam").joinpath(PROFILE_DIR).iterdir()
-                  if p.name.endswith(".toml"))
 
 
 def profile_overlay(name: str, _seen: tuple[str, ...] = ()) -> dict:

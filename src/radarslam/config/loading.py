@@ -13,6 +13,7 @@ import typing
 from pathlib import Path
 from typing import Any
 
+from radarslam.config.profile_files import list_profiles
 from radarslam.config.sections import (
     MAX_DETECTIONS_PER_SCAN,
     MAX_VEHICLES,
@@ -60,7 +61,6 @@ def _check_value(key: str, typ: Any, meta: dict, value: Any) -> Any:
         if meta.get("choices") and value not in meta["choices"]:
             raise ConfigError(f"{key}: expected one of {list(meta['choices'])}, got {value!r}")
         if meta.get("profiles"):
-            from radarslam.config import list_profiles     # the package's own, so that it can be patched
             if value not in list_profiles():
                 raise ConfigError(f"{key}: expected one of {list_profiles()}, got {value!r}")
         if meta.get("registry") is not None and value not in meta["registry"].names():

@@ -28,7 +28,7 @@ COMPILED_SOURCES = (
     "extent/ellipse_fit.py", "extent/partial_view.py", "extent/view_estimator.py", "landmarks/_compiled.py",
     "metrics/_compiled.py", "simulation/_compiled.py", "models/radar.py", "models/doppler.py",
     "models/ackermann.py", "models/motion.py", "extent/visible_arc.py", "extent/mem_ekf_kernels.py",
-    "extent/ellipse.py", "models/body_velocity.py", "models/_ransac.py", "models/doppler_kernels.py",
+    "extent/ellipse.py", "extent/view_kernels.py", "extent/arc_kernels.py", "models/body_velocity.py", "models/_ransac.py", "models/doppler_kernels.py",
     "models/_doppler_compiled.py", "slam/fused/doppler.py", "models/input_bias.py", "slam/fused/bias.py",
     "slam/view_kernels.py", "slam/_view_compiled.py", "slam/fused/view.py", "extent/partial_view_jac.py",
     "extent/rows.py", "slam/sensor_frame.py", "slam/fused/sensor.py",

@@ -17,7 +17,7 @@ from numba import njit
 
 from radarslam.core.jit import compile_kernels
 from radarslam.extent import (_sym2, buffering, ellipse, ellipse_fit, measurement, mem_ekf_kernels, partial_view,
-                              partial_view_jac, random_matrix, rows, sifting, view_estimator, visible_arc)
+                              partial_view_jac, random_matrix, rows, sifting, view_kernels, arc_kernels)
 
 _K = compile_kernels(measurement._w_entries, measurement.max_trace_w_entries, random_matrix.rm_update_entries,
                      random_matrix.rm_predict_alpha, ellipse_fit.fit_entries, _sym2.spectral, _sym2.from_spectral,
@@ -38,7 +38,7 @@ mem_ekf_rows = _K["mem_ekf_rows"]
 merge_rows = _K["merge_rows"]
 
 #: The visible-arc kernels (docs/method.md a.9): a scan's widths of every landmark, and the trunk's diameter.
-_A = compile_kernels(visible_arc.arc_width_diameter, visible_arc.gated_diameter, visible_arc.arc_widths_rows,
+_A = compile_kernels(arc_kernels.arc_width_diameter, arc_kernels.gated_diameter, arc_kernels.arc_widths_rows,
                      rows.detections)
 arc_widths_rows = _A["arc_widths_rows"]
 gated_diameter = _A["gated_diameter"]
@@ -49,7 +49,7 @@ literal_inside = _S["literal_inside"]
 contour_inside = _S["contour_inside"]
 
 #: The partial-view kernels (docs/method.md a.12), compiled as they are.
-_PV = compile_kernels(*partial_view.KERNELS, *partial_view_jac.KERNELS, *view_estimator.KERNELS)
+_PV = compile_kernels(*partial_view.KERNELS, *partial_view_jac.KERNELS, *view_kernels.KERNELS)
 view_update = _PV["view_update"]
 view_rows = _PV["view_rows"]
 arc_moments = _PV["arc_moments"]

@@ -359,13 +359,13 @@ def _row_kernels(backend: str) -> SimpleNamespace:
     the bookkeeping that runs once in a landmark's life (a.3's buffering and initialisation, a
     merge) as Python under both, a handful of small loops that would cost a first run on a fresh
     machine seconds of compilation for microseconds of work."""
-    from radarslam.extent import rows, view_estimator, visible_arc
+    from radarslam.extent import arc_kernels, rows, view_kernels
 
     if backend == "numba":
         from radarslam.extent import _compiled as scan
     else:
         scan = SimpleNamespace(rma_efa_rows=rows.rma_efa_rows, mem_ekf_rows=rows.mem_ekf_rows,
-                               arc_widths_rows=visible_arc.arc_widths_rows, view_rows=view_estimator.view_rows)
+                               arc_widths_rows=arc_kernels.arc_widths_rows, view_rows=view_kernels.view_rows)
     return SimpleNamespace(buffer_need=rows.buffer_need, initialise_rows=rows.initialise_rows,
                            mem_ekf_initialise_rows=rows.mem_ekf_initialise_rows, merge_rows=rows.merge_rows,
                            rma_efa_rows=scan.rma_efa_rows, mem_ekf_rows=scan.mem_ekf_rows,

@@ -8,7 +8,6 @@ from typing import NamedTuple
 import numpy as np
 
 from radarslam.core.angles import wrap_pi_scalar
-from radarslam.landmarks.clustering import Cluster
 
 
 class Tentatives(NamedTuple):
@@ -29,7 +28,7 @@ def no_tentatives() -> Tentatives:
 
 def rule12(t_centre, t_count, t_window, t_npts, c_centre, c_size, gate, confirm_points, window, hits):
     """One scan of Rule 2 then Rule 1 (c.7) over arrays; a kernel (``core.jit``): the orchestrator
-    calls it as Python (:func:`rule2_step`), the fused engine compiles it as it is.
+    calls it as Python (:func:`.steps.rule2_step`), the fused engine compiles it as it is.
 
     Tentative ``t`` is ``(t_centre[t], t_count[t], t_window[t], t_npts[t])``; cluster ``c`` (one
     that passed the alpha test) has its centre detection ``c_centre[c]`` and ``c_size[c]`` points.
@@ -99,28 +98,6 @@ def rule12(t_centre, t_count, t_window, t_npts, c_centre, c_size, gate, confirm_
             o_npts[:n].copy())
 
 
-def rule2_step(tentatives: Tentatives, clusters: list[Cluster], *, gate: float, confirm_points: int,
-               window: int, hits: int, compiled: bool = False) -> tuple[list[Cluster], Tentatives]:
-    """One scan of Rule 1 / Rule 2 over the clusters that passed the alpha test (:func:`rule12`,
-    compiled with ``compiled``: the numba backend).
-
-    Returns
-    -------
-    confirmed : list of Cluster
-        Clusters whose centre (this scan's measurement) initialises a new landmark.
-    tentatives : Tentatives
-        The unconfirmed landmarks carried to the next scan.
-    """
-    cc = np.array([c.centre_xy for c in clusters], dtype=float).reshape(-1, 2)
-    cs = np.array([c.size for c in clusters], dtype=np.int64)
-    kernel = rule12
-    if compiled:
-        from radarslam.landmarks._compiled import compiled_rule12 as kernel
-    conf, *rows = kernel(tentatives.centre, tentatives.count, tentatives.window, tentatives.npts, cc, cs,
-                         float(gate), int(confirm_points), int(window), int(hits))
-    return [clusters[int(c)] for c in conf], Tentatives(*rows)
-
-
 def popcount(v):
     """Number of set bits of the non-negative integer ``v``; a kernel (``core.jit``)."""
     c = 0
@@ -143,7 +120,7 @@ def should_remove(k, created, assoc, in_range, window, max_hits):
 
 def mn_windows(assoc, in_range, created, hit, in_view, k, window, max_hits):
     """One scan of the M/N removal windows (c.5, every scan, Decision 8) over arrays, in place; a
-    kernel that the orchestrator (:func:`removal_step`) calls as Python and the fused engine
+    kernel that the orchestrator (:func:`.steps.removal_step`) calls as Python and the fused engine
     compiles as it is. Landmark ``j`` pushes whether it was associated (``hit[j]``) and whether it
     was in range (``in_view[j]``; an associated landmark counts as in range) into its windows
     ``assoc[j]``, ``in_range[j]``. Returns which landmarks stay (boolean)."""
@@ -176,15 +153,3 @@ def in_view(x, platform, n, max_range, half_fov):
     return out
 
 
-def removal_step(records, hit: np.ndarray, in_view: np.ndarray, k: int, *, window: int,
-                 max_hits: int, compiled: bool = False) -> list[int]:
-    """:func:`mn_windows` (compiled with ``compiled``: the numba backend) on the landmark records
-    (:class:`~radarslam.landmarks.records.Records`, rows ``0 .. hit.size - 1``), their windows
-    updated in place; returns the positions of the records to remove, ascending."""
-    kernel = mn_windows
-    if compiled:
-        from radarslam.landmarks._compiled import compiled_mn_windows as kernel
-    n = hit.shape[0]
-    keep = kernel(records.mbits[:n], records.rbits[:n], records.created[:n], np.asarray(hit, dtype=bool),
-                  np.asarray(in_view, dtype=bool), int(k), int(window), int(max_hits))
-    return np.flatnonzero(~keep).tolist()

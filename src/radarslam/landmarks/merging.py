@@ -74,13 +74,3 @@ def closest_pair(positions, created, ids, distance, axis_tol):
     return bi, bj
 
 
-def next_merge(positions: np.ndarray, created: np.ndarray, ids: np.ndarray, distance: float,
-               axis_tol: float = math.inf, compiled: bool = False) -> tuple[int, int] | None:
-    """:func:`closest_pair` (compiled with ``compiled``: the numba backend), or None."""
-    kernel = closest_pair
-    if compiled:
-        from radarslam.landmarks._compiled import compiled_closest_pair as kernel
-    keep, drop = kernel(np.ascontiguousarray(positions, dtype=float).reshape(-1, 2),
-                        np.asarray(created, dtype=np.int64), np.asarray(ids, dtype=np.int64),
-                        float(distance), float(axis_tol))
-    return None if keep < 0 else (int(keep), int(drop))

@@ -11,7 +11,6 @@ pool, or a Dask cluster. Each finished trial is stored at once (:mod:`.store`); 
 from __future__ import annotations
 
 import contextlib
-import math
 import signal
 import sys
 import threading
@@ -26,6 +25,7 @@ from radarslam.config import Config, from_dict, to_dict, validate
 from radarslam.core.errors import InputError, RadarSlamError
 from radarslam.simulation.trial import check_simulation_config, evaluate, with_initial_estimate
 from radarslam.slam.driver import run_filter
+from radarslam.runs.progress import Progress
 from radarslam.montecarlo.store import (CorruptTrial, TrialStore, check_identity, config_hash, decode_trial, encode_trial)
 from radarslam.config.variants import DEFAULT_VARIANTS, Variant, apply_variant, check_variants
 from radarslam.compiling.warmup import warm_up

@@ -15,6 +15,7 @@ from radarslam.core.angles import wrap_pi
 from radarslam.core.errors import ConfigError, InputError
 from radarslam.core.types import Scan
 from radarslam.egomotion.rig_odometry import with_rig_velocity
+from radarslam.runs.dead_reckoning import dead_reckoning  # noqa: F401  (runs.recording.dead_reckoning, its former home)
 from radarslam.slam.driver import FilterRecord, run_filter
 from radarslam.io.recording.mounting import Mounting, to_sensor
 from radarslam.io.recording.stream import Recording, StreamReport, check_motion_model, stream_events
@@ -98,22 +99,6 @@ def truth_at(times: np.ndarray, truth_t: np.ndarray, truth: np.ndarray) -> np.nd
     idx = np.flatnonzero(ok)[exact]
     out[idx] = truth[j[exact]]
     return out
-
-
-def dead_reckoning(events: list, config: Config, start) -> np.ndarray:
-    """The odometry of ``events`` integrated by the filter's motion model from ``start`` (the filter's
-    state), the pose ``(K, 3)`` at every scan: what the run would be without its radar."""
-    from radarslam.core.types import Odometry
-    from radarslam.models.motion import motion_model_from_config
-
-    model = motion_model_from_config(config.filter)
-    pose, out = np.array(start, dtype=float), []
-    for ev in events:
-        if isinstance(ev, Odometry):
-            pose = np.asarray(model.step(pose, np.asarray(ev.control, dtype=float), ev.dt), dtype=float)
-        elif isinstance(ev, Scan):
-            out.append(pose.copy())
-    return np.array(out).reshape(-1, 3)
 
 
 #: A truth this far (m, deg) from the start pose used, or this many times dead reckoning's RMSE

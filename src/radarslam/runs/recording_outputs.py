@@ -116,7 +116,7 @@ def write_run_figures(out: Path, run) -> list[str]:
     elif run.config.filter.odometry != "odometer":      # no wheel odometry to integrate (the radar alone)
         reference, label = None, ""
     else:
-        from radarslam.runs.recording import dead_reckoning
+        from radarslam.runs.dead_reckoning import dead_reckoning
 
         reference, label = dead_reckoning(run.events, run.config, _start(run))[:, :2], \
             "dead reckoning (odometry.csv)"

@@ -9,6 +9,7 @@ import numpy as np
 from radarslam.config import RadarConfig
 from radarslam.core.angles import wrap_pi
 from radarslam.core.errors import InputError
+from radarslam.simulation.faces import all_sides, on_segments, visible_sides
 from radarslam.simulation.world import Vehicle
 
 #: Source label of a clutter detection in :attr:`GroundTruth.sources`.
@@ -46,7 +47,7 @@ def vehicle_points(v: Vehicle, radar: RadarConfig, rng: np.random.Generator,
     if model == "visible-faces":
         if sensor is None:
             raise InputError("sensor: expected the sensor position (2,) for radar.spread_model = 'visible-faces', got None")
-        sides = _visible_sides(v, np.asarray(sensor, dtype=float)[:2])
+        sides = visible_sides(v, np.asarray(sensor, dtype=float)[:2])
         n = math.floor(radar.points_per_m * sum(w for *_, w in sides) + noise)
     else:
         sides = None
@@ -59,44 +60,10 @@ def vehicle_points(v: Vehicle, radar: RadarConfig, rng: np.random.Generator,
         pts += v.corner
     else:
         if sides is None:
-            sides = _all_sides(v)
-        pts = _on_segments(sides, n, rng)
+            sides = all_sides(v)
+        pts = on_segments(sides, n, rng)
     keep = rng.random(n) < radar.detection_probability
     return pts[keep]
-
-
-def _all_sides(v: Vehicle) -> list[tuple[np.ndarray, np.ndarray, float]]:
-    """The four sides as ``(start (2,), end (2,), weight)``, counter-clockwise."""
-    x0, y0, x1, y1 = v.x_left, v.y_bottom, v.x_left + v.size_x, v.y_bottom + v.size_y
-    c = [np.array(p, dtype=float) for p in ((x0, y0), (x1, y0), (x1, y1), (x0, y1))]
-    return [(c[i], c[(i + 1) % 4], 0.0) for i in range(4)]
-
-
-def _visible_sides(v: Vehicle, sensor: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, float]]:
-    """The sides facing ``sensor``, each with its length projected across the line of sight to the
-    car's centre (the width it presents)."""
-    los = v.center - sensor
-    dist = math.hypot(los[0], los[1])
-    u = los / dist if dist > 0 else np.array([1.0, 0.0])
-    out = []
-    for a, b, _ in _all_sides(v):
-        edge = b - a
-        normal = np.array([edge[1], -edge[0]])           # outward for a counter-clockwise outline
-        if float(normal @ (sensor - 0.5 * (a + b))) > 0.0:
-            out.append((a, b, abs(float(edge[0] * u[1] - edge[1] * u[0]))))
-    return out
-
-
-def _on_segments(sides, n: int, rng: np.random.Generator) -> np.ndarray:
-    """``n`` points uniform by arc length over the segments ``sides``."""
-    lengths = np.array([math.hypot(*(b - a)) for a, b, _ in sides])
-    s = rng.random(n) * lengths.sum()
-    edges = np.concatenate([[0.0], np.cumsum(lengths)])
-    i = np.clip(np.searchsorted(edges, s, side="right") - 1, 0, len(sides) - 1)
-    t = (s - edges[i]) / lengths[i]
-    a = np.array([sides[j][0] for j in i])
-    b = np.array([sides[j][1] for j in i])
-    return a + t[:, None] * (b - a)
 
 
 def clutter_points(pose: np.ndarray, radar: RadarConfig, rng: np.random.Generator) -> np.ndarray:

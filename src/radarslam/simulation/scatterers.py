@@ -16,7 +16,7 @@ import math
 import numpy as np
 
 from radarslam.config import RadarConfig
-from radarslam.simulation.radar import _on_segments, _visible_sides
+from radarslam.simulation.faces import on_segments, visible_sides
 from radarslam.simulation.world import Vehicle
 
 
@@ -77,7 +77,7 @@ def expected_counts(v: Vehicle, radar: RadarConfig, sensor: np.ndarray) -> np.nd
     _, sides = scatterers(v, radar.scatter_wheel_inset_m)
     visible = (sides & facing).any(axis=1)
     per = np.array([radar.scatter_corner_points] * 4 + [radar.scatter_wheel_points] * 4)
-    width = sum(w for *_, w in _visible_sides(v, sensor))
+    width = sum(w for *_, w in visible_sides(v, sensor))
     lam = np.concatenate([np.where(visible, per, 0.0),
                           [radar.scatter_face_points_per_m * width, radar.scatter_underbody_points]])
     return lam * range_gain(math.hypot(*(v.center - sensor)), radar)
@@ -99,7 +99,7 @@ def scatter_centre_points(v: Vehicle, radar: RadarConfig, rng: np.random.Generat
     n_s = int(counts[:8].sum())
     pts_s = np.repeat(points, counts[:8], axis=0) + radar.scatter_jitter_m * rng.standard_normal((n_s, 2))
     n_f = int(counts[8])
-    pts_f = _on_segments(_visible_sides(v, sensor), n_f, rng) if n_f > 0 else np.empty((0, 2))
+    pts_f = on_segments(visible_sides(v, sensor), n_f, rng) if n_f > 0 else np.empty((0, 2))
     pts_u = rng.random((int(counts[9]), 2)) * v.size + v.corner
     pts = np.concatenate([pts_s, pts_f, pts_u])
     keep = rng.random(pts.shape[0]) < radar.detection_probability

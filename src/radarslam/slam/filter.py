@@ -26,8 +26,7 @@ from radarslam.core.registry import ASSOCIATORS, EXTENT_ESTIMATORS, MEASUREMENT_
 from radarslam.core.types import Odometry, Scan
 from radarslam.core.validation import as_array
 from radarslam.landmarks.clustering import Cluster
-from radarslam.landmarks.confirmation import removal_step, rule2_step
-from radarslam.landmarks.merging import next_merge
+from radarslam.landmarks.steps import next_merge, removal_step, rule2_step
 from radarslam.landmarks.sifting import sift
 from radarslam.models.body_velocity import BodyVelocityModel
 from radarslam.models.motion import MotionModel, motion_model_from_config

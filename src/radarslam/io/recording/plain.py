@@ -276,3 +276,12 @@ def _cell(column: str, v) -> str:
     if column in S.TEXT:
         return '"' + v.replace('"', '""') + '"' if any(c in v for c in ',"\n') else v
     return str(int(v)) if column in INTEGER else repr(float(v))
+
+
+def read_sensors_file(path, what: str = "--sensors") -> dict[int, S.Mounting]:
+    """A ``sensors.csv`` file at ``path`` (e.g. ``--sensors FILE``), refused in one line as a recording's
+    own would be (the file, line and column), or as ``{what}: PATH: no such file``."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{what}: {path}: no such file")
+    return S.sensors_from_columns(_read_csv(path, "sensors"), str(path))

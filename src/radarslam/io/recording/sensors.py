@@ -92,21 +92,6 @@ def sensors_from_config(rig, where: str = "the config's [[sensors]]") -> dict[in
                                 None if s.fov_deg is None else math.radians(s.fov_deg)) for s in rig}
 
 
-def read_sensors_file(path, what: str = "--sensors") -> dict[int, Mounting]:
-    """A ``sensors.csv`` file at ``path`` (e.g. ``--sensors FILE``), refused in one line as a recording's
-    own would be (the file, line and column), or as ``{what}: PATH: no such file``."""
-    from pathlib import Path
-
-    from radarslam.io.recording.plain import (
-        _read_csv,  # the reader's own checks and messages
-    )
-
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{what}: {path}: no such file")
-    return sensors_from_columns(_read_csv(path, "sensors"), str(path))
-
-
 def with_sensors(rec, sensors: dict[int, Mounting], origin: str):
     """``rec`` (a :class:`~.stream.Recording`) with its rig replaced by ``sensors`` (and no single
     mounting), exactly as if they had come from its ``sensors.csv``; refuses in one line a detection
