@@ -69,7 +69,7 @@ def main() -> None:
     for i, name in ((0, "fused engine"), (2, "orchestrator")):
         (_, _, (_, c1, _)), (_, _, (_, w1, tn)) = rows[i], rows[i + 1]
         print(f"{name}: compilation on first use {c1 - w1:.1f} s on one core; {tn / 3 * 1e3:.1f} ms per variant "
-              f"and trial warm (compiling/warmup.py FUSED_S / ORCHESTRATOR_S)")
+              f"and trial warm (compiling/costs.py FUSED_S / ORCHESTRATOR_S)")
     print(f"fused engine's cache {size / 1e6:.1f} MB")
 
 

@@ -76,10 +76,10 @@ def run_case(name: str) -> None:
         rec = read_recording(DATA / "nuscenes_radar" / "scene-0061")
         run_recording(rec, profile_config("automotive"))
     elif name == "victoria-park":
-        from radarslam.compiling import stream_plan as dataset_first_run
+        from radarslam.compiling import policy
         from radarslam.runs.dataset import run_dataset, victoria_park_options
 
-        dataset_first_run._fused_ready = lambda *families: True      # as on a machine whose code is ready
+        policy._fused_ready = lambda *families: True      # as on a machine whose code is ready
         cfg = profile_config("victoria-park")
         run_dataset("victoria-park", DATA / "victoria_park", cfg, n_scans=300, progress=False,
                     loader_options=victoria_park_options(cfg))

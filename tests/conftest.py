@@ -122,7 +122,7 @@ def _fused_engine_compiled(family_evidence_path):
     from radarslam.compiling.warmup import warm_up
 
     import family_evidence
-    from radarslam.compiling.warmup import fused_is_cold
+    from radarslam.compiling.readiness import fused_is_cold
 
     workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
     # keyed like the background compilation's lock: the package's location and NUMBA_CACHE_DIR

@@ -96,14 +96,14 @@ COLD = "import json, family_evidence; print(json.dumps(family_evidence.default_r
 #: A second process on the same cache: what the first-run rule reads from disk.
 WARM = """
 import json
-from radarslam.compiling import first_run, warmup
+from radarslam.compiling import policy, readiness, warmup
 from radarslam.slam.driver import run_filter
 from radarslam.config import profile_config
 from radarslam.slam import _fused
 view = _fused.Family(True, False, False)
-out = {"default_ready": first_run._filter_ready(), "view_ready": first_run._filter_ready(view),
-       "both_ready": first_run._filter_ready(_fused.DEFAULT, view), "fused_cold": warmup.fused_is_cold(),
-       "view_cold": warmup.fused_is_cold(view)}
+out = {"default_ready": policy._filter_ready(), "view_ready": policy._filter_ready(view),
+       "both_ready": policy._filter_ready(_fused.DEFAULT, view), "fused_cold": readiness.fused_is_cold(),
+       "view_cold": readiness.fused_is_cold(view)}
 run_filter(profile_config(), warmup._tiny_stream())
 out["hits"] = sum(_fused.engine(_fused.DEFAULT).stats.cache_hits.values())
 out["misses"] = sum(_fused.engine(_fused.DEFAULT).stats.cache_misses.values())

@@ -17,7 +17,7 @@ import numpy as np
 import radarslam
 from radarslam.config import profile_config
 from radarslam.montecarlo import trials as mc
-from radarslam.compiling import warmup
+from radarslam.compiling import costs, policy, readiness, warmup
 
 from conftest import require
 
@@ -74,11 +74,11 @@ def test_cache_is_cold_in_an_empty_cache_directory(tmp_path):
     interpreter, nothing compiled), False in this process once the engine's code is cached."""
     require("numba")
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "empty"))
-    code = "from radarslam.compiling.warmup import cache_is_cold; print(cache_is_cold())"
+    code = "from radarslam.compiling.readiness import cache_is_cold; print(cache_is_cold())"
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "True"
     warmup.warm_up(profile_config(), mc.DEFAULT_VARIANTS, lambda s: None, parallel=False)
-    assert warmup.cache_is_cold() is False
+    assert readiness.cache_is_cold() is False
 
 
 def test_warm_up_says_it_compiles_and_leaves_results_unchanged(tmp_path, monkeypatch):
@@ -89,8 +89,8 @@ def test_warm_up_says_it_compiles_and_leaves_results_unchanged(tmp_path, monkeyp
     logs: list[str] = []
     mc.run_montecarlo(cfg, 5, 2, tmp_path / "plain", jobs=1, progress=False, log=logs.append)
     assert not any(warmup.COMPILING in line for line in logs)
-    monkeypatch.setattr(warmup, "cache_is_cold", lambda: True)
-    monkeypatch.setattr(warmup, "first_run_engine", lambda *a: "auto")     # a long run: the fused engine first
+    monkeypatch.setattr(policy, "cache_is_cold", lambda: True)
+    monkeypatch.setattr(policy, "first_run_engine", lambda *a: "auto")     # a long run: the fused engine first
     logs.clear()
     mc.run_montecarlo(cfg, 5, 2, tmp_path / "warm", jobs=2, progress=False, log=logs.append)
     assert sum(warmup.COMPILING in line for line in logs) == 1
@@ -110,32 +110,32 @@ def test_a_stale_index_counts_as_cold(monkeypatch):
     from radarslam.slam._fused import run_stream
 
     warmup.warm_up(profile_config(), mc.DEFAULT_VARIANTS[:1], lambda s: None, parallel=False)
-    fresh = warmup._has_fresh_code(run_stream)
+    fresh = readiness.has_fresh_code(run_stream)
     assert fresh is not None, "numba's cache layout is not the one cache_is_cold reads"
     cache_file = run_stream._cache._cache_file
     if not fresh:                # the warm-up only compiles a cold engine; make sure it is cached
         from radarslam.slam.driver import run_filter
         run_filter(profile_config(), warmup._tiny_stream())
-    assert warmup._has_fresh_code(run_stream) is True
+    assert readiness.has_fresh_code(run_stream) is True
     monkeypatch.setattr(cache_file, "_source_stamp", ("another source", 0))
-    assert warmup._has_fresh_code(run_stream) is False
-    assert warmup.cache_is_cold() is True and warmup.fused_is_cold() is True
+    assert readiness.has_fresh_code(run_stream) is False
+    assert readiness.cache_is_cold() is True and readiness.fused_is_cold() is True
 
 
 def test_first_run_engine_takes_the_orchestrator_while_it_ends_sooner():
     """The choice of a cold first run (compiling/warmup.py): the orchestrator up to the trial
     count where compiling the fused engine first pays for itself, computed from the measured
     costs, and the fused engine beyond it; more workers move the boundary up in proportion."""
-    per = warmup.ORCHESTRATOR_S - warmup.FUSED_S
-    saved = warmup.FUSED_COMPILE_S - warmup.ORCHESTRATOR_WARM_UP_S
+    per = costs.ORCHESTRATOR_S - costs.FUSED_S
+    saved = costs.FUSED_COMPILE_S - costs.ORCHESTRATOR_WARM_UP_S
     boundary = int(saved / per * 2 / 3)                  # three variants on two workers
     assert boundary == 2303
-    assert warmup.first_run_engine(200, 3, 2) == "orchestrator"           # the README's main job
-    assert warmup.first_run_engine(boundary, 3, 2) == "orchestrator"
-    assert warmup.first_run_engine(boundary + 1, 3, 2) == "auto"
-    assert warmup.first_run_engine(5000, 3, 2) == "auto"
-    assert warmup.first_run_engine(int(saved / per * 4 / 3), 3, 4) == "orchestrator"
-    assert warmup.first_run_engine(boundary + 1, 3, 1) == "auto"         # one worker: less time to save
+    assert costs.first_run_engine(200, 3, 2) == "orchestrator"           # the README's main job
+    assert costs.first_run_engine(boundary, 3, 2) == "orchestrator"
+    assert costs.first_run_engine(boundary + 1, 3, 2) == "auto"
+    assert costs.first_run_engine(5000, 3, 2) == "auto"
+    assert costs.first_run_engine(int(saved / per * 4 / 3), 3, 4) == "orchestrator"
+    assert costs.first_run_engine(boundary + 1, 3, 1) == "auto"         # one worker: less time to save
 
 
 def test_a_short_cold_run_uses_the_orchestrator_and_stores_the_same_results(tmp_path, monkeypatch):
@@ -152,17 +152,17 @@ def test_a_short_cold_run_uses_the_orchestrator_and_stores_the_same_results(tmp_
     cfg = profile_config()
     mc.run_montecarlo(cfg, 5, 2, tmp_path / "plain", jobs=1, progress=False, log=lambda s: None)
     started: list = []
-    monkeypatch.setattr(warmup, "cache_is_cold", lambda: True)
-    monkeypatch.setattr(warmup, "fused_is_cold", lambda: True)
-    monkeypatch.setattr(warmup, "_orchestrator_is_cold", lambda: True)
+    monkeypatch.setattr(policy, "cache_is_cold", lambda: True)
+    monkeypatch.setattr(policy, "fused_is_cold", lambda: True)
+    monkeypatch.setattr(policy, "_orchestrator_is_cold", lambda: True)
     monkeypatch.setattr(background, "start", lambda *a: started.append(a) or 4242)
     logs: list[str] = []
     mc.run_montecarlo(cfg, 5, 2, tmp_path / "short", jobs=2, progress=False, log=logs.append)
-    assert sum(warmup.COMPILING_SHORT.format(s=warmup.ORCHESTRATOR_WARM_UP_S) in line for line in logs) == 1
+    assert sum(warmup.COMPILING_SHORT.format(s=costs.ORCHESTRATOR_WARM_UP_S) in line for line in logs) == 1
     assert len(started) == 1 and any("pid 4242" in line for line in logs)
     # the orchestrator's kernels cached, the fused engine still compiling: no compiling line, no
     # second background process, the trials by the orchestrator again
-    monkeypatch.setattr(warmup, "_orchestrator_is_cold", lambda: False)
+    monkeypatch.setattr(policy, "_orchestrator_is_cold", lambda: False)
     monkeypatch.setattr(background, "enabled", lambda: True)
     monkeypatch.setattr(background, "busy", lambda: True)
     logs.clear()
@@ -207,7 +207,7 @@ def test_a_short_warm_up_splits_the_variants_over_its_two_processes(monkeypatch)
             pass
 
     for name in ("cache_is_cold", "fused_is_cold", "_orchestrator_is_cold"):
-        monkeypatch.setattr(warmup, name, lambda *families: True)
+        monkeypatch.setattr(policy, name, lambda *families: True)
     monkeypatch.setattr(background, "start", lambda *a: None)
     monkeypatch.setattr(warmup, "ProcessPoolExecutor", Inline)
     monkeypatch.setattr(warmup, "_orchestrator_trial",
@@ -232,7 +232,7 @@ def test_background_compilation_runs_once_per_cache(tmp_path, monkeypatch):
     require("numba")
     import json
 
-    from radarslam.compiling import background
+    from radarslam.compiling import background, background_job
     from radarslam.config.variants import variants_to_json
 
     monkeypatch.setattr(background, "lock_path", lambda: tmp_path / "compile.lock")
@@ -245,22 +245,22 @@ def test_background_compilation_runs_once_per_cache(tmp_path, monkeypatch):
         assert mine is True
         assert background.busy() is True
         assert background.start({}, []) is None                     # held: nothing started
-        assert background.main(str(job)) == 0 and not job.exists()   # held elsewhere: nothing to do
+        assert background_job.main(str(job)) == 0 and not job.exists()   # held elsewhere: nothing to do
     monkeypatch.setenv(background.ENV, "0")
     assert background.enabled() is False and background.start({}, []) is None
     job.write_text(json.dumps({"config": mc.to_dict(profile_config()),
                                "variants": variants_to_json(mc.DEFAULT_VARIANTS[:1])}))
-    assert background.main(str(job)) == 0 and not job.exists()
-    assert warmup._has_fresh_code(__import__("radarslam.slam._fused", fromlist=["run_stream"]).run_stream) is True
+    assert background_job.main(str(job)) == 0 and not job.exists()
+    assert readiness.has_fresh_code(__import__("radarslam.slam._fused", fromlist=["run_stream"]).run_stream) is True
 
 
 def test_first_run_engine_scans_for_a_recording():
     """One run of a recording on a cold cache: event by event up to the scan count where the fused
     engine's compilation pays for itself, from the measured costs (Victoria Park's whole run,
     about 7,200 scans, well inside); the fused engine beyond."""
-    saved = warmup.FUSED_COMPILE_S - warmup.ORCHESTRATOR_COMPILE_S
-    boundary = int(saved / (warmup.ORCHESTRATOR_SCAN_S - warmup.FUSED_SCAN_S))
+    saved = costs.FUSED_COMPILE_S - costs.ORCHESTRATOR_COMPILE_S
+    boundary = int(saved / (costs.ORCHESTRATOR_SCAN_S - costs.FUSED_SCAN_S))
     assert 7300 < boundary == 63157
-    assert warmup.first_run_engine_scans(7300) == "orchestrator"
-    assert warmup.first_run_engine_scans(boundary) == "orchestrator"
-    assert warmup.first_run_engine_scans(boundary + 1) == "auto"
+    assert costs.first_run_engine_scans(7300) == "orchestrator"
+    assert costs.first_run_engine_scans(boundary) == "orchestrator"
+    assert costs.first_run_engine_scans(boundary + 1) == "auto"

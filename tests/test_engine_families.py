@@ -41,9 +41,9 @@ def test_a_default_run_compiles_its_family_alone_and_the_cache_keeps_families_ap
 
 def test_each_configuration_names_its_family():
     """The family :func:`run` compiles for (plan.family) and the one the first-run rule asks about
-    (warmup.fused_families): the default for the car parks' variants, the automotive profile and
+    (readiness.fused_families): the default for the car parks' variants, the automotive profile and
     Victoria Park; its own for the partial view, JCBB and the bias states."""
-    from radarslam.compiling.warmup import fused_families
+    from radarslam.compiling.readiness import fused_families
     from radarslam.config.variants import DEFAULT_VARIANTS
 
     cfg = profile_config()

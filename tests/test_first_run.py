@@ -11,14 +11,14 @@ import numpy as np
 import pytest
 
 from radarslam.cli.main import main
-from radarslam.compiling import background, first_run
+from radarslam.compiling import background, first_run, policy
 from radarslam.io.recording.plain import write_plain
 
 
 def _state(monkeypatch, filt: bool, sim: bool, match: bool, started: list) -> None:
-    monkeypatch.setattr(first_run, "_filter_ready", lambda: filt)
-    monkeypatch.setattr(first_run, "_simulation_ready", lambda: sim)
-    monkeypatch.setattr(first_run, "_matching_ready", lambda: match)
+    monkeypatch.setattr(policy, "_filter_ready", lambda: filt)
+    monkeypatch.setattr(policy, "_simulation_ready", lambda: sim)
+    monkeypatch.setattr(policy, "_matching_ready", lambda: match)
     _fake_background(monkeypatch, started)
 
 
@@ -105,8 +105,8 @@ def test_run_recording_cold_takes_the_reference_and_equals_the_warm_run(tmp_path
 def _dataset_state(monkeypatch, fused: bool, orchestrator: bool, started: list) -> None:
     from radarslam.compiling import stream_plan as dataset_first_run
 
-    monkeypatch.setattr(dataset_first_run, "_fused_ready", lambda: fused)
-    monkeypatch.setattr(dataset_first_run, "_orchestrator_ready", lambda: orchestrator)
+    monkeypatch.setattr(policy, "_fused_ready", lambda: fused)
+    monkeypatch.setattr(policy, "_orchestrator_ready", lambda: orchestrator)
     _fake_background(monkeypatch, started)
 
 
@@ -116,7 +116,7 @@ def test_dataset_plan_picks_what_ends_sooner_and_says_how_long(monkeypatch):
     Warm (negative controls): the fused engine, nothing announced, nothing started."""
     from radarslam.config import profile_config
     from radarslam.runs import dataset
-    from radarslam.compiling import stream_plan as dataset_first_run, warmup
+    from radarslam.compiling import costs, stream_plan as dataset_first_run
 
     cfg = profile_config("victoria-park")
     started: list = []
@@ -128,7 +128,7 @@ def test_dataset_plan_picks_what_ends_sooner_and_says_how_long(monkeypatch):
     assert whole.engine == "orchestrator" and whole.compiles and whole.compile_s == dataset.ORCHESTRATOR_COMPILE_S
     assert f"about {dataset.ORCHESTRATOR_COMPILE_S:.0f} s" in whole.announce and "compiling" in whole.announce
     # the break-even of the cost model, from its constants
-    n = int(dataset.ORCHESTRATOR_COMPILE_S / (dataset.PYTHON_SCAN_S - warmup.ORCHESTRATOR_SCAN_S))
+    n = int(dataset.ORCHESTRATOR_COMPILE_S / (dataset.PYTHON_SCAN_S - costs.ORCHESTRATOR_SCAN_S))
     assert dataset.first_run_plan(cfg, n, True).engine == "python"
     assert dataset.first_run_plan(cfg, n + 2, True).engine == "orchestrator"
     _dataset_state(monkeypatch, False, True, started)
@@ -138,8 +138,8 @@ def test_dataset_plan_picks_what_ends_sooner_and_says_how_long(monkeypatch):
     _dataset_state(monkeypatch, True, False, started)
     warm = dataset.first_run_plan(cfg, 7230, fused=True)          # one compiled call: its expected seconds first
     assert warm.engine == "fused" and not warm.compiles and "7230 scans" in warm.announce
-    assert f"about {7230 * warmup.FUSED_SCAN_S:.0f} s" in warm.announce and "in one call" in warm.announce
-    short = int(dataset_first_run.ANNOUNCE_S / warmup.FUSED_SCAN_S) - 1
+    assert f"about {7230 * costs.FUSED_SCAN_S:.0f} s" in warm.announce and "in one call" in warm.announce
+    short = int(dataset_first_run.ANNOUNCE_S / costs.FUSED_SCAN_S) - 1
     assert dataset.first_run_plan(cfg, short, fused=True) == dataset.FirstRunPlan("fused")      # short: nothing to say
     assert len(started) == n_started
     assert dataset.first_run_plan(to_python(cfg), 300, fused=False) == dataset.FirstRunPlan("python")
@@ -216,14 +216,14 @@ def test_run_dataset_warm_says_first_what_its_one_compiled_call_will_take(victor
     pytest.importorskip("numba")
     import re
 
-    from radarslam.compiling import warmup
+    from radarslam.compiling import costs
 
     _dataset_state(monkeypatch, True, False, [])
     out = tmp_path / "warm"
     assert main(["run", "--dataset", "victoria-park", str(victoria_park_dir), "--scans", "3000", "--out", str(out)]) == 0
     err = capsys.readouterr().err.strip().splitlines()
     assert err[0] == (f"run: 3000 scans through the compiled fused engine in one call (about "
-                      f"{3000 * warmup.FUSED_SCAN_S:.0f} s at {1e3 * warmup.FUSED_SCAN_S:.1f} ms a scan; it prints "
+                      f"{3000 * costs.FUSED_SCAN_S:.0f} s at {1e3 * costs.FUSED_SCAN_S:.1f} ms a scan; it prints "
                       "nothing until it returns)"), err[0]
     assert json.loads((out / "metrics.json").read_text())["engine"] == "fused"
     rate = float(re.search(r"3000/3000 scans\s+([0-9.]+) scans/s", err[1]).group(1))

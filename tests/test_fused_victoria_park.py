@@ -180,9 +180,9 @@ def test_run_dataset_same_by_either_engine(vp, victoria_park_dir, monkeypatch):
     assert calls == []                                     # filter.fused false: event by event
     run_dataset("victoria-park", victoria_park_dir, cfg, n_scans=30, progress=False, loader_options=opts)
     assert calls == [1]                                    # the profile: the fused engine
-    from radarslam.compiling import background, dataset_first_run
+    from radarslam.compiling import background, policy
     started = []
-    monkeypatch.setattr(dataset_first_run, "_fused_ready", lambda: False)      # the first run's rule
+    monkeypatch.setattr(policy, "_fused_ready", lambda: False)      # the first run's rule
     monkeypatch.setattr(background, "enabled", lambda: True)
     monkeypatch.setattr(background, "busy", lambda: False)
     monkeypatch.setattr(background, "start", lambda *a: started.append(a) or 4242)

@@ -78,3 +78,13 @@ HEARTBEAT_S = 10.0
 #: expected to take longer than this says so on its first line, with the expected seconds at
 #: warmup.FUSED_SCAN_S a scan (issue 34: the first line within 3 s).
 ANNOUNCE_S = 3.0
+
+
+#: A recorded stream through the Python reference, per detection and per scan of the stream (the
+#: association looks at every landmark, and the landmarks grow with the drive, so a detection late
+#: in a long drive costs more): from the cold runs of the README's recording commands (issue 43:
+#: nuScenes scene-0061, 126,749 detections in 1,263 scans, about 7 s of its 11.3 s; RadarScenes
+#: sequence 105, 1,071,716 detections in 6,478 scans, about 395 s of its 409 s): 4.4e-8 and 5.7e-8.
+#: Used with :data:`PYTHON_SCAN_S` only where the detections are known (a recording); a dataset's
+#: figure above is per scan with its detections in it.
+PYTHON_DETECTION_SCAN_S = 5.0e-8

@@ -16,71 +16,31 @@ on its first line, and leaves the compile to a detached low-priority process
 from __future__ import annotations
 
 import sys
-from dataclasses import dataclass
 
-from radarslam.compiling.readiness import engines as _engines
-from radarslam.compiling.readiness import fused_families, ready
+from radarslam.compiling.policy import Plan, Workload, plan
 
 #: What the first line says when a part runs through its reference.
 ANNOUNCE = ("run: first run on this machine: the compiled code is not built yet, so this run takes the Python "
             "reference ({parts}; the same results){later}")
 
 
-@dataclass(frozen=True)
-class FirstRun:
-    """Which parts of a single run go compiled.
-
-    Attributes
-    ----------
-    filter_backend : str or None
-        ``"python"`` when the filter runs through its reference, else None (the configuration's).
-    simulation_compiled, matching_compiled : bool
-        Whether the scan simulation and the evaluation's matching run compiled.
-    reference_parts : tuple of str
-        The parts that run through their reference (empty: everything is compiled and ready).
-    """
-
-    filter_backend: str | None = None
-    simulation_compiled: bool = True
-    matching_compiled: bool = True
-    reference_parts: tuple[str, ...] = ()
+#: Which parts of a single run go compiled: the policy's :class:`~.policy.Plan` (``filter_backend``,
+#: ``simulation_compiled``, ``matching_compiled``, ``reference_parts``).
+FirstRun = Plan
 
 
-def _filter_ready(*families) -> bool:
-    """True when the fused engine of each of ``families`` is ready (none given: the default
-    family's; :func:`~radarslam.compiling.warmup.fused_families`)."""
-    return all(ready(d) for d in _engines(families))
+def choose(backend: str, *, simulation: bool = False, matching: bool = False, config=None) -> Plan:
+    """The plan of one simulated trial or a short run (:func:`~.policy.plan`, kind ``"trial"``): each
+    part compiled when its machine code is ready, the filter's for the family of ``config`` (None:
+    the default family's). With ``backend`` "python" everything is the reference already and
+    nothing is announced."""
+    from dataclasses import replace
 
+    from radarslam.config import profile_config
 
-def _simulation_ready() -> bool:
-    from radarslam.simulation._compiled import simulate_scans
-
-    return ready(simulate_scans)
-
-
-def _matching_ready() -> bool:
-    from radarslam.metrics._compiled import match_scans
-
-    return ready(match_scans)
-
-
-def choose(backend: str, *, simulation: bool = False, matching: bool = False, config=None) -> FirstRun:
-    """The parts of a single run that go compiled: each one whose machine code is ready, the
-    filter's for the family of ``config`` (None: the default family's). With ``backend`` "python"
-    everything is the reference already and nothing is announced."""
-    if backend != "numba":
-        return FirstRun(None, False, False, ())
-    parts = []
-    f = _filter_ready(*(fused_families(config) if config is not None else ()))
-    if not f:
-        parts.append("filter")
-    s = not simulation or _simulation_ready()
-    if not s:
-        parts.append("simulation")
-    m = not matching or _matching_ready()
-    if not m:
-        parts.append("evaluation")
-    return FirstRun(None if f else "python", s, m, tuple(parts))
+    cfg = config if config is not None else profile_config()
+    cfg = replace(cfg, filter=replace(cfg.filter, backend=backend))
+    return plan(cfg, Workload("trial", simulation=simulation, matching=matching))
 
 
 def announce(choice: FirstRun, config, stream=None) -> int | None:

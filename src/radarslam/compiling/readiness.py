@@ -10,7 +10,7 @@ from radarslam.config import Config
 from radarslam.config.variants import Variant, apply_variant
 
 
-def _has_fresh_code(dispatcher) -> bool | None:
+def has_fresh_code(dispatcher) -> bool | None:
     """Whether numba's cache holds machine code of ``dispatcher`` for its current source (an index
     that exists and whose source stamp matches), or None where that cannot be told. A closure (a
     family's engine, :func:`radarslam.slam.fused.engine.engine`) shares its index with the other
@@ -60,13 +60,13 @@ def cache_is_cold(*families) -> bool:
     from radarslam.metrics._compiled import match_scans
     from radarslam.simulation._compiled import simulate_scans
 
-    return any(_has_fresh_code(d) is False for d in (*engines(families), simulate_scans, match_scans))
+    return any(has_fresh_code(d) is False for d in (*engines(families), simulate_scans, match_scans))
 
 
 def fused_is_cold(*families) -> bool:
     """True when numba has no fresh cached machine code of the fused engine of one of ``families``
     (none given: the default family's)."""
-    return any(_has_fresh_code(d) is False for d in engines(families))
+    return any(has_fresh_code(d) is False for d in engines(families))
 
 
 def _orchestrator_is_cold() -> bool:
@@ -76,10 +76,10 @@ def _orchestrator_is_cold() -> bool:
     from radarslam.simulation._compiled import simulate_scans
     from radarslam.slam._numba import associate_scan
 
-    return any(_has_fresh_code(d) is False for d in (simulate_scans, match_scans, associate_scan))
+    return any(has_fresh_code(d) is False for d in (simulate_scans, match_scans, associate_scan))
 
 
 def ready(dispatcher) -> bool:
     """True when numba need not compile ``dispatcher`` for its next call: it was compiled in this
     process, or its cache holds fresh machine code."""
-    return bool(getattr(dispatcher, "signatures", ())) or _has_fresh_code(dispatcher) is True
+    return bool(getattr(dispatcher, "signatures", ())) or has_fresh_code(dispatcher) is True

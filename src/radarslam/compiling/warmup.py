@@ -26,16 +26,14 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
-from radarslam.compiling.costs import FUSED_COMPILE_S, ORCHESTRATOR_WARM_UP_S, first_run_engine
+from radarslam.compiling.costs import FUSED_COMPILE_S, ORCHESTRATOR_WARM_UP_S
 from radarslam.compiling.heartbeat import _heartbeat
-from radarslam.compiling.readiness import _orchestrator_is_cold, cache_is_cold, fused_families, fused_is_cold
+from radarslam.compiling.policy import COMPILING, Workload, plan
 from radarslam.config import Config, from_dict, to_dict
 from radarslam.config.variants import Variant, apply_variant
 from radarslam.core.types import Odometry, Scan
 from radarslam.slam.driver import run_filter
 
-#: What the progress output says while the cache is filled.
-COMPILING = "compiling the numba kernels (once per machine, about three minutes); later runs load them in about a second"
 #: ... and when this run's trials go through the orchestrator (:func:`first_run_engine`).
 COMPILING_SHORT = ("compiling the numba kernels the per-event engine uses (once per machine, about {s:.0f} s); "
                    "this run is short, so it does not wait for the fused engine")
@@ -116,16 +114,14 @@ def warm_up(config: Config, variants: tuple[Variant, ...], log: Callable[[str], 
     run with (:func:`~.single.run_filter`): ``"orchestrator"`` when ``n_trials`` (None: unknown,
     compile the fused engine) on ``jobs`` workers end sooner so (:func:`first_run_engine`), the
     fused engine then compiling in the background (:mod:`.background`); else ``"auto"``."""
-    if config.filter.backend != "numba":
+    p = plan(config, Workload("trials", n_trials=n_trials if n_trials is not None else 0, jobs=jobs,
+                              variants=tuple(variants)))
+    if p.engine == "auto" and not p.compiles:    # warm, or the reference: nothing to compile
         return "auto"
-    families = fused_families(config, variants)
-    if not cache_is_cold(*families):
-        return "auto"
-    short = (n_trials is not None and fused_is_cold(*families)
-             and first_run_engine(n_trials, len(variants), jobs) == "orchestrator")
+    short = p.engine == "orchestrator"
     if short:
         _background(config, variants, log)
-        if not _orchestrator_is_cold():
+        if not p.compiles:
             return "orchestrator"
     log(f"montecarlo: {COMPILING_SHORT.format(s=ORCHESTRATOR_WARM_UP_S) if short else COMPILING}")
     side = None

@@ -3,8 +3,9 @@
 Every injectable part of the estimator (motion model, measurement model, associator, extent
 estimator) has a :class:`Registry`. An implementation registers a *factory* under a name and a
 backend (``"python"`` unless said otherwise); the factory receives the configuration section that
-owns the component and returns the component. The built-in implementations are registered lazily
-(by module path), so listing the names imports nothing heavy, and code outside the package adds
+owns the component and returns the component. The built-in implementations are all registered in one
+table (:data:`BUILT_INS`, by module and attribute, imported on first use), so listing the names
+imports nothing heavy, and code outside the package adds
 its own with :meth:`Registry.register` before building a filter::
 
     from radarslam.core.registry import ASSOCIATORS
@@ -68,7 +69,7 @@ class Registry:
         self.kind = kind
         self.key = key
         self._factories: dict[tuple[str, str], Callable[..., Any]] = {}
-        self._lazy: dict[tuple[str, str], str] = {}
+        self._lazy: dict[tuple[str, str], str] = {}   # (name, backend) -> "module:attribute"
 
     def register(self, name: str, factory: Callable[..., Any] | None = None, *, backend: str = DEFAULT_BACKEND,
                  replace: bool = False):
@@ -90,10 +91,13 @@ class Registry:
 
         return add if factory is None else add(factory)
 
-    def register_lazy(self, name: str, module: str, *, backend: str = DEFAULT_BACKEND) -> None:
-        """Declare that importing ``module`` registers ``name`` (for the built-ins)."""
+    def register_lazy(self, name: str, target: str, *, backend: str = DEFAULT_BACKEND) -> None:
+        """Declare the built-in ``name``: its factory is ``attribute`` of ``module`` (``target`` as
+        ``"module:attribute"``, the attribute dotted for a class method), imported on first use."""
+        if ":" not in target:
+            raise ConfigError(f"{self.key}: {self.kind} {name!r}: expected 'module:attribute', got {target!r}")
         if (name, backend) not in self._factories:
-            self._lazy[(name, backend)] = module
+            self._lazy[(name, backend)] = target
 
     def unregister(self, name: str, *, backend: str = DEFAULT_BACKEND) -> None:
         """Remove ``name`` (tests and plug-ins that clean up after themselves)."""
@@ -119,7 +123,11 @@ class Registry:
         load_plugins()
         for key in ((name, backend), (name, DEFAULT_BACKEND)):
             if key not in self._factories and key in self._lazy:
-                importlib.import_module(self._lazy[key])  # registers itself
+                module, attribute = self._lazy.pop(key).split(":")
+                f = importlib.import_module(module)
+                for part in attribute.split("."):
+                    f = getattr(f, part)
+                self._factories[key] = f
             if key in self._factories:
                 return self._factories[key]
         if name not in self.names():
@@ -137,21 +145,28 @@ MEASUREMENT_MODELS = Registry("measurement model", "filter.measurement_model")
 ASSOCIATORS = Registry("associator", "landmarks.associator")
 EXTENT_ESTIMATORS = Registry("extent estimator", "extent.estimator")
 
-# The built-ins register themselves when their module is imported.
-MOTION_MODELS.register_lazy("unicycle", "radarslam.models.motion")
-MOTION_MODELS.register_lazy("ackermann", "radarslam.models.ackermann")
-MOTION_MODELS.register_lazy("body-velocity", "radarslam.models.body_velocity")
-MEASUREMENT_MODELS.register_lazy("range-azimuth", "radarslam.models.radar")
-ASSOCIATORS.register_lazy("nearest-neighbour", "radarslam.slam.association")
-ASSOCIATORS.register_lazy("nearest-neighbour", "radarslam.slam._numba", backend="numba")
-ASSOCIATORS.register_lazy("batch", "radarslam.slam.association")
-ASSOCIATORS.register_lazy("batch", "radarslam.slam._numba", backend="numba")
-ASSOCIATORS.register_lazy("jcbb", "radarslam.slam.jcbb")
-ASSOCIATORS.register_lazy("jcbb", "radarslam.slam._jcbb_numba", backend="numba")
-EXTENT_ESTIMATORS.register_lazy("rma-efa", "radarslam.extent.estimator")
-EXTENT_ESTIMATORS.register_lazy("visible-arc", "radarslam.extent.visible_arc")
-EXTENT_ESTIMATORS.register_lazy("mem-ekf", "radarslam.extent.mem_ekf")
-EXTENT_ESTIMATORS.register_lazy("partial-view", "radarslam.extent.view_estimator")
+#: Every built-in component, the one place they are registered: (registry, name, backend, factory as
+#: "module:attribute"); the module is imported when the component is first asked for.
+BUILT_INS = (
+    (MOTION_MODELS, "unicycle", "python", "radarslam.models.motion:make_unicycle"),
+    (MOTION_MODELS, "ackermann", "python", "radarslam.models.ackermann:make_ackermann"),
+    (MOTION_MODELS, "body-velocity", "python", "radarslam.models.body_velocity:make_body_velocity"),
+    (MEASUREMENT_MODELS, "range-azimuth", "python", "radarslam.models.radar:make_range_azimuth"),
+    (ASSOCIATORS, "nearest-neighbour", "python", "radarslam.slam.association:make_nearest_neighbour"),
+    (ASSOCIATORS, "nearest-neighbour", "numba", "radarslam.slam._numba:make_nearest_neighbour"),
+    (ASSOCIATORS, "batch", "python", "radarslam.slam.association:make_batch"),
+    (ASSOCIATORS, "batch", "numba", "radarslam.slam._numba:make_batch"),
+    (ASSOCIATORS, "batch-joint", "python", "radarslam.slam.association:make_batch_joint"),
+    (ASSOCIATORS, "batch-joint", "numba", "radarslam.slam._numba:make_batch_joint"),
+    (ASSOCIATORS, "jcbb", "python", "radarslam.slam.jcbb:make_jcbb"),
+    (ASSOCIATORS, "jcbb", "numba", "radarslam.slam._jcbb_numba:make_compiled_jcbb"),
+    (EXTENT_ESTIMATORS, "rma-efa", "python", "radarslam.extent.estimator:RmaEfaEstimator.from_config"),
+    (EXTENT_ESTIMATORS, "visible-arc", "python", "radarslam.extent.visible_arc:VisibleArcEstimator.from_config"),
+    (EXTENT_ESTIMATORS, "mem-ekf", "python", "radarslam.extent.mem_ekf:MemEkfEstimator.from_config"),
+    (EXTENT_ESTIMATORS, "partial-view", "python", "radarslam.extent.view_estimator:PartialViewEstimator.from_config"),
+)
+for _registry, _name, _backend, _target in BUILT_INS:
+    _registry.register_lazy(_name, _target, backend=_backend)
 
 #: Every backend some built-in implements (``filter.backend``).
 BACKENDS = ("python", "numba")

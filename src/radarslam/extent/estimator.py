@@ -21,7 +21,6 @@ from typing import Any, NamedTuple, Protocol
 import numpy as np
 
 from radarslam.core.arrays import grown_inner
-from radarslam.core.registry import EXTENT_ESTIMATORS
 from radarslam.extent.buffering import TAKE
 from radarslam.extent.ellipse_fit import _fit_ellipse
 from radarslam.extent.measurement import _scan_W
@@ -398,4 +397,3 @@ def _literal_kernel(backend: str):
     return compiled
 
 
-EXTENT_ESTIMATORS.register("rma-efa", RmaEfaEstimator.from_config)

@@ -42,7 +42,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from radarslam.core.errors import InputError
-from radarslam.core.registry import EXTENT_ESTIMATORS
 from radarslam.core.validation import as_array, as_points, as_scalar, as_spd
 from radarslam.extent.ellipse import _ellipse_to_matrix
 from radarslam.extent.estimator import RmaEfaEstimator, RmaEfaState
@@ -376,4 +375,3 @@ class MemEkfEstimator(RmaEfaEstimator):
                 st.p, st.Cp = E.shape[j], E.Cs[j]
 
 
-EXTENT_ESTIMATORS.register("mem-ekf", MemEkfEstimator.from_config)

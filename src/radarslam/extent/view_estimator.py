@@ -41,7 +41,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from radarslam.core.registry import EXTENT_ESTIMATORS
 from radarslam.extent.estimator import RmaEfaEstimator, RmaEfaState
 
 from radarslam.extent.view_kernels import (  # noqa: F401  (this module's kernels until they moved)
@@ -177,4 +176,3 @@ class PartialViewEstimator(RmaEfaEstimator):
             st.xi, st.P_xi, st.n_view = E.xi[j], E.Pxi[j], nview[j]
 
 
-EXTENT_ESTIMATORS.register("partial-view", PartialViewEstimator.from_config)

@@ -24,7 +24,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from radarslam.core.registry import EXTENT_ESTIMATORS
 from radarslam.extent.estimator import RmaEfaEstimator, RmaEfaState
 
 from radarslam.extent.arc_kernels import (  # noqa: F401  (this module's kernels until they moved)
@@ -106,4 +105,3 @@ class VisibleArcEstimator(RmaEfaEstimator):
         return kept
 
 
-EXTENT_ESTIMATORS.register("visible-arc", VisibleArcEstimator.from_config)

@@ -58,7 +58,6 @@ import numpy as np
 
 from radarslam.core.angles import wrap_2pi_scalar
 from radarslam.core.validation import as_scalar
-from radarslam.core.registry import MOTION_MODELS
 from radarslam.models.input_bias import STEERING_KEYS, InputBias
 
 
@@ -153,9 +152,8 @@ class AckermannModel:
         return np.diag([filter_config.speed_std_mps ** 2, math.radians(filter_config.steering_std_deg) ** 2])
 
 
-def _make_ackermann(f) -> AckermannModel:
+def make_ackermann(f) -> AckermannModel:
     """From the ``filter`` section: ``vehicle_L_m``, ``vehicle_H_m``, ``sensor_a_m``, ``sensor_b_m``."""
     return AckermannModel(L=f.vehicle_L_m, H=f.vehicle_H_m, a=f.sensor_a_m, b=f.sensor_b_m)
 
 
-MOTION_MODELS.register("ackermann", _make_ackermann)

@@ -20,7 +20,6 @@ import math
 import numpy as np
 
 from radarslam.core.angles import wrap_2pi_scalar
-from radarslam.core.registry import MOTION_MODELS
 from radarslam.models.input_bias import TURN_RATE_KEYS, InputBias
 
 __all__ = ["BodyVelocityModel", "body_velocity_increment", "body_velocity_jacobians", "body_velocity_step"]
@@ -82,8 +81,7 @@ class BodyVelocityModel:
         return np.diag([s, s, math.radians(filter_config.gyro_std_deg_s) ** 2])
 
 
-def _make_body_velocity(filter_config) -> BodyVelocityModel:
+def make_body_velocity(filter_config) -> BodyVelocityModel:
     return BodyVelocityModel()
 
 
-MOTION_MODELS.register("body-velocity", _make_body_velocity)

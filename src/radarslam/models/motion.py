@@ -77,11 +77,10 @@ class UnicycleModel:
         return np.diag([filter_config.speed_std_mps ** 2, math.radians(filter_config.turn_rate_std_deg_s) ** 2])
 
 
-def _make_unicycle(filter_config) -> UnicycleModel:
+def make_unicycle(filter_config) -> UnicycleModel:
     return UnicycleModel()
 
 
-MOTION_MODELS.register("unicycle", _make_unicycle)
 
 
 def motion_model_from_config(filter_config) -> MotionModel:

@@ -11,7 +11,6 @@ import math
 import numpy as np
 
 from radarslam.core.angles import wrap_pi, wrap_pi_scalar
-from radarslam.core.registry import MEASUREMENT_MODELS
 
 
 def range_azimuth(pose: np.ndarray, p: np.ndarray) -> np.ndarray:
@@ -80,8 +79,7 @@ class RangeAzimuthModel:
         return filter_config.R
 
 
-def _make_range_azimuth(filter_config) -> RangeAzimuthModel:
+def make_range_azimuth(filter_config) -> RangeAzimuthModel:
     return RangeAzimuthModel()
 
 
-MEASUREMENT_MODELS.register("range-azimuth", _make_range_azimuth)

@@ -137,11 +137,6 @@ def _init_pool_worker() -> None:
     _limit_threads()
 
 
-#: The progress line, as tqdm's ``bar_format``: the bar, the units done, the rate and the ETA (both
-#: measured by :class:`Progress`'s clock, not tqdm's).
-PROGRESS_FORMAT = "[{bar:30}] {n}/{total} {unit}  {rate_s} {unit}/s  ETA {eta_s}"
-
-
 @dataclass
 class MonteCarloSummary:
     out: Path

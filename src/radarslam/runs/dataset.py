@@ -17,6 +17,7 @@ from radarslam.extent.ellipse import trunk_diameter  # noqa: F401  (re-exported:
 from radarslam.metrics.alignment import error_against_fixes
 from radarslam.models.radar import polar_to_xy
 from radarslam.slam import _fused
+from radarslam.slam.driver import Observer, drive
 from radarslam.slam.filter import EkfSlam, MapSnapshot
 from radarslam.compiling.stream_plan import (  # noqa: F401  (re-exported: their former home)
     HEARTBEAT_S,
@@ -99,29 +100,30 @@ def run_dataset(name: str, path, config: Config, *, first_scan: int | None = Non
     reference = _Reference(trees, config.filter.max_range_m)
     fused = _fused.why_not(slam, data.events) is None
     plan = first_run_plan(config, n, fused)
+    hits = _ReferenceHits(reference)
     t0 = time.perf_counter()
+    if plan.announce and progress:
+        print(f"run: {plan.announce}", file=sys.stderr, flush=True)
     if plan.engine == "fused":
-        if plan.announce and progress:
-            print(f"run: {plan.announce}", file=sys.stderr, flush=True)
         bar = Progress(n, 0, enabled=progress, unit="scans")      # its clock from the call's start: the true rate
-        out = _run_fused(slam, data.events, reference)
+        rec = drive(config, data.events, observers=[hits], maps="last")
         bar.update(n)
     else:
-        if plan.engine == "python":
-            slam = EkfSlam(_with_backend(config, "python"))
-        if plan.announce and progress:
-            print(f"run: {plan.announce}", file=sys.stderr, flush=True)
+        run_config = _with_backend(config, "python") if plan.engine == "python" else config
+        slam = EkfSlam(run_config)
         side = _compile_beside(config, data.events) if plan.compiles else None
         bar = Progress(n, 0, enabled=progress, unit="scans", warm_up_unit=True)   # its first scan: imports, compiles
         with _heartbeat(plan.compile_s if plan.compiles and progress else 0.0) as compiled:
-            out = _run_orchestrated(slam, data.events, reference, bar, compiled)
+            rec = drive(run_config, data.events, slam=slam, observers=[hits], maps="last",
+                        on_scan=_scan_clock(bar, compiled))
         if side is not None:
             side.shutdown(wait=False, cancel_futures=True)
-    times, poses, covs, nlm, nas, final_map, hits, nis, b = out
-    ref = (np.concatenate(hits) if hits else np.empty((0, 3))) if trees is not None else None
+    ref = (np.concatenate(hits.hits) if hits.hits else np.empty((0, 3))) if trees is not None else None
     m = 0 if slam.bias_model is None else slam.bias_model.dim     # c.11: the bias states, if any
-    return DatasetRun(name, config, data, times, poses, covs, nlm, nas, final_map, time.perf_counter() - t0, load_s,
-                      ref, nis, None if b is None else b[:, :m], None if b is None else b[:, m:],
+    b = rec.bias
+    return DatasetRun(name, config, data, rec.times, rec.poses, rec.pose_covs, rec.n_landmarks, rec.n_associated,
+                      rec.maps[-1], time.perf_counter() - t0, load_s, ref, rec.nis_rows,
+                      None if b is None else b[:, :m], None if b is None else b[:, m:],
                       slam.bias_model.names if m else (), slam.bias_model.units if m else (), plan.engine)
 
 
@@ -141,71 +143,45 @@ class _Reference:
         return h if h.size else None
 
 
-def _run_orchestrated(slam: EkfSlam, events, reference: _Reference, bar, compiled=None):
-    """:func:`run_dataset` event by event: ``(times, poses, covs, n_landmarks, n_associated, final map,
-    reference hits, NIS rows, bias rows [values, stds] (K, 2m) or None)``. ``compiled`` (a
-    ``threading.Event``), if given, is set after the second scan: numba compiles the steps of a
-    scan without associations at the first, the association and extent steps at the second."""
-    times, poses, covs, nlm, nas, bias = [], [], [], [], [], []
-    m = 0 if slam.bias_model is None else slam.bias_model.dim
-    hits: list[np.ndarray] = []
-    nis: list[np.ndarray] = []
-    for ev in events:
-        if isinstance(ev, Odometry):
-            slam.predict(ev)
-            continue
-        rep = slam.update(ev)
-        times.append(ev.t)
-        poses.append(slam.x[:3].copy())
-        covs.append(slam.P[:3, :3].copy())
-        nlm.append(slam.state.n_landmarks)
-        nas.append(rep.n_associated)
-        if m:
-            bias.append(np.concatenate([slam.state.bias, np.sqrt(np.diag(slam.state.bias_cov))]))
-        if rep.nis.size:
-            nis.append(np.column_stack([np.full(rep.nis.size, len(times) - 1.0), rep.nis]))
+class _ReferenceHits(Observer):
+    """The reference detections attributed to the landmarks after each scan that has some."""
+
+    def __init__(self, reference: _Reference):
+        self.reference, self.hits = reference, []
+
+    def scan_mask(self, scans):
+        return np.array([int(ev.index) in self.reference.rows for ev in scans], dtype=bool)
+
+    def after_scan(self, k, slam, scan, report):
         lm = slam.x[slam.x.shape[0] - 2 * slam.state.n_landmarks:].reshape(-1, 2)   # the last 2N entries (c.11)
-        h = reference.hits(int(ev.index), slam.x[:3], lm, slam.state.ids())
+        self._add(self.reference.hits(int(scan.index), slam.x[:3], lm, slam.state.ids()))
+
+    def after_fused(self, slam, scans, result, associations):
+        off = result["trace_offsets"]
+        for s in np.flatnonzero(self.scan_mask(scans)).tolist():
+            a, b = int(off[s]), int(off[s + 1])
+            self._add(self.reference.hits(int(scans[s].index), result["poses"][s], result["trace_positions"][a:b],
+                                          result["trace_ids"][a:b]))
+
+    def _add(self, h) -> None:
         if h is not None:
-            hits.append(h)
+            self.hits.append(h)
+
+
+def _scan_clock(bar, compiled=None):
+    """``on_scan`` of an event-by-event run: the progress line; after the second scan (numba compiles
+    the steps of a scan without associations at the first, the association and extent steps at the
+    second) the rate is measured from there and ``compiled`` (a ``threading.Event``), if given, set."""
+    n = [0]
+
+    def tick() -> None:
         bar.update()
-        if len(times) == 2:             # the compiles are over: the rate is measured from here
+        n[0] += 1
+        if n[0] == 2:
             bar.restart()
             if compiled is not None:
                 compiled.set()
-    return (np.array(times), np.array(poses).reshape(-1, 3), np.array(covs).reshape(-1, 3, 3), np.array(nlm),
-            np.array(nas), slam.snapshot(), hits, np.concatenate(nis) if nis else np.empty((0, 2)),
-            np.array(bias).reshape(-1, 2 * m) if m else None)
-
-
-def _run_fused(slam: EkfSlam, events, reference: _Reference):
-    """:func:`run_dataset` by the fused engine (:func:`radarslam.slam._fused.run`), recording the map
-    after the last scan only and the landmarks after the scans with reference detections: the
-    same outputs as :func:`_run_orchestrated`."""
-    scans = [ev for ev in events if isinstance(ev, Scan)]
-    trace = np.array([int(ev.index) in reference.rows for ev in scans], dtype=bool)
-    r, _ = _fused.run(slam, events, all_maps=False, trace=trace)
-    poses, off = r["poses"], r["trace_offsets"]
-    hits = []
-    for s in np.flatnonzero(trace).tolist():
-        a, b = int(off[s]), int(off[s + 1])
-        h = reference.hits(int(scans[s].index), poses[s], r["trace_positions"][a:b], r["trace_ids"][a:b])
-        if h is not None:
-            hits.append(h)
-    if scans:
-        a, b = int(r["map_offsets"][-2]), int(r["map_offsets"][-1])
-        final = MapSnapshot(r["ids"][a:b], r["positions"][a:b], r["covs"][a:b], r["rma"][a:b], r["efa"][a:b],
-                            r["created"][a:b])
-    else:
-        final = slam.snapshot()
-    nis = np.column_stack([np.repeat(np.arange(len(scans), dtype=float), r["nis_count"]), r["nis"]])
-    bias = None
-    if r["bias"].shape[1]:                                  # c.11: the values and stds, as _run_orchestrated
-        bias = np.concatenate([r["bias"], np.sqrt(np.diagonal(r["bias_covs"], axis1=1, axis2=2))], axis=1)
-    return (np.array([ev.t for ev in scans], dtype=float), poses, r["pose_covs"], r["n_landmarks"],
-            r["n_associated"], final, hits, nis, bias)
-
-
+    return tick
 def dead_reckoning(data, config: Config) -> tuple[np.ndarray, np.ndarray]:
     """Odometry alone through the filter's motion model: ``(scan times (K,), poses (K, 3))``.
 

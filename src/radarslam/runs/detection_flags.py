@@ -6,25 +6,21 @@ recording's annotation (RadarScenes' ``label``).
 The orchestrator says both in each scan's :class:`~radarslam.slam.filter.ScanReport` (``moving``,
 ``associations``); the fused engine returns its association rows ``(scan, detection, landmark id)``
 and keeps the gate's ``kept`` rows in its :class:`~radarslam.slam.fused.plan.Stream` (a detection
-not kept is one the gate called moving). Both are read as they run, at no extra pass over the data.
+not kept is one the gate called moving, its ``kept`` rows). Both are read as they run
+(:class:`FlagsObserver` of :func:`radarslam.slam.driver.drive`), at no extra pass over the data.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import time
-from contextlib import contextmanager
 from dataclasses import dataclass
-from itertools import pairwise
 from pathlib import Path
 
 import numpy as np
 
 from radarslam.config import Config
 from radarslam.core.types import Scan
-from radarslam.slam.driver import FilterRecord, run_filter
-from radarslam.slam import _fused
-from radarslam.slam.filter import EkfSlam, MapSnapshot
+from radarslam.slam.driver import FilterRecord, Observer, drive
 
 __all__ = [
     "STATIC_LABEL",
@@ -76,24 +72,39 @@ class DetectionFlags:
     used: np.ndarray
 
 
-class _ReportingSlam(EkfSlam):
-    """:class:`EkfSlam` keeping each scan's gate verdict and associations (its :class:`ScanReport`)."""
+class FlagsObserver(Observer):
+    """Every scan detection's :class:`ScanFlags`, from the orchestrator's scan reports (``moving``,
+    ``associations``) or the fused engine's association rows and its gate's kept rows."""
 
-    def __init__(self, config):
-        super().__init__(config)
+    def __init__(self):
         self._sizes: list[int] = []
         self._moving: list[np.ndarray] = []
         self._assoc: list[dict] = []
+        self.flags: ScanFlags | None = None
 
-    def process(self, event):
-        rep = super().process(event)
-        if rep is not None:
-            self._sizes.append(rep.n_detections)        # the whole scan: kept + moving
-            self._moving.append(np.asarray(rep.moving, dtype=np.int64))
-            self._assoc.append(rep.associations)
-        return rep
+    def after_scan(self, k, slam, scan, report):
+        self._sizes.append(report.n_detections)        # the whole scan: kept + moving
+        self._moving.append(np.asarray(report.moving, dtype=np.int64))
+        self._assoc.append(report.associations)
 
-    def flags(self) -> ScanFlags:
+    def after_fused(self, slam, scans, result, associations):
+        full = np.zeros(len(scans) + 1, dtype=np.int64)
+        full[1:] = np.cumsum([np.shape(e.polar)[0] for e in scans])
+        gate = slam.config.filter.doppler_gate
+        moving = np.full(full[-1], gate, dtype=bool)           # under the gate: moving unless kept
+        if gate:
+            k = result["kept_offsets"]
+            scan_of_kept = np.repeat(np.arange(k.size - 1), np.diff(k))
+            moving[full[scan_of_kept] + result["kept"]] = False
+        landmark = np.full(full[-1], -1, dtype=np.int64)
+        a = np.asarray(associations, dtype=np.int64).reshape(-1, 3)
+        landmark[full[a[:, 0]] + a[:, 1]] = a[:, 2]
+        self.flags = ScanFlags(full, moving, landmark)
+
+    def result(self) -> ScanFlags:
+        """The flags of the run the observer was told of."""
+        if self.flags is not None:
+            return self.flags
         off = np.zeros(len(self._sizes) + 1, dtype=np.int64)
         off[1:] = np.cumsum(self._sizes)
         moving = np.zeros(off[-1], dtype=bool)
@@ -107,63 +118,11 @@ class _ReportingSlam(EkfSlam):
 
 def run_with_flags(config: Config, events: list, *, on_scan=None, engine: str = "auto") -> tuple[FilterRecord,
                                                                                                  ScanFlags]:
-    """:func:`~radarslam.slam.driver.run_filter` (the same record, the same engine choice) and
-    every scan detection's :class:`ScanFlags`."""
-    slam = _ReportingSlam(config)
-    if engine == "auto" and _fused.why_not(slam, events) is None:
-        return _fused_with_flags(slam, events, on_scan)
-    return run_filter(config, events, slam=slam, on_scan=on_scan), slam.flags()
-
-
-@contextmanager
-def _stream_of_run():
-    """The :class:`Stream` the fused engine's ``run`` builds (its gate's ``kept`` rows), caught as it
-    passes (the module's documented patch point, slam/_fused.py): classifying the scans a second
-    time would cost as much again (2.8 s of 25 on RadarScenes 105)."""
-    from radarslam.slam.fused import plan
-
-    inner, got = plan._stream_arrays, []
-
-    def catch(*args, **kwargs):
-        got.append(inner(*args, **kwargs))
-        return got[-1]
-
-    plan._stream_arrays = catch
-    try:
-        yield got
-    finally:
-        plan._stream_arrays = inner
-
-
-def _fused_with_flags(slam: EkfSlam, events: list, on_scan) -> tuple[FilterRecord, ScanFlags]:
-    """The fused engine's record (as ``single._fused_record``) and its flags from its association
-    rows and its stream's kept rows."""
-    t0 = time.perf_counter()
-    with _stream_of_run() as got:
-        r, arows = _fused.run(slam, events)
-    off = r["map_offsets"].tolist()
-    maps = [MapSnapshot(r["ids"][a:b], r["positions"][a:b], r["covs"][a:b], r["rma"][a:b], r["efa"][a:b],
-                        r["created"][a:b]) for a, b in pairwise(off)]
-    record = FilterRecord(r["poses"], r["pose_covs"], maps, r["n_detections"], r["n_associated"], r["n_landmarks"],
-                          time.perf_counter() - t0, nis_sum=r["nis_sum"], nis_count=r["nis_count"].astype(float),
-                          engine="fused")
-    if on_scan is not None:
-        for _ in maps:
-            on_scan()
-    stream = got[-1]
-    sizes = [np.shape(e.polar)[0] for e in events if isinstance(e, Scan)]
-    full = np.zeros(len(sizes) + 1, dtype=np.int64)
-    full[1:] = np.cumsum(sizes)
-    gate = slam.config.filter.doppler_gate
-    moving = np.full(full[-1], gate, dtype=bool)           # under the gate: moving unless kept
-    if gate:
-        k = stream.scan_off
-        scan_of_kept = np.repeat(np.arange(k.size - 1), np.diff(k))
-        moving[full[scan_of_kept] + stream.kept] = False
-    landmark = np.full(full[-1], -1, dtype=np.int64)
-    a = np.asarray(arows, dtype=np.int64).reshape(-1, 3)
-    landmark[full[a[:, 0]] + a[:, 1]] = a[:, 2]
-    return record, ScanFlags(full, moving, landmark)
+    """:func:`~radarslam.slam.driver.drive` (the same record, the same engine choice as
+    :func:`~radarslam.slam.driver.run_filter`) and every scan detection's :class:`ScanFlags`."""
+    flags = FlagsObserver()
+    record = drive(config, events, engine=engine, observers=[flags], on_scan=on_scan)
+    return record, flags.result()
 
 
 def stream_rows(rec, mounting) -> np.ndarray:

@@ -6,6 +6,10 @@ import math
 import sys
 import time
 
+#: The progress line, as tqdm's ``bar_format``: the bar, the units done, the rate and the ETA (both
+#: measured by :class:`Progress`'s clock, not tqdm's).
+PROGRESS_FORMAT = "[{bar:30}] {n}/{total} {unit}  {rate_s} {unit}/s  ETA {eta_s}"
+
 
 class Progress:
     """A one-line progress bar on stderr: units done, rate and ETA, drawn by tqdm.

@@ -16,7 +16,8 @@ from radarslam.core.errors import ConfigError, InputError
 from radarslam.core.types import Scan
 from radarslam.egomotion.rig_odometry import with_rig_velocity
 from radarslam.runs.dead_reckoning import dead_reckoning  # noqa: F401  (runs.recording.dead_reckoning, its former home)
-from radarslam.slam.driver import FilterRecord, run_filter
+from radarslam.models.radar import polar_to_xy
+from radarslam.slam.driver import FilterRecord, Observer, drive, fused_maps, run_filter
 from radarslam.io.recording.mounting import Mounting, to_sensor
 from radarslam.io.recording.stream import Recording, StreamReport, check_motion_model, stream_events
 from radarslam.metrics.trajectory import DEFINITIONS, trajectory_errors
@@ -299,32 +300,41 @@ def _doppler_outputs(rec: Recording, m: Mounting, flags, metrics: dict):
     return ego, flags
 
 
-def animation_frames(run: RecordingRun) -> list[dict]:
-    """What the animation draws, as plain arrays (viz sees no estimator objects).
+class AnimationFrames(Observer):
+    """What the animation draws after each scan, as plain arrays (viz sees no estimator objects): the
+    pose, the scan's detections and their landmark (-1 for none), the map, the truth's pose."""
 
-    The associations are not in the run's record, so the stream is run once more scan by scan
-    (the orchestrator, whose estimate equals the fused engine's) to read each scan's report.
-    """
-    from radarslam.models.radar import polar_to_xy
-    from radarslam.slam.filter import EkfSlam
+    def __init__(self, truth: np.ndarray | None):
+        self.truth, self.frames = truth, []
 
-    slam = EkfSlam(run.config)
-    frames = []
-    for ev in run.events:
-        rep = slam.process(ev)
-        if rep is None:
-            continue
-        k = len(frames)
-        pose = slam.x[:3].copy()
-        labels = np.full(ev.polar.shape[0], -1)
-        for lid, idx in rep.associations.items():
+    def _frame(self, k: int, scan: Scan, pose, pose_cov, labels, mp) -> None:
+        self.frames.append({"t": scan.t, "pose": pose, "pose_cov": pose_cov,
+                            "detections": polar_to_xy(_seen_from(pose, scan), scan.polar) if scan.polar.size
+                            else np.empty((0, 2)),
+                            "labels": labels, "positions": mp.positions, "covs": mp.covs, "extents": mp.rma,
+                            "truth": None if self.truth is None else self.truth[k]})
+
+    def after_scan(self, k, slam, scan, report):
+        labels = np.full(scan.polar.shape[0], -1)
+        for lid, idx in report.associations.items():
             labels[np.asarray(idx, dtype=int)] = lid
-        mp = slam.snapshot()
-        frames.append({"t": ev.t, "pose": pose, "pose_cov": slam.P[:3, :3].copy(),
-                       "detections": polar_to_xy(_seen_from(pose, ev), ev.polar) if ev.polar.size else np.empty((0, 2)),
-                       "labels": labels, "positions": mp.positions, "covs": mp.covs, "extents": mp.rma,
-                       "truth": None if run.truth is None else run.truth[k]})
-    return frames
+        self._frame(k, scan, slam.x[:3].copy(), slam.P[:3, :3].copy(), labels, slam.snapshot())
+
+    def after_fused(self, slam, scans, result, associations):
+        a = np.asarray(associations, dtype=np.int64).reshape(-1, 3)
+        for k, (scan, mp) in enumerate(zip(scans, fused_maps(result))):
+            labels = np.full(scan.polar.shape[0], -1)
+            mine = a[a[:, 0] == k]
+            labels[mine[:, 1]] = mine[:, 2]
+            self._frame(k, scan, result["poses"][k], result["pose_covs"][k], labels, mp)
+
+
+def animation_frames(run: RecordingRun) -> list[dict]:
+    """What the animation draws (:class:`AnimationFrames`): the associations are not in the run's
+    record, so the stream is run once more (by the same engine: the same estimate) to read them."""
+    frames = AnimationFrames(run.truth)
+    drive(run.config, run.events, observers=[frames], engine="orchestrator" if run.record.engine != "fused" else "auto")
+    return frames.frames
 
 
 def _seen_from(pose: np.ndarray, scan: Scan) -> np.ndarray:

@@ -27,7 +27,6 @@ import numpy as np
 from numba import njit
 
 from radarslam.core.jit import compile_kernels
-from radarslam.core.registry import ASSOCIATORS
 from radarslam.landmarks._compiled import dbscan_labels
 from radarslam.slam._numba import (
     _batch_noise,
@@ -403,4 +402,3 @@ def make_compiled_jcbb(config) -> CompiledJcbbAssociator:
                                   ref.cluster_eps, ref.cluster_min_samples, ref.n_prefilter)
 
 
-ASSOCIATORS.register("jcbb", make_compiled_jcbb, backend="numba")

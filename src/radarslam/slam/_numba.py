@@ -18,7 +18,6 @@ from numba import njit
 
 from radarslam.core import angles
 from radarslam.core.jit import compile_kernels
-from radarslam.core.registry import ASSOCIATORS
 from radarslam.landmarks._compiled import compiled_seen_landmarks
 from radarslam.slam import ekf, layout
 from radarslam.slam.association import Spreads
@@ -495,6 +494,7 @@ def _factory(cls):
     return make
 
 
-ASSOCIATORS.register("nearest-neighbour", _factory(CompiledNearestNeighbourAssociator), backend="numba")
-ASSOCIATORS.register("batch", _factory(CompiledBatchAssociator), backend="numba")
-ASSOCIATORS.register("batch-joint", _factory(CompiledJointBatchAssociator), backend="numba")
+# The factories core.registry.BUILT_INS names (filter.backend "numba").
+make_nearest_neighbour = _factory(CompiledNearestNeighbourAssociator)
+make_batch = _factory(CompiledBatchAssociator)
+make_batch_joint = _factory(CompiledJointBatchAssociator)

@@ -20,7 +20,6 @@ from typing import Protocol
 
 import numpy as np
 
-from radarslam.core.registry import ASSOCIATORS
 from radarslam.slam import ekf
 from radarslam.slam.layout import POSE_DIM
 from radarslam.slam.state import SlamState
@@ -220,6 +219,7 @@ def _factory(cls):
     return make
 
 
-ASSOCIATORS.register("nearest-neighbour", _factory(NearestNeighbourAssociator))
-ASSOCIATORS.register("batch", _factory(BatchAssociator))
-ASSOCIATORS.register("batch-joint", _factory(JointBatchAssociator))
+# The factories core.registry.BUILT_INS names.
+make_nearest_neighbour = _factory(NearestNeighbourAssociator)
+make_batch = _factory(BatchAssociator)
+make_batch_joint = _factory(JointBatchAssociator)

@@ -1,11 +1,16 @@
 """The one event driver: a stream of odometry and scans through :class:`EkfSlam`, the estimate
-recorded after every scan (docs/architecture.md "The path of a recording"). The fused engine runs
-the whole stream in one compiled call where it covers the configuration; the orchestrator runs it
-event by event; both give the same :class:`FilterRecord`."""
+recorded after every scan (docs/architecture.md "The path of a recording").
+
+:func:`drive` is the only loop over the filter above the engine. The fused engine runs the whole
+stream in one compiled call where it covers the configuration; the orchestrator runs it event by
+event; both give the same :class:`FilterRecord`. What a command records beyond it (a detection's
+fate, a reference's hits, an animation's frames) is an :class:`Observer`, told of every scan by
+the orchestrator or of the whole run by the fused engine."""
 
 from __future__ import annotations
 
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -33,6 +38,13 @@ class FilterRecord:
         Wall time of the filter alone.
     engine : str
         Which engine ran it: ``"fused"`` (one compiled call) or ``"orchestrator"`` (per event).
+    times : ndarray (K,)
+        The scans' times (s).
+    nis_rows : ndarray (u, 2)
+        Every association update's scan position and NIS (2 dof), in update order.
+    bias : ndarray (K, 2m) or None
+        Under the odometry-bias states (docs/method.md c.11): their values and standard deviations
+        after every scan; None without them.
     """
 
     poses: np.ndarray
@@ -46,59 +58,132 @@ class FilterRecord:
     nis_sum: np.ndarray = field(default_factory=lambda: np.empty(0))
     nis_count: np.ndarray = field(default_factory=lambda: np.empty(0))
     engine: str = "orchestrator"
+    times: np.ndarray = field(default_factory=lambda: np.empty(0))
+    nis_rows: np.ndarray = field(default_factory=lambda: np.empty((0, 2)))
+    bias: np.ndarray | None = None
 
 
 #: ``engine`` of :func:`run_filter`: the fused engine where it covers the configuration, or never.
 ENGINES = ("auto", "orchestrator")
+#: ``maps`` of :func:`drive`: the map after every scan, or after the last one only (a long recording).
+MAPS = ("all", "last")
 
 
-def run_filter(config: Config, events: list[Odometry | Scan], slam: EkfSlam | None = None,
-               on_scan=None, engine: str = "auto") -> FilterRecord:
-    """Run :class:`EkfSlam` over an event stream, recording the estimate after every scan;
-    ``on_scan()`` (optional) is called after each scan (a progress bar).
+class Observer:
+    """What a command records of a run beyond its :class:`FilterRecord`; :func:`drive` tells it of
+    the run by one of the two methods, whichever engine runs the stream."""
 
-    Without ``slam`` and with ``engine="auto"``, a configuration the fused engine covers
-    (:func:`radarslam.slam._fused.why_not`) runs the whole stream in one compiled call: the same
-    record (docs/architecture.md "The fused engine"); ``on_scan`` is then called once per scan at
-    the end. ``engine="orchestrator"`` runs it event by event whatever the configuration (the same
-    associations, values equal to 1e-9: the first run on a machine uses it while the fused engine
-    has not been compiled yet, compiling/warmup.py)."""
+    def scan_mask(self, scans: Sequence[Scan]) -> np.ndarray | None:
+        """The scans after which the fused engine must record the landmarks (ids and centroids,
+        ``trace_*`` of :func:`radarslam.slam._fused.run`), one flag per scan; None for none."""
+        return None
+
+    def after_scan(self, k: int, slam: EkfSlam, scan: Scan, report) -> None:
+        """The orchestrator ran scan ``k`` (its :class:`~radarslam.slam.filter.ScanReport`)."""
+
+    def after_fused(self, slam: EkfSlam, scans: Sequence[Scan], result: dict, associations: np.ndarray) -> None:
+        """The fused engine ran the stream: its arrays by name and the ``(scan, detection, landmark
+        id)`` rows of its associations."""
+
+
+def drive(config: Config, events: Sequence[Odometry | Scan], *, slam: EkfSlam | None = None, engine: str = "auto",
+          observers: Sequence[Observer] = (), maps: str = "all",
+          on_scan: Callable[[], None] | None = None) -> FilterRecord:
+    """Run ``events`` through the filter and return its :class:`FilterRecord`; each of ``observers``
+    is told of the run (:class:`Observer`); ``on_scan()`` is called after each scan (a progress bar;
+    with the fused engine, once per scan at the end).
+
+    ``slam`` (an :class:`EkfSlam` of ``config``) runs event by event; without it, ``engine="auto"``
+    runs a configuration the fused engine covers (:func:`radarslam.slam._fused.why_not`) in one
+    compiled call, the same record (docs/architecture.md "The fused engine"), and
+    ``engine="orchestrator"`` event by event whatever the configuration (the same associations,
+    values equal to 1e-9). ``maps="last"`` keeps the map after the last scan only."""
     if engine not in ENGINES:
         raise ConfigError(f"engine: expected one of {', '.join(ENGINES)}, got {engine!r}")
+    if maps not in MAPS:
+        raise ConfigError(f"maps: expected one of {', '.join(MAPS)}, got {maps!r}")
     t0 = time.perf_counter()
     if slam is None:
         slam = EkfSlam(config)
         if engine == "auto" and _fused.why_not(slam, events) is None:
-            return _fused_record(slam, events, t0, on_scan)
-    poses, covs, maps, ndet, nass, nlm, nis_sum, nis_n = [], [], [], [], [], [], [], []
+            return _drive_fused(slam, events, observers, maps, on_scan, t0)
+    return _drive_events(slam, events, observers, maps, on_scan, t0)
+
+
+def _bias_row(slam: EkfSlam) -> np.ndarray:
+    """The odometry-bias states and their standard deviations (c.11)."""
+    return np.concatenate([slam.state.bias, np.sqrt(np.diag(slam.state.bias_cov))])
+
+
+def _drive_events(slam: EkfSlam, events, observers, maps: str, on_scan, t0: float) -> FilterRecord:
+    """:func:`drive` event by event (:meth:`EkfSlam.process`)."""
+    poses, covs, snaps, ndet, nass, nlm, nis_sum, nis_n, times, nis_rows, bias = ([] for _ in range(11))
+    m = 0 if slam.bias_model is None else slam.bias_model.dim
     for ev in events:
         rep = slam.process(ev)
         if rep is None:
             continue
+        k = len(poses)
         poses.append(slam.x[:3].copy())
         covs.append(slam.P[:3, :3].copy())
-        maps.append(slam.snapshot())
+        if maps == "all":
+            snaps.append(slam.snapshot())
         ndet.append(rep.n_detections)
         nass.append(rep.n_associated)
         nlm.append(slam.state.n_landmarks)
         nis_sum.append(float(rep.nis.sum()))
         nis_n.append(rep.nis.size)
+        times.append(ev.t)
+        if rep.nis.size:
+            nis_rows.append(np.column_stack([np.full(rep.nis.size, float(k)), rep.nis]))
+        if m:
+            bias.append(_bias_row(slam))
+        for o in observers:
+            o.after_scan(k, slam, ev, rep)
         if on_scan is not None:
             on_scan()
-    return FilterRecord(np.array(poses).reshape(-1, 3), np.array(covs).reshape(-1, 3, 3), maps,
-                        np.array(ndet), np.array(nass), np.array(nlm), time.perf_counter() - t0,
-                        nis_sum=np.array(nis_sum), nis_count=np.array(nis_n, dtype=float))
+    if maps == "last":
+        snaps = [slam.snapshot()]
+    return FilterRecord(np.array(poses).reshape(-1, 3), np.array(covs).reshape(-1, 3, 3), snaps, np.array(ndet),
+                        np.array(nass), np.array(nlm), time.perf_counter() - t0, nis_sum=np.array(nis_sum),
+                        nis_count=np.array(nis_n, dtype=float), times=np.array(times, dtype=float),
+                        nis_rows=np.concatenate(nis_rows) if nis_rows else np.empty((0, 2)),
+                        bias=np.array(bias).reshape(-1, 2 * m) if m else None)
 
 
-def _fused_record(slam: EkfSlam, events, t0: float, on_scan) -> FilterRecord:
-    """:func:`run_filter` by the fused engine (:mod:`radarslam.slam._fused`): the same record."""
-    r, _ = _fused.run(slam, events)
-    off = r["map_offsets"].tolist()
-    maps = [MapSnapshot(r["ids"][a:b], r["positions"][a:b], r["covs"][a:b], r["rma"][a:b], r["efa"][a:b],
-                        r["created"][a:b]) for a, b in zip(off[:-1], off[1:])]
-    seconds = time.perf_counter() - t0
+def fused_maps(result: dict, maps: str = "all") -> list[MapSnapshot]:
+    """The maps of a fused run's arrays (:func:`radarslam.slam._fused.run`): after every scan, or
+    (``maps="last"``, a run with ``all_maps`` False) after the last one."""
+    off = result["map_offsets"].tolist()
+    bounds = list(zip(off[:-1], off[1:])) if maps == "all" else [(off[-2], off[-1])]
+    return [MapSnapshot(result["ids"][a:b], result["positions"][a:b], result["covs"][a:b], result["rma"][a:b],
+                        result["efa"][a:b], result["created"][a:b]) for a, b in bounds]
+
+
+def _drive_fused(slam: EkfSlam, events, observers, maps: str, on_scan, t0: float) -> FilterRecord:
+    """:func:`drive` by the fused engine (:mod:`radarslam.slam._fused`): the same record."""
+    scans = [ev for ev in events if isinstance(ev, Scan)]
+    masks = [mk for mk in (o.scan_mask(scans) for o in observers) if mk is not None]
+    trace = np.logical_or.reduce([np.asarray(mk, dtype=bool) for mk in masks]) if masks else None
+    r, arows = _fused.run(slam, events, all_maps=maps == "all", trace=trace)
+    snaps = fused_maps(r, maps) if scans or maps == "all" else [slam.snapshot()]
+    nis_rows = np.column_stack([np.repeat(np.arange(len(scans), dtype=float), r["nis_count"]), r["nis"]])
+    bias = None
+    if r["bias"].shape[1]:                                  # c.11: the values and stds, as _bias_row
+        bias = np.concatenate([r["bias"], np.sqrt(np.diagonal(r["bias_covs"], axis1=1, axis2=2))], axis=1)
+    record = FilterRecord(r["poses"], r["pose_covs"], snaps, r["n_detections"], r["n_associated"], r["n_landmarks"],
+                          time.perf_counter() - t0, nis_sum=r["nis_sum"], nis_count=r["nis_count"].astype(float),
+                          engine="fused", times=np.array([ev.t for ev in scans], dtype=float), nis_rows=nis_rows,
+                          bias=bias)
+    for o in observers:
+        o.after_fused(slam, scans, r, arows)
     if on_scan is not None:
-        for _ in maps:
+        for _ in scans:
             on_scan()
-    return FilterRecord(r["poses"], r["pose_covs"], maps, r["n_detections"], r["n_associated"], r["n_landmarks"],
-                        seconds, nis_sum=r["nis_sum"], nis_count=r["nis_count"].astype(float), engine="fused")
+    return record
+
+
+def run_filter(config: Config, events: list[Odometry | Scan], slam: EkfSlam | None = None,
+               on_scan=None, engine: str = "auto") -> FilterRecord:
+    """:func:`drive` with every scan's map and no observer (a trial, a recording's record)."""
+    return drive(config, events, slam=slam, engine=engine, on_scan=on_scan)

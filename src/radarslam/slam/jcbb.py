@@ -28,7 +28,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from radarslam.core.errors import InputError
-from radarslam.core.registry import ASSOCIATORS
 from radarslam.landmarks.clustering import dbscan_labels
 from radarslam.slam import ekf
 from radarslam.slam.association import NearestNeighbourAssociator, Spreads
@@ -464,4 +463,3 @@ def make_jcbb(config) -> JcbbAssociator:
 
 
 # The compiled backend's is radarslam.slam._jcbb_numba (the same search, one compiled call a scan).
-ASSOCIATORS.register("jcbb", make_jcbb)

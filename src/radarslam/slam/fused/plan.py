@@ -428,7 +428,8 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None):
     (``trace_offsets``, ``trace_ids``, ``trace_positions``). ``nis`` holds the NIS of every update,
     those of scan ``s`` at ``nis_offsets[s]:nis_offsets[s + 1]``. ``bias`` (S, m) and ``bias_covs``
     (S, m, m) are the odometry-bias states and their covariance after each scan (docs/method.md
-    c.11; m = 0 without them).
+    c.11; m = 0 without them). ``kept`` holds the rows of each scan's detections the Doppler gate
+    kept (c.10.4), those of scan ``s`` at ``kept_offsets[s]:kept_offsets[s + 1]``.
 
     Raises
     ------
@@ -464,7 +465,7 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None):
            "ids": maps.ids, "positions": maps.pos, "covs": maps.cov, "rma": maps.rma, "efa": maps.efa,
            "created": maps.created, "nis": rec.nis, "nis_offsets": rec.nis_off, "trace_offsets": rec.trace_off,
            "trace_ids": rec.trace_ids, "trace_positions": rec.trace_pos, "bias": rec.bias,
-           "bias_covs": rec.bias_covs}
+           "bias_covs": rec.bias_covs, "kept": stream.kept, "kept_offsets": stream.scan_off}
     if timing:
         out["seconds"] = rec.seconds
     return out, arows
