@@ -90,6 +90,7 @@ def test_run_recording_cold_takes_the_reference_and_equals_the_warm_run(tmp_path
     runs = {}
     for name, ready in (("cold", False), ("warm", True)):
         _state(monkeypatch, ready, True, True, started)
+        monkeypatch.setattr(policy, "_orchestrator_ready", lambda: ready)   # cold: nothing compiled
         assert main(["run", "--recording", str(d), "--out", str(tmp_path / name)]) == 0
         err = capsys.readouterr().err
         assert ("run: first run on this machine" in err) is (not ready)
@@ -228,3 +229,26 @@ def test_run_dataset_warm_says_first_what_its_one_compiled_call_will_take(victor
     assert json.loads((out / "metrics.json").read_text())["engine"] == "fused"
     rate = float(re.search(r"3000/3000 scans\s+([0-9.]+) scans/s", err[1]).group(1))
     assert 50 < rate < 50_000, err[1]       # 0.02-20 ms a scan; a clock started after the call read ~1e8
+
+
+def test_a_recording_plans_by_its_size_the_reference_or_a_compile(monkeypatch):
+    """The one compile policy for a recording (issue 43): from an empty cache a nuScenes-sized
+    recording (1,263 scans, 126,749 detections) goes through the reference at once, a RadarScenes-sized
+    one (6,478 scans, 1,071,716 detections: about 350 s through the reference) compiles the
+    orchestrator's kernels first; the old rule took the reference for both (409 s measured)."""
+    from radarslam.compiling.costs import ORCHESTRATOR_COMPILE_S
+    from radarslam.compiling.policy import Workload, plan, python_seconds
+    from radarslam.config import profile_config
+
+    cfg = profile_config("automotive")
+    monkeypatch.setattr(policy, "_filter_ready", lambda *f: False)
+    monkeypatch.setattr(policy, "_orchestrator_ready", lambda: False)
+    small = plan(cfg, Workload("stream", n_scans=1263, n_detections=126_749, fused=True))
+    big = plan(cfg, Workload("stream", n_scans=6478, n_detections=1_071_716, fused=True))
+    assert small.engine == "python" and not small.compiles and small.expected_s < 15
+    assert big.engine == "orchestrator" and big.compiles and big.compile_s == ORCHESTRATOR_COMPILE_S
+    assert python_seconds(6478, 1_071_716) > 300 and big.expected_s < 100
+    assert "about 347 s" in big.announce                 # the reference's cost it avoided, said
+    # warm (negative control): the fused engine, whatever the size
+    monkeypatch.setattr(policy, "_filter_ready", lambda *f: True)
+    assert plan(cfg, Workload("stream", n_scans=6478, n_detections=1_071_716)).engine == "fused"

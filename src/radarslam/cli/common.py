@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 
 from radarslam.config import Config, list_profiles, load_config, profile_config, validate
 from radarslam.core.errors import InputError
@@ -58,3 +59,17 @@ def one_topic(args, what: str) -> str:
     if len(topics) > 1:
         raise InputError(f"--radar-topic: {what} takes one radar topic, got {len(topics)} ({', '.join(topics)})")
     return topics[0]
+
+
+def stream_first_run(config, n_scans: int, n_detections: int):
+    """The plan of a recording's run (:func:`radarslam.compiling.stream_plan.first_run_plan`), its
+    first line said on stderr."""
+    from radarslam.compiling.stream_plan import first_run_plan
+    from radarslam.slam import _fused
+    from radarslam.slam.filter import EkfSlam
+
+    fused = _fused.why_not(EkfSlam(config)) is None
+    plan = first_run_plan(config, n_scans, fused, n_detections=n_detections)
+    if plan.announce:
+        print(f"run: {plan.announce}", file=sys.stderr, flush=True)
+    return plan

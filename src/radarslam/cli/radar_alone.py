@@ -15,7 +15,7 @@ from radarslam.core.errors import InputError
 def radar_alone_cmd(args: argparse.Namespace, config) -> int:
     """Read the radar and the IMU, level, run the filter, write every output; the inputs are read
     and checked before ``--out`` is created."""
-    from radarslam.cli.common import one_topic
+    from radarslam.cli.common import one_topic, stream_first_run
     from radarslam.runs.progress import Progress
     from radarslam.runs.radar_alone import Imu, check_radar_alone_config, run_radar_alone
     from radarslam.runs.radar_alone_report import (dead_reckoning, plot_map, plot_speed_yaw, summary, write_ego_velocity)
@@ -37,8 +37,11 @@ def radar_alone_cmd(args: argparse.Namespace, config) -> int:
     for n in notes:
         print(f"radarslam: warning: {n}", file=sys.stderr)
     imu = Imu((t_ns - rec.t0_ns) * 1e-9, gyro, accel)
-    bar = Progress(rec.scan_times().size, 0, unit="scans", enabled=sys.stderr.isatty())
-    run, lev = run_radar_alone(rec, imu, config, on_scan=bar.update)
+    n = rec.scan_times().size
+    first = stream_first_run(config, n, rec.det_t.size)      # the one compile policy (compiling/policy.py)
+    bar = Progress(n, 0, unit="scans", enabled=sys.stderr.isatty() or first.expected_s > 10.0,
+                   warm_up_unit=first.compiles)
+    run, lev = run_radar_alone(rec, imu, config, on_scan=bar.update, first_run=first)
     out = prepare_out_dir(args.out)
     refuse_finished(out / "run.json", "--out", args.overwrite)
     summ = summary(run, lev)

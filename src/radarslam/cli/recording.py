@@ -9,7 +9,8 @@ import sys
 import time
 
 from radarslam import __version__
-from radarslam.cli.common import add_config_args, config_from_args, one_topic, radar_topics, topic_arg
+from radarslam.cli.common import (add_config_args, config_from_args, one_topic, radar_topics, stream_first_run,
+                                  topic_arg)
 from radarslam.core.errors import InputError
 
 
@@ -106,11 +107,10 @@ def run_recording_cmd(args: argparse.Namespace) -> int:
 
         rec = with_sensors(rec, rig, origin)
     n = rec.scan_times().size
-    from radarslam.compiling.first_run import announce, choose
-
-    first = choose(config.filter.backend, config=config)     # the first-run rule (compiling/first_run.py)
-    announce(first, config)
-    bar = Progress(n, 0, unit="scans", enabled=sys.stderr.isatty())
+    first = stream_first_run(config, n, rec.det_t.size)             # the one compile policy (compiling/policy.py)
+    # a run expected to take over 10 s shows its rate and ETA, on a terminal or not (issue 43)
+    bar = Progress(n, 0, unit="scans", enabled=sys.stderr.isatty() or first.expected_s > 10.0,
+                   warm_up_unit=first.compiles)
     run = run_recording(rec, config, on_scan=bar.update, first_run=first, align=args.align)
     for note in run_notes(run):
         print(f"radarslam: {note}", file=sys.stderr)
@@ -293,3 +293,5 @@ def export_cmd(args: argparse.Namespace) -> int:
           f"({args.format}; topics /radar/points, /odom, /truth, /tf_static), {paths['plain']}/, {paths['truth']}, "
           f"{paths['config']}")
     return 0
+
+

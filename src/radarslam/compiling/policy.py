@@ -14,9 +14,9 @@ Readiness is read by :mod:`.readiness`; nothing here compiles or starts a proces
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
-from radarslam.compiling.costs import (ANNOUNCE_S, FUSED_SCAN_S, ORCHESTRATOR_COMPILE_S, ORCHESTRATOR_SCAN_S,
+from radarslam.compiling.costs import (ANNOUNCE_S, FUSED_COMPILE_S, FUSED_SCAN_S, ORCHESTRATOR_COMPILE_S, ORCHESTRATOR_SCAN_S,
                                        PYTHON_DETECTION_SCAN_S, PYTHON_SCAN_S, first_run_engine,
                                        first_run_engine_scans)
 from radarslam.compiling.readiness import (_orchestrator_is_cold, cache_is_cold, engines, fused_families,
@@ -87,6 +87,7 @@ class Plan:
     matching_compiled: bool = True
     reference_parts: tuple[str, ...] = ()
     background: bool = False
+    expected_s: float = field(default=0.0, compare=False)   # what the plan expects the run to take (s)
 
     @property
     def filter_backend(self) -> str | None:
@@ -202,21 +203,22 @@ def _stream(config: Config, w: Workload) -> Plan:
     The fused engine then compiles in the background for later runs (``background``)."""
     n = w.n_scans
     if w.fused and _fused_ready(*fused_families(config)):
-        return Plan("fused", announce=_one_call_note(n))
+        return Plan("fused", announce=_one_call_note(n), expected_s=n * FUSED_SCAN_S)
     if w.fused and first_run_engine_scans(n) == "auto":
-        return Plan("fused", compiles=True, announce=COMPILING)
+        return Plan("fused", compiles=True, announce=COMPILING, expected_s=FUSED_COMPILE_S + n * FUSED_SCAN_S)
     if _orchestrator_ready():
-        return Plan("orchestrator", background=w.fused, announce=(
+        return Plan("orchestrator", background=w.fused, expected_s=n * ORCHESTRATOR_SCAN_S, announce=(
             f"the fused engine is not compiled on this machine yet and {n} scans end sooner without it: this run goes "
             "event by event (the same results)") if w.fused else "")
     python_s = python_seconds(n, w.n_detections)
     run_s = n * ORCHESTRATOR_SCAN_S
     if python_s <= ORCHESTRATOR_COMPILE_S + run_s:
-        return Plan("python", background=w.fused, reference_parts=("filter",), announce=(
+        return Plan("python", background=w.fused, reference_parts=("filter",), expected_s=python_s, announce=(
             f"first run on this machine: the compiled code is not built yet, so these {n} scans go through the "
             f"Python reference (about {python_s:.0f} s; compiling first would take about "
             f"{ORCHESTRATOR_COMPILE_S + run_s:.0f} s; the same results)"))
-    return Plan("orchestrator", True, ORCHESTRATOR_COMPILE_S, background=w.fused, announce=(
+    return Plan("orchestrator", True, ORCHESTRATOR_COMPILE_S, background=w.fused,
+                expected_s=ORCHESTRATOR_COMPILE_S + run_s, announce=(
         f"first run on this machine: compiling the per-event engine's kernels (once per machine, about "
         f"{ORCHESTRATOR_COMPILE_S:.0f} s on two cores), then {n} scans event by event (about {run_s:.0f} s; the "
         f"Python reference would take about {python_s:.0f} s; the same results)"))

@@ -82,7 +82,7 @@ def run_dataset(name: str, path, config: Config, *, first_scan: int | None = Non
     same run (docs/architecture.md "The fused engine"); any other runs event by event. On a machine
     whose compiled code is not built yet, :func:`first_run_plan` picks what ends sooner and says so
     on the first line of stderr."""
-    from radarslam.runs.progress import Progress
+    from radarslam.runs.progress import Progress, scan_clock
     from radarslam.io.datasets import get_dataset
 
     config = validate(config)
@@ -115,7 +115,7 @@ def run_dataset(name: str, path, config: Config, *, first_scan: int | None = Non
         bar = Progress(n, 0, enabled=progress, unit="scans", warm_up_unit=True)   # its first scan: imports, compiles
         with _heartbeat(plan.compile_s if plan.compiles and progress else 0.0) as compiled:
             rec = drive(run_config, data.events, slam=slam, observers=[hits], maps="last",
-                        on_scan=_scan_clock(bar, compiled))
+                        on_scan=scan_clock(bar, compiled))
         if side is not None:
             side.shutdown(wait=False, cancel_futures=True)
     ref = (np.concatenate(hits.hits) if hits.hits else np.empty((0, 3))) if trees is not None else None
@@ -168,20 +168,6 @@ class _ReferenceHits(Observer):
             self.hits.append(h)
 
 
-def _scan_clock(bar, compiled=None):
-    """``on_scan`` of an event-by-event run: the progress line; after the second scan (numba compiles
-    the steps of a scan without associations at the first, the association and extent steps at the
-    second) the rate is measured from there and ``compiled`` (a ``threading.Event``), if given, set."""
-    n = [0]
-
-    def tick() -> None:
-        bar.update()
-        n[0] += 1
-        if n[0] == 2:
-            bar.restart()
-            if compiled is not None:
-                compiled.set()
-    return tick
 def dead_reckoning(data, config: Config) -> tuple[np.ndarray, np.ndarray]:
     """Odometry alone through the filter's motion model: ``(scan times (K,), poses (K, 3))``.
 

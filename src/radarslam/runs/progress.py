@@ -78,3 +78,19 @@ class Progress:
         eta_s = "--" if not math.isfinite(eta) else f"{int(eta // 60)}m{int(eta % 60):02d}s"
         return tqdm.format_meter(self.done, self.total, el, ascii=".#", unit=self.unit, bar_format=PROGRESS_FORMAT,
                                  rate_s=f"{rate:.2f}", eta_s=eta_s)
+
+
+def scan_clock(bar, compiled=None):
+    """``on_scan`` of an event-by-event run: the progress line; after the second scan (numba compiles
+    the steps of a scan without associations at the first, the association and extent steps at the
+    second) the rate is measured from there and ``compiled`` (a ``threading.Event``), if given, set."""
+    n = [0]
+
+    def tick() -> None:
+        bar.update()
+        n[0] += 1
+        if n[0] == 2:
+            bar.restart()
+            if compiled is not None:
+                compiled.set()
+    return tick

@@ -212,15 +212,15 @@ def level_recording(rec, imu: Imu, config: Config, rng: np.random.Generator) -> 
     return out
 
 
-def run_radar_alone(rec, imu: Imu, config: Config, *, on_scan=None):
-    """Level ``rec`` and run :class:`~radarslam.slam.EkfSlam` over it: ``(RecordingRun, LevelledRecording)``."""
-    from radarslam.runs.recording import RecordingRun
-    from radarslam.slam.driver import run_filter
+def run_radar_alone(rec, imu: Imu, config: Config, *, on_scan=None, first_run=None):
+    """Level ``rec`` and run :class:`~radarslam.slam.EkfSlam` over it by ``first_run``'s engine (a
+    :class:`~radarslam.compiling.policy.Plan`, as a recording's run): ``(RecordingRun, LevelledRecording)``."""
+    from radarslam.runs.recording import RecordingRun, _run_filter
     from radarslam.io.recording.mounting import Mounting
 
     config = check_radar_alone_config(config)
     lev = level_recording(rec, imu, config, np.random.default_rng(0))
-    record = run_filter(config, lev.events, on_scan=on_scan)
+    record, _ = _run_filter(config, lev.events, on_scan, first_run)
     metrics = {"scans": int(lev.t.size), "detections": int(lev.n_detections.sum()),
                "detections_moving": int(lev.n_moving.sum()), "detections_kept": int(lev.n_kept.sum()),
                "associated": int(record.n_associated.sum()), "landmarks_final": int(record.n_landmarks[-1]),

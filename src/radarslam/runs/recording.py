@@ -17,7 +17,7 @@ from radarslam.core.types import Scan
 from radarslam.egomotion.rig_odometry import with_rig_velocity
 from radarslam.runs.dead_reckoning import dead_reckoning  # noqa: F401  (runs.recording.dead_reckoning, its former home)
 from radarslam.models.radar import polar_to_xy
-from radarslam.slam.driver import FilterRecord, Observer, drive, fused_maps, run_filter
+from radarslam.slam.driver import FilterRecord, Observer, drive, fused_maps
 from radarslam.io.recording.mounting import Mounting, to_sensor
 from radarslam.io.recording.stream import Recording, StreamReport, check_motion_model, stream_events
 from radarslam.metrics.trajectory import DEFINITIONS, trajectory_errors
@@ -265,21 +265,37 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
 
 
 def _run_filter(config: Config, events: list, on_scan, first_run):
-    """The filter over ``events`` (the first-run rule's engine, compiling/first_run.py) and, under
-    ``filter.doppler_gate``, every scan detection's flags (runs/detection_flags.py)."""
-    from radarslam.runs.detection_flags import run_with_flags
+    """The filter over ``events`` by the first-run plan's engine (``first_run``, a
+    :class:`~radarslam.compiling.policy.Plan`; None: the configuration's) and, under
+    ``filter.doppler_gate``, every scan detection's flags (runs/detection_flags.py). A plan that
+    compiles the orchestrator's kernels first splits the compile over the two cores and says every
+    few seconds that it is still compiling."""
+    from radarslam.compiling.stream_plan import _compile_beside, _heartbeat
+    from radarslam.runs.detection_flags import FlagsObserver
 
-    python = first_run is not None and first_run.filter_backend == "python"
-    if python:
-        config = dataclasses.replace(config, filter=dataclasses.replace(config.filter, backend="python"))
-    engine = "orchestrator" if python else "auto"
-    if config.filter.doppler_gate:
-        record, flags = run_with_flags(config, events, on_scan=on_scan, engine=engine)
-    else:
-        record, flags = run_filter(config, events, on_scan=on_scan, engine=engine), None
-    if python:
+    engine = "auto" if first_run is None else first_run.engine
+    run_config = config
+    if engine == "python":
+        run_config = dataclasses.replace(config, filter=dataclasses.replace(config.filter, backend="python"))
+    compiles = first_run is not None and first_run.compiles and engine == "orchestrator"
+    side = _compile_beside(config, events) if compiles else None
+    flags = FlagsObserver() if config.filter.doppler_gate else None
+    with _heartbeat(first_run.compile_s if compiles else 0.0) as compiled:
+        n = [0]
+
+        def tick():                      # numba compiles within the first two scans (stream_plan)
+            if on_scan is not None:
+                on_scan()
+            n[0] += 1
+            if n[0] == 2:
+                compiled.set()
+        record = drive(run_config, events, engine="orchestrator" if engine in ("python", "orchestrator") else "auto",
+                       observers=[flags] if flags is not None else [], on_scan=tick)
+    if side is not None:
+        side.shutdown(wait=False, cancel_futures=True)
+    if engine == "python" and config.filter.backend != "python":   # the plan chose the reference (a first run)
         record.engine = "python"
-    return record, flags
+    return record, None if flags is None else flags.result()
 
 
 def _doppler_outputs(rec: Recording, m: Mounting, flags, metrics: dict):
