@@ -35,6 +35,9 @@ def add_recording_args(p: argparse.ArgumentParser, run: bool) -> None:
                        help="--recording: how the estimate is aligned to the truth before its errors are taken: none "
                             "(default, as evo_ape without -a), first-pose, or se2 (rotation and translation of least "
                             "squares, no scale, as evo_ape -a)")
+        p.add_argument("--calibration", metavar="FILE.json", help="--recording: the car's fixed errors from "
+                       "'radarslam calibrate' on another drive of the same car (car_calibration.json: thrust angle, wheel "
+                       "scale, gyro bias, each radar's yaw and time offset; docs/method.md c.16)")
         p.add_argument("--sensors", metavar="FILE.csv", help="--recording: each radar's mounting from this sensors.csv "
                        "instead of the recording's (e.g. radarslam calibrate's sensors_calibrated.csv)")
         p.add_argument("--animate", metavar="FILE", help="--recording: draw the run scan by scan into FILE.gif "
@@ -111,7 +114,12 @@ def run_recording_cmd(args: argparse.Namespace) -> int:
     # a run expected to take over 10 s shows its rate and ETA, on a terminal or not (issue 43)
     bar = Progress(n, 0, unit="scans", enabled=sys.stderr.isatty() or first.expected_s > 10.0,
                    warm_up_unit=first.compiles)
-    run = run_recording(rec, config, on_scan=bar.update, first_run=first, align=args.align)
+    calibration = None
+    if getattr(args, "calibration", None):
+        from radarslam.egomotion.car_calibration import read_car_calibration
+
+        calibration = read_car_calibration(args.calibration)
+    run = run_recording(rec, config, on_scan=bar.update, first_run=first, align=args.align, calibration=calibration)
     for note in run_notes(run):
         print(f"radarslam: {note}", file=sys.stderr)
     out = prepare_out_dir(args.out)

@@ -224,12 +224,21 @@ def _truth_at_start(t: float, truth_t: np.ndarray, truth: np.ndarray) -> np.ndar
 
 
 def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=None, start: str = "auto",
-                  align: str = "none") -> RecordingRun:
+                  align: str = "none", calibration=None) -> RecordingRun:
     """Run :class:`~radarslam.slam.EkfSlam` over ``rec`` with ``config`` and evaluate against its truth.
 
     The run starts at :func:`start_pose` (``start``) with ``filter.initial_pose_std``; it is compared
-    with the truth after ``align`` (none, first-pose, se2; :func:`evaluate_truth`).
+    with the truth after ``align`` (none, first-pose, se2; :func:`evaluate_truth`). ``calibration``
+    (a :class:`~radarslam.egomotion.car_calibration.CarCalibration` of this car, c.16) corrects the
+    recording first; the run is then in the car's track frame and its poses and truth are handed
+    back in the car's (heading minus the thrust angle).
     """
+    if calibration is not None:
+        from radarslam.egomotion.car_calibration import apply_calibration
+
+        run = run_recording(apply_calibration(rec, calibration), config, on_scan=on_scan, first_run=first_run,
+                            start=start, align=align)
+        return _in_car_frame(run, rec, calibration)
     config = validate(config)
     check_motion_model(rec, config.filter.motion_model)
     if config.filter.initial_error != "fixed":   # b.5: a draw needs the true first pose of a simulation
@@ -262,6 +271,25 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
                                       metrics["start"]))
     ego, flags = _doppler_outputs(rec, m, flags, metrics)
     return RecordingRun(config, rec, m, events, times, record, truth, metrics, report, ego, flags)
+
+
+def _in_car_frame(run: RecordingRun, rec: Recording, calibration) -> RecordingRun:
+    """A run of the calibrated recording (the track frame) with its poses, start and truth in the car's
+    frame and the calibration said in its metrics; the errors are the same in both frames."""
+    from radarslam.egomotion.car_calibration import car_heading
+
+    run.record.poses = car_heading(run.record.poses, calibration)
+    truth = None if run.truth is None else car_heading(run.truth, calibration)
+    start = dict(run.metrics["start"])
+    start["pose"] = [float(v) for v in car_heading(np.array([start["pose"]]), calibration)[0]]
+    deg = math.degrees
+    metrics = {**run.metrics, "start": start, "calibration": {
+        "source": calibration.source, "thrust_angle_deg": deg(calibration.thrust_angle_rad),
+        "wheel_scale": calibration.wheel_scale, "gyro_bias_deg_s": deg(calibration.gyro_bias_rad_s),
+        "yaw_offset_deg": {str(s): deg(e) for s, e in zip(calibration.sensor_ids, calibration.yaw_offset_rad)},
+        "time_offset_ms": {str(s): 1e3 * e for s, e in zip(calibration.sensor_ids, calibration.time_offset_s)},
+        "frame": "the car's (the run went in the track frame, turned by the thrust angle; c.16.3)"}}
+    return dataclasses.replace(run, truth=truth, metrics=metrics)   # its recording: the calibrated one (stamps moved)
 
 
 def _run_filter(config: Config, events: list, on_scan, first_run):
