@@ -4,6 +4,7 @@ with its bad input, and the first seconds of each shared recording."""
 
 from __future__ import annotations
 
+import json
 import math
 import os
 from pathlib import Path
@@ -74,7 +75,13 @@ def test_command_writes_the_tables_and_refuses_bad_input(tmp_path, capsys):
     assert main(["calibrate", "--recording", str(rec), "--out", str(tmp_path / "out")]) == 0
     cal = np.genfromtxt(tmp_path / "out" / "calibration.csv", delimiter=",", names=True, dtype=None,
                         encoding="utf-8")
-    assert abs(cal["yaw_offset_deg"][1] - 1.0) < 0.2 and abs(cal["yaw_offset_deg"][0]) < 0.2
+    # referenced to the rig (c.16.1; issue 42): the offsets less their mean, the mean read as the thrust
+    # angle (a common turn of every radar by e reads as a car crabbing at -e); the wheels' direction as
+    # the reference would have read [0, 1, 1, 0, 0] and no thrust angle
+    inj = np.array([0.0, 1.0, 1.0, 0.0, 0.0])
+    np.testing.assert_allclose(cal["yaw_offset_deg"], inj - inj.mean(), rtol=0, atol=0.2)
+    car = json.loads((tmp_path / "out" / "car_calibration.json").read_text())
+    assert abs(math.degrees(car["thrust_angle_rad"]) + inj.mean()) < 0.2
     sens = (tmp_path / "out" / "sensors_calibrated.csv").read_text().splitlines()
     assert sens[0] == "sensor_id,x_m,y_m,yaw_rad,name" and len(sens) == 6
     assert (tmp_path / "out" / "ego_velocity.csv").is_file()
