@@ -144,7 +144,7 @@ def test_the_track_frame_makes_the_unicycle_exact():
             out.append(p.copy())
         return np.array(out)
 
-    fixed = dr(apply_calibration(rec, cal))
+    fixed = dr(apply_calibration(rec, cal, gyro_bias=True))
     raw = dr(rec)
     err = lambda p: float(np.max(np.hypot(p[:, 0] - x, p[:, 1] - y)))
     assert err(fixed) < 0.02                                 # about 540 m driven

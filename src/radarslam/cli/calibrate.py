@@ -32,6 +32,9 @@ def add_parser(sub) -> None:
     p.add_argument("--fix", action="append", default=[], metavar="NAME",
                    help="leave this quantity at its prior (0, or 1 for the scale); repeatable; one of thrust_angle, "
                         "wheel_scale, gyro_bias, yaw_offsets, time_offsets")
+    p.add_argument("--reference", choices=("rig", "truth"), default="rig",
+                   help="what fixes the car's axis: the rig (the radars' yaw offsets sum to zero; default) or the "
+                        "drive's truth.csv (its direction of motion gives the thrust angle, its speed the wheel scale)")
     p.add_argument("--seed", type=int, default=0, help="seed of RANSAC's draws (default 0)")
     p.add_argument("--overwrite", action="store_true", help="replace the results already in --out")
     p.set_defaults(func=run)
@@ -57,8 +60,9 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--fix: expected some of {', '.join(ESTIMATES)}, got {', '.join(bad)}")
     rig = read_rig(args.recording, *_chosen_rig(args))
     rng = np.random.default_rng(args.seed)
+    truth = _truth(args.recording) if args.reference == "truth" else None
     car = calibrate_car(rig, rng, estimate=tuple(e for e in ESTIMATES if e not in args.fix), min_speed_mps=min_speed,
-                        source=str(args.recording))
+                        source=str(args.recording), truth=truth)
     cal = yaw_table(car, rig)
     ego = rig_ego_velocity(rig, rng, mount=cal.mount(rig))
     out = prepare_out_dir(args.out)
@@ -73,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
     deg = math.degrees
     print(f"thrust angle {deg(car.thrust_angle_rad):+.3f} +- {deg(car.thrust_angle_std):.3f} deg, wheel scale "
           f"{car.wheel_scale:.4f} +- {car.wheel_scale_std:.4f}, gyro bias {deg(car.gyro_bias_rad_s):+.3f} +- "
-          f"{deg(car.gyro_bias_std):.3f} deg/s ({car.n_sweeps} sweeps; reference: the rig)")
+          f"{deg(car.gyro_bias_std):.3f} deg/s ({car.n_sweeps} sweeps; reference: the {car.reference})")
     print("sensor  name          yaw offset (deg)   time offset (ms)   velocity residual RMS (m/s) before -> after")
     for j, sid in enumerate(car.sensor_ids):
         print(f"{int(sid):>6}  {cal.names[j]:<12}  {deg(car.yaw_offset_rad[j]):+7.3f} +- {deg(car.yaw_offset_std[j]):.3f}"
@@ -92,3 +96,14 @@ def _chosen_rig(args: argparse.Namespace) -> tuple:
     config = load_config(args.config) if args.config else None
     sensors, origin = chosen_rig(args, config)
     return sensors, (f"--sensors {args.sensors}" if args.sensors else origin or "sensors.csv")
+
+
+def _truth(recording: str):
+    """``(t, poses)`` of the recording's ``truth.csv`` (``--reference truth``), refused in one line without one."""
+    from radarslam.core.errors import InputError
+    from radarslam.io.recording import read_recording
+
+    rec = read_recording(recording)
+    if rec.truth is None:
+        raise InputError(f"--reference truth: expected {recording}/truth.csv (t_s, x_m, y_m, yaw_rad), got none")
+    return rec.truth_t, rec.truth

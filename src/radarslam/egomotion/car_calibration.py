@@ -67,6 +67,11 @@ class CarCalibration:
     residual_rms_after: float = math.nan
     source: str = ""
     estimated: tuple[str, ...] = field(default_factory=tuple)
+    #: What fixes the car's axis: "rig" (the radars' yaw offsets sum to zero) or "truth" (the
+    #: calibration drive's reference trajectory, :func:`truth_motion`).
+    reference: str = "rig"
+    #: Under the truth's reference: the radars' own Doppler scale against the truth's speed (not applied).
+    doppler_scale: float = 1.0
     #: The free parameters' names and their covariance (the last radar's yaw offset is minus the sum
     #: of the others'; the wheel scale enters as ``k - 1``).
     parameters: tuple[str, ...] = ()
@@ -124,7 +129,8 @@ def predicted(params: np.ndarray, sv: SweepVelocities, mount: np.ndarray, odo: n
     ux = k * s - om * y
     uy = k * s * math.tan(delta) + om * x
     c, si = np.cos(yaw), np.sin(yaw)
-    return np.column_stack([c * ux + si * uy, -si * ux + c * uy])
+    g = 1.0 + params[-1] if layout.get("anchored") else 1.0   # the radars' own Doppler scale, against the truth's
+    return g * np.column_stack([c * ux + si * uy, -si * ux + c * uy])
 
 
 def unpack(params: np.ndarray, layout: dict, S: int):
@@ -134,7 +140,9 @@ def unpack(params: np.ndarray, layout: dict, S: int):
     k = 1.0 + next(p) if layout["wheel_scale"] else 1.0
     b = next(p) if layout["gyro_bias"] else 0.0
     eps = np.zeros(S)
-    if layout["yaw_offsets"] and S > 1:
+    if layout["yaw_offsets"] and layout.get("anchored"):        # the truth fixes the car's axis: every yaw free
+        eps[:] = [next(p) for _ in range(S)]
+    elif layout["yaw_offsets"] and S > 1:
         eps[:-1] = [next(p) for _ in range(S - 1)]
         eps[-1] = -eps[:-1].sum()
     tau = np.array([next(p) for _ in range(S)]) if layout["time_offsets"] else np.zeros(S)
@@ -145,24 +153,33 @@ def unpack(params: np.ndarray, layout: dict, S: int):
 #: any drive (a thrust angle within a degree or so, a wheel scale within 2%, a MEMS gyro's bias, a
 #: radar's yaw within 2 deg of its drawing, its clock within 50 ms).
 PRIOR_STD = {"thrust_angle": math.radians(1.0), "wheel_scale": 0.02, "gyro_bias": math.radians(0.5),
-             "yaw_offsets": math.radians(2.0), "time_offsets": 0.05}
+             "yaw_offsets": math.radians(2.0), "time_offsets": 0.05, "doppler_scale": 0.01}
 
 
 def prior_stds(layout: dict, S: int) -> np.ndarray:
     """The free parameters' prior standard deviations, in :func:`unpack`'s order (all centred on zero)."""
     out = [PRIOR_STD[n] for n in ("thrust_angle", "wheel_scale", "gyro_bias") if layout[n]]
-    if layout["yaw_offsets"] and S > 1:
+    if layout["yaw_offsets"] and layout.get("anchored"):
+        out += [PRIOR_STD["yaw_offsets"]] * S
+    elif layout["yaw_offsets"] and S > 1:
         out += [PRIOR_STD["yaw_offsets"]] * (S - 1)
     if layout["time_offsets"]:
         out += [PRIOR_STD["time_offsets"]] * S
+    if layout.get("anchored"):
+        out.append(PRIOR_STD["doppler_scale"])
     return np.array(out)
 
 
 def calibrate_car(rig: Rig, rng: np.random.Generator, *, estimate: tuple[str, ...] = ESTIMATES,
-                  min_speed_mps: float = MIN_SPEED_MPS, source: str = "") -> CarCalibration:
+                  min_speed_mps: float = MIN_SPEED_MPS, source: str = "", truth=None) -> CarCalibration:
     """The car's fixed errors from ``rig``'s drive (module docstring): the robust weighted least
     squares of every moving sweep's velocity, the standard deviations from the Gauss-Newton
-    covariance scaled by the residuals' robust spread."""
+    covariance scaled by the residuals' robust spread.
+
+    ``truth`` ``(t (q,), poses (q, 3))``, a reference trajectory of the calibration drive (a survey, a
+    lidar localisation), fixes the car's axis: its direction of motion against its heading measures
+    the thrust angle and its speed the wheel scale (:func:`truth_motion`), so every radar's yaw is
+    estimated against the car's axis instead of the rig's mean (c.16.2)."""
     from scipy.optimize import least_squares
 
     bad = sorted(set(estimate) - set(ESTIMATES))
@@ -186,8 +203,13 @@ def calibrate_car(rig: Rig, rng: np.random.Generator, *, estimate: tuple[str, ..
         raise InputError(f"--recording: expected at least {10 * S} sweeps of a moving car (>= {min_speed_mps} m/s) to "
                          f"calibrate from, got {int(np.count_nonzero(use))}")
     sv = SweepVelocities(sv.t[use], sv.sensor[use], sv.w[use], sv.cov[use], sv.valid[use])
-    n_free = (layout["thrust_angle"] + layout["wheel_scale"] + layout["gyro_bias"]
-              + (S - 1) * layout["yaw_offsets"] + S * layout["time_offsets"])
+    anchor = None
+    if truth is not None:
+        anchor = truth_motion(*truth, odo, min_speed_mps)
+        layout["anchored"] = layout["yaw_offsets"] and layout["thrust_angle"] and layout["wheel_scale"]
+    n_yaw = (S if layout.get("anchored") else S - 1) * layout["yaw_offsets"]
+    n_free = (layout["thrust_angle"] + layout["wheel_scale"] + layout["gyro_bias"] + n_yaw + S * layout["time_offsets"]
+              + bool(layout.get("anchored")))
     prior = prior_stds(layout, S)
     # Each radar's sweeps weighted by that radar's own robust spread, found in two passes: a sweep
     # fit's claimed covariance is not honest (overlapping windows, unmodelled multipath; issue 42
@@ -197,7 +219,10 @@ def calibrate_car(rig: Rig, rng: np.random.Generator, *, estimate: tuple[str, ..
 
     def residuals(p):
         r = (sv.w - predicted(p, sv, rig.mount, odo, layout)) / sigma[sv.sensor][:, None]
-        return np.concatenate([r.ravel(), p / prior])
+        out = [r.ravel(), p / prior]
+        if layout.get("anchored"):      # the truth's direction of motion and speed (c.16.2)
+            out.append(np.array([(p[0] - anchor[0]) / anchor[1], (p[1] - (anchor[2] - 1.0)) / anchor[3]]))
+        return np.concatenate(out)
 
     x0 = np.zeros(n_free)
     raw0 = np.linalg.norm(sv.w - predicted(x0, sv, rig.mount, odo, layout), axis=1)
@@ -210,7 +235,7 @@ def calibrate_car(rig: Rig, rng: np.random.Generator, *, estimate: tuple[str, ..
             m = sv.sensor == j
             if m.any():
                 sigma[j] = max(1.4826 * float(np.median(np.abs(e[m]))), 0.01)
-    r = sol.fun[:-n_free or None]
+    r = sol.fun[:2 * sv.t.size]
     J = sol.jac
     # the robust spread of the whitened residuals (1 when each radar's spread is right)
     mad = 1.4826 * float(np.median(np.abs(r - np.median(r))))
@@ -226,6 +251,8 @@ def calibrate_car(rig: Rig, rng: np.random.Generator, *, estimate: tuple[str, ..
                           tuple(int(s) for s in rig.sensor_ids), tuple(float(e) for e in eps),
                           tuple(float(e) for e in sd_eps), tuple(float(t) for t in tau), tuple(float(t) for t in sd_tau),
                           int(sv.t.size), rms(raw0), rms(raw1), source, tuple(n for n in ESTIMATES if layout[n]),
+                          "truth" if layout.get("anchored") else "rig",
+                          1.0 + float(sol.x[-1]) if layout.get("anchored") else 1.0,
                           parameter_names(layout, rig.sensor_ids), tuple(tuple(float(v) for v in row) for row in cov),
                           tuple(int(m.sum()) for m in per), tuple(rms(raw0[m]) for m in per),
                           tuple(rms(raw1[m]) for m in per))
@@ -236,11 +263,42 @@ def parameter_names(layout: dict, sensor_ids) -> tuple[str, ...]:
     out = [n for n, key in (("thrust_angle_rad", "thrust_angle"), ("wheel_scale_minus_1", "wheel_scale"),
                             ("gyro_bias_rad_s", "gyro_bias")) if layout[key]]
     S = len(sensor_ids)
-    if layout["yaw_offsets"] and S > 1:
+    if layout["yaw_offsets"] and layout.get("anchored"):
+        out += [f"yaw_offset_rad[{int(s)}]" for s in sensor_ids]
+    elif layout["yaw_offsets"] and S > 1:
         out += [f"yaw_offset_rad[{int(s)}]" for s in list(sensor_ids)[:-1]]
     if layout["time_offsets"]:
         out += [f"time_offset_s[{int(s)}]" for s in sensor_ids]
+    if layout.get("anchored"):
+        out.append("doppler_scale_minus_1")
     return tuple(out)
+
+
+def truth_motion(t: np.ndarray, poses: np.ndarray, odo: np.ndarray, min_speed_mps: float = MIN_SPEED_MPS,
+                 window_s: float = 0.2) -> tuple[float, float, float, float]:
+    """The thrust angle and the wheel scale a reference trajectory shows: at every truth sample of a
+    moving car, the direction of its displacement over ``window_s`` against its heading, and its
+    speed against the wheels'; their medians, each with the standard error of a median from the
+    samples' robust spread over the independent windows. ``(delta, sd, k, sd)``."""
+    t = np.asarray(t, dtype=float)
+    poses = np.asarray(poses, dtype=float)
+    ok = np.all(np.isfinite(poses), axis=1)
+    t, poses = t[ok], poses[ok]
+    lo = np.searchsorted(t, t - window_s / 2)
+    hi = np.clip(np.searchsorted(t, t + window_s / 2) - 1, 0, t.size - 1)
+    dt = t[hi] - t[lo]
+    dx, dy = poses[hi, 0] - poses[lo, 0], poses[hi, 1] - poses[lo, 1]
+    head = poses[lo, 2] + 0.5 * np.angle(np.exp(1j * (poses[hi, 2] - poses[lo, 2])))   # the mid heading
+    wheel = np.interp(t, odo[:, 0], odo[:, 1])
+    use = (dt > 0.5 * window_s) & (wheel >= min_speed_mps)
+    if np.count_nonzero(use) < 20:
+        raise InputError(f"truth: expected at least 20 samples of a moving car (>= {min_speed_mps} m/s) to fix the "
+                         f"car's axis, got {int(np.count_nonzero(use))}")
+    delta = np.angle(np.exp(1j * (np.arctan2(dy[use], dx[use]) - head[use])))
+    k = np.hypot(dx[use], dy[use]) / dt[use] / wheel[use]
+    n_ind = max(1.0, (t[use][-1] - t[use][0]) / window_s)          # independent windows
+    se = lambda v: 1.2533 * 1.4826 * float(np.median(np.abs(v - np.median(v)))) / math.sqrt(n_ind)
+    return float(np.median(delta)), max(se(delta), 1e-5), float(np.median(k)), max(se(k), 1e-5)
 
 
 def _stds(std: np.ndarray, cov: np.ndarray, layout: dict, S: int):
@@ -255,7 +313,10 @@ def _stds(std: np.ndarray, cov: np.ndarray, layout: dict, S: int):
         else:
             out.append(0.0)
     sd_eps = np.zeros(S)
-    if layout["yaw_offsets"] and S > 1:
+    if layout["yaw_offsets"] and layout.get("anchored"):
+        sd_eps[:] = std[i:i + S]
+        i += S
+    elif layout["yaw_offsets"] and S > 1:
         block = cov[i:i + S - 1, i:i + S - 1]
         sd_eps[:-1] = std[i:i + S - 1]
         sd_eps[-1] = math.sqrt(max(float(block.sum()), 0.0))
@@ -270,7 +331,7 @@ def write_car_calibration(path: str | Path, cal: CarCalibration) -> None:
     from radarslam.io.results import atomic_write_text
 
     d = asdict(cal)
-    d = {"format": FORMAT, "reference": "rig (the radars' yaw offsets sum to zero)", **d,
+    d = {"format": FORMAT, **d,
          "units": {"thrust_angle_rad": "rad", "wheel_scale": "1", "gyro_bias_rad_s": "rad/s",
                    "yaw_offset_rad": "rad", "time_offset_s": "s (a radar's stamps early by this much)"}}
     atomic_write_text(path, json.dumps(d, indent=2, allow_nan=True) + "\n")
@@ -305,9 +366,18 @@ def read_car_calibration(path: str | Path) -> CarCalibration:
     return cal
 
 
-def apply_calibration(rec, cal: CarCalibration):
+#: What :func:`apply_calibration` carries to another drive: the car's build (thrust angle, wheel scale)
+#: and its radars' mountings and clocks. A gyro's bias is the power-up's, not the car's (it moves
+#: between drives: -0.10 / -0.04 deg/s against the truth on the Singapore car's two scenes, -0.02 /
+#: -0.004 on the Boston car's), so it is estimated with the others (it would bias them otherwise)
+#: and applied only with ``gyro_bias=True`` (the same drive).
+CARRIED = ("thrust_angle", "wheel_scale", "yaw_offsets", "time_offsets")
+
+
+def apply_calibration(rec, cal: CarCalibration, *, gyro_bias: bool = False):
     """``rec`` (a :class:`~radarslam.io.recording.stream.Recording` of this car, ``unicycle``
-    odometry) corrected by ``cal`` (c.16.3): the wheel speed scaled, the gyro's bias removed, each
+    odometry) corrected by ``cal`` (c.16.3): the wheel speed scaled (the gyro's bias removed with
+    ``gyro_bias``: the same drive only, :data:`CARRIED`), each
     radar's stamps moved by its time offset and its yaw by its offset, all in the *track frame*:
     the car's frame turned by the thrust angle, whose x axis is the rear axle's direction of motion.
     In that frame the car moves without sideslip at ``k s / cos(delta)`` and the unicycle model
@@ -324,7 +394,8 @@ def apply_calibration(rec, cal: CarCalibration):
     d = cal.thrust_angle_rad
     odo = rec.odo.copy()
     odo[:, 0] = odo[:, 0] * cal.wheel_scale / math.cos(d)
-    odo[:, 1] = odo[:, 1] - cal.gyro_bias_rad_s
+    if gyro_bias:
+        odo[:, 1] = odo[:, 1] - cal.gyro_bias_rad_s
     c, s = math.cos(-d), math.sin(-d)
     sensors = rec.sensors
     if sensors:
