@@ -61,6 +61,26 @@ def test_the_readme_is_a_front_door():
     assert "python -m pytest -q" in cmds[1] and "-n auto" in cmds[1]    # both cores (pytest-xdist)
 
 
+#: The README's first block is read before anything else: each command's comment is at most this
+#: many lines of at most this many characters (issue 43 item 3); the detail is in the prose below it.
+FIRST_BLOCK_COMMENT_LINES = 2
+FIRST_BLOCK_COMMENT_CHARS = 100
+
+
+def test_the_first_block_comments_each_command_in_two_short_lines():
+    """Above each of the first block's two commands: one or two comment lines of at most 100
+    characters (its first comment was one line of ~560 characters)."""
+    block = re.search(r"```bash\n(.*?)```", README.read_text(), flags=re.S).group(1).splitlines()
+    commands = [i for i, line in enumerate(block) if line and not line.startswith("#")]
+    assert len(commands) == 2, block
+    start = 0
+    for i in commands:
+        comment = block[start:i]
+        assert 1 <= len(comment) <= FIRST_BLOCK_COMMENT_LINES and all(c.startswith("# ") for c in comment), comment
+        assert max(len(c) for c in comment) <= FIRST_BLOCK_COMMENT_CHARS, comment
+        start = i + 1
+
+
 def test_quick_start_commands_run_as_written_in_a_fresh_directory(tmp_path):
     """Every `radarslam run --seed` / `dump-config` line, in order, as written (the shell redirect
     too): the README's tour, then docs/usage.md's quick start."""

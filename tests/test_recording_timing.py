@@ -162,7 +162,8 @@ def test_a_recording_starts_at_the_truths_first_pose_else_at_zero(config):
     assert run.metrics["final_position_error_m"] < 1e-6
     no_truth = dataclasses.replace(rec, truth=None, truth_t=None)
     assert run_recording(no_truth, config).metrics["start"] == {
-        "pose": [0.0, 0.0, 0.0], "from": "zero", "frame": "the platform pose at the first scan"}
+        "pose": [0.0, 0.0, 0.0], "from": "zero", "frame": "the platform pose at the first scan",
+        "std": [0.0, 0.0, 0.0], "std_from": "0 (the anchored frame: the map's frame is the first pose)"}
     own = dataclasses.replace(config, filter=dataclasses.replace(config.filter, initial_pose=[1.0, 2.0, 0.5]))
     assert run_recording(rec, own).metrics["start"]["from"] == "config"
     old = run_recording(rec, config, start="config")                   # the negative control

@@ -171,8 +171,10 @@ def run_notes(run) -> list[str]:
     where = {"truth": "the truth's first pose", "zero": "zero (no truth at the first scan)",
              "config": "the config's filter.initial_pose"}[st["from"]]
     notes = [f"warning: {n}" for n in run.stream.notes + run.metrics.get("warnings", [])]
-    start = (f"the run starts at {where}: ({x:.3f} m, {y:.3f} m, {math.degrees(yaw):.3f} deg) with "
-             f"filter.initial_pose_std; map and trajectory are in {st['frame']}")
+    sx, sy, syaw = st["std"]
+    start = (f"the run starts at {where}: ({x:.3f} m, {y:.3f} m, {math.degrees(yaw):.3f} deg) with std "
+             f"({sx:.3g} m, {sy:.3g} m, {math.degrees(syaw):.3g} deg) from {st['std_from']}; map and trajectory "
+             f"are in {st['frame']}")
     return [*notes, start]
 
 

@@ -195,8 +195,9 @@ def validate(cfg: Config) -> Config:
         raise ConfigError(f"world.departing_vehicle: expected -1 or an index < {n_vehicles}, got {w.departing_vehicle}")
     if cfg.landmarks.removal_max_hits >= cfg.landmarks.removal_window:
         raise ConfigError(f"landmarks.removal_max_hits: expected < removal_window ({cfg.landmarks.removal_window}), got {cfg.landmarks.removal_max_hits}")
-    if any(s <= 0 for s in cfg.filter.initial_pose_std):
-        raise ConfigError(f"filter.initial_pose_std: expected positive values, got {cfg.filter.initial_pose_std}")
+    for key in ("initial_pose_std", "truth_pose_std"):     # 0: that coordinate exact (b.5.1)
+        if any(s < 0 for s in getattr(cfg.filter, key)):
+            raise ConfigError(f"filter.{key}: expected values >= 0, got {getattr(cfg.filter, key)}")
     if not cfg.sensor.height_min_m < cfg.sensor.height_max_m:
         raise ConfigError(f"sensor.height_min_m: expected below sensor.height_max_m ({cfg.sensor.height_max_m}), got "
                           f"{cfg.sensor.height_min_m}")

@@ -51,7 +51,14 @@ class FilterConfig:
                         "component is a built-in one the fused engine covers (docs/architecture.md \"The fused "
                         "engine\"); false = the orchestrator, scan by scan")
     initial_pose: list[float] = param([0.1, 0.1, math.pi / 180.0], "initial estimate [x_m, y_m, theta_rad]", length=3)
-    initial_pose_std: list[float] = param([0.15, 0.15, math.pi / 180.0], "initial std [x_m, y_m, theta_rad]", length=3)
+    initial_pose_std: list[float] = param([0.15, 0.15, math.pi / 180.0], "initial std [x_m, y_m, theta_rad] of the "
+                                          "simulation (b.5) and of a recording run started at filter.initial_pose "
+                                          "(each >= 0; > 0 in the simulation)", length=3)
+    truth_pose_std: list[float] = param([0.05, 0.05, 0.0017], "[PROP] a recording run started at its truth's first "
+                                        "pose takes this initial std [x_m, y_m, theta_rad]: the truth's own "
+                                        "accuracy, default a lidar-map or RTK-INS localisation's few centimetres and "
+                                        "a tenth of a degree (each >= 0; a run started at zero takes 0, the anchored "
+                                        "frame; b.5.1)", length=3)
     initial_error: str = param("fixed", "[PROP] simulation: the initial estimate's error (b.5): fixed (initial_pose, "
                                "the paper's, the same offset in every trial) or draw (the true first pose plus a draw "
                                "from N(0, diag(initial_pose_std^2)), per trial from its own child stream)",

@@ -210,6 +210,26 @@ def start_pose(rec: Recording, config: Config, t_first: float, start: str = "aut
     return [float(v) for v in pose], start
 
 
+#: Where a run's initial std comes from, by where it started (docs/method.md b.5.1).
+START_STD = {"truth": "filter.truth_pose_std (the truth's own accuracy)",
+             "zero": "0 (the anchored frame: the map's frame is the first pose)",
+             "config": "filter.initial_pose_std"}
+
+
+def start_std(config: Config, origin: str) -> list[float]:
+    """The initial pose std ``[x_m, y_m, theta_rad]`` of a run started at ``origin`` (issue 43 item 4):
+    at the truth, the truth's own accuracy (``filter.truth_pose_std``); at zero, 0, for the map's
+    frame is the first pose (P_1 = 0, the anchored frame); at the config's pose, the user's
+    ``filter.initial_pose_std``. Never the profile's simulator std for a start that did not come from it."""
+    if origin == "truth":
+        return [float(v) for v in config.filter.truth_pose_std]
+    if origin == "zero":
+        return [0.0, 0.0, 0.0]
+    if origin == "config":
+        return [float(v) for v in config.filter.initial_pose_std]
+    raise InputError(f"origin: expected truth, zero or config, got {origin!r}")
+
+
 def _truth_at_start(t: float, truth_t: np.ndarray, truth: np.ndarray) -> np.ndarray:
     """The truth ``(1, 3)`` at ``t``; a first scan up to one truth interval before the truth's first
     sample (a 50 Hz truth starting 6 ms after the radar) takes the line through its first two samples."""
@@ -227,9 +247,10 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
                   align: str = "none", calibration=None) -> RecordingRun:
     """Run :class:`~radarslam.slam.EkfSlam` over ``rec`` with ``config`` and evaluate against its truth.
 
-    The run starts at :func:`start_pose` (``start``) with ``filter.initial_pose_std``; it is compared
-    with the truth after ``align`` (none, first-pose, se2; :func:`evaluate_truth`). ``calibration``
-    (a :class:`~radarslam.egomotion.car_calibration.CarCalibration` of this car, c.16) corrects the
+    The run starts at :func:`start_pose` (``start``) with the std of :func:`start_std` for where that
+    start came from; it is compared with the truth after ``align`` (none, first-pose, se2;
+    :func:`evaluate_truth`). ``calibration`` (a
+    :class:`~radarslam.egomotion.car_calibration.CarCalibration` of this car, c.16) corrects the
     recording first; the run is then in the car's track frame and its poses and truth are handed
     back in the car's (heading minus the thrust angle).
     """
@@ -251,7 +272,9 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
     events = with_rig_velocity(events, rec, config)          # c.12: the rig's Doppler odometry, if asked
     times = np.array([e.t for e in events if isinstance(e, Scan)])
     pose, origin = start_pose(rec, config, float(times[0]), start)
-    config = dataclasses.replace(config, filter=dataclasses.replace(config.filter, initial_pose=pose))
+    std = start_std(config, origin)             # the written config.toml reruns the same start
+    config = dataclasses.replace(config, filter=dataclasses.replace(config.filter, initial_pose=pose,
+                                                                    initial_pose_std=std))
     record, flags = _run_filter(config, events, on_scan, first_run)
     truth = None if rec.truth is None else truth_at(times, rec.truth_t, rec.truth)
     metrics = {"scans": int(times.size), "detections": int(record.n_detections.sum()),
@@ -263,7 +286,8 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
                                                               "source": m.source,
                                                               "sensors": {str(k): v.name or str(k) for k, v in
                                                                           (rec.sensors or {}).items()}},
-               "start": {"pose": pose, "from": origin, "frame": FRAMES[origin]},
+               "start": {"pose": pose, "from": origin, "frame": FRAMES[origin], "std": std,
+                         "std_from": START_STD[origin]},
                "dropped_scans": report.dropped_scans, "zero_range_dropped": report.zero_range,
                "single_detection_scans": report.single_detection_scans}
     if truth is not None:

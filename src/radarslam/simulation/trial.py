@@ -78,6 +78,9 @@ def check_simulation_config(config: Config) -> Config:
         raise ConfigError(f"filter.motion_model: expected {SIMULATOR_MOTION_MODEL!r} for the car-park simulation, whose "
                           f"platform moves by that model, got {m!r} (profile {config.profile!r}; a real-data profile "
                           "goes with --dataset)")
+    if any(s <= 0 for s in config.filter.initial_pose_std):   # b.5: the draw's scale and the NEES's P_1
+        raise ConfigError(f"filter.initial_pose_std: expected positive values for the car-park simulation (its "
+                          f"initial covariance, docs/method.md b.5), got {config.filter.initial_pose_std}")
     return config
 
 
