@@ -36,6 +36,10 @@ def add_recording_args(p: argparse.ArgumentParser, run: bool) -> None:
                             "squares, no scale, as evo_ape -a)")
         p.add_argument("--sensors", metavar="FILE.csv", help="--recording: each radar's mounting from this sensors.csv "
                        "instead of the recording's (e.g. radarslam calibrate's sensors_calibrated.csv)")
+        p.add_argument("--doppler-sign", type=int, choices=(1, -1), default=None,
+                       help="--recording: the sign of the Doppler column, 1 positive receding (the raw radial "
+                            "velocity) or -1 approaching-positive; overrides [sensor] doppler_sign (a column whose "
+                            "static consensus disagrees with the odometry is refused, docs/recordings.md \"Doppler\")")
         p.add_argument("--animate", metavar="FILE", help="--recording: draw the run scan by scan into FILE.gif "
                        "(or .mp4 with ffmpeg)")
 
@@ -101,6 +105,10 @@ def run_recording_cmd(args: argparse.Namespace) -> int:
         raise InputError(f"--animate: expected a .gif or .mp4 file, got {args.animate}")
     refuse_finished(Path(args.out) / "run.json", "--out", args.overwrite)   # before any work
     config = config_from_args(args)
+    if getattr(args, "doppler_sign", None) is not None:
+        import dataclasses
+
+        config = dataclasses.replace(config, sensor=dataclasses.replace(config.sensor, doppler_sign=args.doppler_sign))
     if not args.odom_topic and radar_topics(args):
         if getattr(args, "sensors", None):
             raise InputError("--sensors: expected a run with odometry (a plain recording, or --odom-topic), got a "

@@ -344,6 +344,10 @@ class SensorConfig:
     attitude_time_constant_s: float = param(2.0, "[PROP] 3-D recordings run as SLAM: time constant of the "
                                             "accelerometer's pull on the gyro-integrated attitude (s; c.10.6)",
                                             low=0.0, low_open=True)
+    doppler_sign: int = param(1, "sign of the recording's Doppler column: 1 when positive receding (the raw radial "
+                              "velocity, docs/recordings.md \"Doppler\"), -1 for a column stored approaching-positive "
+                              "(multiplied by -1 when read); a column whose static consensus disagrees with the "
+                              "odometry's speed is refused (issue 42)", choices=(1, -1))
     gyro_bias_from_rest: bool = param(True, "[PROP] 3-D recordings run as SLAM: subtract the gyro's mean over the "
                                       "scans at rest before the first motion (its bias; c.10.6)")
 

@@ -237,6 +237,21 @@ def _truth_at_start(t: float, truth_t: np.ndarray, truth: np.ndarray) -> np.ndar
     return at
 
 
+def checked_doppler(rec: Recording, config: Config, mounting: Mounting) -> Recording:
+    """``rec`` with its Doppler column signed by ``sensor.doppler_sign``, refused in one line when its
+    static consensus says it is negated or ego-compensated against the odometry
+    (experiments/doppler_column.py, issue 42 item 6)."""
+    from pathlib import Path
+
+    from radarslam.experiments.doppler_column import check_doppler_column, with_doppler_sign
+
+    rec = with_doppler_sign(rec, config.sensor.doppler_sign)
+    src = Path(str(rec.source))
+    where = str(src / "detections.csv") if src.is_dir() else str(rec.source)
+    check_doppler_column(rec, mounting, where)
+    return rec
+
+
 def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=None, start: str = "auto",
                   align: str = "none") -> RecordingRun:
     """Run :class:`~radarslam.slam.EkfSlam` over ``rec`` with ``config`` and evaluate against its truth.
@@ -252,6 +267,7 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
     m = effective_mounting(rec, config)
     config = dataclasses.replace(config, sensor=dataclasses.replace(
         config.sensor, mount_x_m=m.x, mount_y_m=m.y, mount_yaw_deg=math.degrees(m.yaw)))
+    rec = checked_doppler(rec, config, m)
     events, report = stream_events(rec, m)
     events = with_rig_velocity(events, rec, config)          # c.12: the rig's Doppler odometry, if asked
     times = np.array([e.t for e in events if isinstance(e, Scan)])
