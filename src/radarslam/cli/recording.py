@@ -133,7 +133,10 @@ def run_recording_cmd(args: argparse.Namespace) -> int:
     n = rec.scan_times().size
     from radarslam.experiments.first_run import announce, choose
 
-    first = choose(config.filter.backend, config=config)     # the first-run rule (experiments/first_run.py)
+    from radarslam.experiments.recording import with_rig
+
+    # the first-run rule (experiments/first_run.py) for the filter this recording drives: its rig, its mounting
+    first = choose(config.filter.backend, config=with_rig(rec, config))
     announce(first, config)
     bar = Progress(n, 0, unit="scans", enabled=sys.stderr.isatty())
     run = run_recording(rec, config, on_scan=bar.update, first_run=first, align=args.align)

@@ -388,6 +388,10 @@ class EstimatorConfig:
     extent: ExtentConfig
     #: The radar's mounting: the Doppler's directions and the sensor's velocity (c.10.1, c.10.4, c.10.5.1).
     sensor: SensorConfig = field(default_factory=SensorConfig)
+    #: A multi-radar rig's mountings ``((x m, y m, yaw rad), ...)`` (the config's ``[[sensors]]``, or
+    #: the recording's sensors.csv set by the recording run), empty for one radar (``sensor``): what the
+    #: radar alone observes (c.10.5.1, c.12.2) and the retirement's lever-arm margin (c.15).
+    rig: tuple = ()
 
 
 @dataclass
@@ -415,4 +419,5 @@ class Config:
     @property
     def estimator(self) -> EstimatorConfig:
         """The estimator's own sections (shared, not copied)."""
-        return EstimatorConfig(self.filter, self.landmarks, self.extent, self.sensor)
+        rig = tuple((float(s.x_m), float(s.y_m), math.radians(s.yaw_deg)) for s in self.sensors)
+        return EstimatorConfig(self.filter, self.landmarks, self.extent, self.sensor, rig)

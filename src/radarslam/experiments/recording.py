@@ -237,6 +237,24 @@ def _truth_at_start(t: float, truth_t: np.ndarray, truth: np.ndarray) -> np.ndar
     return at
 
 
+def with_rig(rec: Recording, config: Config) -> Config:
+    """``config`` as the filter takes it for ``rec``: ``[sensor]`` the effective mounting
+    (:func:`effective_mounting`) and, for a rig, ``sensors`` the recording's mountings when the config
+    names none, so that the estimator's ``EstimatorConfig.rig`` is the rig the scans come from (the
+    radar alone's observability, c.10.5.1 / c.12.2; the retirement's margin, c.15). The written
+    config is not this one."""
+    from radarslam.config import RigSensorConfig
+
+    m = effective_mounting(rec, config)
+    config = dataclasses.replace(config, sensor=dataclasses.replace(
+        config.sensor, mount_x_m=m.x, mount_y_m=m.y, mount_yaw_deg=math.degrees(m.yaw)))
+    if rec.sensors and not config.sensors:
+        config = dataclasses.replace(config, sensors=[
+            RigSensorConfig(int(k), float(v.x), float(v.y), math.degrees(v.yaw), v.name or "")
+            for k, v in sorted(rec.sensors.items())])
+    return config
+
+
 def checked_doppler(rec: Recording, config: Config, mounting: Mounting) -> Recording:
     """``rec`` with its Doppler column signed by ``sensor.doppler_sign``, refused in one line when its
     static consensus says it is negated or ego-compensated against the odometry
@@ -273,7 +291,7 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
     times = np.array([e.t for e in events if isinstance(e, Scan)])
     pose, origin = start_pose(rec, config, float(times[0]), start)
     config = dataclasses.replace(config, filter=dataclasses.replace(config.filter, initial_pose=pose))
-    record, flags = _run_filter(config, events, on_scan, first_run)
+    record, flags = _run_filter(with_rig(rec, config), events, on_scan, first_run)
     truth = None if rec.truth is None else truth_at(times, rec.truth_t, rec.truth)
     metrics = {"scans": int(times.size), "detections": int(record.n_detections.sum()),
                "associated": int(record.n_associated.sum()),
