@@ -138,3 +138,29 @@ def test_negative_control_the_no_sideslip_yaw_rate_of_a_rear_radar_is_off_by_vy_
     w = np.array([g[0][2] for g in got[3:]])
     np.testing.assert_allclose(w, TURN + VY / RIG[1].x, atol=1e-6)     # +6.7 deg/s: what defect 1 was
     assert math.degrees(VY / RIG[1].x) == pytest.approx(6.67, abs=0.01)
+
+
+def _heading_var_per_second(intervals: int) -> float:
+    """The heading variance the gyro's noise adds over 1 s of ``intervals`` scan intervals (each of
+    one odometry reading), Doppler + gyro (``F_u``'s omega row is ``dt``, c.10.5)."""
+    from radarslam.slam.odometry_source import DopplerOdometry
+
+    cfg = profile_config("automotive")
+    f = dataclasses.replace(cfg.filter, odometry="doppler", yaw_rate="gyro")
+    src = DopplerOdometry(f)
+    dt, total = 1.0 / intervals, 0.0
+    for k in range(intervals):
+        src.accumulate(Odometry(t=k * dt, dt=dt, control=np.array([5.0, 0.0]), gyro_rad_s=0.1))
+        _, U, d, _ = src.prediction_input(np.zeros((3, 3)))
+        total += U[2, 2] * d * d
+        src.clear_interval()
+    return total
+
+
+def test_the_gyro_noise_is_a_density():
+    cfg = profile_config("automotive").filter
+    want = math.radians(cfg.gyro_std_deg_s) ** 2 * cfg.noise_interval_s * 1.0     # c.2.2: sigma^2 dt_0 T
+    for n in (10, 50, 65):
+        assert _heading_var_per_second(n) == pytest.approx(want, rel=1e-9)
+    # per interval (the defect): 10 and 50 intervals would differ fivefold
+    assert _heading_var_per_second(10) / _heading_var_per_second(50) == pytest.approx(1.0, rel=1e-9)

@@ -8,7 +8,7 @@ Event flow (:meth:`DopplerOdometry.process`, called by :meth:`EkfSlam.process
 - a :class:`~radarslam.core.types.Scan` first predicts over the accumulated interval with the
   body-velocity model (:mod:`radarslam.models.body_velocity`), input ``u = [v_x, v_y, omega]``:
   ``(v_x, v_y)`` the *previous* scan's Doppler ego-velocity fit (c.10.2) and ``omega`` the mean gyro
-  rate, ``U = blockdiag(cov(v), sigma_gyro^2)``, ``Q`` once per accumulated odometer interval (as
+  rate, ``U = blockdiag(cov(v), sigma_gyro^2 dt_0 / dt)`` (the gyro a density, c.2.2), ``Q`` once per accumulated odometer interval (as
   the odometer's predictions add it); then updates with the scan (:meth:`EkfSlam.update`); then fits
   this scan's velocity, to drive the next interval.
 
@@ -236,8 +236,12 @@ class DopplerOdometry:
             steady = abs(self.dt - self.n * self.noise_ref) <= 1e-9
             return u, U, self.dt, self.n * Q if steady else Q * (self.dt / self.noise_ref)
         omega = None if self.f.yaw_rate == "doppler" else self.gyro_dt / self.dt
+        # c.2.2: the gyro's mean over the interval; filter.gyro_std_deg_s is quoted for a reading over
+        # noise_interval_s (a density sigma^2 dt_0), so its mean over dt has variance sigma^2 dt_0 / dt and the
+        # heading variance it adds, sigma^2 dt_0 dt, grows with time, not with the number of scans (radars)
+        gyro_var = self.gyro_var * (self.noise_ref / self.dt)
         u, U = platform_input(self.v, self.C, self.mount if self.sensor_frame else (0.0, 0.0, 0.0), omega,
-                              self.gyro_var)
+                              gyro_var)
         if self.f.odometry == "both":
             u, U = fuse_forward_speed(u, U, self.speed_dt / self.dt, self.f.speed_std_mps ** 2)
         # Q a density (c.2.2): n readings of the reference interval take n Q, as before, bit for bit
