@@ -50,8 +50,9 @@ def doppler_dead_reckoning(rec, path: Path) -> dict:
     """The radar alone without a map: the rig's Doppler fit (v_x, v_y, omega; c.12) at every sweep
     integrated from the truth's first pose, a window without a fit holding the last one; its errors
     at the truth's times (what "radar alone" is compared with in issue 36)."""
-    from radarslam.egomotion.rig_odometry import rig_of
     from radarslam.egomotion.rig import rig_ego_velocity
+    from radarslam.egomotion.rig_odometry import rig_of
+    from radarslam.runs.recording import truth_at
     from radarslam.metrics.trajectory import trajectory_errors
 
     series = rig_ego_velocity(rig_of(rec), np.random.default_rng(0))
@@ -61,8 +62,12 @@ def doppler_dead_reckoning(rec, path: Path) -> dict:
             theta[k] = theta[k - 1]
     theta = np.nan_to_num(theta)
     tt = rec.truth_t
-    i0 = int(np.searchsorted(tt, t[0]))
-    pose = rec.truth[i0].astype(float).copy()
+    # start at the first sweep within the truth, from the truth interpolated there (issue 42 defect 7: not
+    # the next truth sample, which is up to one truth interval, 20 ms at 9 m/s = 0.18 m, further on)
+    k0 = int(np.searchsorted(t, tt[0]))
+    t, theta = t[k0:], theta[k0:]
+    pose = truth_at(t[:1], tt, rec.truth)[0]
+    pose[2] = np.interp(t[0], tt, np.unwrap(rec.truth[:, 2]))
     poses = np.empty((t.size, 3))
     poses[0] = pose
     for k in range(1, t.size):

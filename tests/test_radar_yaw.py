@@ -138,7 +138,7 @@ def test_refused_combinations_name_the_key():
     from radarslam.slam.filter import EkfSlam
 
     with pytest.raises(ConfigError, match=r"^filter.yaw_rate: 'doppler' needs the radar off the rear axle.*"
-                                          r"sensor.mount_x_m = 0.0$"):
+                                          r"sensor.mount_x_m = 0.0 and no rig$"):
         EkfSlam(_mounted(lx=0.0))                                        # negative control: l_x = 0
     for odometry in ("odometer", "both"):
         with pytest.raises(ConfigError, match=rf"^filter.yaw_rate: 'doppler' expected with filter.odometry "

@@ -56,10 +56,18 @@ def test_the_wheels_fused_with_the_doppler_take_the_same_rig_fit(scene):
     assert all(np.array_equal(a.ego.v, b.ego.v) and np.array_equal(a.ego.cov, b.ego.cov) for a, b in zip(both, dopp))
 
 
-@pytest.mark.parametrize("odometry, yaw_rate", [("odometer", "gyro"), ("doppler", "doppler")])
-def test_other_modes_leave_the_scans_alone(scene, odometry, yaw_rate):
+def test_other_modes_leave_the_scans_alone(scene):
     events, _ = stream_events(scene, Mounting())
-    assert with_rig_velocity(events, scene, _config(odometry, yaw_rate)) is events
+    assert with_rig_velocity(events, scene, _config("odometer", "gyro")) is events
+
+
+def test_the_radar_alone_takes_the_whole_rig_fit(scene):
+    """Issue 42 defect 1: the radar alone carries the rig's (v_x, v_y, omega), the gyro modes its (v_x, v_y)."""
+    events, _ = stream_events(scene, Mounting())
+    alone = [e for e in with_rig_velocity(events, scene, _config("doppler", "doppler")) if isinstance(e, Scan)]
+    gyro = [e for e in with_rig_velocity(events, scene, _config("doppler")) if isinstance(e, Scan)]
+    assert all(a.ego.v.shape == (3,) and a.ego.cov.shape == (3, 3) for a in alone)
+    assert all(np.array_equal(a.ego.v[:2], b.ego.v) for a, b in zip(alone, gyro))
 
 
 def test_a_doppler_and_gyro_run_uses_it_and_tracks_the_truth(scene):

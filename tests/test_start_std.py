@@ -19,8 +19,8 @@ import pytest
 from radarslam.cli.recording import run_notes
 from radarslam.config import ConfigError, profile_config, validate
 from radarslam.core.errors import InputError
-from radarslam.experiments.recording import run_recording, start_std
-from radarslam.experiments.single import check_simulation_config
+from radarslam.runs.recording import run_recording, start_std
+from radarslam.simulation.trial import check_simulation_config
 from radarslam.io.recording.synthetic import synthetic_recording
 
 #: Seeds of the drive's radar noise (fixed; each run is a few seconds on the Python backend).

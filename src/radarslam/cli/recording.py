@@ -40,6 +40,10 @@ def add_recording_args(p: argparse.ArgumentParser, run: bool) -> None:
                        "scale, gyro bias, each radar's yaw and time offset; docs/method.md c.16)")
         p.add_argument("--sensors", metavar="FILE.csv", help="--recording: each radar's mounting from this sensors.csv "
                        "instead of the recording's (e.g. radarslam calibrate's sensors_calibrated.csv)")
+        p.add_argument("--doppler-sign", type=int, choices=(1, -1), default=None,
+                       help="--recording: the sign of the Doppler column, 1 positive receding (the raw radial "
+                            "velocity) or -1 approaching-positive; overrides [sensor] doppler_sign (a column whose "
+                            "static consensus disagrees with the odometry is refused, docs/recordings.md \"Doppler\")")
         p.add_argument("--animate", metavar="FILE", help="--recording: draw the run scan by scan into FILE.gif "
                        "(or .mp4 with ffmpeg)")
 
@@ -88,6 +92,10 @@ def run_recording_cmd(args: argparse.Namespace) -> int:
         raise InputError(f"--animate: expected a .gif or .mp4 file, got {args.animate}")
     refuse_finished(Path(args.out) / "run.json", "--out", args.overwrite)   # before any work
     config = config_from_args(args)
+    if getattr(args, "doppler_sign", None) is not None:
+        import dataclasses
+
+        config = dataclasses.replace(config, sensor=dataclasses.replace(config.sensor, doppler_sign=args.doppler_sign))
     if not args.odom_topic and radar_topics(args):
         if getattr(args, "sensors", None):
             raise InputError("--sensors: expected a run with odometry (a plain recording, or --odom-topic), got a "
@@ -110,7 +118,10 @@ def run_recording_cmd(args: argparse.Namespace) -> int:
 
         rec = with_sensors(rec, rig, origin)
     n = rec.scan_times().size
-    first = stream_first_run(config, n, rec.det_t.size)             # the one compile policy (compiling/policy.py)
+    from radarslam.runs.recording import with_rig
+
+    # the one compile policy (compiling/policy.py) for the filter this recording drives: its rig, its mounting
+    first = stream_first_run(with_rig(rec, config), n, rec.det_t.size)
     # a run expected to take over 10 s shows its rate and ETA, on a terminal or not (issue 43)
     bar = Progress(n, 0, unit="scans", enabled=sys.stderr.isatty() or first.expected_s > 10.0,
                    warm_up_unit=first.compiles)

@@ -351,6 +351,10 @@ class SensorConfig:
     attitude_time_constant_s: float = param(2.0, "[PROP] 3-D recordings run as SLAM: time constant of the "
                                             "accelerometer's pull on the gyro-integrated attitude (s; c.10.6)",
                                             low=0.0, low_open=True)
+    doppler_sign: int = param(1, "sign of the recording's Doppler column: 1 when positive receding (the raw radial "
+                              "velocity, docs/recordings.md \"Doppler\"), -1 for a column stored approaching-positive "
+                              "(multiplied by -1 when read); a column whose static consensus disagrees with the "
+                              "odometry's speed is refused (issue 42)", choices=(1, -1))
     gyro_bias_from_rest: bool = param(True, "[PROP] 3-D recordings run as SLAM: subtract the gyro's mean over the "
                                       "scans at rest before the first motion (its bias; c.10.6)")
 
@@ -391,6 +395,10 @@ class EstimatorConfig:
     extent: ExtentConfig
     #: The radar's mounting: the Doppler's directions and the sensor's velocity (c.10.1, c.10.4, c.10.5.1).
     sensor: SensorConfig = field(default_factory=SensorConfig)
+    #: A multi-radar rig's mountings ``((x m, y m, yaw rad), ...)`` (the config's ``[[sensors]]``, or
+    #: the recording's sensors.csv set by the recording run), empty for one radar (``sensor``): what the
+    #: radar alone observes (c.10.5.1, c.12.2) and the retirement's lever-arm margin (c.15).
+    rig: tuple = ()
 
 
 @dataclass
@@ -418,4 +426,5 @@ class Config:
     @property
     def estimator(self) -> EstimatorConfig:
         """The estimator's own sections (shared, not copied)."""
-        return EstimatorConfig(self.filter, self.landmarks, self.extent, self.sensor)
+        rig = tuple((float(s.x_m), float(s.y_m), math.radians(s.yaw_deg)) for s in self.sensors)
+        return EstimatorConfig(self.filter, self.landmarks, self.extent, self.sensor, rig)

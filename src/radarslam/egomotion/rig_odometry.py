@@ -35,11 +35,19 @@ def rig_of(rec) -> Rig | None:
 def with_rig_velocity(events: list, rec, config) -> list:
     """``events`` with every scan's ``ego`` the rig's fit at its time (module docstring) under
     ``filter.odometry`` "doppler" or "both" (the wheel speed fused with it, c.10.5) and
-    ``filter.yaw_rate`` "gyro" on a rig with Doppler; else ``events``."""
+    ``filter.yaw_rate`` "gyro" on a rig with Doppler: ``(v_x, v_y)``; under the radar alone
+    (``yaw_rate`` "doppler") on a rig with two distinct lever arms, the whole ``(v_x, v_y, omega)``
+    (c.12.2, issue 42 defect 1); else ``events``."""
     f = config.filter
-    rig = rig_of(rec) if f.odometry in ("doppler", "both") and f.yaw_rate == "gyro" else None
+    alone = f.odometry == "doppler" and f.yaw_rate == "doppler"     # c.10.5.1: the rig's omega, not the gyro's
+    rig = rig_of(rec) if f.odometry in ("doppler", "both") and f.yaw_rate == "gyro" or alone else None
     if rig is None:
         return events
+    from radarslam.slam.odometry_source import distinct_lever_arms
+
+    if alone and not distinct_lever_arms(rig.mount.tolist()):
+        return events                         # one lever arm: each scan's own no-sideslip fit (c.10.5.1)
+    n = 3 if alone else 2
     series = rig_ego_velocity(rig, np.random.default_rng(0))
     out = []
     for e in events:
@@ -47,9 +55,9 @@ def with_rig_velocity(events: list, rec, config) -> list:
             k = min(int(np.searchsorted(series.t, e.t)), series.t.size - 1)
             if abs(series.t[k] - e.t) > 1e-6 and k > 0 and abs(series.t[k - 1] - e.t) < abs(series.t[k] - e.t):
                 k -= 1
-            ok = series.status[k] == OK and np.all(np.isfinite(series.theta[k, :2]))
-            ego = EgoVelocity(series.theta[k, :2].copy() if ok else np.zeros(2),
-                              series.cov[k, :2, :2].copy() if ok else np.eye(2), np.zeros(0, dtype=bool),
+            ok = series.status[k] == OK and np.all(np.isfinite(series.theta[k, :n]))
+            ego = EgoVelocity(series.theta[k, :n].copy() if ok else np.zeros(n),
+                              series.cov[k, :n, :n].copy() if ok else np.eye(n), np.zeros(0, dtype=bool),
                               float(series.sigma_mps[k]) if ok else float("nan"), 0.0, False, bool(ok))
             e = dataclasses.replace(e, ego=ego)
         out.append(e)

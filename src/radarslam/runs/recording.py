@@ -243,6 +243,39 @@ def _truth_at_start(t: float, truth_t: np.ndarray, truth: np.ndarray) -> np.ndar
     return at
 
 
+def with_rig(rec: Recording, config: Config) -> Config:
+    """``config`` as the filter takes it for ``rec``: ``[sensor]`` the effective mounting
+    (:func:`effective_mounting`) and, for a rig, ``sensors`` the recording's mountings when the config
+    names none, so that the estimator's ``EstimatorConfig.rig`` is the rig the scans come from (the
+    radar alone's observability, c.10.5.1 / c.12.2; the retirement's margin, c.15). The written
+    config is not this one."""
+    from radarslam.config import RigSensorConfig
+
+    m = effective_mounting(rec, config)
+    config = dataclasses.replace(config, sensor=dataclasses.replace(
+        config.sensor, mount_x_m=m.x, mount_y_m=m.y, mount_yaw_deg=math.degrees(m.yaw)))
+    if rec.sensors and not config.sensors:
+        config = dataclasses.replace(config, sensors=[
+            RigSensorConfig(int(k), float(v.x), float(v.y), math.degrees(v.yaw), v.name or "")
+            for k, v in sorted(rec.sensors.items())])
+    return config
+
+
+def checked_doppler(rec: Recording, config: Config, mounting: Mounting) -> Recording:
+    """``rec`` with its Doppler column signed by ``sensor.doppler_sign``, refused in one line when its
+    static consensus says it is negated or ego-compensated against the odometry
+    (egomotion/doppler_column.py, issue 42 item 6)."""
+    from pathlib import Path
+
+    from radarslam.egomotion.doppler_column import check_doppler_column, with_doppler_sign
+
+    rec = with_doppler_sign(rec, config.sensor.doppler_sign)
+    src = Path(str(rec.source))
+    where = str(src / "detections.csv") if src.is_dir() else str(rec.source)
+    check_doppler_column(rec, mounting, where)
+    return rec
+
+
 def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=None, start: str = "auto",
                   align: str = "none", calibration=None) -> RecordingRun:
     """Run :class:`~radarslam.slam.EkfSlam` over ``rec`` with ``config`` and evaluate against its truth.
@@ -268,6 +301,7 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
     m = effective_mounting(rec, config)
     config = dataclasses.replace(config, sensor=dataclasses.replace(
         config.sensor, mount_x_m=m.x, mount_y_m=m.y, mount_yaw_deg=math.degrees(m.yaw)))
+    rec = checked_doppler(rec, config, m)
     events, report = stream_events(rec, m)
     events = with_rig_velocity(events, rec, config)          # c.12: the rig's Doppler odometry, if asked
     times = np.array([e.t for e in events if isinstance(e, Scan)])
@@ -275,7 +309,7 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
     std = start_std(config, origin)             # the written config.toml reruns the same start
     config = dataclasses.replace(config, filter=dataclasses.replace(config.filter, initial_pose=pose,
                                                                     initial_pose_std=std))
-    record, flags = _run_filter(config, events, on_scan, first_run)
+    record, flags = _run_filter(with_rig(rec, config), events, on_scan, first_run)
     truth = None if rec.truth is None else truth_at(times, rec.truth_t, rec.truth)
     metrics = {"scans": int(times.size), "detections": int(record.n_detections.sum()),
                "associated": int(record.n_associated.sum()),

@@ -37,7 +37,7 @@ from radarslam.slam.bias import (bias_states, control_noise, initial_state, meas
 from radarslam.slam.doppler_gate import DopplerGate, mounting
 from radarslam.slam import sensor_frame
 from radarslam.slam.sensor_frame import mount_of
-from radarslam.slam.map_rows import MapSnapshot, RetiredMap, state_rows
+from radarslam.slam.map_rows import MapSnapshot, RetiredMap, retire_radius, state_rows
 from radarslam.slam.kernels import cluster_kernel as _cluster_kernel, step_kernels as _step_kernels
 from radarslam.slam.odometry_source import odometry_source
 from radarslam.slam.partial_view import view_components, view_corrected_centroid, view_walk
@@ -354,7 +354,7 @@ class EkfSlam:
                             compiled=self.config.filter.backend == "numba")
         if self._gate is not None:                                        # c.10.4.4
             drop = sorted(set(drop) | set(self._gate.moving_landmarks(st.positions, st.created(), k)))
-        retire = self._retired.select(st, lc.retire_distance_m, set(drop))   # c.15
+        retire = self._retired.select(st, retire_radius(self.config), set(drop))   # c.15, with the lever-arm margin
         if retire:
             self._retired.keep(state_rows(st, self.extent), retire)
         gone = set(drop) | set(retire)

@@ -12,7 +12,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["MAP_FIELDS", "MapSnapshot", "RetiredMap", "state_rows"]
+__all__ = ["MAP_FIELDS", "MapSnapshot", "RetiredMap", "retire_radius", "state_rows"]
+
+
+def retire_radius(config) -> float:
+    """The distance (m) from the platform's origin (the pose block) beyond which a landmark is retired
+    (c.15): ``landmarks.retire_distance_m`` (a radar's reach) plus the lever-arm margin, the largest
+    ``|l|`` of the rig's radars (``EstimatorConfig.rig``, else ``[sensor]``), so that no radar can
+    still see a landmark when it leaves (a radar at ``l`` sees to ``d_r + |l|`` from the origin);
+    0 (never) for ``retire_distance_m`` 0."""
+    d = float(config.landmarks.retire_distance_m)
+    if d <= 0.0:
+        return 0.0
+    arms = [(float(m[0]), float(m[1])) for m in config.rig] or [(float(config.sensor.mount_x_m),
+                                                               float(config.sensor.mount_y_m))]
+    return d + max(float(np.hypot(x, y)) for x, y in arms)
 
 
 @dataclass(frozen=True)
@@ -55,7 +69,8 @@ class RetiredMap:
 
     def select(self, state, distance_m: float, dropped: set[int]) -> list[int]:
         """The landmarks (state positions, ascending) farther than ``distance_m`` from the pose block's
-        position (the scan's radar, c.13), other than ``dropped``; none for ``distance_m`` <= 0."""
+        position (the platform's origin; ``distance_m`` is :func:`retire_radius`, c.15), other than
+        ``dropped``; none for ``distance_m`` <= 0."""
         if distance_m <= 0.0 or state.n_landmarks == 0:
             return []
         far = np.flatnonzero(np.sum((state.positions - state.x[:2]) ** 2, axis=1) > distance_m ** 2).tolist()

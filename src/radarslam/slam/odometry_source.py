@@ -8,7 +8,7 @@ Event flow (:meth:`DopplerOdometry.process`, called by :meth:`EkfSlam.process
 - a :class:`~radarslam.core.types.Scan` first predicts over the accumulated interval with the
   body-velocity model (:mod:`radarslam.models.body_velocity`), input ``u = [v_x, v_y, omega]``:
   ``(v_x, v_y)`` the *previous* scan's Doppler ego-velocity fit (c.10.2) and ``omega`` the mean gyro
-  rate, ``U = blockdiag(cov(v), sigma_gyro^2)``, ``Q`` once per accumulated odometer interval (as
+  rate, ``U = blockdiag(cov(v), sigma_gyro^2 dt_0 / dt)`` (the gyro a density, c.2.2), ``Q`` once per accumulated odometer interval (as
   the odometer's predictions add it); then updates with the scan (:meth:`EkfSlam.update`); then fits
   this scan's velocity, to drive the next interval.
 
@@ -65,9 +65,9 @@ def odometry_source(slam) -> "DopplerOdometry | None":
         if f.odometry != "doppler":
             raise ConfigError(f"filter.yaw_rate: 'doppler' expected with filter.odometry 'doppler' (the radar alone, "
                               f"c.10.5.1), got filter.odometry {f.odometry!r}")
-        if slam.config.sensor.mount_x_m == 0.0:
-            raise ConfigError("filter.yaw_rate: 'doppler' needs the radar off the rear axle (omega = w_y / l_x is "
-                              "unobservable at l_x = 0, c.10.5.1), got sensor.mount_x_m = 0.0")
+        why = radar_alone_unobservable(slam.config.rig, slam.config.sensor)
+        if why is not None:
+            raise ConfigError(why)
     if f.odometry == "odometer":
         if f.motion_model == "body-velocity":
             raise ConfigError("filter.motion_model: 'body-velocity' is driven by filter.odometry 'doppler' or "
@@ -79,7 +79,37 @@ def odometry_source(slam) -> "DopplerOdometry | None":
     if f.odometry == "both" and f.motion_model != "unicycle":
         raise ConfigError(f"filter.motion_model: expected 'unicycle' with filter.odometry 'both' (its control[0] is "
                           f"the forward speed), got {f.motion_model!r}")
-    return DopplerOdometry(f, mounting(slam.config.sensor))
+    return DopplerOdometry(f, mounting(slam.config.sensor),
+                           rig_fit=f.yaw_rate == "doppler" and distinct_lever_arms(slam.config.rig))
+
+
+def distinct_lever_arms(rig) -> bool:
+    """Whether a rig ``((x, y, yaw), ...)`` has two radars at different positions: then its joint
+    Doppler fit observes ``(v_x, v_y, omega)`` (c.12.2: one radar's rows have the null direction
+    ``(y_s, -x_s, 1)``; two radars share it only if ``l_s = l_r``)."""
+    pos = {(float(m[0]), float(m[1])) for m in rig}
+    return len(pos) >= 2
+
+
+def radar_alone_unobservable(rig, sensor) -> str | None:
+    """Why the radar alone (``filter.yaw_rate = "doppler"``) cannot give the yaw rate, or None when it
+    can: a rig with two distinct lever arms fits ``(v_x, v_y, omega)`` (c.12.2), whatever the axle;
+    a single radar (the rig's one, else ``[sensor]``) needs the no-sideslip model and ``l_x != 0``
+    (``omega = w'_y / l_x``, c.10.5.1)."""
+    if distinct_lever_arms(rig):
+        return None
+    if rig:
+        x, y = float(rig[0][0]), float(rig[0][1])
+        if x != 0.0:
+            return None
+        return (f"filter.yaw_rate: 'doppler' needs two radars at different positions (the rig's joint fit, c.12.2) "
+                f"or one off the rear axle (omega = w_y / l_x, c.10.5.1), got a rig of {len(rig)} radar(s), all at "
+                f"x = {x}, y = {y}")
+    if sensor.mount_x_m != 0.0:
+        return None
+    return ("filter.yaw_rate: 'doppler' needs the radar off the rear axle (omega = w_y / l_x is unobservable at "
+            "l_x = 0, c.10.5.1) or a rig of two radars at different positions (c.12.2), got sensor.mount_x_m = 0.0 "
+            "and no rig")
 
 
 def platform_input(w: np.ndarray, C: np.ndarray, mount, yaw_rate: float | None,
@@ -138,19 +168,25 @@ class DopplerOdometry:
         ``doppler_std_floor_mps``, ``zero_velocity_probability``).
     """
 
-    def __init__(self, filter_config, mount=(0.0, 0.0, 0.0)):
+    def __init__(self, filter_config, mount=(0.0, 0.0, 0.0), rig_fit: bool = False):
         self.f = filter_config
         self.mount = tuple(float(m) for m in mount)
         self.config_mount = self.mount
         #: Whether the held velocity is the sensor's (a fit of the scan) or the platform's (``Scan.ego``).
         self.sensor_frame = True
+        #: The radar alone on a rig (c.10.5.1, c.12.2): the scans carry the rig's (v_x, v_y, omega) fit
+        #: (``Scan.ego`` of three components), held as it is; never a radar's no-sideslip yaw rate.
+        self.rig_fit = bool(rig_fit)
         self.model = BodyVelocityModel()
         self.gyro_var = math.radians(filter_config.gyro_std_deg_s) ** 2
         self.noise_ref = float(filter_config.noise_interval_s)   # Q is quoted per reading over it (c.2.2)
         #: RANSAC's minimal sets (c.10.2): a fixed seed of its own, so a run is reproducible.
         self.rng = np.random.default_rng(0)
-        self.v = np.zeros(2)                                  # the velocity driving the next interval
-        self.C = np.eye(2) * filter_config.doppler_hold_std_mps ** 2
+        n = 3 if self.rig_fit else 2
+        self.v = np.zeros(n)                                  # the velocity driving the next interval
+        self.C = np.eye(n) * filter_config.doppler_hold_std_mps ** 2
+        if self.rig_fit:
+            self.sensor_frame = False
         self.fits = 0                                         # valid fits so far
         self.clear_interval()
 
@@ -195,9 +231,17 @@ class DopplerOdometry:
         """The body-velocity prediction over the accumulated interval (c.10.5) as ``(u (3,), U (3, 3),
         dt, Q_n)``, ``Q_n`` the process noise over dt (c.2.2); it depends on the
         scans and readings only, not on the filter's state (the fused engine's stream takes it)."""
+        if self.v.size == 3:          # the rig's (v_x, v_y, omega) at the rear axle (c.12.2), the radar alone
+            u, U = self.v.copy(), self.C.copy()
+            steady = abs(self.dt - self.n * self.noise_ref) <= 1e-9
+            return u, U, self.dt, self.n * Q if steady else Q * (self.dt / self.noise_ref)
         omega = None if self.f.yaw_rate == "doppler" else self.gyro_dt / self.dt
+        # c.2.2: the gyro's mean over the interval; filter.gyro_std_deg_s is quoted for a reading over
+        # noise_interval_s (a density sigma^2 dt_0), so its mean over dt has variance sigma^2 dt_0 / dt and the
+        # heading variance it adds, sigma^2 dt_0 dt, grows with time, not with the number of scans (radars)
+        gyro_var = self.gyro_var * (self.noise_ref / self.dt)
         u, U = platform_input(self.v, self.C, self.mount if self.sensor_frame else (0.0, 0.0, 0.0), omega,
-                              self.gyro_var)
+                              gyro_var)
         if self.f.odometry == "both":
             u, U = fuse_forward_speed(u, U, self.speed_dt / self.dt, self.f.speed_std_mps ** 2)
         # Q a density (c.2.2): n readings of the reference interval take n Q, as before, bit for bit
@@ -221,6 +265,9 @@ class DopplerOdometry:
         """This scan's ego velocity, held for the next interval: the one the scan carries (a 3-D
         recording's levelled fit, c.10.6), else the Doppler gate's fit ``gate_ego`` when it ran, else
         a fit of the scan's platform-frame azimuths (c.10.2)."""
+        if self.rig_fit:
+            self._hold_rig(scan)
+            return
         ego = scan.ego if scan.ego is not None else gate_ego       # c.10.6: a recording's 3-D fit first
         if scan.ego is not None and self.f.yaw_rate == "doppler":
             raise InputError(f"scan {scan.index}: filter.yaw_rate 'doppler' expected the radar's own fit, got a scan "
@@ -246,3 +293,17 @@ class DopplerOdometry:
             self.fits += 1
         else:
             self.C = self.C + np.eye(2) * self.f.doppler_hold_std_mps ** 2
+
+    def _hold_rig(self, scan: Scan) -> None:
+        """The radar alone on a rig: hold the scan's ``Scan.ego``, the rig's joint ``(v_x, v_y, omega)``
+        fit at the rear axle (c.12.2; egomotion/rig_odometry.py); a scan without a valid one keeps
+        the last with ``filter.doppler_hold_std_mps``^2 added to every component (m/s, and rad/s)."""
+        ego = scan.ego
+        if ego is not None and np.asarray(ego.v).shape != (3,):
+            raise InputError(f"scan {scan.index}: filter.yaw_rate 'doppler' on a rig expected the rig's (v_x, v_y, "
+                             f"omega) fit as Scan.ego, got shape {np.asarray(ego.v).shape}")
+        if ego is not None and ego.valid and np.all(np.isfinite(ego.v)) and np.all(np.isfinite(ego.cov)):
+            self.v, self.C = np.asarray(ego.v, dtype=float).copy(), np.asarray(ego.cov, dtype=float).copy()
+            self.fits += 1
+        else:
+            self.C = self.C + np.eye(3) * self.f.doppler_hold_std_mps ** 2

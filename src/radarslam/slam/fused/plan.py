@@ -202,6 +202,7 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
     """The :class:`FusedParams` of ``slam``'s configuration and components."""
     lc, ec, f = slam.config.landmarks, slam.config.extent, slam.config.filter
     from radarslam.extent.mem_ekf import MemEkfEstimator
+    from radarslam.slam.map_rows import retire_radius
     from radarslam.extent.visible_arc import VisibleArcEstimator
     from radarslam.models.ackermann import AckermannModel
     from radarslam.slam._jcbb_numba import CompiledJcbbAssociator
@@ -242,7 +243,7 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
         sift_radius=float(lc.sift_radius_m), eps=float(lc.cluster_eps_m), tentative_gate=float(lc.tentative_gate_m),
         merge_distance=float(lc.merge_distance_m), merge_axis_tol=float(lc.merge_axis_tol_m),
         max_range=float(f.max_range_m), half_fov=math.radians(f.field_of_view_deg) / 2.0,
-        retire2=float(lc.retire_distance_m) ** 2,
+        retire2=retire_radius(slam.config) ** 2,          # c.15: the reach plus the lever-arm margin
         gate=float(slam.extent.gate), gamma=float(ec.spread_factor),
         alpha0=float(ec.alpha0), tau=float(ec.tau_s), eig_floor=float(ec.eig_floor_m2), kappa=float(ec.kappa),
         beam_step=float(slam.extent.beam_step) if arc else 0.0,

@@ -1,0 +1,140 @@
+"""Is a recording's Doppler column the raw radial velocity? (issue 42 item 6; docs/recordings.md "Doppler")
+
+The static world's Doppler is ``d = -u . w`` (c.10.1): ``w`` the radar's own velocity in its frame,
+``u`` the detection's direction, positive receding. A column stored with the other sign
+(approaching positive) gives ``w`` reversed; an ego-compensated column (nuScenes ``vx_comp`` /
+``vy_comp``, RadarScenes ``vr_compensated``, View-of-Delft ``v_r_compensated``) has the radar's own
+motion removed, so the static world reads about 0 and ``w`` about 0. Neither is visible to the
+filter (the consensus of c.10.2 is found either way), so the column is checked against the
+odometry: each sweep's static consensus (the RANSAC fit of ``w``, c.10.2-c.10.3) is moved to the
+rear axle with the odometry's yaw rate, ``v = (R(yaw_m) w)_x + omega l_y`` (c.10.5), and compared
+with the odometry's speed over the sweeps in which the car moves. The median ratio ``v / v_odo`` is
+about +1 for a raw column, -1 for a negated one and 0 for a compensated one.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from radarslam.core.errors import InputError
+
+__all__ = ["DopplerConsensus", "MIN_MOVING_SWEEPS", "MOVING_MPS", "check_doppler_column", "doppler_consensus",
+           "with_doppler_sign"]
+
+#: A sweep counts as moving when the odometry's speed there is above this (m/s): at 2 m/s a raw
+#: column's consensus is 2 m/s, 20 times the nuScenes fit's 0.1 m/s scatter (c.12.6).
+MOVING_MPS = 2.0
+#: The check needs this many moving sweeps with a consensus; fewer (a car at rest) and it says nothing.
+MIN_MOVING_SWEEPS = 10
+#: A sweep needs this many detections for its fit (RANSAC's minimal set is 2; c.10.3 wants 4 in 2-D).
+MIN_DETECTIONS = 6
+
+
+@dataclass(frozen=True)
+class DopplerConsensus:
+    """The static Doppler consensus against the odometry over the moving sweeps.
+
+    Attributes
+    ----------
+    sweeps : int
+        Moving sweeps with a valid consensus.
+    doppler_mps, odometry_mps : float
+        Median forward speed at the rear axle from the consensus and from the odometry (m/s).
+    ratio : float
+        Median over those sweeps of the two speeds' ratio (+1 raw, -1 negated, 0 compensated).
+    """
+
+    sweeps: int
+    doppler_mps: float
+    odometry_mps: float
+    ratio: float
+
+    @property
+    def verdict(self) -> str:
+        """"raw", "negated" or "compensated" (the nearest of +1, -1, 0), or "unknown" (too few sweeps)."""
+        if self.sweeps < MIN_MOVING_SWEEPS:
+            return "unknown"
+        return "negated" if self.ratio <= -0.5 else "compensated" if self.ratio < 0.5 else "raw"
+
+
+def with_doppler_sign(rec, sign: int):
+    """``rec`` with ``channels['doppler_mps']`` multiplied by ``sign`` (``[sensor] doppler_sign``:
+    -1 for a column stored approaching-positive); ``rec`` itself for +1 or without the column."""
+    import dataclasses
+
+    if sign not in (1, -1):
+        raise InputError(f"sensor.doppler_sign: expected 1 or -1, got {sign!r}")
+    d = rec.channels.get("doppler_mps")
+    if sign == 1 or d is None:
+        return rec
+    return dataclasses.replace(rec, channels={**rec.channels, "doppler_mps": -np.asarray(d, dtype=float)})
+
+
+def doppler_consensus(rec, mounting, rng: np.random.Generator) -> DopplerConsensus:
+    """The sweeps' static consensus against the odometry (module docstring). A sweep is the rows of
+    one ``(t_s, sensor_id)``; its mounting is its sensor's (``rec.sensors``), else ``mounting``
+    (the single radar's: a :class:`~radarslam.io.recording.mounting.Mounting`). Needs a unicycle
+    odometry (``speed_mps, yaw_rate_rad_s``)."""
+    from radarslam.models.doppler import directions, fit_ego_velocity
+
+    d = np.asarray(rec.channels["doppler_mps"], dtype=float)
+    sid = rec.channels.get("sensor_id")
+    sid = np.zeros(d.size, dtype=np.int64) if sid is None else np.asarray(sid).astype(np.int64)
+    t = np.asarray(rec.det_t, dtype=float)
+    ok = rec.det_polar[:, 0] > 0                                     # zero ranges: invalid returns
+    keys = np.column_stack([t, sid])[ok]
+    rows = np.flatnonzero(ok)
+    _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    order = np.argsort(inverse, kind="stable")
+    bounds = np.searchsorted(inverse[order], np.arange(first.size + 1))
+    speed = np.interp(t[rows[first]], rec.odo_t, rec.odo[:, 0])
+    omega = np.interp(t[rows[first]], rec.odo_t, rec.odo[:, 1])
+    inside = (t[rows[first]] >= rec.odo_t[0]) & (t[rows[first]] <= rec.odo_t[-1])
+    v_fit, v_odo = [], []
+    for k in np.flatnonzero(inside & (np.abs(speed) > MOVING_MPS)):
+        idx = rows[order[bounds[k]:bounds[k + 1]]]
+        if idx.size < MIN_DETECTIONS:
+            continue
+        s = int(sid[idx[0]])
+        m = rec.sensors.get(s) if rec.sensors else mounting
+        if m is None:
+            continue
+        if np.all(d[idx] == 0.0):
+            w = np.zeros(2)             # every d = -u . w = 0 holds exactly at w = 0 (a zeroed column; the fit's scale is 0)
+        else:
+            ego = fit_ego_velocity(directions(rec.det_polar[idx]), d[idx], rng)      # c.10.2, sensor frame
+            if not ego.valid or not np.all(np.isfinite(ego.v)):
+                continue
+            w = ego.v
+        c, sn = math.cos(m.yaw), math.sin(m.yaw)
+        v_fit.append(c * w[0] - sn * w[1] + omega[k] * m.y)                     # c.10.5: w' = R w, v = w'_x + omega l_y
+        v_odo.append(speed[k])
+    if not v_fit:
+        return DopplerConsensus(0, math.nan, math.nan, math.nan)
+    v_fit, v_odo = np.array(v_fit), np.array(v_odo)
+    return DopplerConsensus(int(v_fit.size), float(np.median(v_fit)), float(np.median(v_odo)),
+                            float(np.median(v_fit / v_odo)))
+
+
+def check_doppler_column(rec, mounting, where: str = "detections.csv") -> DopplerConsensus:
+    """Refuse (:class:`InputError`, one line) a Doppler column that looks negated or ego-compensated
+    against the odometry (module docstring); the consensus otherwise (also when it cannot tell:
+    no odometry speed, or the car moving in fewer than :data:`MIN_MOVING_SWEEPS` sweeps)."""
+    if rec.channels.get("doppler_mps") is None or rec.odo_kind != "unicycle" or rec.odo_t.size < 2:
+        return DopplerConsensus(0, math.nan, math.nan, math.nan)
+    cons = doppler_consensus(rec, mounting, np.random.default_rng(0))
+    found = (f"the static Doppler consensus gives {cons.doppler_mps:+.1f} m/s where the odometry says "
+             f"{cons.odometry_mps:+.1f} m/s ({cons.sweeps} moving scans)")
+    if cons.verdict == "negated":
+        raise InputError(f"{where}: doppler_mps looks negated: {found}; set [sensor] doppler_sign = -1 or pass "
+                         f"--doppler-sign -1")
+    if cons.verdict == "compensated":
+        raise InputError(f"{where}: doppler_mps looks ego-compensated (the radar's own motion removed, as "
+                         f"nuScenes vx_comp/vy_comp, RadarScenes vr_compensated, View-of-Delft v_r_compensated): "
+                         f"{found}; expected the raw radial velocity (nuScenes vx/vy projected on the line of "
+                         f"sight, RadarScenes vr, View-of-Delft v_r)")
+    return cons
