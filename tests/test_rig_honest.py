@@ -299,14 +299,16 @@ def test_gates_flag_a_rival_consensus_and_spare_honest_fits(tmp_path):
 
 
 def test_the_jump_gate_flags_a_translating_rival_the_gyro_cannot_see():
-    """A road user that translates only (omega as the car's: the gyro agrees) wins three windows: the
-    jump gate flags them against the previous sweeps; the negative control, the same drive without it,
-    flags at most one window of ~75."""
+    """A road user that translates only (omega as the car's: the gyro agrees) wins some windows: the
+    jump gate flags them against the previous sweeps; the negative control, the same drive (braking
+    into a turn, mountings off by the stated prior) without it, flags at most one window of ~75."""
     from radarslam.experiments.rig_velocity import checked_rig_velocity
     from radarslam.models.rig_velocity import FLAGGED_JUMP, OK
 
     rng = np.random.default_rng(12)
-    clean = synth_rig(rng, duration=1.2, n_per_sweep=50)
+    # braking at 2 m/s^2 into a turn (0.3 rad/s^2), mountings off by the stated prior
+    clean = synth_rig(rng, duration=1.2, n_per_sweep=50, yaw_err=np.radians(PRIOR_YAW_DEG) * rng.standard_normal(5),
+                      theta=lambda t: np.array([16.2 - 2.0 * t, 0.1, 0.3 * t - 0.08]))
     cfg = _config()
     s0 = checked_rig_velocity(clean, cfg.filter)
     assert np.sum(s0.valid) >= np.sum(np.isfinite(s0.theta[:, 0])) - 1
@@ -316,7 +318,7 @@ def test_the_jump_gate_flags_a_translating_rival_the_gyro_cannot_see():
     d[bad] = static_doppler(clean.azimuth[bad], m[:, 0], m[:, 1], m[:, 2], 9.0, -2.0, 0.1) \
         + 0.1 * rng.standard_normal(bad.sum())
     s = checked_rig_velocity(dataclasses.replace(clean, doppler=d), cfg.filter)
-    wrong = np.isfinite(s.theta[:, 0]) & (np.abs(s.theta[:, 0] - 15.0) > 1.0)
+    wrong = np.isfinite(s.theta[:, 0]) & (np.abs(s.theta[:, 0] - (16.2 - 2.0 * s.t)) > 1.0)
     assert wrong.sum() >= 1
     assert np.all(s.status[wrong] == FLAGGED_JUMP)
     far = np.isfinite(s.theta[:, 0]) & (np.abs(s.t - 0.625) > 0.1)

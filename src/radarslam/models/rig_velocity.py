@@ -191,6 +191,10 @@ class RigVelocitySeries:
         ``slope_half_window_s``; 1/s units of ``theta``), the systematic terms' input.
     overlap : ndarray, shape (K,) or None
         The mean number of windows each of the window's detections is in (about 5 at +-40 ms).
+    mount_jac : ndarray, shape (K, 3, S) or None
+        ``sigma_psi d theta / d psi_s``: the fit's response to one std of each radar's mounting-yaw error.
+    time_bias : ndarray, shape (K, 3) or None
+        ``T theta_dot``: the fit's offset from the motion at the window's centre (c.12.3 step 5b).
     """
 
     t: np.ndarray
@@ -203,6 +207,8 @@ class RigVelocitySeries:
     cov_noise: np.ndarray | None = None
     theta_dot: np.ndarray | None = None
     overlap: np.ndarray | None = None
+    mount_jac: np.ndarray | None = None
+    time_bias: np.ndarray | None = None
 
     def white_cov(self) -> np.ndarray:
         """``cov`` as a filter that takes every window's fit as an independent reading needs it
@@ -357,18 +363,25 @@ def fit_rig_windows(t: np.ndarray, A: np.ndarray, doppler: np.ndarray, t_out: np
         kappa = np.maximum((csum[hi] - csum[lo]) / (hi - lo), 1.0)
     kappa = np.where(np.isfinite(kappa), kappa, 1.0)
     cov_noise = cov.copy()
-    theta_dot = None
+    theta_dot = mount_jac = time_bias = None
     if aux is not None:
         T, J = out[6], out[7]
         theta_dot = _slopes(t_out, theta, status == OK, slope_half_window_s)
         Tq = np.einsum("kij,kj->ki", T, theta_dot)              # the window's own spread in time (step 5b)
+        mount_jac, time_bias = mount_yaw_std_rad * J, Tq
         cov = (cov + mount_yaw_std_rad ** 2 * J @ np.swapaxes(J, 1, 2)
                + time_offset_std_s ** 2 * theta_dot[:, :, None] * theta_dot[:, None, :]
                + Tq[:, :, None] * Tq[:, None, :])
         theta_dot = _full(theta_dot, np.zeros(theta_dot.shape + (theta_dot.shape[-1],)))[0]
     th, C = _full(theta, cov)
     Cn = _full(theta, cov_noise)[1]
-    return RigVelocitySeries(t_out, th, C, status, sigma, n_in, hi - lo, Cn, theta_dot, kappa)
+    if mount_jac is not None and theta.shape[1] == 2:
+        mj = np.zeros((theta.shape[0], 3, mount_jac.shape[2]))
+        mj[:, ::2] = mount_jac
+        tb = np.zeros((theta.shape[0], 3))
+        tb[:, ::2] = time_bias
+        mount_jac, time_bias = mj, tb
+    return RigVelocitySeries(t_out, th, C, status, sigma, n_in, hi - lo, Cn, theta_dot, kappa, mount_jac, time_bias)
 
 
 def _slopes(t: np.ndarray, theta: np.ndarray, ok: np.ndarray, h: float) -> np.ndarray:
@@ -421,8 +434,10 @@ def gate_rig_velocity(series: RigVelocitySeries, gyro_t: np.ndarray | None, gyro
     Gyro: ``(omega - omega_g)^2 / (C_ww + gyro_std^2) > chi2_1(probability)`` with ``omega_g`` the gyro
     ``(gyro_t, gyro)`` interpolated at the fit's time (skipped outside its span or without one).
     Jump: against the last fit still ok, ``e^T S^-1 e > chi2_p(probability)`` with ``e`` the difference,
-    ``S = C_noise,k + C_noise,j + diag(accel_std)^2 dt^2`` (the systematic terms are common to
-    neighbouring fits and leave the difference; their noise parts overlap, so the sum is conservative).
+    ``S = C_noise,k + C_noise,j + D D^T + b b^T + diag(accel_std)^2 dt^2`` where ``D`` is the difference
+    of the two fits' mounting-yaw responses (``mount_jac``) and ``b`` of their ``time_bias``: a common
+    mounting or clock error moves neighbouring fits alike, and only as far as their radars' share of
+    the windows differs does it move them apart; their noise parts overlap, so the sum is conservative.
 
     Parameters
     ----------
@@ -457,7 +472,12 @@ def gate_rig_velocity(series: RigVelocitySeries, gyro_t: np.ndarray | None, gyro
     for k in np.flatnonzero(status == OK):
         if j >= 0:
             e = (th[k] - th[j])[idx]
-            S = (Cn[k] + Cn[j])[np.ix_(idx, idx)] + Q * (series.t[k] - series.t[j]) ** 2
+            S = Cn[k] + Cn[j]
+            if series.mount_jac is not None:
+                D = series.mount_jac[k] - series.mount_jac[j]
+                b = series.time_bias[k] - series.time_bias[j]
+                S = S + D @ D.T + np.outer(b, b)
+            S = S[np.ix_(idx, idx)] + Q * (series.t[k] - series.t[j]) ** 2
             if not float(e @ np.linalg.solve(S, e)) <= qp:
                 status[k] = FLAGGED_JUMP
                 continue
