@@ -142,6 +142,9 @@ TIME_OFFSET_STD_S = 0.05
 #: to ~9 m/s^2 and a lane change reaches ~0.5 rad/s^2).
 GATE_PROBABILITY = 0.999
 ACCEL_STD = (3.0, 1.0, 1.0)
+#: How fast the fit's disagreement with the gyro may wander (rad/s^2, 1 sigma): a clock offset of 50 ms
+#: (TIME_OFFSET_STD_S) against a yaw acceleration of 1 rad/s^2 (ACCEL_STD) is 0.05 rad/s of it.
+OFFSET_RATE_STD = 0.05
 
 
 def rig_ego_velocity(rig: Rig, rng: np.random.Generator, *, lateral: bool = True, half_window_s: float = 0.04,
@@ -174,7 +177,7 @@ def checked_rig_velocity(rig: Rig, filter_config, rng: np.random.Generator | Non
     odo = rig.odometry
     gt, g = (odo[:, 0], odo[:, 2]) if odo is not None and odo.shape[0] >= 2 else (None, None)
     return gate_rig_velocity(series, gt, g, math.radians(filter_config.gyro_std_deg_s),
-                             probability=GATE_PROBABILITY, accel_std=ACCEL_STD)
+                             probability=GATE_PROBABILITY, accel_std=ACCEL_STD, offset_rate_std=OFFSET_RATE_STD)
 
 
 def compare_with_odometry(series: RigVelocitySeries, odometry: np.ndarray) -> dict:

@@ -15,14 +15,17 @@ of a recording in one vectorised call (c.12.3-c.12.4): RANSAC on minimal sets fo
 least squares on it (:mod:`radarslam.models._rig_consensus`), a robust scale (1.4826 MAD of the
 consensus), Tukey's biweight by IRLS at that scale, and the M-estimator's sandwich covariance
 (:mod:`radarslam.models._rig_robust`, which also holds :data:`TUKEY_C`, the status codes and the
-chunking; re-exported here). :func:`yaw_offset_of_sweep` and :func:`tukey_location` are the pieces of
+chunking; re-exported here). With each detection's radar and :func:`rig_design_yaw`, the covariance
+adds the mounting-yaw and timing terms (c.12.3 step 5b). :func:`gate_rig_velocity` flags fits that
+disagree with the gyro or the previous sweeps and :func:`velocity_given_yaw_rate` conditions a fit on
+the gyro's yaw rate (c.12.7). :func:`yaw_offset_of_sweep` and :func:`tukey_location` are the pieces of
 the mounting calibration (c.12.5).
 """
 
 from __future__ import annotations
 
-import math
 import dataclasses
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -271,7 +274,9 @@ def fit_rig_velocity(A: np.ndarray, doppler: np.ndarray, rng: np.random.Generato
         Rows (drawn with replacement) on which each minimal set's consensus is counted; all rows
         when the window has no more.
     sigma_floor_mps : float
-        Floor of the robust scale (the Doppler's quantisation, 0.1 m/s / sqrt(12)).
+        Floor of the robust scale, and the covariance never below ``sigma_floor_mps^2 (A^T W A)^-1``
+        (c.12.3 step 5; default the Doppler's quantisation, 0.1 m/s / sqrt(12); a run passes the
+        profile's ``filter.doppler_std_floor_mps``).
     min_inlier_fraction : float
         Fewer weighted detections than this fraction of the window: not valid.
     irls_steps : int
@@ -427,17 +432,23 @@ def velocity_given_yaw_rate(theta: np.ndarray, cov: np.ndarray, omega: float,
 
 def gate_rig_velocity(series: RigVelocitySeries, gyro_t: np.ndarray | None, gyro: np.ndarray | None,
                       gyro_std: float, *, probability: float = 0.999,
-                      accel_std: tuple[float, float, float] = (3.0, 1.0, 1.0)) -> RigVelocitySeries:
-    """``series`` with the fits that disagree with the gyro or with the previous sweeps beyond their
+                      accel_std: tuple[float, float, float] = (3.0, 1.0, 1.0),
+                      offset_rate_std: float = 0.05) -> RigVelocitySeries:
+    """``series`` with the fits that disagree with the gyro and the previous sweeps beyond their
     covariance flagged (c.12.7; status :data:`FLAGGED_GYRO`, :data:`FLAGGED_JUMP`, no longer valid).
+    Both gates compare fit ``k`` with ``j``, the last fit still ok before it, through the covariance of
+    their difference ``S = C_noise,k + C_noise,j + D D^T + b b^T`` where ``D`` is the difference of the
+    two fits' mounting-yaw responses (``mount_jac``) and ``b`` of their ``time_bias``: a common mounting
+    or clock error moves neighbouring fits alike, and only as far as their radars' share of the windows
+    differs does it move them apart (their noise parts overlap, so the sum is conservative).
 
-    Gyro: ``(omega - omega_g)^2 / (C_ww + gyro_std^2) > chi2_1(probability)`` with ``omega_g`` the gyro
-    ``(gyro_t, gyro)`` interpolated at the fit's time (skipped outside its span or without one).
-    Jump: against the last fit still ok, ``e^T S^-1 e > chi2_p(probability)`` with ``e`` the difference,
-    ``S = C_noise,k + C_noise,j + D D^T + b b^T + diag(accel_std)^2 dt^2`` where ``D`` is the difference
-    of the two fits' mounting-yaw responses (``mount_jac``) and ``b`` of their ``time_bias``: a common
-    mounting or clock error moves neighbouring fits alike, and only as far as their radars' share of
-    the windows differs does it move them apart; their noise parts overlap, so the sum is conservative.
+    Gyro: the fit's disagreement with the gyro ``omega - omega_g`` (the gyro ``(gyro_t, gyro)``
+    interpolated at each fit's time) changes from ``j`` to ``k`` by ``e``, flagged when ``e^2 / (S_ww +
+    2 gyro_std^2 + offset_rate_std^2 dt^2) > chi2_1(probability)``: a steady disagreement (a gyro bias, a
+    mounting error: the calibration states' to estimate) is not a fault, a sudden one is (a rival
+    consensus that turns). Skipped outside the gyro's span or without one.
+    Jump: the difference ``e`` of the whole fit, flagged when ``e^T (S + diag(accel_std)^2 dt^2)^-1 e >
+    chi2_p(probability)``: a change the car's motion cannot make in ``dt`` (a rival that only translates).
 
     Parameters
     ----------
@@ -448,37 +459,42 @@ def gate_rig_velocity(series: RigVelocitySeries, gyro_t: np.ndarray | None, gyro
         gate once in 1000).
     accel_std : (float, float, float)
         How fast ``(v_x m/s^2, v_y m/s^2, omega rad/s^2)`` may change between two fits (1 sigma).
+    offset_rate_std : float
+        How fast the fit's disagreement with the gyro may wander (rad/s^2, 1 sigma).
     """
     from scipy.stats import chi2
 
-    if not (0 < probability < 1 and gyro_std >= 0 and len(accel_std) == 3 and min(accel_std) >= 0):
-        raise InputError(f"probability, gyro_std, accel_std: expected in (0, 1), >= 0, three values >= 0, got "
-                         f"{probability}, {gyro_std}, {accel_std}")
+    if not (0 < probability < 1 and gyro_std >= 0 and len(accel_std) == 3 and min(accel_std) >= 0
+            and offset_rate_std >= 0):
+        raise InputError(f"probability, gyro_std, accel_std, offset_rate_std: expected in (0, 1), >= 0, three "
+                         f"values >= 0, >= 0, got {probability}, {gyro_std}, {accel_std}, {offset_rate_std}")
     status = np.array(series.status, dtype=np.int64, copy=True)
     th, C = series.theta, series.cov
     Cn = series.cov_noise if series.cov_noise is not None else C
     lateral = bool(np.any(np.nan_to_num(C[:, 1, 1]) > 0))
     idx = [0, 1, 2] if lateral else [0, 2]
     q1, qp = chi2.ppf(probability, 1), chi2.ppf(probability, len(idx))
-    ok = status == OK
+    dg = np.full(series.t.size, np.nan)                    # the fit's disagreement with the gyro
     if gyro_t is not None and gyro is not None and np.size(gyro_t) >= 2:
         gt, g = np.asarray(gyro_t, dtype=float), np.asarray(gyro, dtype=float)
-        inside = ok & (series.t >= gt[0]) & (series.t <= gt[-1])
-        with np.errstate(invalid="ignore"):
-            z2 = (th[:, 2] - np.interp(series.t, gt, g)) ** 2 / (C[:, 2, 2] + gyro_std ** 2)
-        status[inside & ~(z2 <= q1)] = FLAGGED_GYRO
+        inside = (series.t >= gt[0]) & (series.t <= gt[-1])
+        dg[inside] = th[inside, 2] - np.interp(series.t[inside], gt, g)
     Q = np.diag(np.asarray(accel_std, dtype=float) ** 2)[np.ix_(idx, idx)]
     j = -1
     for k in np.flatnonzero(status == OK):
         if j >= 0:
-            e = (th[k] - th[j])[idx]
+            dt2 = (series.t[k] - series.t[j]) ** 2
             S = Cn[k] + Cn[j]
             if series.mount_jac is not None:
                 D = series.mount_jac[k] - series.mount_jac[j]
                 b = series.time_bias[k] - series.time_bias[j]
                 S = S + D @ D.T + np.outer(b, b)
-            S = S[np.ix_(idx, idx)] + Q * (series.t[k] - series.t[j]) ** 2
-            if not float(e @ np.linalg.solve(S, e)) <= qp:
+            eg = dg[k] - dg[j]
+            if math.isfinite(eg) and not eg * eg <= q1 * (S[2, 2] + 2 * gyro_std ** 2 + offset_rate_std ** 2 * dt2):
+                status[k] = FLAGGED_GYRO
+                continue
+            e = (th[k] - th[j])[idx]
+            if not float(e @ np.linalg.solve(S[np.ix_(idx, idx)] + Q * dt2, e)) <= qp:
                 status[k] = FLAGGED_JUMP
                 continue
         j = k
