@@ -79,19 +79,20 @@ def test_moving_csv_equals_the_line_by_line_form(tmp_path):
 
 def test_ego_velocity_csv_equals_the_row_by_row_form(tmp_path):
     from radarslam.egomotion.rig import RigVelocitySeries, write_ego_velocity_csv
+    from radarslam.models.rig_velocity import STATUS_WORDS
 
     rng = np.random.default_rng(1)
     K = 60
     th, cov = rng.normal(size=(K, 3)), rng.normal(size=(K, 3, 3))
     th[::7], cov[::7] = np.nan, np.nan
-    s = RigVelocitySeries(np.sort(rng.random(K)) * 10, th, cov, rng.integers(0, 4, K),
+    s = RigVelocitySeries(np.sort(rng.random(K)) * 10, th, cov, rng.integers(0, 6, K),
                           np.where(rng.random(K) < 0.1, np.nan, rng.random(K)), rng.integers(0, 900, K),
                           rng.integers(0, 900, K))
     write_ego_velocity_csv(tmp_path / "ego.csv", s)
     iu = np.triu_indices(3)
     fmt = lambda v: "" if not np.isfinite(v) else repr(float(v))
     rows = [",".join([repr(float(s.t[k]))] + [fmt(v) for v in [*th[k], *cov[k][iu], s.sigma_mps[k]]]
-                     + [str(int(s.n_inliers[k])), str(int(s.n_used[k])), str(int(s.status[k]))]) for k in range(K)]
+                     + [str(int(s.n_inliers[k])), str(int(s.n_used[k])), STATUS_WORDS[int(s.status[k])]]) for k in range(K)]
     got = (tmp_path / "ego.csv").read_text().splitlines()
     assert got[1:] == rows
 

@@ -15,14 +15,18 @@ import numpy as np
 from radarslam.core.errors import InputError
 from radarslam.models.rig_velocity import (
     DEFAULTS,
+    STATUS_WORDS,
     RigVelocitySeries,
     fit_rig_windows,
+    gate_rig_velocity,
     rig_design,
+    rig_design_yaw,
 )
 
 __all__ = [
     "EGO_VELOCITY_COLUMNS",
     "Rig",
+    "checked_rig_velocity",
     "compare_with_odometry",
     "read_rig",
     "rig_ego_velocity",
@@ -126,13 +130,54 @@ def read_rig(path: str | Path, sensors: dict | None = None, origin: str = "senso
                sensor[order], ids, names, mount, odo, None if lab is None else lab[order].astype(np.int64))
 
 
+#: The systematic terms' priors (docs/method.md c.12.3 step 5b), stated before any measurement on the
+#: recordings they are used on: each radar's mounting yaw as a dataset gives it is off by up to about
+#: 0.5 deg (the smallest offset issue 42's review found on nuScenes' given mountings, 0.5-1.3 deg; one
+#: sigma), and the radars' clock against the vehicle's by up to 50 ms (the review's nuScenes offsets,
+#: 0-45 ms, rounded up; one sigma).
+MOUNT_YAW_STD_DEG = 0.5
+TIME_OFFSET_STD_S = 0.05
+#: The consistency gates (c.12.7): each gate's chi-square probability, and how fast a car's motion can
+#: change between two fits (1 sigma: 3 m/s^2 along, 1 m/s^2 across, 1 rad/s^2 of yaw; a car brakes at up
+#: to ~9 m/s^2 and a lane change reaches ~0.5 rad/s^2).
+GATE_PROBABILITY = 0.999
+ACCEL_STD = (3.0, 1.0, 1.0)
+#: How fast the fit's disagreement with the gyro may wander (rad/s^2, 1 sigma): a clock offset of 50 ms
+#: (TIME_OFFSET_STD_S) against a yaw acceleration of 1 rad/s^2 (ACCEL_STD) is 0.05 rad/s of it.
+OFFSET_RATE_STD = 0.05
+
+
 def rig_ego_velocity(rig: Rig, rng: np.random.Generator, *, lateral: bool = True, half_window_s: float = 0.04,
-                     mount: np.ndarray | None = None, **options) -> RigVelocitySeries:
+                     mount: np.ndarray | None = None, systematic: bool = True, **options) -> RigVelocitySeries:
     """``(v_x, v_y, omega)`` at every sweep's time from every radar's detections within
-    ``+-half_window_s`` (c.12.4); ``lateral`` False: the no-sideslip model (``v_y = 0``)."""
+    ``+-half_window_s`` (c.12.4); ``lateral`` False: the no-sideslip model (``v_y = 0``). With
+    ``systematic`` the covariance carries the mounting-yaw and timing terms of c.12.3 step 5b at
+    :data:`MOUNT_YAW_STD_DEG` and :data:`TIME_OFFSET_STD_S` (``options`` may state others)."""
     opts = {k: v for k, v in DEFAULTS.items() if k not in options} | options
+    m = rig.mount if mount is None else mount
+    if systematic:
+        opts.setdefault("mount_yaw_std_rad", math.radians(MOUNT_YAW_STD_DEG))
+        opts.setdefault("time_offset_std_s", TIME_OFFSET_STD_S)
+        opts["sensor"] = rig.sensor
+        opts["dA_dyaw"] = rig_design_yaw(rig.azimuth, m[rig.sensor, 0], m[rig.sensor, 1], m[rig.sensor, 2], lateral)
     return fit_rig_windows(rig.t, rig.design(lateral, mount), rig.doppler, np.unique(rig.t), rng,
                            half_window_s=half_window_s, **opts)
+
+
+def checked_rig_velocity(rig: Rig, filter_config, rng: np.random.Generator | None = None, *,
+                         lateral: bool = True) -> RigVelocitySeries:
+    """The rig's fit as a recording run takes it (c.12.4, c.12.7): the Doppler's floor from the
+    configuration (``filter.doppler_std_floor_mps``; 0, "none stated", keeps the fit's quantisation
+    floor of c.12.3), the systematic terms, and the fits that disagree with the odometry's yaw rate
+    (the gyro, ``filter.gyro_std_deg_s``) or with the previous sweeps flagged (:func:`~radarslam.models.
+    rig_velocity.gate_rig_velocity` at :data:`GATE_PROBABILITY`). Seed 0 unless ``rng``."""
+    floor = float(filter_config.doppler_std_floor_mps)
+    opts = {"sigma_floor_mps": floor} if floor > 0 else {}
+    series = rig_ego_velocity(rig, np.random.default_rng(0) if rng is None else rng, lateral=lateral, **opts)
+    odo = rig.odometry
+    gt, g = (odo[:, 0], odo[:, 2]) if odo is not None and odo.shape[0] >= 2 else (None, None)
+    return gate_rig_velocity(series, gt, g, math.radians(filter_config.gyro_std_deg_s),
+                             probability=GATE_PROBABILITY, accel_std=ACCEL_STD, offset_rate_std=OFFSET_RATE_STD)
 
 
 def compare_with_odometry(series: RigVelocitySeries, odometry: np.ndarray) -> dict:
@@ -157,8 +202,8 @@ def write_ego_velocity_csv(path: str | Path, series: RigVelocitySeries) -> None:
     the rear axle ``vx_mps`` (forward), ``vy_mps`` (left), ``yaw_rate_rad_s``; the upper triangle of
     its covariance (m^2/s^2, m^2/s^2 ... rad^2/s^2: ``wz`` is the yaw rate); the robust scale of the
     Doppler residuals ``sigma_mps``; ``n_inliers`` detections with a non-zero weight of ``n_used`` in
-    the window; ``status`` 0 ok, 1 too few detections, 2 no consensus, 3 rank deficient (velocity and
-    covariance empty)."""
+    the window; ``status`` a word: ok, too-few, no-consensus, rank-deficient (velocity and covariance
+    empty), flagged-gyro or flagged-jump (c.12.7: the fit is written but drives nothing)."""
     from radarslam.io.results import atomic_write_text
 
     iu = np.triu_indices(3)
@@ -168,8 +213,9 @@ def write_ego_velocity_csv(path: str | Path, series: RigVelocitySeries) -> None:
     vals = np.column_stack([np.asarray(series.theta, dtype=float).reshape(K, 3),
                             np.asarray(series.cov, dtype=float).reshape(K, 3, 3)[:, iu[0], iu[1]],
                             np.asarray(series.sigma_mps, dtype=float).reshape(K)]).tolist()
-    ints = np.column_stack([np.asarray(series.n_inliers).reshape(K), np.asarray(series.n_used).reshape(K),
-                            np.asarray(series.status).reshape(K)]).astype(np.int64).tolist()
-    for tk, row, last in zip(np.asarray(series.t, dtype=float).tolist(), vals, ints):
-        lines.append(",".join([repr(tk)] + [fmt(v) for v in row] + [str(i) for i in last]))
+    ints = np.column_stack([np.asarray(series.n_inliers).reshape(K),
+                            np.asarray(series.n_used).reshape(K)]).astype(np.int64).tolist()
+    words = [STATUS_WORDS[int(c)] for c in np.asarray(series.status).reshape(K)]
+    for tk, row, last, word in zip(np.asarray(series.t, dtype=float).tolist(), vals, ints, words):
+        lines.append(",".join([repr(tk)] + [fmt(v) for v in row] + [str(i) for i in last] + [word]))
     atomic_write_text(path, "\n".join(lines) + "\n")

@@ -1,18 +1,23 @@
 """Doppler odometry from the whole rig (docs/method.md c.12, c.10.5): each scan carries the joint fit
 of every radar's static detections about its time as its ``Scan.ego``, so that ``filter.odometry =
 "doppler"`` with ``filter.yaw_rate = "gyro"`` predicts with the rig's velocity at the rear axle and
-the gyro's yaw rate, instead of the velocity of the one radar that made the scan.
+the gyro's yaw rate, instead of the velocity of the one radar that made the scan. The velocity is the
+fit's given the gyro's yaw rate (the Gaussian conditional, c.12.7), not its marginal, and a fit the
+consistency gates flag (c.12.7) is no reading: the scan carries an invalid ``ego`` and the last valid
+velocity is held.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 
 from radarslam.core.types import Scan
-from radarslam.egomotion.rig import Rig, rig_ego_velocity
+from radarslam.egomotion.rig import Rig, checked_rig_velocity
 from radarslam.models.doppler import EgoVelocity
+from radarslam.models.rig_velocity import velocity_given_yaw_rate
 
 #: A fit held as valid (models.rig_velocity status 0).
 OK = 0
@@ -28,8 +33,9 @@ def rig_of(rec) -> Rig | None:
     keep = order[rec.det_polar[order, 0] > 0]                       # zero ranges: a driver's invalid returns
     row = np.searchsorted(ids, sid[keep].astype(np.int64))
     mount = np.array([[rec.sensors[i].x, rec.sensors[i].y, rec.sensors[i].yaw] for i in ids.tolist()])
+    odo = np.column_stack([rec.odo_t, rec.odo]) if rec.odo_kind == "unicycle" and rec.odo_t.size >= 2 else None
     return Rig(rec.det_t[keep], rec.det_polar[keep, 0], rec.det_polar[keep, 1], d[keep], row, ids,
-               [rec.sensors[i].name for i in ids.tolist()], mount)
+               [rec.sensors[i].name for i in ids.tolist()], mount, odo)
 
 
 def with_rig_velocity(events: list, rec, config) -> list:
@@ -48,17 +54,27 @@ def with_rig_velocity(events: list, rec, config) -> list:
     if alone and not distinct_lever_arms(rig.mount.tolist()):
         return events                         # one lever arm: each scan's own no-sideslip fit (c.10.5.1)
     n = 3 if alone else 2
-    series = rig_ego_velocity(rig, np.random.default_rng(0))
+    series = checked_rig_velocity(rig, f)
+    gyro_var = math.radians(f.gyro_std_deg_s) ** 2
+    cov = series.white_cov()               # c.12.7: neighbouring fits share detections, the filter's readings not
     out = []
     for e in events:
         if isinstance(e, Scan):
             k = min(int(np.searchsorted(series.t, e.t)), series.t.size - 1)
             if abs(series.t[k] - e.t) > 1e-6 and k > 0 and abs(series.t[k - 1] - e.t) < abs(series.t[k] - e.t):
                 k -= 1
-            ok = series.status[k] == OK and np.all(np.isfinite(series.theta[k, :n]))
-            ego = EgoVelocity(series.theta[k, :n].copy() if ok else np.zeros(n),
-                              series.cov[k, :n, :n].copy() if ok else np.eye(n), np.zeros(0, dtype=bool),
-                              float(series.sigma_mps[k]) if ok else float("nan"), 0.0, False, bool(ok))
+            ok = series.status[k] == OK and np.all(np.isfinite(series.theta[k]))
+            v, C = np.zeros(n), np.eye(n)
+            if ok and alone:                  # the radar alone: the rig's whole (v_x, v_y, omega) (c.12.2)
+                v, C = series.theta[k, :3].copy(), cov[k, :3, :3].copy()
+            elif ok and rig.odometry is not None:
+                # c.12.7: the prediction turns at the gyro's rate, so the velocity is the fit's given it
+                g = float(np.interp(series.t[k], rig.odometry[:, 0], rig.odometry[:, 2]))
+                v, C = velocity_given_yaw_rate(series.theta[k], cov[k], g, gyro_var)
+            elif ok:
+                v, C = series.theta[k, :2].copy(), cov[k, :2, :2].copy()
+            ego = EgoVelocity(v, C, np.zeros(0, dtype=bool), float(series.sigma_mps[k]) if ok else float("nan"), 0.0,
+                              False, bool(ok))
             e = dataclasses.replace(e, ego=ego)
         out.append(e)
     return out

@@ -15,12 +15,16 @@ of a recording in one vectorised call (c.12.3-c.12.4): RANSAC on minimal sets fo
 least squares on it (:mod:`radarslam.models._rig_consensus`), a robust scale (1.4826 MAD of the
 consensus), Tukey's biweight by IRLS at that scale, and the M-estimator's sandwich covariance
 (:mod:`radarslam.models._rig_robust`, which also holds :data:`TUKEY_C`, the status codes and the
-chunking; re-exported here). :func:`yaw_offset_of_sweep` and :func:`tukey_location` are the pieces of
+chunking; re-exported here). With each detection's radar and :func:`rig_design_yaw`, the covariance
+adds the mounting-yaw and timing terms (c.12.3 step 5b). :func:`gate_rig_velocity` flags fits that
+disagree with the gyro or the previous sweeps and :func:`velocity_given_yaw_rate` conditions a fit on
+the gyro's yaw rate (c.12.7). :func:`yaw_offset_of_sweep` and :func:`tukey_location` are the pieces of
 the mounting calibration (c.12.5).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -29,11 +33,14 @@ import numpy as np
 from radarslam.core.errors import InputError
 from radarslam.models._rig_robust import (  # noqa: F401  (RANK_TOL, the status codes, CHUNK_ROWS: re-exported)
     CHUNK_ROWS,
+    FLAGGED_GYRO,
+    FLAGGED_JUMP,
     MAD_TO_STD,
     NO_CONSENSUS,
     OK,
     RANK_TOL,
     STATUS,
+    STATUS_WORDS,
     TOO_FEW,
     TUKEY_C,
     UNOBSERVABLE,
@@ -46,9 +53,12 @@ __all__ = [
     "RigVelocitySeries",
     "fit_rig_velocity",
     "fit_rig_windows",
+    "gate_rig_velocity",
     "rig_design",
+    "rig_design_yaw",
     "static_doppler",
     "tukey_location",
+    "velocity_given_yaw_rate",
     "window_bounds",
     "yaw_offset_of_sweep",
 ]
@@ -78,6 +88,24 @@ def rig_design(azimuth: np.ndarray, mount_x: np.ndarray, mount_y: np.ndarray, mo
     if lateral:
         return np.ascontiguousarray(np.column_stack([-c, -s, -lever]))
     return np.ascontiguousarray(np.column_stack([-c, -lever]))
+
+
+def rig_design_yaw(azimuth: np.ndarray, mount_x: np.ndarray, mount_y: np.ndarray, mount_yaw: np.ndarray,
+                   lateral: bool = True) -> np.ndarray:
+    """``d A / d psi``: each design row's derivative with respect to its radar's mounting yaw (c.12.3
+    step 5b), ``(n, 3)`` or, with ``lateral`` False, ``(n, 2)``. With ``a = -(cos a, sin a, x sin a -
+    y cos a)`` and ``a = phi + psi``: ``(sin a, -cos a, -(x cos a + y sin a))``."""
+    az = np.asarray(azimuth, dtype=float)
+    a = az + np.asarray(mount_yaw, dtype=float)
+    c, s = np.cos(a), np.sin(a)
+    x, y = np.asarray(mount_x, dtype=float), np.asarray(mount_y, dtype=float)
+    if not (x.shape == y.shape == a.shape == az.shape):
+        raise InputError(f"azimuth, mount_x, mount_y, mount_yaw: expected equal shapes (n,), got {az.shape}, "
+                         f"{x.shape}, {y.shape}, {np.shape(mount_yaw)}")
+    dlever = -(x * c + y * s)
+    if lateral:
+        return np.ascontiguousarray(np.column_stack([s, -c, dlever]))
+    return np.ascontiguousarray(np.column_stack([s, dlever]))
 
 
 def static_doppler(azimuth: np.ndarray, mount_x: np.ndarray, mount_y: np.ndarray, mount_yaw: np.ndarray,
@@ -158,6 +186,18 @@ class RigVelocitySeries:
     sigma_mps : ndarray, shape (K,)
     n_inliers, n_used : ndarray of int, shape (K,)
         Detections with a non-zero weight, and in the window.
+    cov_noise : ndarray, shape (K, 3, 3) or None
+        The part of ``cov`` from the Doppler's noise alone (the floored sandwich, c.12.3 step 5);
+        ``cov`` adds the systematic terms (step 5b). None: ``cov`` is all.
+    theta_dot : ndarray, shape (K, 3) or None
+        The motion's rate of change at each window (slope of the valid fits within
+        ``slope_half_window_s``; 1/s units of ``theta``), the systematic terms' input.
+    overlap : ndarray, shape (K,) or None
+        The mean number of windows each of the window's detections is in (about 5 at +-40 ms).
+    mount_jac : ndarray, shape (K, 3, S) or None
+        ``sigma_psi d theta / d psi_s``: the fit's response to one std of each radar's mounting-yaw error.
+    time_bias : ndarray, shape (K, 3) or None
+        ``T theta_dot``: the fit's offset from the motion at the window's centre (c.12.3 step 5b).
     """
 
     t: np.ndarray
@@ -167,6 +207,19 @@ class RigVelocitySeries:
     sigma_mps: np.ndarray
     n_inliers: np.ndarray
     n_used: np.ndarray
+    cov_noise: np.ndarray | None = None
+    theta_dot: np.ndarray | None = None
+    overlap: np.ndarray | None = None
+    mount_jac: np.ndarray | None = None
+    time_bias: np.ndarray | None = None
+
+    def white_cov(self) -> np.ndarray:
+        """``cov`` as a filter that takes every window's fit as an independent reading needs it
+        (c.12.7): the noise part times the windows' ``overlap`` (each detection's mean number of
+        windows), the systematic part once. ``(K, 3, 3)``."""
+        if self.cov_noise is None or self.overlap is None:
+            return self.cov
+        return self.cov + (np.asarray(self.overlap) - 1.0)[:, None, None] * self.cov_noise
 
     @property
     def valid(self) -> np.ndarray:
@@ -221,7 +274,9 @@ def fit_rig_velocity(A: np.ndarray, doppler: np.ndarray, rng: np.random.Generato
         Rows (drawn with replacement) on which each minimal set's consensus is counted; all rows
         when the window has no more.
     sigma_floor_mps : float
-        Floor of the robust scale (the Doppler's quantisation, 0.1 m/s / sqrt(12)).
+        Floor of the robust scale, and the covariance never below ``sigma_floor_mps^2 (A^T W A)^-1``
+        (c.12.3 step 5; default the Doppler's quantisation, 0.1 m/s / sqrt(12); a run passes the
+        profile's ``filter.doppler_std_floor_mps``).
     min_inlier_fraction : float
         Fewer weighted detections than this fraction of the window: not valid.
     irls_steps : int
@@ -253,9 +308,11 @@ def fit_rig_velocity(A: np.ndarray, doppler: np.ndarray, rng: np.random.Generato
 def fit_rig_windows(t: np.ndarray, A: np.ndarray, doppler: np.ndarray, t_out: np.ndarray,
                     rng: np.random.Generator, *, half_window_s: float = 0.04, threshold_mps: float = 0.5,
                     hypotheses: int = 50, sample: int = 128, sigma_floor_mps: float = 0.03,
-                    min_inlier_fraction: float = 0.3, irls_steps: int = 20) -> RigVelocitySeries:
+                    min_inlier_fraction: float = 0.3, irls_steps: int = 20, sensor: np.ndarray | None = None,
+                    dA_dyaw: np.ndarray | None = None, mount_yaw_std_rad: float = 0.0,
+                    time_offset_std_s: float = 0.0, slope_half_window_s: float = 0.2) -> RigVelocitySeries:
     """:func:`fit_rig_velocity` on the detections within ``+-half_window_s`` of each ``t_out`` (c.12.4),
-    all windows vectorised together.
+    all windows vectorised together, with the covariance of c.12.3 steps 5-5b.
 
     Parameters
     ----------
@@ -265,6 +322,16 @@ def fit_rig_windows(t: np.ndarray, A: np.ndarray, doppler: np.ndarray, t_out: np
         As :func:`fit_rig_velocity`.
     t_out : ndarray, shape (K,)
         Output times (s).
+    sensor : ndarray of int, shape (n,), optional
+        Each detection's radar (0 .. S-1); with ``dA_dyaw`` turns on the systematic terms (step 5b).
+    dA_dyaw : ndarray, shape (n, p), optional
+        :func:`rig_design_yaw` of the same rows.
+    mount_yaw_std_rad : float
+        Std of each radar's mounting-yaw error, independent between radars (rad).
+    time_offset_std_s : float
+        Std of the radars' common time offset against the vehicle's clock (s).
+    slope_half_window_s : float
+        The fits within this distance of a window give its ``theta_dot`` (s).
     """
     t = np.ascontiguousarray(t, dtype=np.float64)
     A = np.ascontiguousarray(A, dtype=np.float64)
@@ -276,12 +343,162 @@ def fit_rig_windows(t: np.ndarray, A: np.ndarray, doppler: np.ndarray, t_out: np
     if t.size and np.any(np.diff(t) < 0):
         raise InputError("t: expected non-decreasing detection times, got a decrease")
     _check_options(threshold_mps, hypotheses, sample, half_window_s)
+    if not (mount_yaw_std_rad >= 0 and time_offset_std_s >= 0 and slope_half_window_s > 0):
+        raise InputError(f"mount_yaw_std_rad, time_offset_std_s, slope_half_window_s: expected >= 0, >= 0, > 0, "
+                         f"got {mount_yaw_std_rad}, {time_offset_std_s}, {slope_half_window_s}")
+    aux = None
+    if sensor is not None or dA_dyaw is not None:
+        sensor = np.ascontiguousarray(sensor, dtype=np.int64)
+        G = np.ascontiguousarray(dA_dyaw, dtype=np.float64)
+        if sensor.shape != t.shape or G.shape != A.shape or (sensor.size and sensor.min() < 0):
+            raise InputError(f"sensor, dA_dyaw: expected shapes {t.shape} (values >= 0), {A.shape}, got "
+                             f"{sensor.shape}, {G.shape}")
+        aux = (t, t_out, G, sensor, int(sensor.max()) + 1 if sensor.size else 1)
     lo, hi = window_bounds(t, t_out, half_window_s)
-    theta, cov, status, sigma, n_in, _ = fit_windows(A, d, lo, hi, rng, int(hypotheses), int(sample),
-                                                     float(threshold_mps), float(sigma_floor_mps),
-                                                     float(min_inlier_fraction), int(irls_steps))
+    out = fit_windows(A, d, lo, hi, rng, int(hypotheses), int(sample), float(threshold_mps), float(sigma_floor_mps),
+                      float(min_inlier_fraction), int(irls_steps), aux=aux)
+    theta, cov, status, sigma, n_in = out[:5]
+    # c.12.3 step 5: a detection is in kappa windows on average (about 5 at +-40 ms and a sweep every 16 ms);
+    # a filter that takes every window's fit as a new, independent reading counts it kappa times (c.12.7)
+    cover = np.zeros(t.size + 1)
+    np.add.at(cover, lo, 1.0)
+    np.add.at(cover, hi, -1.0)
+    csum = np.concatenate([[0.0], np.cumsum(np.cumsum(cover)[:-1])])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        kappa = np.maximum((csum[hi] - csum[lo]) / (hi - lo), 1.0)
+    kappa = np.where(np.isfinite(kappa), kappa, 1.0)
+    cov_noise = cov.copy()
+    theta_dot = mount_jac = time_bias = None
+    if aux is not None:
+        T, J = out[6], out[7]
+        theta_dot = _slopes(t_out, theta, status == OK, slope_half_window_s)
+        Tq = np.einsum("kij,kj->ki", T, theta_dot)              # the window's own spread in time (step 5b)
+        mount_jac, time_bias = mount_yaw_std_rad * J, Tq
+        cov = (cov + mount_yaw_std_rad ** 2 * J @ np.swapaxes(J, 1, 2)
+               + time_offset_std_s ** 2 * theta_dot[:, :, None] * theta_dot[:, None, :]
+               + Tq[:, :, None] * Tq[:, None, :])
+        theta_dot = _full(theta_dot, np.zeros(theta_dot.shape + (theta_dot.shape[-1],)))[0]
     th, C = _full(theta, cov)
-    return RigVelocitySeries(t_out, th, C, status, sigma, n_in, hi - lo)
+    Cn = _full(theta, cov_noise)[1]
+    if mount_jac is not None and theta.shape[1] == 2:
+        mj = np.zeros((theta.shape[0], 3, mount_jac.shape[2]))
+        mj[:, ::2] = mount_jac
+        tb = np.zeros((theta.shape[0], 3))
+        tb[:, ::2] = time_bias
+        mount_jac, time_bias = mj, tb
+    return RigVelocitySeries(t_out, th, C, status, sigma, n_in, hi - lo, Cn, theta_dot, kappa, mount_jac, time_bias)
+
+
+def _slopes(t: np.ndarray, theta: np.ndarray, ok: np.ndarray, h: float) -> np.ndarray:
+    """The least-squares slope ``(K, p)`` of ``theta`` against ``t`` over the ``ok`` fits within ``+-h`` of
+    each ``t[k]`` (0 where fewer than 3 or no spread in time): the motion's rate of change."""
+    K, p = theta.shape
+    tv, yv = t[ok], theta[ok]
+    if tv.size < 3:
+        return np.zeros((K, p))
+    tc = tv - tv.mean()
+    c = lambda x: np.concatenate([np.zeros((1,) + x.shape[1:]), np.cumsum(x, axis=0)])
+    S0, S1, S2 = c(np.ones(tv.size)), c(tc), c(tc * tc)
+    Sy, Sty = c(yv), c(tc[:, None] * yv)
+    lo = np.searchsorted(tv, t - h, side="left")
+    hi = np.searchsorted(tv, t + h, side="right")
+    n, s1, s2 = S0[hi] - S0[lo], S1[hi] - S1[lo], S2[hi] - S2[lo]
+    sy, sty = Sy[hi] - Sy[lo], Sty[hi] - Sty[lo]
+    den = n * s2 - s1 * s1
+    good = (n >= 3) & (den > 1e-12 * np.maximum(n * s2, 1e-300))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        slope = (n[:, None] * sty - s1[:, None] * sy) / den[:, None]
+    return np.where(good[:, None], slope, 0.0)
+
+
+def velocity_given_yaw_rate(theta: np.ndarray, cov: np.ndarray, omega: float,
+                            omega_var: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """``(v_x, v_y)`` of a rig fit ``theta = (v_x, v_y, omega)`` with covariance ``cov (3, 3)`` given the
+    yaw rate ``omega`` of a gyro of variance ``omega_var`` (c.12.7): the Gaussian conditional
+    ``v + k (omega_g - omega_hat)``, ``k = C_vw / C_ww``, with covariance ``C_vv - k C_wv`` plus the gyro's
+    own error carried through ``k``, ``k k^T omega_var``. On a linear Gaussian fit this is the refit with
+    ``omega`` fixed (tested). Returns ``(v (2,), cov (2, 2))``; ``theta[:2], cov[:2, :2]`` when
+    ``C_ww`` is not positive."""
+    th = np.asarray(theta, dtype=float).reshape(3)
+    C = np.asarray(cov, dtype=float).reshape(3, 3)
+    cww = float(C[2, 2])
+    if not (cww > 0 and math.isfinite(cww) and math.isfinite(float(omega))):
+        return th[:2].copy(), C[:2, :2].copy()
+    k = C[:2, 2] / cww
+    v = th[:2] + k * (float(omega) - th[2])
+    P = C[:2, :2] - np.outer(k, C[2, :2]) + np.outer(k, k) * float(omega_var)
+    return v, 0.5 * (P + P.T)
+
+
+def gate_rig_velocity(series: RigVelocitySeries, gyro_t: np.ndarray | None, gyro: np.ndarray | None,
+                      gyro_std: float, *, probability: float = 0.999,
+                      accel_std: tuple[float, float, float] = (3.0, 1.0, 1.0),
+                      offset_rate_std: float = 0.05) -> RigVelocitySeries:
+    """``series`` with the fits that disagree with the gyro and the previous sweeps beyond their
+    covariance flagged (c.12.7; status :data:`FLAGGED_GYRO`, :data:`FLAGGED_JUMP`, no longer valid).
+    Both gates compare fit ``k`` with ``j``, the last fit still ok before it, through the covariance of
+    their difference ``S = C_noise,k + C_noise,j + D D^T + b b^T`` where ``D`` is the difference of the
+    two fits' mounting-yaw responses (``mount_jac``) and ``b`` of their ``time_bias``: a common mounting
+    or clock error moves neighbouring fits alike, and only as far as their radars' share of the windows
+    differs does it move them apart (their noise parts overlap, so the sum is conservative).
+
+    Gyro: the fit's disagreement with the gyro ``omega - omega_g`` (the gyro ``(gyro_t, gyro)``
+    interpolated at each fit's time) changes from ``j`` to ``k`` by ``e``, flagged when ``e^2 / (S_ww +
+    2 gyro_std^2 + offset_rate_std^2 dt^2) > chi2_1(probability)``: a steady disagreement (a gyro bias, a
+    mounting error: the calibration states' to estimate) is not a fault, a sudden one is (a rival
+    consensus that turns). Skipped outside the gyro's span or without one.
+    Jump: the difference ``e`` of the whole fit, flagged when ``e^T (S + diag(accel_std)^2 dt^2)^-1 e >
+    chi2_p(probability)``: a change the car's motion cannot make in ``dt`` (a rival that only translates).
+
+    Parameters
+    ----------
+    gyro_std : float
+        The gyro reading's std (rad/s).
+    probability : float
+        Each gate's chi-square probability (0.999: a fit whose covariance is right is flagged by each
+        gate once in 1000).
+    accel_std : (float, float, float)
+        How fast ``(v_x m/s^2, v_y m/s^2, omega rad/s^2)`` may change between two fits (1 sigma).
+    offset_rate_std : float
+        How fast the fit's disagreement with the gyro may wander (rad/s^2, 1 sigma).
+    """
+    from scipy.stats import chi2
+
+    if not (0 < probability < 1 and gyro_std >= 0 and len(accel_std) == 3 and min(accel_std) >= 0
+            and offset_rate_std >= 0):
+        raise InputError(f"probability, gyro_std, accel_std, offset_rate_std: expected in (0, 1), >= 0, three "
+                         f"values >= 0, >= 0, got {probability}, {gyro_std}, {accel_std}, {offset_rate_std}")
+    status = np.array(series.status, dtype=np.int64, copy=True)
+    th, C = series.theta, series.cov
+    Cn = series.cov_noise if series.cov_noise is not None else C
+    lateral = bool(np.any(np.nan_to_num(C[:, 1, 1]) > 0))
+    idx = [0, 1, 2] if lateral else [0, 2]
+    q1, qp = chi2.ppf(probability, 1), chi2.ppf(probability, len(idx))
+    dg = np.full(series.t.size, np.nan)                    # the fit's disagreement with the gyro
+    if gyro_t is not None and gyro is not None and np.size(gyro_t) >= 2:
+        gt, g = np.asarray(gyro_t, dtype=float), np.asarray(gyro, dtype=float)
+        inside = (series.t >= gt[0]) & (series.t <= gt[-1])
+        dg[inside] = th[inside, 2] - np.interp(series.t[inside], gt, g)
+    Q = np.diag(np.asarray(accel_std, dtype=float) ** 2)[np.ix_(idx, idx)]
+    j = -1
+    for k in np.flatnonzero(status == OK):
+        if j >= 0:
+            dt2 = (series.t[k] - series.t[j]) ** 2
+            S = Cn[k] + Cn[j]
+            if series.mount_jac is not None:
+                D = series.mount_jac[k] - series.mount_jac[j]
+                b = series.time_bias[k] - series.time_bias[j]
+                S = S + D @ D.T + np.outer(b, b)
+            eg = dg[k] - dg[j]
+            if math.isfinite(eg) and not eg * eg <= q1 * (S[2, 2] + 2 * gyro_std ** 2 + offset_rate_std ** 2 * dt2):
+                status[k] = FLAGGED_GYRO
+                continue
+            e = (th[k] - th[j])[idx]
+            if not float(e @ np.linalg.solve(S[np.ix_(idx, idx)] + Q * dt2, e)) <= qp:
+                status[k] = FLAGGED_JUMP
+                continue
+        j = k
+    return dataclasses.replace(series, status=status)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -327,7 +327,7 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
     if truth is not None:
         metrics.update(evaluate_truth(record.poses, dead_reckoning(events, config, pose), truth, config, align,
                                       metrics["start"]))
-    ego, flags = _doppler_outputs(rec, m, flags, metrics)
+    ego, flags = _doppler_outputs(rec, m, flags, metrics, config)
     return RecordingRun(config, rec, m, events, times, record, truth, metrics, report, ego, flags)
 
 
@@ -384,14 +384,14 @@ def _run_filter(config: Config, events: list, on_scan, first_run):
     return record, None if flags is None else flags.result()
 
 
-def _doppler_outputs(rec: Recording, m: Mounting, flags, metrics: dict):
+def _doppler_outputs(rec: Recording, m: Mounting, flags, metrics: dict, config: Config):
     """The rig's ego-motion (None without Doppler) and, with ``flags``, each input detection's in
     input order; ``metrics`` gains ``ego_velocity`` and, with the annotation, ``moving_scores``."""
     from radarslam.runs.detection_flags import detection_flags, moving_scores, stream_rows
     from radarslam.runs.recording_outputs import ego_metrics, recording_rig, rig_velocity_of
 
     rig = recording_rig(rec, m)
-    ego = None if rig is None else rig_velocity_of(rig)
+    ego = None if rig is None else rig_velocity_of(rig, config.filter)
     if ego is not None:
         metrics["ego_velocity"] = ego_metrics(ego, rig)
     if flags is None:

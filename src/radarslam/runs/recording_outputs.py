@@ -14,7 +14,7 @@ import numpy as np
 
 from radarslam.core.errors import InputError
 from radarslam.core.types import Scan
-from radarslam.egomotion.rig import Rig, compare_with_odometry, rig_ego_velocity, write_ego_velocity_csv
+from radarslam.egomotion.rig import Rig, checked_rig_velocity, compare_with_odometry, write_ego_velocity_csv
 from radarslam.io.recording.mounting import Mounting
 from radarslam.io.recording.stream import Recording
 
@@ -62,10 +62,13 @@ def recording_rig(rec: Recording, mounting: Mounting) -> Rig | None:
                None if rec.labels is None else rec.labels[order])
 
 
-def rig_velocity_of(rig: Rig):
-    """The rig's ``(v_x, v_y, omega)`` about every sweep (docs/method.md c.12.4): with one radar the
-    no-sideslip model (``v_y = 0``: one radar sees its own velocity only, rank 2, c.12.2)."""
-    return rig_ego_velocity(rig, np.random.default_rng(EGO_SEED), lateral=rig.sensor_ids.size >= 2)
+def rig_velocity_of(rig: Rig, filter_config):
+    """The rig's ``(v_x, v_y, omega)`` about every sweep (docs/method.md c.12.4) as the run takes it
+    (:func:`~radarslam.egomotion.rig.checked_rig_velocity`: the configured Doppler floor,
+    the systematic terms, the consistency gates of c.12.7): with one radar the no-sideslip model
+    (``v_y = 0``: one radar sees its own velocity only, rank 2, c.12.2)."""
+    return checked_rig_velocity(rig, filter_config, np.random.default_rng(EGO_SEED),
+                                lateral=rig.sensor_ids.size >= 2)
 
 
 def landmark_sensors(events: list, created: np.ndarray) -> np.ndarray:
@@ -138,7 +141,11 @@ def write_run_figures(out: Path, run) -> list[str]:
 def ego_metrics(ego, rig: Rig) -> dict:
     """``metrics.json["ego_velocity"]``: the fit's windows, and its speed and yaw rate against the
     odometry (:func:`~radarslam.egomotion.rig.compare_with_odometry`) when there is one."""
+    from radarslam.models.rig_velocity import FLAGGED_GYRO, FLAGGED_JUMP
+
     out = {"windows": int(ego.t.size), "valid": int(ego.valid.sum()), "sensors": int(rig.sensor_ids.size),
+           "flagged_gyro": int(np.sum(ego.status == FLAGGED_GYRO)),
+           "flagged_jump": int(np.sum(ego.status == FLAGGED_JUMP)),
            "model": "v_x, v_y, omega" if rig.sensor_ids.size >= 2 else "v_x, omega (no sideslip: one radar)"}
     if rig.odometry is not None and rig.odometry.shape[0] >= 2:
         out["against_odometry"] = compare_with_odometry(ego, rig.odometry)
