@@ -301,3 +301,12 @@ def test_no_circle_of_imports_in_the_whole_tree():
     assert "scripts/_montecarlo_table" in graph and "radarslam.slam.filter" in graph   # it saw the whole tree
     assert "scripts/_montecarlo_table" in graph["scripts/nees_study"]
     assert not circles(graph), circles(graph)
+
+
+def test_every_package_is_named_in_the_architecture_document():
+    """docs/architecture.md describes today's code: each package in its table, with a purpose."""
+    text = (ROOT / "docs" / "architecture.md").read_text(encoding="utf-8")
+    table = {line.split("|")[1].strip().strip("`") for line in text.splitlines()
+             if line.startswith("| `") and line.count("|") >= 3}
+    assert set(ORDER) <= table, f"not in docs/architecture.md's package table: {sorted(set(ORDER) - table)}"
+    assert "## The path of one recording" in text and "map.csv" in text
