@@ -292,7 +292,7 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
 
         run = run_recording(apply_calibration(rec, calibration), config, on_scan=on_scan, first_run=first_run,
                             start=start, align=align)
-        return _in_car_frame(run, rec, calibration)
+        return _in_car_frame(run, rec, calibration, align)
     config = validate(config)
     check_motion_model(rec, config.filter.motion_model)
     if config.filter.initial_error != "fixed":   # b.5: a draw needs the true first pose of a simulation
@@ -331,9 +331,10 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
     return RecordingRun(config, rec, m, events, times, record, truth, metrics, report, ego, flags)
 
 
-def _in_car_frame(run: RecordingRun, rec: Recording, calibration) -> RecordingRun:
+def _in_car_frame(run: RecordingRun, rec: Recording, calibration, align: str) -> RecordingRun:
     """A run of the calibrated recording (the track frame) with its poses, start and truth in the car's
-    frame and the calibration said in its metrics; the errors are the same in both frames."""
+    frame and the calibration said in its metrics; the errors are the same in both frames. Its
+    ``dead_reckoning`` is the car's own (the uncalibrated odometry), the calibrated one beside it."""
     from radarslam.egomotion.car_calibration import car_heading
 
     run.record.poses = car_heading(run.record.poses, calibration)
@@ -347,6 +348,16 @@ def _in_car_frame(run: RecordingRun, rec: Recording, calibration) -> RecordingRu
         "yaw_offset_deg": {str(s): deg(e) for s, e in zip(calibration.sensor_ids, calibration.yaw_offset_rad)},
         "time_offset_ms": {str(s): 1e3 * e for s, e in zip(calibration.sensor_ids, calibration.time_offset_s)},
         "frame": "the car's (the run went in the track frame, turned by the thrust angle; c.16.3)"}}
+    if truth is not None and "dead_reckoning" in run.metrics:
+        raw, _ = stream_events(rec, effective_mounting(rec, run.config))
+        dr = dead_reckoning(raw, run.config, start["pose"])
+        tr = np.array([e.t for e in raw if isinstance(e, Scan)])       # the car's own stamps: interpolated to the run's
+        dr = np.column_stack([np.interp(run.times, tr, dr[:, 0]), np.interp(run.times, tr, dr[:, 1]),
+                              np.interp(run.times, tr, np.unwrap(dr[:, 2]))])
+        own = evaluate_truth(run.record.poses, dr, truth, run.config, align, start)
+        metrics["dead_reckoning_calibrated"] = run.metrics["dead_reckoning"]
+        metrics["dead_reckoning"] = own["dead_reckoning"]
+        metrics["ratio_to_dead_reckoning"] = own["ratio_to_dead_reckoning"]
     return dataclasses.replace(run, truth=truth, metrics=metrics)   # its recording: the calibrated one (stamps moved)
 
 
