@@ -201,7 +201,7 @@ def test_nees_over_drawn_mounting_errors_with_the_sandwich_as_negative_control()
 def test_velocity_given_the_gyro_equals_the_refit_with_omega_fixed():
     """On a linear Gaussian fit (covariance s^2 (A^T A)^-1) the conditional of (v_x, v_y) given omega is
     the least squares with omega fixed, mean and covariance, to rounding."""
-    from radarslam.models.rig_velocity import velocity_given_yaw_rate
+    from radarslam.models.rig_gates import velocity_given_yaw_rate
 
     rng = np.random.default_rng(2)
     az = rng.uniform(-1, 1, 300)
@@ -230,7 +230,7 @@ def test_the_scans_carry_v_given_the_gyro_not_the_marginal():
     v_y stays: the covariance predicts 0.76); the scans' velocity is the conditional of the fit at its
     white-noise covariance (c.12.7) to rounding. Before, the scans carried the marginal (ratio 1)."""
     from radarslam.egomotion.rig import MOUNT_YAW_STD_DEG
-    from radarslam.models.rig_velocity import velocity_given_yaw_rate
+    from radarslam.models.rig_gates import velocity_given_yaw_rate
 
     rng = np.random.default_rng(4)
     truth = np.array([15.0, 0.1, 0.1])

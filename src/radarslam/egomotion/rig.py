@@ -13,12 +13,12 @@ from pathlib import Path
 import numpy as np
 
 from radarslam.core.errors import InputError
+from radarslam.models.rig_gates import gate_rig_velocity
 from radarslam.models.rig_velocity import (
     DEFAULTS,
     STATUS_WORDS,
     RigVelocitySeries,
     fit_rig_windows,
-    gate_rig_velocity,
     rig_design,
     rig_design_yaw,
 )
@@ -170,7 +170,7 @@ def checked_rig_velocity(rig: Rig, filter_config, rng: np.random.Generator | Non
     configuration (``filter.doppler_std_floor_mps``; 0, "none stated", keeps the fit's quantisation
     floor of c.12.3), the systematic terms, and the fits that disagree with the odometry's yaw rate
     (the gyro, ``filter.gyro_std_deg_s``) or with the previous sweeps flagged (:func:`~radarslam.models.
-    rig_velocity.gate_rig_velocity` at :data:`GATE_PROBABILITY`). Seed 0 unless ``rng``."""
+    rig_gates.gate_rig_velocity` at :data:`GATE_PROBABILITY`). Seed 0 unless ``rng``."""
     floor = float(filter_config.doppler_std_floor_mps)
     opts = {"sigma_floor_mps": floor} if floor > 0 else {}
     series = rig_ego_velocity(rig, np.random.default_rng(0) if rng is None else rng, lateral=lateral, **opts)

@@ -17,7 +17,7 @@ import numpy as np
 from radarslam.core.types import Scan
 from radarslam.egomotion.rig import Rig, checked_rig_velocity
 from radarslam.models.doppler import EgoVelocity
-from radarslam.models.rig_velocity import velocity_given_yaw_rate
+from radarslam.models.rig_gates import velocity_given_yaw_rate
 
 #: A fit held as valid (models.rig_velocity status 0).
 OK = 0
