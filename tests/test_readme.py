@@ -172,3 +172,27 @@ def test_the_link_check_finds_a_broken_file_and_a_broken_anchor(tmp_path):
                     "[h](missing.md) [i](other.md#nowhere) [j](#there)\n")
     assert broken_links(page) == ["page.md: missing.md (no such file)", "page.md: other.md#nowhere (no such heading)",
                                   "page.md: #there (no such heading)"]
+
+
+def test_the_first_run_benchmark_takes_every_command_the_docs_show():
+    """benchmarks/bench_first_run.py --from-docs times what README.md and docs/usage.md show (issue 43
+    item 2): every ``radarslam`` command of their bash blocks, so a new one cannot be missed; a
+    template (a placeholder to fill in) is listed but not timed."""
+    import importlib.util
+    import re
+
+    root = Path(__file__).resolve().parents[1]
+    spec = importlib.util.spec_from_file_location("bench_first_run", root / "benchmarks" / "bench_first_run.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    cmds = bench.doc_commands()
+    shown = 0
+    for path in (root / "README.md", root / "docs" / "usage.md"):
+        blocks = re.findall(r"```bash\n(.*?)```", path.read_text(encoding="utf-8"), flags=re.S)
+        shown += sum(len(re.findall(r"(?:^|&& )radarslam ", re.sub(r"#[^\n]*", "", b), flags=re.M)) for b in blocks)
+    assert len(cmds) == shown and shown >= 15
+    runnable = bench.runnable(cmds)
+    assert any(c.startswith("radarslam reproduce") for c in runnable)
+    assert any("radarscenes/sequence_105" in c for c in runnable)
+    assert "radarslam run --recording DIR --out out/myrun" not in runnable       # a template
+    assert bench.doc_commands([]) == []                                          # negative control: nothing read
