@@ -31,6 +31,8 @@ MOVING_MPS = 2.0
 MIN_MOVING_SWEEPS = 10
 #: A sweep needs this many detections for its fit (RANSAC's minimal set is 2; c.10.3 wants 4 in 2-D).
 MIN_DETECTIONS = 6
+#: A detection this far (m/s) from its sweep's first fit is a road user's, left out of the second.
+OUTLIER_MPS = 1.0
 
 
 @dataclass(frozen=True)
@@ -73,46 +75,52 @@ def with_doppler_sign(rec, sign: int):
     return dataclasses.replace(rec, channels={**rec.channels, "doppler_mps": -np.asarray(d, dtype=float)})
 
 
-def doppler_consensus(rec, mounting, rng: np.random.Generator) -> DopplerConsensus:
+def doppler_consensus(rec, mounting, rng: np.random.Generator | None = None) -> DopplerConsensus:
     """The sweeps' static consensus against the odometry (module docstring). A sweep is the rows of
     one ``(t_s, sensor_id)``; its mounting is its sensor's (``rec.sensors``), else ``mounting``
     (the single radar's: a :class:`~radarslam.io.recording.mounting.Mounting`). Needs a unicycle
-    odometry (``speed_mps, yaw_rate_rad_s``)."""
-    from radarslam.models.doppler import directions, fit_ego_velocity
+    odometry (``speed_mps, yaw_rate_rad_s``).
 
+    Each sweep's sensor velocity is the least-squares fit of ``d = -u . w`` to its detections, once
+    more without the detections farther than :data:`OUTLIER_MPS` from the first fit (the road users:
+    a check of the column's sign and scale needs no RANSAC, and plain numpy compiles nothing, so a
+    first run on a machine does not wait for it); the consensus is the median over the sweeps.
+    ``rng`` is not used (kept for callers of the RANSAC version)."""
     d = np.asarray(rec.channels["doppler_mps"], dtype=float)
     sid = rec.channels.get("sensor_id")
     sid = np.zeros(d.size, dtype=np.int64) if sid is None else np.asarray(sid).astype(np.int64)
     t = np.asarray(rec.det_t, dtype=float)
-    ok = rec.det_polar[:, 0] > 0                                     # zero ranges: invalid returns
-    keys = np.column_stack([t, sid])[ok]
+    ok = (rec.det_polar[:, 0] > 0) & np.isfinite(d)                  # zero ranges: invalid returns
     rows = np.flatnonzero(ok)
-    _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
-    inverse = inverse.reshape(-1)
-    order = np.argsort(inverse, kind="stable")
-    bounds = np.searchsorted(inverse[order], np.arange(first.size + 1))
-    speed = np.interp(t[rows[first]], rec.odo_t, rec.odo[:, 0])
-    omega = np.interp(t[rows[first]], rec.odo_t, rec.odo[:, 1])
-    inside = (t[rows[first]] >= rec.odo_t[0]) & (t[rows[first]] <= rec.odo_t[-1])
+    _, first, sweep = np.unique(np.column_stack([t, sid])[ok], axis=0, return_index=True, return_inverse=True)
+    sweep = sweep.reshape(-1)
+    S = first.size
+    az = rec.det_polar[rows, 1]
+    ax, ay, dd = -np.cos(az), -np.sin(az), d[rows]
+    keep = np.ones(rows.size, dtype=bool)
+    for _ in range(2):                                              # the fit, then again without the outliers
+        k = keep.astype(float)
+        s = lambda v: np.bincount(sweep, weights=v * k, minlength=S)
+        sxx, sxy, syy, sxd, syd, n = s(ax * ax), s(ax * ay), s(ay * ay), s(ax * dd), s(ay * dd), s(np.ones_like(dd))
+        det = sxx * syy - sxy * sxy
+        good = (n >= MIN_DETECTIONS) & (det > 1e-9 * np.maximum(n * n, 1.0))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            wx = np.where(good, (syy * sxd - sxy * syd) / det, np.nan)
+            wy = np.where(good, (sxx * syd - sxy * sxd) / det, np.nan)
+        r = dd - (ax * wx[sweep] + ay * wy[sweep])
+        keep = np.abs(np.nan_to_num(r, nan=np.inf)) <= OUTLIER_MPS
+    t0 = t[rows[first]]
+    speed = np.interp(t0, rec.odo_t, rec.odo[:, 0])
+    omega = np.interp(t0, rec.odo_t, rec.odo[:, 1])
+    inside = (t0 >= rec.odo_t[0]) & (t0 <= rec.odo_t[-1]) & good & (np.abs(speed) > MOVING_MPS)
     v_fit, v_odo = [], []
-    for k in np.flatnonzero(inside & (np.abs(speed) > MOVING_MPS)):
-        idx = rows[order[bounds[k]:bounds[k + 1]]]
-        if idx.size < MIN_DETECTIONS:
-            continue
-        s = int(sid[idx[0]])
-        m = rec.sensors.get(s) if rec.sensors else mounting
+    for j in np.flatnonzero(inside):
+        m = rec.sensors.get(int(sid[rows[first[j]]])) if rec.sensors else mounting
         if m is None:
             continue
-        if np.all(d[idx] == 0.0):
-            w = np.zeros(2)             # every d = -u . w = 0 holds exactly at w = 0 (a zeroed column; the fit's scale is 0)
-        else:
-            ego = fit_ego_velocity(directions(rec.det_polar[idx]), d[idx], rng)      # c.10.2, sensor frame
-            if not ego.valid or not np.all(np.isfinite(ego.v)):
-                continue
-            w = ego.v
         c, sn = math.cos(m.yaw), math.sin(m.yaw)
-        v_fit.append(c * w[0] - sn * w[1] + omega[k] * m.y)                     # c.10.5: w' = R w, v = w'_x + omega l_y
-        v_odo.append(speed[k])
+        v_fit.append(c * wx[j] - sn * wy[j] + omega[j] * m.y)                  # c.10.5: w' = R w, v = w'_x + omega l_y
+        v_odo.append(speed[j])
     if not v_fit:
         return DopplerConsensus(0, math.nan, math.nan, math.nan)
     v_fit, v_odo = np.array(v_fit), np.array(v_odo)
@@ -126,7 +134,7 @@ def check_doppler_column(rec, mounting, where: str = "detections.csv") -> Dopple
     no odometry speed, or the car moving in fewer than :data:`MIN_MOVING_SWEEPS` sweeps)."""
     if rec.channels.get("doppler_mps") is None or rec.odo_kind != "unicycle" or rec.odo_t.size < 2:
         return DopplerConsensus(0, math.nan, math.nan, math.nan)
-    cons = doppler_consensus(rec, mounting, np.random.default_rng(0))
+    cons = doppler_consensus(rec, mounting)
     found = (f"the static Doppler consensus gives {cons.doppler_mps:+.1f} m/s where the odometry says "
              f"{cons.odometry_mps:+.1f} m/s ({cons.sweeps} moving scans)")
     if cons.verdict == "negated":
