@@ -309,7 +309,10 @@ def export_cmd(args: argparse.Namespace) -> int:
 
         for p in existing:
             (shutil.rmtree if (out / p).is_dir() else (lambda q: q.unlink()))(out / p)
-    paths = export_simulation(config, args.seed, out, fmt=args.format, mounting=m)
+    from radarslam.compiling.first_run import choose
+
+    plan = choose(config.filter.backend, simulation=True, config=config)   # the one compile policy: a trial's kind
+    paths = export_simulation(config, args.seed, out, fmt=args.format, mounting=m, compiled=plan.simulation_compiled)
     print(f"radarslam export: seed {args.seed}, {config.trajectory.n_steps} scans; wrote {paths['bag']} "
           f"({args.format}; topics /radar/points, /odom, /truth, /tf_static), {paths['plain']}/, {paths['truth']}, "
           f"{paths['config']}")

@@ -405,10 +405,11 @@ def recording_from_scenario(scenario, dt: float, mounting: Mounting | None = Non
 
 
 def export_simulation(config: Config, seed: int, out: Path, *, fmt: str = "mcap",
-                      mounting: Mounting | None = None) -> dict[str, Path]:
+                      mounting: Mounting | None = None, compiled: bool = True) -> dict[str, Path]:
     """Simulate the car-park trial ``seed`` and write it as a bag (``out/bag``, ``out/bag.bag`` for
     ROS 1), the plain format (``out/plain/``), its truth (``out/groundtruth_tum.txt``) and the
-    configuration to run it with (``out/config.toml``, with the mounting)."""
+    configuration to run it with (``out/config.toml``, with the mounting). ``compiled`` False
+    simulates by the reference (the same scans to the bit; a first run, compiling/policy.py)."""
     from radarslam.simulation.trial import check_simulation_config
     from radarslam.io.recording.bag_write import write_bag
     from radarslam.io.recording.plain import write_plain
@@ -419,7 +420,7 @@ def export_simulation(config: Config, seed: int, out: Path, *, fmt: str = "mcap"
     m = mounting or Mounting()
     config = dataclasses.replace(config, sensor=dataclasses.replace(
         config.sensor, mount_x_m=m.x, mount_y_m=m.y, mount_yaw_deg=math.degrees(m.yaw)))
-    scenario = generate_scenario(config, np.random.default_rng(np.random.SeedSequence(seed)))
+    scenario = generate_scenario(config, np.random.default_rng(np.random.SeedSequence(seed)), compiled=compiled)
     rec = recording_from_scenario(scenario, config.trajectory.dt_s, m)
     bag = out / ("bag.bag" if fmt == "ros1" else "bag")
     write_bag(rec, bag, fmt, mounting=m)
