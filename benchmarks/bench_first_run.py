@@ -85,8 +85,15 @@ TEMPLATE = re.compile(r"\.\.\.|\[|\bDIR\b|HOST|FILE|\bP\b")
 
 
 def runnable(cmds: list[str]) -> list[str]:
-    """The doc commands that run as they are written (no placeholder: :data:`TEMPLATE`)."""
-    return [c for c in cmds if not TEMPLATE.search(c)]
+    """The doc commands that run as they are written: no placeholder (:data:`TEMPLATE`), and no input
+    that only a template's ``--out`` would have made (``report runs/mc`` after ``montecarlo ... --out runs/mc``)."""
+    out, made_by_templates = [], set()
+    for c in cmds:
+        if TEMPLATE.search(c):
+            made_by_templates.update(re.findall(r"--out\s+(\S+)", c))
+        elif not any(re.search(rf"(?<![\w/]){re.escape(o)}(?![\w/])", c) for o in made_by_templates):
+            out.append(c)
+    return out
 
 
 #: What fills a cache with everything the commands use: the background compile a user's first run
