@@ -70,3 +70,18 @@ def test_a_target_without_an_attribute_is_refused_in_one_line():
     r = registry.Registry("toy", "toy.key")
     with pytest.raises(ConfigError, match=r"toy.key: toy 'x': expected 'module:attribute', got 'radarslam.x'"):
         r.register_lazy("x", "radarslam.x")
+
+
+def test_the_measurement_model_is_the_one_built_in_and_said_plainly():
+    """No registry the filter would not use (issue 41 item 5): the filter holds the range-azimuth
+    model; filter.measurement_model names it, and another name is refused in one line."""
+    from radarslam.config import from_dict, to_dict
+    from radarslam.core.errors import ConfigError
+    from radarslam.models.radar import RangeAzimuthModel
+    from radarslam.slam.filter import EkfSlam
+
+    assert not hasattr(registry, "MEASUREMENT_MODELS")
+    base = to_dict(from_dict({}))
+    assert isinstance(EkfSlam(from_dict(base)).measurement, RangeAzimuthModel)
+    with pytest.raises(ConfigError, match=r"filter\.measurement_model: expected one of \['range-azimuth'\], got 'x'"):
+        from_dict({**base, "filter": {**base["filter"], "measurement_model": "x"}})

@@ -30,7 +30,6 @@ from radarslam.core.registry import (
     ASSOCIATORS,
     BACKENDS,
     EXTENT_ESTIMATORS,
-    MEASUREMENT_MODELS,
     MOTION_MODELS,
 )
 
@@ -43,8 +42,9 @@ class FilterConfig:
     """EKF-SLAM noise models and initialisation (docs/method.md b.5). Defaults equal the simulation's."""
 
     motion_model: str = param("unicycle", "motion model of the platform (a registered name)", registry=MOTION_MODELS)
-    measurement_model: str = param("range-azimuth", "sensor measurement model (a registered name)",
-                                   registry=MEASUREMENT_MODELS)
+    measurement_model: str = param("range-azimuth", "sensor measurement model: the one built in, range and "
+                                   "azimuth (docs/method.md a.2; the EKF kernels and associators are written for it)",
+                                   choices=("range-azimuth",))
     backend: str = param("numba", "implementation of the per-scan steps: 'numba' (compiled, the default) or "
                          "'python' (the reference, for checking)", choices=BACKENDS)
     fused: bool = param(True, "with backend 'numba': run a whole event stream in one compiled call when every "

@@ -141,7 +141,6 @@ class Registry:
 
 
 MOTION_MODELS = Registry("motion model", "filter.motion_model")
-MEASUREMENT_MODELS = Registry("measurement model", "filter.measurement_model")
 ASSOCIATORS = Registry("associator", "landmarks.associator")
 EXTENT_ESTIMATORS = Registry("extent estimator", "extent.estimator")
 
@@ -151,7 +150,6 @@ BUILT_INS = (
     (MOTION_MODELS, "unicycle", "python", "radarslam.models.motion:make_unicycle"),
     (MOTION_MODELS, "ackermann", "python", "radarslam.models.ackermann:make_ackermann"),
     (MOTION_MODELS, "body-velocity", "python", "radarslam.models.body_velocity:make_body_velocity"),
-    (MEASUREMENT_MODELS, "range-azimuth", "python", "radarslam.models.radar:make_range_azimuth"),
     (ASSOCIATORS, "nearest-neighbour", "python", "radarslam.slam.association:make_nearest_neighbour"),
     (ASSOCIATORS, "nearest-neighbour", "numba", "radarslam.slam._numba:make_nearest_neighbour"),
     (ASSOCIATORS, "batch", "python", "radarslam.slam.association:make_batch"),

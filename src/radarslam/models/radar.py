@@ -58,9 +58,10 @@ def inverse_jacobians(pose: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.n
 
 
 class RangeAzimuthModel:
-    """The range-azimuth sensor as a component (:data:`radarslam.core.registry.MEASUREMENT_MODELS`,
-    ``filter.measurement_model = "range-azimuth"``): the measurement function, its Jacobians and
-    the polar <-> world conversions of this module, bound to one object the filter holds.
+    """The range-azimuth sensor, the one measurement model built in (``filter.measurement_model =
+    "range-azimuth"``; no registry: the EKF kernels of :mod:`radarslam.slam.ekf`, the associators and
+    the fused engine are written for it): the measurement function, its Jacobians and the polar <->
+    world conversions of this module, bound to one object the filter holds.
 
     The EKF kernels of :mod:`radarslam.slam.ekf` (sparse Jacobian, log distance) are written for
     this model; an associator for another sensor model brings its own.
@@ -79,7 +80,5 @@ class RangeAzimuthModel:
         return filter_config.R
 
 
-def make_range_azimuth(filter_config) -> RangeAzimuthModel:
-    return RangeAzimuthModel()
 
 

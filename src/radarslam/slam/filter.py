@@ -22,7 +22,8 @@ import numpy as np
 
 from radarslam.config import Config, EstimatorConfig
 from radarslam.core.errors import ConfigError, InputError
-from radarslam.core.registry import ASSOCIATORS, EXTENT_ESTIMATORS, MEASUREMENT_MODELS
+from radarslam.core.registry import ASSOCIATORS, EXTENT_ESTIMATORS
+from radarslam.models.radar import RangeAzimuthModel
 from radarslam.core.types import Odometry, Scan
 from radarslam.core.validation import as_array
 from radarslam.landmarks.clustering import Cluster
@@ -74,12 +75,14 @@ class EkfSlam:
     config : EstimatorConfig or Config
         The ``filter``, ``landmarks`` and ``extent`` sections (a full :class:`Config` is accepted
         and only those sections are kept).
-    motion_model, measurement_model, associator, extent_estimator : optional
-        Components to use instead of the ones the configuration names.
+    motion_model, associator, extent_estimator : optional
+        Components to use instead of the ones the configuration names. The measurement model is the
+        one built in, range and azimuth (``filter.measurement_model``; docs/architecture.md
+        "Measurement model"): the EKF kernels and the associators are written for it.
     """
 
     def __init__(self, config: EstimatorConfig | Config, *, motion_model: MotionModel | None = None,
-                 measurement_model=None, associator: Associator | None = None, extent_estimator=None):
+                 associator: Associator | None = None, extent_estimator=None):
         if isinstance(config, Config):
             config = config.estimator
         if not isinstance(config, EstimatorConfig):
@@ -87,7 +90,7 @@ class EkfSlam:
         self.config = config
         f = config.filter
         self.model = motion_model or motion_model_from_config(f)
-        self.measurement = measurement_model or MEASUREMENT_MODELS.create(f.measurement_model, f)
+        self.measurement = RangeAzimuthModel()
         #: First-estimates Jacobians (docs/method.md c.2.1): the associators evaluate them.
         self.fej = f.jacobians == "fej"
         try:
