@@ -234,7 +234,7 @@ def test_run_dataset_warm_says_first_what_its_one_compiled_call_will_take(victor
 def test_a_recording_plans_by_its_size_the_reference_or_a_compile(monkeypatch):
     """The one compile policy for a recording (issue 43): from an empty cache a nuScenes-sized
     recording (1,263 scans, 126,749 detections) goes through the reference at once, a RadarScenes-sized
-    one (6,478 scans, 1,071,716 detections: about 350 s through the reference) compiles the
+    one (6,478 scans, 1,071,716 detections: minutes through the reference) compiles the
     orchestrator's kernels first; the old rule took the reference for both (409 s measured)."""
     from radarslam.compiling.costs import ORCHESTRATOR_COMPILE_S
     from radarslam.compiling.policy import Workload, plan, python_seconds
@@ -245,10 +245,10 @@ def test_a_recording_plans_by_its_size_the_reference_or_a_compile(monkeypatch):
     monkeypatch.setattr(policy, "_orchestrator_ready", lambda: False)
     small = plan(cfg, Workload("stream", n_scans=1263, n_detections=126_749, fused=True))
     big = plan(cfg, Workload("stream", n_scans=6478, n_detections=1_071_716, fused=True))
-    assert small.engine == "python" and not small.compiles and small.expected_s < 15
+    assert small.engine == "python" and not small.compiles and small.expected_s < 30
     assert big.engine == "orchestrator" and big.compiles and big.compile_s == ORCHESTRATOR_COMPILE_S
     assert python_seconds(6478, 1_071_716) > 300 and big.expected_s < 100
-    assert "about 347 s" in big.announce                 # the reference's cost it avoided, said
+    assert f"about {python_seconds(6478, 1_071_716):.0f} s" in big.announce   # the reference's cost it avoided, said
     # warm (negative control): the fused engine, whatever the size
     monkeypatch.setattr(policy, "_filter_ready", lambda *f: True)
     assert plan(cfg, Workload("stream", n_scans=6478, n_detections=1_071_716)).engine == "fused"

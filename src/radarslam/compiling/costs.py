@@ -82,9 +82,8 @@ ANNOUNCE_S = 3.0
 
 #: A recorded stream through the Python reference, per detection and per scan of the stream (the
 #: association looks at every landmark, and the landmarks grow with the drive, so a detection late
-#: in a long drive costs more): from the cold runs of the README's recording commands (issue 43:
-#: nuScenes scene-0061, 126,749 detections in 1,263 scans, about 7 s of its 11.3 s; RadarScenes
-#: sequence 105, 1,071,716 detections in 6,478 scans, about 395 s of its 409 s): 4.4e-8 and 5.7e-8.
-#: Used with :data:`PYTHON_SCAN_S` only where the detections are known (a recording); a dataset's
-#: figure above is per scan with its detections in it.
-PYTHON_DETECTION_SCAN_S = 5.0e-8
+#: in a long drive costs more): measured from an empty cache on this 2-core machine, nuScenes
+#: scene-0061 with the automotive profile (the Doppler gate through its reference too), 126,749
+#: detections in 1,263 scans, the filter 20.6 s: 1.3e-7 (the issue's RadarScenes 105 cold run, 395 s for
+#: 1,071,716 detections in 6,478 scans with the gate compiled, reads 5.7e-8).
+PYTHON_DETECTION_SCAN_S = 1.3e-7

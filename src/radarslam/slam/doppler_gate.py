@@ -25,6 +25,7 @@ import numpy as np
 
 from radarslam.core.errors import InputError
 from radarslam.landmarks.clustering import Cluster
+from radarslam.models import doppler_kernels
 from radarslam.models._doppler_compiled import classify_scan
 from radarslam.models.doppler import EgoVelocity, chi2_quantile
 
@@ -80,7 +81,10 @@ class DopplerGate:
             raise InputError(f"scan {scan.index}: channels['doppler_mps']: expected shape ({polar.shape[0]},), "
                              f"got {d.shape}")
         polar = np.ascontiguousarray(polar, dtype=float).reshape(-1, 2)
-        v, cov, inl, sigma, stat, rest, valid, bad, objects, tested = classify_scan(
+        # the backend's form (filter.backend): the reference compiles nothing (a first run on a machine),
+        # the same draws, inliers and generator state as the compiled one (tests/test_doppler_kernels.py)
+        kernel = doppler_kernels.classify_scan if f.backend == "python" else classify_scan
+        v, cov, inl, sigma, stat, rest, valid, bad, objects, tested = kernel(
             polar, np.ascontiguousarray(d), *(self.mounting if mount is None else mount), self.rng, int(f.doppler_iterations),
             float(f.doppler_threshold_mps), float(f.doppler_std_floor_mps), MIN_INLIER_FRACTION, *self.quantiles())
         ego = EgoVelocity(v, cov, inl, float(sigma), float(stat), bool(rest), bool(valid))
