@@ -40,7 +40,7 @@ def radar_alone_cmd(args: argparse.Namespace, config) -> int:
     n = rec.scan_times().size
     first = stream_first_run(config, n, rec.det_t.size)      # the one compile policy (compiling/policy.py)
     bar = Progress(n, 0, unit="scans", enabled=sys.stderr.isatty() or first.expected_s > 10.0,
-                   warm_up_unit=first.compiles)
+                   warm_up_unit=True)      # the first scan carries the reading and the setup: no rate from it
     run, lev = run_radar_alone(rec, imu, config, on_scan=bar.update, first_run=first)
     out = prepare_out_dir(args.out)
     refuse_finished(out / "run.json", "--out", args.overwrite)

@@ -124,7 +124,7 @@ def run_recording_cmd(args: argparse.Namespace) -> int:
     first = stream_first_run(with_rig(rec, config), n, rec.det_t.size)
     # a run expected to take over 10 s shows its rate and ETA, on a terminal or not (issue 43)
     bar = Progress(n, 0, unit="scans", enabled=sys.stderr.isatty() or first.expected_s > 10.0,
-                   warm_up_unit=first.compiles)
+                   warm_up_unit=True)      # the first scan carries the reading and the setup: no rate from it
     calibration = None
     if getattr(args, "calibration", None):
         from radarslam.egomotion.car_calibration import read_car_calibration
