@@ -188,7 +188,7 @@ def test_numba_cache_refresh_deletes_stale_machine_code(tmp_path):
 
 # --- the order of the packages, and no circle anywhere ------------------------------------------
 
-ROOT = SRC.parents[1]
+ROOT = Path(__file__).resolve().parents[1]     # the checkout (the package may be installed elsewhere)
 
 
 def _package(module: str) -> str:
