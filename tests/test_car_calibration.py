@@ -151,3 +151,35 @@ def test_the_track_frame_makes_the_unicycle_exact():
     assert err(raw) > 5.0
     np.testing.assert_allclose(np.angle(np.exp(1j * (car_heading(fixed, cal)[:, 2] - head))), 0.0, atol=1e-9)
     assert MOUNT.shape == (5, 3)
+
+
+def test_a_configs_calibration_file_runs_as_the_flag_does(tmp_path):
+    """filter.calibration names the file as --calibration does (issue 42 item 2: "and the config"):
+    the same run; a missing file is refused in one line naming the key."""
+    pytest.importorskip("numba")
+    import dataclasses
+
+    from helpers import first_seconds, shared_data
+
+    from radarslam.config import profile_config
+    from radarslam.core.errors import InputError
+    from radarslam.egomotion.car_calibration import CarCalibration
+    from radarslam.io.recording import read_recording
+    from radarslam.runs.recording import run_recording
+
+    rec = read_recording(first_seconds(shared_data() / "nuscenes_radar" / "scene-0103", 6.0, tmp_path / "rec"))
+    ids = tuple(sorted(rec.sensors))
+    cal = CarCalibration(math.radians(-0.5), 0.0, 1.002, 0.0, 0.0, 0.0, ids, (0.0,) * len(ids), (0.0,) * len(ids),
+                         (0.04,) * len(ids), (0.0,) * len(ids))
+    f = tmp_path / "car.json"
+    write_car_calibration(f, cal)
+    cfg = profile_config("automotive")
+    by_flag = run_recording(rec, cfg, calibration=read_car_calibration(f))
+    by_config = run_recording(rec, dataclasses.replace(cfg, filter=dataclasses.replace(cfg.filter, calibration=str(f))))
+    np.testing.assert_array_equal(by_flag.record.poses, by_config.record.poses)
+    assert by_config.metrics["calibration"]["thrust_angle_deg"] == pytest.approx(-0.5)
+    plain = run_recording(rec, cfg)                                     # negative control: none applied
+    assert "calibration" not in plain.metrics and not np.array_equal(plain.record.poses, by_flag.record.poses)
+    bad = dataclasses.replace(cfg, filter=dataclasses.replace(cfg.filter, calibration=str(tmp_path / "no.json")))
+    with pytest.raises(InputError, match=r"^filter\.calibration: .*no\.json: no such file$"):
+        run_recording(rec, bad)

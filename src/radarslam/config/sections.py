@@ -59,6 +59,9 @@ class FilterConfig:
                                         "accuracy, default a lidar-map or RTK-INS localisation's few centimetres and "
                                         "a tenth of a degree (each >= 0; a run started at zero takes 0, the anchored "
                                         "frame; b.5.1)", length=3)
+    calibration: str = param("", "[PROP] a car's calibration file from 'radarslam calibrate' "
+                             "(car_calibration.json: thrust angle, wheel scale, each radar's yaw and clock; "
+                             "docs/method.md c.16) applied to a recording run; '' none; --calibration wins")
     initial_error: str = param("fixed", "[PROP] simulation: the initial estimate's error (b.5): fixed (initial_pose, "
                                "the paper's, the same offset in every trial) or draw (the true first pose plus a draw "
                                "from N(0, diag(initial_pose_std^2)), per trial from its own child stream)",

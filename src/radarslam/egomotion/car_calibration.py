@@ -337,32 +337,33 @@ def write_car_calibration(path: str | Path, cal: CarCalibration) -> None:
     atomic_write_text(path, json.dumps(d, indent=2, allow_nan=True) + "\n")
 
 
-def read_car_calibration(path: str | Path) -> CarCalibration:
-    """A calibration file written by :func:`write_car_calibration`, checked in one line per fault."""
+def read_car_calibration(path: str | Path, key: str = "--calibration") -> CarCalibration:
+    """A calibration file written by :func:`write_car_calibration`, checked in one line per fault
+    (naming ``key``, where the path came from)."""
     path = Path(path)
     try:
         d = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
-        raise InputError(f"--calibration: {path}: no such file") from None
+        raise InputError(f"{key}: {path}: no such file") from None
     except (OSError, ValueError) as exc:
-        raise InputError(f"--calibration: {path}: expected a calibration JSON file, got {exc}") from None
+        raise InputError(f"{key}: {path}: expected a calibration JSON file, got {exc}") from None
     if not isinstance(d, dict) or d.get("format") != FORMAT:
-        raise InputError(f"--calibration: {path}: expected 'format': {FORMAT}, got {d.get('format') if isinstance(d, dict) else d!r}")
+        raise InputError(f"{key}: {path}: expected 'format': {FORMAT}, got {d.get('format') if isinstance(d, dict) else d!r}")
     names = {f for f in CarCalibration.__dataclass_fields__}
     kw = {k: (tuple(tuple(r) if isinstance(r, list) else r for r in v) if isinstance(v, list) else v)
           for k, v in d.items() if k in names}
     cal = CarCalibration(**kw)
     S = len(cal.sensor_ids)
-    for key in ("yaw_offset_rad", "yaw_offset_std", "time_offset_s", "time_offset_std", "sensor_sweeps"):
-        if len(getattr(cal, key)) != S:
-            raise InputError(f"--calibration: {path}: {key}: expected {S} values (one per sensor_id), got "
-                             f"{len(getattr(cal, key))}")
-    for key in ("thrust_angle_rad", "wheel_scale", "gyro_bias_rad_s", "yaw_offset_rad", "time_offset_s"):
-        v = np.atleast_1d(np.asarray(getattr(cal, key), dtype=float))
+    for name in ("yaw_offset_rad", "yaw_offset_std", "time_offset_s", "time_offset_std"):
+        if len(getattr(cal, name)) != S:
+            raise InputError(f"{key}: {path}: {name}: expected {S} values (one per sensor_id), got "
+                             f"{len(getattr(cal, name))}")
+    for name in ("thrust_angle_rad", "wheel_scale", "gyro_bias_rad_s", "yaw_offset_rad", "time_offset_s"):
+        v = np.atleast_1d(np.asarray(getattr(cal, name), dtype=float))
         if not np.all(np.isfinite(v)):
-            raise InputError(f"--calibration: {path}: {key}: expected finite values, got {v.tolist()}")
+            raise InputError(f"{key}: {path}: {name}: expected finite values, got {v.tolist()}")
     if not 0.5 < cal.wheel_scale < 1.5:
-        raise InputError(f"--calibration: {path}: wheel_scale: expected a scale near 1, got {cal.wheel_scale}")
+        raise InputError(f"{key}: {path}: wheel_scale: expected a scale near 1, got {cal.wheel_scale}")
     return cal
 
 

@@ -176,6 +176,11 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
     recording first; the run is then in the car's track frame and its poses and truth are handed
     back in the car's (heading minus the thrust angle).
     """
+    if calibration is None and config.filter.calibration:          # the config's file (c.16)
+        from radarslam.egomotion.car_calibration import read_car_calibration
+
+        calibration = read_car_calibration(config.filter.calibration, key="filter.calibration")
+        config = dataclasses.replace(config, filter=dataclasses.replace(config.filter, calibration=""))
     if calibration is not None:
         from radarslam.egomotion.car_calibration import apply_calibration
 
