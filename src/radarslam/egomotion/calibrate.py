@@ -63,6 +63,16 @@ class Calibration:
         return m
 
 
+def check_calibration_drive(rig: Rig, min_speed_mps: float) -> None:
+    """Refuse in one line a calibration drive without odometry (the reference motion) or a
+    non-positive speed threshold."""
+    if rig.odometry is None or rig.odometry.shape[0] < 2:
+        raise InputError("--recording: expected odometry.csv (t_s, speed_mps, yaw_rate_rad_s) as the reference "
+                         "motion of the calibration, got none")
+    if not min_speed_mps > 0:
+        raise InputError(f"min_speed_mps: expected > 0 m/s, got {min_speed_mps}")
+
+
 def calibrate_yaw(rig: Rig, rng: np.random.Generator, *, min_speed_mps: float = MIN_SPEED_MPS) -> Calibration:
     """Each radar's yaw offset from its sweeps against the odometry's motion (c.12.5).
 
@@ -73,11 +83,7 @@ def calibrate_yaw(rig: Rig, rng: np.random.Generator, *, min_speed_mps: float = 
     (:func:`~radarslam.models.rig_velocity.yaw_offset_of_sweep`), and the sweeps' offsets are pooled
     by Tukey's biweight (:func:`~radarslam.models.rig_velocity.tukey_location`).
     """
-    if rig.odometry is None or rig.odometry.shape[0] < 2:
-        raise InputError("--recording: expected odometry.csv (t_s, speed_mps, yaw_rate_rad_s) as the reference "
-                         "motion of the calibration, got none")
-    if not min_speed_mps > 0:
-        raise InputError(f"min_speed_mps: expected > 0 m/s, got {min_speed_mps}")
+    check_calibration_drive(rig, min_speed_mps)
     S = rig.sensor_ids.size
     order = np.lexsort((rig.t, rig.sensor))                 # sweeps contiguous: by sensor, then time
     t, sen, az, d = rig.t[order], rig.sensor[order], rig.azimuth[order], rig.doppler[order]

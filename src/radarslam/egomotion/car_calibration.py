@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from radarslam.core.errors import InputError
+from radarslam.egomotion.calibrate import check_calibration_drive
 from radarslam.egomotion.rig import Rig
 from radarslam.models.rig_velocity import DEFAULTS, fit_rig_windows
 
@@ -185,11 +186,7 @@ def calibrate_car(rig: Rig, rng: np.random.Generator, *, estimate: tuple[str, ..
     bad = sorted(set(estimate) - set(ESTIMATES))
     if bad:
         raise InputError(f"estimate: expected some of {', '.join(ESTIMATES)}, got {', '.join(bad)}")
-    if rig.odometry is None or rig.odometry.shape[0] < 2:
-        raise InputError("--recording: expected odometry.csv (t_s, speed_mps, yaw_rate_rad_s) beside the radar, "
-                         "got none")
-    if not min_speed_mps > 0:
-        raise InputError(f"min_speed_mps: expected > 0 m/s, got {min_speed_mps}")
+    check_calibration_drive(rig, min_speed_mps)
     S = rig.sensor_ids.size
     layout = {name: name in estimate for name in ESTIMATES}
     if layout["yaw_offsets"] and S < 2:
