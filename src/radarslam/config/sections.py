@@ -144,6 +144,12 @@ class FilterConfig:
     bias_turn_scale_std: float = param(0.05, "[PROP] prior std of the turn-scale error kappa (c.11.8)", low=0.0)
     bias_turn_scale_drift_per_rt_s: float = param(1e-4, "[PROP] random-walk intensity of kappa (1/sqrt(s); c.11.8)",
                                                   low=0.0)
+    bias_thrust: bool = param(False, "[PROP] under odometry_bias states and filter.odometry odometer, a thrust-angle "
+                              "state beta: the rear axle moves at beta from the car's heading (v_y = v tan beta), "
+                              "learnt through the landmarks (c.11.12)")
+    bias_thrust_std_deg: float = param(1.0, "[PROP] prior std of the thrust angle beta (deg; c.11.12)", low=0.0)
+    bias_thrust_drift_deg_per_rt_s: float = param(0.0, "[PROP] random-walk intensity of beta (deg/sqrt(s); 0: a "
+                                                  "constant of the car; c.11.12)", low=0.0)
     turn_noise_gain: float = param(0.0, "[PROP] k: each odometry sample's turning-input variance grows by (k u_turn)^2 "
                                    "(steering in rad, turn rate in rad/s), heteroscedastic input noise; 0: U alone "
                                    "(c.11.8; orchestrator only)", low=0.0)

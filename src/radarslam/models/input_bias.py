@@ -68,7 +68,7 @@ def input_jacobians(u, b, scaled, offset, turn):
     :func:`correct_input`. A kernel (the fused engine compiles it as it is)."""
     m, k = u.shape[0], offset
     Cu = np.eye(m)
-    Cb = np.zeros((m, 3 if turn == TURN_BOTH else 2))
+    Cb = np.zeros((m, b.shape[0]))                          # a thrust state's column (c.11.12) stays 0
     for a in range(scaled.shape[0]):
         i = scaled[a]
         Cu[i, i] = 1.0 + b[0]
@@ -99,11 +99,24 @@ class InputBias:
     offset_keys: tuple[str, str]
     #: The turning input's error: "offset" (delta), "scale" (kappa) or "both" (delta and kappa; c.11.8).
     turn: str = "offset"
+    #: A thrust-angle state ``beta`` last (c.11.12): the rear axle moves at ``beta`` from the heading.
+    #: It does not act on the input (its column of ``C_b`` is 0) but turns the pose's increment,
+    #: :func:`radarslam.slam.bias.thrust_turn`.
+    thrust: bool = False
 
     @property
     def dim(self) -> int:
-        """Number of bias states: 2 (speed scale and the turn's offset or scale), 3 with both."""
-        return 3 if self.turn == "both" else 2
+        """Number of bias states: 2 (speed scale and the turn's offset or scale), 3 with both; one
+        more with the thrust angle."""
+        return (3 if self.turn == "both" else 2) + int(self.thrust)
+
+    def with_thrust(self, on: bool) -> "InputBias":
+        """This bias with (``on``) or without the thrust-angle state, last, named ``thrust_angle`` (rad)."""
+        if on == self.thrust:
+            return self
+        names, units = (self.names + ("thrust_angle",), self.units + ("rad",)) if on else \
+            (self.names[:-1], self.units[:-1])
+        return replace(self, thrust=on, names=names, units=units)
 
     def with_turn(self, turn: str) -> "InputBias":
         """This model's bias with the turning input's error of form ``turn`` (c.11.8), its states'
@@ -150,16 +163,21 @@ class InputBias:
     def _turn_values(self, offset: float, scale: float) -> list[float]:
         return {"offset": [offset], "scale": [scale], "both": [offset, scale]}[self.turn]
 
+    def _thrust_values(self, value_deg: float) -> list[float]:
+        return [math.radians(value_deg)] if self.thrust else []
+
     def prior_std(self, f) -> np.ndarray:
         """The prior std ``(dim,)`` of the states from the ``filter`` config section ``f``."""
         return np.array([f.bias_scale_std, *self._turn_values(math.radians(getattr(f, self.offset_keys[0])),
-                                                               f.bias_turn_scale_std)])
+                                                               f.bias_turn_scale_std),
+                         *self._thrust_values(f.bias_thrust_std_deg)])
 
     def drift(self, f) -> np.ndarray:
         """The random-walk intensity ``(dim,)`` of the states (per sqrt(s)) from ``f``."""
         return np.array([f.bias_scale_drift_per_rt_s,
                          *self._turn_values(math.radians(getattr(f, self.offset_keys[1])),
-                                            f.bias_turn_scale_drift_per_rt_s)])
+                                            f.bias_turn_scale_drift_per_rt_s),
+                         *self._thrust_values(f.bias_thrust_drift_deg_per_rt_s)])
 
 
 #: The unicycle's ``[v, psi]`` and the body-velocity model's ``[v_x, v_y, omega]``: a speed scale and

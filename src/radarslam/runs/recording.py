@@ -18,6 +18,7 @@ from radarslam.egomotion.rig_odometry import with_rig_velocity
 from radarslam.runs.start import (FRAMES, START_STD, filter_to_platform, platform_to_filter,  # noqa: F401
                                   sensor_lever, start_pose, start_std, truth_at)
 from radarslam.runs.dead_reckoning import dead_reckoning  # noqa: F401  (runs.recording.dead_reckoning, its former home)
+from radarslam.runs.recording_outputs import bias_metrics
 from radarslam.models.radar import polar_to_xy
 from radarslam.slam.driver import FilterRecord, Observer, drive, fused_maps
 from radarslam.io.recording.mounting import Mounting, to_sensor
@@ -221,6 +222,8 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
     if truth is not None:
         metrics.update(evaluate_truth(record.poses, dead_reckoning(events, config, pose), truth, config, align,
                                       metrics["start"]))
+    if record.bias is not None:                                # c.11, c.11.12: the car's states
+        metrics["odometry_bias"] = bias_metrics(config, record)
     ego, flags = _doppler_outputs(rec, m, flags, metrics, config)
     return RecordingRun(config, rec, m, events, times, record, truth, metrics, report, ego, flags)
 

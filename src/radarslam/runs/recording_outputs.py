@@ -84,12 +84,41 @@ def landmark_sensors(events: list, created: np.ndarray) -> np.ndarray:
     return np.array([by_index.get(int(k), -1) for k in np.asarray(created).reshape(-1)], dtype=np.int64)
 
 
+def bias_names(config) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """The odometry-bias states' names and units of a run with ``config`` (docs/method.md c.11,
+    c.11.12), empty without them."""
+    from radarslam.models.body_velocity import BodyVelocityModel
+    from radarslam.models.motion import motion_model_from_config
+    from radarslam.slam.bias import bias_states
+
+    f = config.filter
+    b = bias_states(motion_model_from_config(f) if f.odometry == "odometer" else BodyVelocityModel(), f)
+    return ((), ()) if b is None else (b.names, b.units)
+
+
+def bias_metrics(config, record) -> dict | None:
+    """metrics.json's ``odometry_bias``: each state's final value, std and unit (c.11), or None."""
+    if record.bias is None:
+        return None
+    names, units = bias_names(config)
+    m = len(names)
+    return {n: {"final": float(record.bias[-1, i]), "final_std": float(record.bias[-1, m + i]), "unit": u}
+            for i, (n, u) in enumerate(zip(names, units))}
+
+
 def write_run_tables(out: Path, run) -> list[str]:
-    """``ego_velocity.csv`` (with a rig fit) and ``moving.csv`` (under the Doppler gate) of ``run``
-    (a :class:`~radarslam.runs.recording.RecordingRun`); returns the names written."""
+    """``bias.csv`` (with the odometry-bias states), ``ego_velocity.csv`` (with a rig fit) and
+    ``moving.csv`` (under the Doppler gate) of ``run`` (a
+    :class:`~radarslam.runs.recording.RecordingRun`); returns the names written."""
+    from radarslam.io.results import write_bias_csv
     from radarslam.runs.detection_flags import write_moving_csv
 
     names = []
+    if run.record.bias is not None:                       # filter.odometry_bias "states" (c.11, c.11.12)
+        m = run.record.bias.shape[1] // 2
+        write_bias_csv(out / "bias.csv", run.times, run.record.bias[:, :m], run.record.bias[:, m:],
+                       bias_names(run.config)[0])
+        names.append("bias.csv")
     if run.ego is not None:
         write_ego_velocity_csv(out / "ego_velocity.csv", run.ego)
         names.append("ego_velocity.csv")

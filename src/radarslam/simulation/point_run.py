@@ -7,7 +7,10 @@ correction maps back to the truth, plus white noise: with the true bias states
 
     u_meas = c^{-1}(u, b) + eta,   eta ~ N(0, diag(input_std^2)),
 
-i.e. a speed reading ``(1 + eps)`` times too small and a turning input ``delta`` too small. This is
+i.e. a speed reading ``(1 + eps)`` times too small and a turning input ``delta`` too small. With a
+thrust-angle state (``spec.thrust``, the last entry ``beta`` of ``b``, c.11.12) the platform's
+position increment is turned by ``beta`` from what the model's step gives (a car whose rear axle
+moves at ``beta`` from its heading); the odometer does not see it. This is
 exactly the filter's model of c.11, so a filter with the bias states is consistent on it and one
 without them is not. Every ``scan_every`` odometry steps the sensor at the pose measures the range and
 bearing of each landmark within ``[min_range, max_range]`` and the field of view, with noise ``N(0, diag(range_std^2,
@@ -72,7 +75,12 @@ def simulate_point_run(model, controls: np.ndarray, dt: float, landmarks: np.nda
             scan_poses.append(pose.copy())
         reading = uncorrect(spec, u, b) + rng.standard_normal(std.shape[0]) * std
         events.append(Odometry(t=(k + 1) * dt, dt=dt, control=reading))
-        pose = model.step(pose, u, dt)
+        nxt = model.step(pose, u, dt)
+        if spec.thrust:                                     # c.11.12: the increment at beta from the step's
+            c, s = math.cos(b[-1]), math.sin(b[-1])
+            dx, dy = nxt[0] - pose[0], nxt[1] - pose[1]
+            nxt[0], nxt[1] = pose[0] + c * dx - s * dy, pose[1] + s * dx + c * dy
+        pose = nxt
     return PointRun(events, np.array(scan_poses), np.asarray(landmarks, dtype=float), b)
 
 

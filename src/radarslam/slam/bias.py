@@ -28,7 +28,7 @@ from radarslam.slam.layout import POSE_DIM
 from radarslam.slam.state import SlamState
 
 __all__ = ["BiasStates", "bias_states", "bias_transition", "control_noise", "initial_state", "measurement_noise",
-           "platform_jacobian", "platform_prediction", "predict_terms", "turn_noise", "turn_noise_index"]
+           "platform_jacobian", "platform_prediction", "predict_terms", "thrust_turn", "turn_noise", "turn_noise_index"]
 
 
 class BiasStates:
@@ -61,8 +61,9 @@ class BiasStates:
         uc = self.spec.correct(u, b)
         Cu, Cb = self.spec.jacobians(u, b)
         Fx, Fu = model.jacobians(pose, uc, dt)
+        _, Fx, Fu, Fb = _thrust(self.spec.thrust, pose, model.step(pose, uc, dt), Fx, Fu, Cb, b)
         phi, _ = self.transition(dt)
-        return platform_jacobian(Fx, Fu, Cb, phi), Fu @ Cu, uc
+        return platform_jacobian(Fx, Fb, phi), Fu @ Cu, uc
 
     def predict_terms(self, x: np.ndarray, P: np.ndarray, u: np.ndarray, dt: float, model, U: np.ndarray,
                       Q: np.ndarray, pose_first: np.ndarray | None = None
@@ -80,11 +81,19 @@ class BiasStates:
         uc = self.spec.correct(u, b)
         Cu, Cb = self.spec.jacobians(u, b)
         Fx, Fu = model.jacobians(pose, uc, dt)
-        new_pose = model.step(pose, uc, dt)
+        new_pose, Fx, Fu, Fb = _thrust(self.spec.thrust, pose, model.step(pose, uc, dt), Fx, Fu, Cb, b)
         if pose_first is not None:
             Fx = ekf.fej_motion_jacobian(Fx, new_pose, pose_first)
         phi, qb = self.transition(dt)
-        return platform_prediction(new_pose, b, P, Fx, Fu, Cu, Cb, phi, qb, U, Q)
+        return platform_prediction(new_pose, b, P, Fx, Fu, Cu, Fb, phi, qb, U, Q)
+
+
+def _thrust(on: bool, pose, new_pose, Fx, Fu, Cb, b):
+    """``(new_pose, F_x, F_u, F_b)`` with the thrust angle (the last bias state) when ``on``
+    (:func:`thrust_turn`), else the model's own with ``F_b = F_u C_b``."""
+    if on:
+        return thrust_turn(pose, new_pose, Fx, Fu, Cb, b[-1])
+    return new_pose, Fx, Fu, Fu @ Cb
 
 
 def bias_transition(dt, drift, tau):
@@ -99,29 +108,54 @@ def bias_transition(dt, drift, tau):
     return phi, q2 * (0.5 * tau) * (1.0 - phi * phi)
 
 
-def platform_jacobian(Fx, Fu, Cb, phi):
-    """``F_s = [[F_x, F_u C_b], [0, phi I]]`` (p, p), ``p = 3 + m`` with ``m`` the columns of ``C_b``
-    (c.11.2). A kernel (the fused engine compiles it as it is)."""
+def thrust_turn(pose, new_pose, Fx, Fu, Cb, beta):
+    """The step with the thrust angle ``beta`` (c.11.12): the model's position increment
+    ``d = new_pose[:2] - pose[:2]`` turned by ``beta``, ``x' = x + R(beta) d`` (the heading's step
+    unchanged), and its Jacobians ``(new_pose (3,), F_x, F_u, F_b (3, m))``: the position rows of
+    ``F_x``'s heading column and of ``F_u`` turned by ``R(beta)``, ``F_b = F_u C_b`` with, in the last
+    (the thrust's) column, ``d x' / d beta = (-d'_y, d'_x)``, ``d' = R(beta) d``. A kernel (the fused
+    engine compiles it as it is)."""
+    c, s = math.cos(beta), math.sin(beta)
+    dx, dy = new_pose[0] - pose[0], new_pose[1] - pose[1]
+    rx, ry = c * dx - s * dy, s * dx + c * dy
+    out = new_pose.copy()
+    out[0], out[1] = pose[0] + rx, pose[1] + ry
+    Fx2 = Fx.copy()
+    Fx2[0, 2], Fx2[1, 2] = c * Fx[0, 2] - s * Fx[1, 2], s * Fx[0, 2] + c * Fx[1, 2]
+    Fu2 = Fu.copy()
+    for j in range(Fu.shape[1]):
+        Fu2[0, j], Fu2[1, j] = c * Fu[0, j] - s * Fu[1, j], s * Fu[0, j] + c * Fu[1, j]
+    Fb = Fu2 @ Cb
     m = Cb.shape[1]
+    Fb[0, m - 1], Fb[1, m - 1], Fb[2, m - 1] = -ry, rx, 0.0
+    return out, Fx2, Fu2, Fb
+
+
+def platform_jacobian(Fx, Fb, phi):
+    """``F_s = [[F_x, F_b], [0, phi I]]`` (p, p), ``p = 3 + m`` with ``m`` the columns of ``F_b``
+    (``F_u C_b``, and the thrust's column, c.11.2, c.11.12). A kernel (the fused engine compiles it
+    as it is)."""
+    m = Fb.shape[1]
     p = POSE_DIM + m
     F = np.zeros((p, p))
     F[:POSE_DIM, :POSE_DIM] = Fx
-    F[:POSE_DIM, POSE_DIM:] = Fu @ Cb
+    F[:POSE_DIM, POSE_DIM:] = Fb
     for i in range(m):
         F[POSE_DIM + i, POSE_DIM + i] = phi
     return F
 
 
-def platform_prediction(pose_new, b, P, Fx, Fu, Cu, Cb, phi, qb, U, Q):
+def platform_prediction(pose_new, b, P, Fx, Fu, Cu, Fb, phi, qb, U, Q):
     """The prediction of the platform block with bias states (c.11.2): the new block
     ``s = [pose_new, phi b]`` (p,), ``P_ss = F_s P_ss F_s^T + blockdiag(G U G^T + Q, diag(qb))``
     (symmetrised, (p, p)) and ``F_s P_sl`` (p, n - p), with ``F_s`` of :func:`platform_jacobian` and
     ``G = F_u C_u``; ``F_x``, ``F_u`` the model's Jacobians at the corrected input (``F_x`` the
-    first-estimates one under FEJ), ``C_u``, ``C_b`` the correction's. ``P`` is left as it is. A
+    first-estimates one under FEJ; both turned by a thrust state, c.11.12), ``C_u`` the correction's
+    and ``F_b`` the bias columns (``F_u C_b``, :func:`thrust_turn`). ``P`` is left as it is. A
     kernel (the fused engine compiles it as it is)."""
     m = b.shape[0]
     p = POSE_DIM + m
-    F = platform_jacobian(Fx, Fu, Cb, phi)
+    F = platform_jacobian(Fx, Fb, phi)
     G = Fu @ Cu
     Pss = F @ np.ascontiguousarray(P[:p, :p]) @ np.ascontiguousarray(F.T)
     Pss[:POSE_DIM, :POSE_DIM] += G @ U @ np.ascontiguousarray(G.T) + Q
@@ -139,12 +173,19 @@ def bias_states(model, f) -> BiasStates | None:
     ``model``: None for ``"none"``; for ``"states"`` the model's declared ones, or a one-line
     :class:`ConfigError` when the model declares none."""
     if f.odometry_bias == "none":
+        if f.bias_thrust:
+            raise ConfigError("filter.bias_thrust: expected false with filter.odometry_bias 'none' (the thrust angle "
+                              "is one of the odometry-bias states, c.11.12), got true")
         return None
     spec = getattr(model, "input_bias", None)
     if spec is None:
         raise ConfigError(f"filter.odometry_bias: expected 'none' with motion model {getattr(model, 'name', model)!r} "
                           f"(it declares no input_bias, docs/method.md c.11), got {f.odometry_bias!r}")
     spec = spec.with_turn(f.bias_turn)                      # c.11.8: the turn's offset, scale or both
+    if f.bias_thrust and f.odometry != "odometer":
+        raise ConfigError(f"filter.bias_thrust: expected false with filter.odometry {f.odometry!r} (the Doppler fit "
+                          f"measures the lateral velocity itself; the thrust state is the odometer's, c.11.12), got true")
+    spec = spec.with_thrust(bool(f.bias_thrust))            # c.11.12: the thrust angle, last
     return BiasStates(spec, spec.prior_std(f), spec.drift(f), f.bias_tau_s)
 
 

@@ -18,16 +18,17 @@ from numba import njit
 
 from radarslam.core.jit import compile_kernels, compiled_only
 from radarslam.models.input_bias import correct_input, input_jacobians, turn_terms
-from radarslam.slam.bias import bias_transition, platform_jacobian, platform_prediction
+from radarslam.slam.bias import bias_transition, platform_jacobian, platform_prediction, thrust_turn
 from radarslam.slam.fused.tracking import _fej_motion_jacobian, _motion, predict
 from radarslam.slam.layout import POSE_DIM
 
 _K = compile_kernels(turn_terms, correct_input, input_jacobians, bias_transition, platform_jacobian,
-                     platform_prediction)
+                     platform_prediction, thrust_turn)
 _correct_input = _K["correct_input"]
 _input_jacobians = _K["input_jacobians"]
 _bias_transition = _K["bias_transition"]
 _platform_prediction = _K["platform_prediction"]
+_thrust_turn = _K["thrust_turn"]
 
 
 @njit(cache=True, inline="always")
@@ -66,10 +67,14 @@ def predict_biased(x, P, u, dt, U, Q, pose_first, model, cfg):  # pragma: no cov
     uc = _correct_input(u, b, cfg.bias_scaled, cfg.bias_offset, cfg.bias_turn)
     Cu, Cb = _input_jacobians(u, b, cfg.bias_scaled, cfg.bias_offset, cfg.bias_turn)
     pose, Fx, Fu = _motion(x, uc, dt, model, cfg)
+    if cfg.bias_thrust:                                     # c.11.12: the increment turned by the thrust angle
+        pose, Fx, Fu, Fb = _thrust_turn(x[:POSE_DIM], pose, Fx, Fu, Cb, b[p - POSE_DIM - 1])
+    else:
+        Fb = Fu @ Cb
     if cfg.fej:
         Fx = _fej_motion_jacobian(Fx, pose, pose_first)
     phi, qb = _bias_transition(dt, cfg.bias_drift, cfg.bias_tau)
-    s, Pss, Psl = _platform_prediction(pose, b, P, Fx, Fu, Cu, Cb, phi, qb, U, Q)
+    s, Pss, Psl = _platform_prediction(pose, b, P, Fx, Fu, Cu, Fb, phi, qb, U, Q)
     if not (_finite(s) and _finite(Pss) and _finite(Psl)):
         return False
     n = x.shape[0]

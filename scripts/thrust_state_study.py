@@ -1,0 +1,75 @@
+"""The thrust-angle state online (docs/method.md c.11.12) on the given nuScenes scenes, with and without
+the other drive's calibration (issue 42 items 1-2).
+
+    python scripts/thrust_state_study.py --data ../shared/data/nuscenes_radar
+
+Per scene, ``--profile automotive`` (wheels + gyro + radar) as it is ("base") and with the thrust-angle
+state alone (``filter.odometry_bias = "states"``, ``bias_thrust = true``, the speed scale's and the gyro
+offset's priors and drifts 0: the two other states held at 0), each without a calibration and with
+the calibration of the other scene of the same car (``radarslam calibrate --reference truth`` on that
+scene: 0061 <-> 0916, 0103 <-> 0655). Prints SLAM's and the wheels' and gyro's dead reckoning's (DR,
+uncalibrated) position RMSE, their ratio, the heading RMSE and the final thrust estimate with its std.
+Nothing is chosen here.
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import math
+from pathlib import Path
+
+import numpy as np
+
+from radarslam.config import from_dict, profile_config, to_dict
+from radarslam.egomotion.car_calibration import calibrate_car
+from radarslam.egomotion.rig import read_rig
+from radarslam.io.recording import read_recording
+from radarslam.runs.recording import run_recording
+
+PAIRS = {"scene-0061": "scene-0916", "scene-0916": "scene-0061", "scene-0103": "scene-0655", "scene-0655": "scene-0103"}
+THRUST_ALONE = {"odometry_bias": "states", "bias_thrust": True, "bias_scale_std": 0.0, "bias_scale_drift_per_rt_s": 0.0,
+                "bias_turn_rate_std_deg_s": 0.0, "bias_turn_rate_drift_deg_s_per_rt_s": 0.0}
+VARIANTS = {"base": {}, "thrust": THRUST_ALONE}
+
+
+def config(variant: str):
+    d = to_dict(profile_config("automotive"))
+    d["filter"] = {**d["filter"], **VARIANTS[variant]}
+    return from_dict(copy.deepcopy(d))
+
+
+def main(argv=None) -> int:
+    a = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    a.add_argument("--data", default="../shared/data/nuscenes_radar")
+    args = a.parse_args(argv)
+    data = Path(args.data)
+    cals = {}
+    for scene in PAIRS:
+        r = read_recording(data / scene)
+        cals[scene] = calibrate_car(read_rig(data / scene), np.random.default_rng(0), source=scene,
+                                    truth=(r.truth_t, r.truth))
+    ratios = {}
+    print("| scene | calibration | variant | SLAM (m) | DR (m) | ratio | heading SLAM / DR (deg) | thrust (deg) |")
+    print("|---|---|---|---|---|---|---|---|")
+    for scene, other in PAIRS.items():
+        rec = read_recording(data / scene)
+        dr = None
+        for cal in (None, other):
+            for variant in VARIANTS:
+                run = run_recording(rec, config(variant), calibration=None if cal is None else cals[cal])
+                m = run.metrics
+                dr = dr or m["dead_reckoning"]            # the car's own DR of the run without calibration
+                b = run.record.bias
+                thrust = "" if b is None else f"{math.degrees(b[-1, 2]):+.2f} +- {math.degrees(b[-1, 5]):.2f}"
+                ratio = m["position_rmse_m"] / dr["position_rmse_m"]
+                ratios.setdefault((cal is not None, variant), []).append(ratio)
+                print(f"| {scene} | {cal or 'none'} | {variant} | {m['position_rmse_m']:.3f} | {dr['position_rmse_m']:.3f} "
+                      f"| {ratio:.2f} | {m['heading_rmse_deg']:.2f} / {dr['heading_rmse_deg']:.2f} | {thrust} |", flush=True)
+    for (cal, variant), rr in ratios.items():
+        print(f"| mean | {'other scene' if cal else 'none'} | {variant} | | | {np.mean(rr):.2f} | | |")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
