@@ -150,6 +150,15 @@ class FilterConfig:
     bias_thrust_std_deg: float = param(1.0, "[PROP] prior std of the thrust angle beta (deg; c.11.12)", low=0.0)
     bias_thrust_drift_deg_per_rt_s: float = param(0.0, "[PROP] random-walk intensity of beta (deg/sqrt(s); 0: a "
                                                   "constant of the car; c.11.12)", low=0.0)
+    radar_yaw_states: bool = param(False, "[PROP] under odometry_bias states and a rig (sensors), each radar's yaw "
+                                   "offset psi_j from its stated mounting as a state, learnt through the landmarks "
+                                   "(c.13.1)")
+    radar_yaw_std_deg: float = param(1.0, "[PROP] prior std of each radar's yaw offset (deg; c.13.1)", low=0.0)
+    radar_yaw_drift_deg_per_rt_s: float = param(0.0, "[PROP] random-walk intensity of each yaw offset "
+                                                "(deg/sqrt(s); 0: a constant of the car; c.13.1)", low=0.0)
+    radar_yaw_reference: str = param("rig", "[PROP] what fixes the car's axis against the offsets: rig (their mean "
+                                     "held at 0, as radarslam calibrate's rig reference, c.16) or none (each offset "
+                                     "free within its prior; c.13.1)", choices=("rig", "none"))
     turn_noise_gain: float = param(0.0, "[PROP] k: each odometry sample's turning-input variance grows by (k u_turn)^2 "
                                    "(steering in rad, turn rate in rad/s), heteroscedastic input noise; 0: U alone "
                                    "(c.11.8; orchestrator only)", low=0.0)
@@ -408,6 +417,8 @@ class EstimatorConfig:
     #: the recording's sensors.csv set by the recording run), empty for one radar (``sensor``): what the
     #: radar alone observes (c.10.5.1, c.12.2) and the retirement's lever-arm margin (c.15).
     rig: tuple = ()
+    #: The sensor ids of ``rig``'s radars, in its order (each radar's yaw-offset state, c.13.1).
+    rig_ids: tuple = ()
 
 
 @dataclass
@@ -436,4 +447,5 @@ class Config:
     def estimator(self) -> EstimatorConfig:
         """The estimator's own sections (shared, not copied)."""
         rig = tuple((float(s.x_m), float(s.y_m), math.radians(s.yaw_deg)) for s in self.sensors)
-        return EstimatorConfig(self.filter, self.landmarks, self.extent, self.sensor, rig)
+        return EstimatorConfig(self.filter, self.landmarks, self.extent, self.sensor, rig,
+                               tuple(int(s.id) for s in self.sensors))

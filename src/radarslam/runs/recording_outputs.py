@@ -85,14 +85,16 @@ def landmark_sensors(events: list, created: np.ndarray) -> np.ndarray:
 
 
 def bias_names(config) -> tuple[tuple[str, ...], tuple[str, ...]]:
-    """The odometry-bias states' names and units of a run with ``config`` (docs/method.md c.11,
-    c.11.12), empty without them."""
+    """The odometry-bias states' names and units of a run with ``config`` (the filter's, its rig
+    included; docs/method.md c.11, c.11.12, c.13.1), empty without them."""
     from radarslam.models.body_velocity import BodyVelocityModel
     from radarslam.models.motion import motion_model_from_config
     from radarslam.slam.bias import bias_states
+    from radarslam.slam.radar_yaw import radar_yaw_states
 
     f = config.filter
-    b = bias_states(motion_model_from_config(f) if f.odometry == "odometer" else BodyVelocityModel(), f)
+    b = bias_states(motion_model_from_config(f) if f.odometry == "odometer" else BodyVelocityModel(), f,
+                    radar_yaw_states(config.estimator))
     return ((), ()) if b is None else (b.names, b.units)
 
 
@@ -117,7 +119,7 @@ def write_run_tables(out: Path, run) -> list[str]:
     if run.record.bias is not None:                       # filter.odometry_bias "states" (c.11, c.11.12)
         m = run.record.bias.shape[1] // 2
         write_bias_csv(out / "bias.csv", run.times, run.record.bias[:, :m], run.record.bias[:, m:],
-                       bias_names(run.config)[0])
+                       list(run.metrics["odometry_bias"]))
         names.append("bias.csv")
     if run.ego is not None:
         write_ego_velocity_csv(out / "ego_velocity.csv", run.ego)

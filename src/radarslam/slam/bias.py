@@ -36,14 +36,29 @@ class BiasStates:
     ``spec``, their prior std ``(m,)``, drift ``(m,)`` (per sqrt(s)) and time constant ``tau`` (s;
     0 = random walk)."""
 
-    def __init__(self, spec, prior_std: np.ndarray, drift: np.ndarray, tau: float):
+    def __init__(self, spec, prior_std: np.ndarray, drift: np.ndarray, tau: float, yaw=None):
         self.spec = spec
-        self.prior_std = np.asarray(prior_std, dtype=float)
-        self.drift = np.asarray(drift, dtype=float)
+        #: Each radar's yaw offset (a :class:`~radarslam.slam.radar_yaw.RadarYawStates`, c.13.1), after
+        #: the model's states, or None.
+        self.yaw = yaw
+        n_yaw = 0 if yaw is None else yaw.dim
+        self.prior_std = np.concatenate([np.asarray(prior_std, dtype=float), np.full(n_yaw, 0.0 if yaw is None
+                                                                                      else yaw.prior_std)])
+        self.drift = np.concatenate([np.asarray(drift, dtype=float), np.full(n_yaw, 0.0 if yaw is None
+                                                                               else yaw.drift)])
         self.tau = float(tau)
-        self.dim = int(spec.dim)
-        self.names = tuple(spec.names)
-        self.units = tuple(spec.units)
+        self.dim = int(spec.dim) + n_yaw
+        self.names = tuple(spec.names) + (() if yaw is None else yaw.names)
+        self.units = tuple(spec.units) + ("rad",) * n_yaw
+        #: The thrust angle's position among the states (c.11.12), -1 without it.
+        self.thrust_index = int(spec.dim) - 1 if spec.thrust else -1
+
+    def yaw_index(self, sensor_id: int) -> int | None:
+        """The state index (in the whole state) of radar ``sensor_id``'s yaw offset, or None."""
+        if self.yaw is None:
+            return None
+        j = self.yaw.position(sensor_id)
+        return None if j is None else POSE_DIM + int(self.spec.dim) + j
 
     @property
     def platform_dim(self) -> int:
@@ -61,7 +76,7 @@ class BiasStates:
         uc = self.spec.correct(u, b)
         Cu, Cb = self.spec.jacobians(u, b)
         Fx, Fu = model.jacobians(pose, uc, dt)
-        _, Fx, Fu, Fb = _thrust(self.spec.thrust, pose, model.step(pose, uc, dt), Fx, Fu, Cb, b)
+        _, Fx, Fu, Fb = _thrust(self.thrust_index, pose, model.step(pose, uc, dt), Fx, Fu, Cb, b)
         phi, _ = self.transition(dt)
         return platform_jacobian(Fx, Fb, phi), Fu @ Cu, uc
 
@@ -81,18 +96,18 @@ class BiasStates:
         uc = self.spec.correct(u, b)
         Cu, Cb = self.spec.jacobians(u, b)
         Fx, Fu = model.jacobians(pose, uc, dt)
-        new_pose, Fx, Fu, Fb = _thrust(self.spec.thrust, pose, model.step(pose, uc, dt), Fx, Fu, Cb, b)
+        new_pose, Fx, Fu, Fb = _thrust(self.thrust_index, pose, model.step(pose, uc, dt), Fx, Fu, Cb, b)
         if pose_first is not None:
             Fx = ekf.fej_motion_jacobian(Fx, new_pose, pose_first)
         phi, qb = self.transition(dt)
         return platform_prediction(new_pose, b, P, Fx, Fu, Cu, Fb, phi, qb, U, Q)
 
 
-def _thrust(on: bool, pose, new_pose, Fx, Fu, Cb, b):
-    """``(new_pose, F_x, F_u, F_b)`` with the thrust angle (the last bias state) when ``on``
+def _thrust(j: int, pose, new_pose, Fx, Fu, Cb, b):
+    """``(new_pose, F_x, F_u, F_b)`` with the thrust angle (the bias state ``j``) when ``j >= 0``
     (:func:`thrust_turn`), else the model's own with ``F_b = F_u C_b``."""
-    if on:
-        return thrust_turn(pose, new_pose, Fx, Fu, Cb, b[-1])
+    if j >= 0:
+        return thrust_turn(pose, new_pose, Fx, Fu, Cb, b, j)
     return new_pose, Fx, Fu, Fu @ Cb
 
 
@@ -108,14 +123,14 @@ def bias_transition(dt, drift, tau):
     return phi, q2 * (0.5 * tau) * (1.0 - phi * phi)
 
 
-def thrust_turn(pose, new_pose, Fx, Fu, Cb, beta):
-    """The step with the thrust angle ``beta`` (c.11.12): the model's position increment
+def thrust_turn(pose, new_pose, Fx, Fu, Cb, b, j):
+    """The step with the thrust angle ``beta = b[j]`` (c.11.12): the model's position increment
     ``d = new_pose[:2] - pose[:2]`` turned by ``beta``, ``x' = x + R(beta) d`` (the heading's step
     unchanged), and its Jacobians ``(new_pose (3,), F_x, F_u, F_b (3, m))``: the position rows of
-    ``F_x``'s heading column and of ``F_u`` turned by ``R(beta)``, ``F_b = F_u C_b`` with, in the last
-    (the thrust's) column, ``d x' / d beta = (-d'_y, d'_x)``, ``d' = R(beta) d``. A kernel (the fused
+    ``F_x``'s heading column and of ``F_u`` turned by ``R(beta)``, ``F_b = F_u C_b`` with, in the
+    thrust's column ``j``, ``d x' / d beta = (-d'_y, d'_x)``, ``d' = R(beta) d``. A kernel (the fused
     engine compiles it as it is)."""
-    c, s = math.cos(beta), math.sin(beta)
+    c, s = math.cos(b[j]), math.sin(b[j])
     dx, dy = new_pose[0] - pose[0], new_pose[1] - pose[1]
     rx, ry = c * dx - s * dy, s * dx + c * dy
     out = new_pose.copy()
@@ -123,11 +138,10 @@ def thrust_turn(pose, new_pose, Fx, Fu, Cb, beta):
     Fx2 = Fx.copy()
     Fx2[0, 2], Fx2[1, 2] = c * Fx[0, 2] - s * Fx[1, 2], s * Fx[0, 2] + c * Fx[1, 2]
     Fu2 = Fu.copy()
-    for j in range(Fu.shape[1]):
-        Fu2[0, j], Fu2[1, j] = c * Fu[0, j] - s * Fu[1, j], s * Fu[0, j] + c * Fu[1, j]
+    for i in range(Fu.shape[1]):
+        Fu2[0, i], Fu2[1, i] = c * Fu[0, i] - s * Fu[1, i], s * Fu[0, i] + c * Fu[1, i]
     Fb = Fu2 @ Cb
-    m = Cb.shape[1]
-    Fb[0, m - 1], Fb[1, m - 1], Fb[2, m - 1] = -ry, rx, 0.0
+    Fb[0, j], Fb[1, j], Fb[2, j] = -ry, rx, 0.0
     return out, Fx2, Fu2, Fb
 
 
@@ -168,7 +182,7 @@ def platform_prediction(pose_new, b, P, Fx, Fu, Cu, Fb, phi, qb, U, Q):
     return s, Pss, F @ np.ascontiguousarray(P[:p, p:])
 
 
-def bias_states(model, f) -> BiasStates | None:
+def bias_states(model, f, yaw=None) -> BiasStates | None:
     """The filter's bias states under ``filter.odometry_bias`` (``f``, the ``filter`` section) for
     ``model``: None for ``"none"``; for ``"states"`` the model's declared ones, or a one-line
     :class:`ConfigError` when the model declares none."""
@@ -186,7 +200,10 @@ def bias_states(model, f) -> BiasStates | None:
         raise ConfigError(f"filter.bias_thrust: expected false with filter.odometry {f.odometry!r} (the Doppler fit "
                           f"measures the lateral velocity itself; the thrust state is the odometer's, c.11.12), got true")
     spec = spec.with_thrust(bool(f.bias_thrust))            # c.11.12: the thrust angle, last
-    return BiasStates(spec, spec.prior_std(f), spec.drift(f), f.bias_tau_s)
+    if (f.bias_thrust or yaw is not None) and f.bias_tau_s > 0:
+        raise ConfigError(f"filter.bias_tau_s: expected 0 with filter.bias_thrust or filter.radar_yaw_states (constants "
+                          f"of the car, which a Gauss-Markov tau would decay; c.11.12, c.13.1), got {f.bias_tau_s!r}")
+    return BiasStates(spec, spec.prior_std(f), spec.drift(f), f.bias_tau_s, yaw)
 
 
 def initial_state(f, bias: BiasStates | None) -> SlamState:
@@ -194,7 +211,13 @@ def initial_state(f, bias: BiasStates | None) -> SlamState:
     ``bias``, the bias states at their nominal 0 with their prior std (c.11.1)."""
     if bias is None:
         return SlamState.initial(f.initial_pose, f.initial_pose_std)
-    return SlamState.initial(f.initial_pose, f.initial_pose_std, np.zeros(bias.dim), bias.prior_std)
+    st = SlamState.initial(f.initial_pose, f.initial_pose_std, np.zeros(bias.dim), bias.prior_std)
+    if bias.yaw is not None and bias.yaw.zero_mean:          # c.13.1: the rig's mean yaw offset held at 0
+        from radarslam.slam.radar_yaw import ZERO_MEAN_STD, zero_mean_update
+
+        first = POSE_DIM + bias.spec.dim
+        zero_mean_update(st.x, st.P, np.arange(first, first + bias.yaw.dim), ZERO_MEAN_STD)
+    return st
 
 
 def predict_terms(bias: BiasStates | None, x: np.ndarray, P: np.ndarray, u: np.ndarray, dt: float, model,

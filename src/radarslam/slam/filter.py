@@ -37,6 +37,7 @@ from radarslam.slam.bias import (bias_states, control_noise, initial_state, meas
                                  turn_noise, turn_noise_gain2, turn_noise_index)
 from radarslam.slam.doppler_gate import DopplerGate, mounting
 from radarslam.slam import sensor_frame
+from radarslam.slam.radar_yaw import enter_yaw, leave_yaw, radar_yaw_states
 from radarslam.slam.sensor_frame import mount_of
 from radarslam.slam.map_rows import MapSnapshot, RetiredMap, retire_radius, state_rows
 from radarslam.slam.kernels import cluster_kernel as _cluster_kernel, step_kernels as _step_kernels
@@ -115,7 +116,8 @@ class EkfSlam:
         self._noise_ref = float(f.noise_interval_s)
         #: The odometry-bias states (docs/method.md c.11) under filter.odometry_bias "states", else None.
         #: They belong to the model that drives the prediction: the body-velocity model under Doppler odometry.
-        self.bias_model = bias_states(self.model if f.odometry == "odometer" else BodyVelocityModel(), f)
+        self.bias_model = bias_states(self.model if f.odometry == "odometer" else BodyVelocityModel(), f,
+                                      radar_yaw_states(config))      # c.13.1: each radar's yaw, if asked
         self.state = initial_state(f, self.bias_model)
         #: FEJ: the first estimate of the current pose (the last prediction, or the initial pose).
         self._pose_first = self.state.pose if self.fej else None
@@ -256,15 +258,23 @@ class EkfSlam:
         f = self.config.filter
         self._view = (f.max_range_m if sen is None or sen.max_range_m is None else sen.max_range_m,
                       math.radians(f.field_of_view_deg) / 2 if sen is None or sen.fov_rad is None else sen.fov_rad / 2)
-        if mount is None:
+        yaw = None if sen is None or self.bias_model is None else self.bias_model.yaw_index(sen.sensor_id)
+        if mount is None and yaw is None:
             return self._steps(scan, polar, mount)
+        mount = mount or (0.0, 0.0, 0.0)
         st, first = self.state, self._pose_first          # c.13: the scan about its own radar's pose
         sensor_frame.to_sensor(st.x, st.P, mount)
+        if yaw is not None:                               # c.13.1: turned by its yaw offset's estimate
+            enter_yaw(st.x, st.P, 2, yaw)
         if self.fej:
             self._pose_first = sensor_frame.sensor_pose(first, *mount)
+            if yaw is not None:
+                self._pose_first[2] += st.x[yaw]
         try:
             return self._steps(scan, polar, mount)
         finally:
+            if yaw is not None:
+                leave_yaw(self.state.x, self.state.P, 2, yaw)
             sensor_frame.to_platform(self.state.x, self.state.P, mount)
             self._pose_first = first
 

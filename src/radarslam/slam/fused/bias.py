@@ -68,7 +68,7 @@ def predict_biased(x, P, u, dt, U, Q, pose_first, model, cfg):  # pragma: no cov
     Cu, Cb = _input_jacobians(u, b, cfg.bias_scaled, cfg.bias_offset, cfg.bias_turn)
     pose, Fx, Fu = _motion(x, uc, dt, model, cfg)
     if cfg.bias_thrust:                                     # c.11.12: the increment turned by the thrust angle
-        pose, Fx, Fu, Fb = _thrust_turn(x[:POSE_DIM], pose, Fx, Fu, Cb, b[p - POSE_DIM - 1])
+        pose, Fx, Fu, Fb = _thrust_turn(x[:POSE_DIM], pose, Fx, Fu, Cb, b, p - POSE_DIM - 1)
     else:
         Fb = Fu @ Cb
     if cfg.fej:

@@ -1,11 +1,12 @@
-"""The thrust-angle state online (docs/method.md c.11.12) on the given nuScenes scenes, with and without
-the other drive's calibration (issue 42 items 1-2).
+"""The car's errors as states online (docs/method.md c.11.12, c.13.1) on the given nuScenes scenes, with
+and without the other drive's calibration (issue 42 items 1-2).
 
-    python scripts/thrust_state_study.py --data ../shared/data/nuscenes_radar
+    python scripts/car_states_study.py --data ../shared/data/nuscenes_radar
 
-Per scene, ``--profile automotive`` (wheels + gyro + radar) as it is ("base") and with the thrust-angle
-state alone (``filter.odometry_bias = "states"``, ``bias_thrust = true``, the speed scale's and the gyro
-offset's priors and drifts 0: the two other states held at 0), each without a calibration and with
+Per scene, ``--profile automotive`` (wheels + gyro + radar) as it is ("base"), with the thrust-angle
+state alone ("thrust": ``filter.odometry_bias = "states"``, ``bias_thrust = true``, the speed scale's
+and the gyro offset's priors and drifts 0: the two other states held at 0) and with each radar's yaw
+offset too ("thrust+yaw": ``radar_yaw_states = true``, their mean held at 0), each without a calibration and with
 the calibration of the other scene of the same car (``radarslam calibrate --reference truth`` on that
 scene: 0061 <-> 0916, 0103 <-> 0655). Prints SLAM's and the wheels' and gyro's dead reckoning's (DR,
 uncalibrated) position RMSE, their ratio, the heading RMSE and the final thrust estimate with its std.
@@ -30,7 +31,7 @@ from radarslam.runs.recording import run_recording
 PAIRS = {"scene-0061": "scene-0916", "scene-0916": "scene-0061", "scene-0103": "scene-0655", "scene-0655": "scene-0103"}
 THRUST_ALONE = {"odometry_bias": "states", "bias_thrust": True, "bias_scale_std": 0.0, "bias_scale_drift_per_rt_s": 0.0,
                 "bias_turn_rate_std_deg_s": 0.0, "bias_turn_rate_drift_deg_s_per_rt_s": 0.0}
-VARIANTS = {"base": {}, "thrust": THRUST_ALONE}
+VARIANTS = {"base": {}, "thrust": THRUST_ALONE, "thrust+yaw": {**THRUST_ALONE, "radar_yaw_states": True}}
 
 
 def config(variant: str):
@@ -50,8 +51,9 @@ def main(argv=None) -> int:
         cals[scene] = calibrate_car(read_rig(data / scene), np.random.default_rng(0), source=scene,
                                     truth=(r.truth_t, r.truth))
     ratios = {}
-    print("| scene | calibration | variant | SLAM (m) | DR (m) | ratio | heading SLAM / DR (deg) | thrust (deg) |")
-    print("|---|---|---|---|---|---|---|---|")
+    print("| scene | calibration | variant | SLAM (m) | DR (m) | ratio | heading SLAM / DR (deg) | thrust (deg) "
+          "| yaw offsets (deg) |")
+    print("|---|---|---|---|---|---|---|---|---|")
     for scene, other in PAIRS.items():
         rec = read_recording(data / scene)
         dr = None
@@ -60,14 +62,17 @@ def main(argv=None) -> int:
                 run = run_recording(rec, config(variant), calibration=None if cal is None else cals[cal])
                 m = run.metrics
                 dr = dr or m["dead_reckoning"]            # the car's own DR of the run without calibration
-                b = run.record.bias
-                thrust = "" if b is None else f"{math.degrees(b[-1, 2]):+.2f} +- {math.degrees(b[-1, 5]):.2f}"
+                ob = m.get("odometry_bias") or {}
+                thrust = "" if "thrust_angle" not in ob else \
+                    f"{math.degrees(ob['thrust_angle']['final']):+.2f} +- {math.degrees(ob['thrust_angle']['final_std']):.2f}"
+                yaws = ", ".join(f"{math.degrees(v['final']):+.2f}" for k, v in ob.items() if k.startswith("yaw_offset"))
                 ratio = m["position_rmse_m"] / dr["position_rmse_m"]
                 ratios.setdefault((cal is not None, variant), []).append(ratio)
                 print(f"| {scene} | {cal or 'none'} | {variant} | {m['position_rmse_m']:.3f} | {dr['position_rmse_m']:.3f} "
-                      f"| {ratio:.2f} | {m['heading_rmse_deg']:.2f} / {dr['heading_rmse_deg']:.2f} | {thrust} |", flush=True)
+                      f"| {ratio:.2f} | {m['heading_rmse_deg']:.2f} / {dr['heading_rmse_deg']:.2f} | {thrust} | {yaws} |",
+                      flush=True)
     for (cal, variant), rr in ratios.items():
-        print(f"| mean | {'other scene' if cal else 'none'} | {variant} | | | {np.mean(rr):.2f} | | |")
+        print(f"| mean | {'other scene' if cal else 'none'} | {variant} | | | {np.mean(rr):.2f} | | | |")
     return 0
 
 
