@@ -106,12 +106,12 @@ def test_warm_up_says_it_compiles_and_leaves_results_unchanged(tmp_path, monkeyp
 
 
 # A fresh interpreter on this process's cache: the readiness of the default engine, the simulation
-# and the evaluation, with the digest of every source taken as another file's when asked.
+# and the evaluation, with the stamp of every source taken as another file's when asked.
 STALE = """
 import sys
 from radarslam.compiling import markers, readiness
 if sys.argv[1] == "edited":
-    markers._content_digest = lambda path, mtime_ns, size: "another source"
+    markers._source_stamp = lambda source: "another source"
 print(readiness.cache_is_cold(), readiness.fused_is_cold())
 """
 

@@ -112,6 +112,19 @@ def test_an_edited_source_makes_the_marker_stale(kernels):
     assert kernels()["fresh"]["double"] is True
 
 
+def test_a_rewritten_unchanged_source_agrees_with_numba(kernels):
+    """The same bytes written again (a new modification time): the marker stays fresh exactly when
+    numba still loads the code (numba 0.68 on stamps the content, before the modification time)."""
+    kernels("double")
+    path = kernels.site / "kpkg" / "kernels.py"
+    text = path.read_text()
+    st = path.stat()
+    path.write_text(text)
+    os.utime(path, ns=(st.st_atime_ns, st.st_mtime_ns + 5 * 10**9))
+    again = kernels("double", "--no-mark")
+    assert again["fresh"]["double"] is (again["hits"]["double"] > 0)
+
+
 def test_another_familys_marker_does_not_make_this_family_warm(kernels):
     """Two closures of one function (one source, one name, one line) differ only by their closure's
     value: the marker of one leaves the other cold, as numba's cache does (it compiles the other)."""

@@ -12,10 +12,10 @@ directory under ``numba``. Clearing numba's cache so clears the markers with it,
 own clearing of stale code (:mod:`radarslam.core.numba_cache`) deletes them too.
 
 Its name carries a digest of everything numba checks before it loads cached code, so that it goes
-stale when numba's cache does: the source file's path and content (numba's source stamp is a
-content hash), the function's name, line and bytecode, the values its closure holds (a family of
-the fused engine, :func:`radarslam.slam.fused.engine.engine`, is one closure per family), the
-Python and numba versions and the machine (LLVM's target triple, CPU name and features, or the
+stale when numba's cache does: the source file's path and stamp (its content from numba 0.68 on,
+its modification time and size before, as numba stamps it), the function's name, line and
+bytecode, the values its closure holds (a family of the fused engine,
+:func:`radarslam.slam.fused.engine.engine`, is one closure per family), the Python and numba versions and the machine (LLVM's target triple, CPU name and features, or the
 ``NUMBA_CPU_NAME`` / ``NUMBA_CPU_FEATURES`` that override them). The limit: a marker whose code
 was deleted by hand out of numba's cache (its ``.nbi``/``.nbc`` files alone) still reads as present,
 and the run it decides then compiles first: slow, but with the same results.
@@ -28,6 +28,7 @@ import hashlib
 import json
 import os
 import pickle
+import re
 import sys
 import tempfile
 from pathlib import Path
@@ -82,6 +83,24 @@ def _content_digest(path: str, mtime_ns: int, size: int) -> str:
 
 
 @functools.lru_cache(maxsize=1)
+def _stamps_content() -> bool:
+    """Whether numba's source stamp is the file's content (numba 0.68 on) rather than its
+    modification time and size (before)."""
+    import numba
+
+    found = re.match(r"(\d+)\.(\d+)", numba.__version__)
+    return found is None or (int(found[1]), int(found[2])) >= (0, 68)
+
+
+def _source_stamp(source: str) -> str:
+    """The stamp numba compares before it loads cached code of ``source`` (:func:`_stamps_content`)."""
+    st = os.stat(source)
+    if _stamps_content():
+        return _content_digest(source, st.st_mtime_ns, st.st_size)
+    return f"{st.st_mtime!r}:{st.st_size}"
+
+
+@functools.lru_cache(maxsize=1)
 def _machine() -> dict:
     """The Python, the numba and the machine that numba keys its cached code by."""
     import llvmlite.binding as llvm
@@ -113,27 +132,31 @@ def key(dispatcher) -> dict | None:
         return None
     source = os.path.abspath(code.co_filename)
     try:
-        st = os.stat(source)
-        content = _content_digest(source, st.st_mtime_ns, st.st_size)
+        stamp = _source_stamp(source)
         cells = b"" if func.__closure__ is None else pickle.dumps(
             tuple(c.cell_contents for c in func.__closure__), protocol=4)
     except (OSError, ValueError, TypeError, AttributeError, pickle.PicklingError):
         return None
     return {"function": f"{func.__module__}.{func.__qualname__}", "line": code.co_firstlineno, "source": source,
-            "source_sha256": content, "bytecode_sha256": hashlib.sha256(code.co_code).hexdigest(),
+            "source_stamp": stamp, "bytecode_sha256": hashlib.sha256(code.co_code).hexdigest(),
             "closure_sha256": hashlib.sha256(cells).hexdigest(), **_machine()}
+
+
+def _path_of(k: dict) -> Path | None:
+    """The marker file of the key ``k`` (present or not), or None where numba caches nothing."""
+    folder = cache_folder(k["source"])
+    if folder is None:
+        return None
+    name = "".join(ch if ch.isalnum() or ch in "._" else "_" for ch in k["function"].replace("<", "").replace(">", ""))
+    digest = hashlib.sha256(json.dumps(k, sort_keys=True).encode()).hexdigest()[:24]
+    return folder / f"{name}.{digest}{MARKER_SUFFIX}"
 
 
 def marker_path(dispatcher) -> Path | None:
     """The marker file of ``dispatcher`` (present or not), or None when it has none (:func:`key`,
     :func:`cache_folder`)."""
     k = key(dispatcher)
-    folder = None if k is None else cache_folder(k["source"])
-    if folder is None:
-        return None
-    name = "".join(ch if ch.isalnum() or ch in "._" else "_" for ch in k["function"].replace("<", "").replace(">", ""))
-    digest = hashlib.sha256(json.dumps(k, sort_keys=True).encode()).hexdigest()[:24]
-    return folder / f"{name}.{digest}{MARKER_SUFFIX}"
+    return None if k is None else _path_of(k)
 
 
 def is_marked(dispatcher) -> bool | None:
@@ -144,9 +167,10 @@ def is_marked(dispatcher) -> bool | None:
     code = getattr(getattr(dispatcher, "py_func", None), "__code__", None)
     if code is not None and not os.path.isfile(code.co_filename):
         return False
-    if key(dispatcher) is None:
+    k = key(dispatcher)
+    if k is None:
         return None
-    path = marker_path(dispatcher)
+    path = _path_of(k)
     return path is not None and path.is_file()
 
 
@@ -156,16 +180,15 @@ def mark(*dispatchers) -> int:
     takes the code as not cached: slower, never wrong)."""
     written = 0
     for d in dispatchers:
-        if not getattr(d, "signatures", None):
-            continue
-        path = marker_path(d)
+        k = key(d) if getattr(d, "signatures", None) else None
+        path = None if k is None else _path_of(k)
         if path is None or path.is_file():
             continue
         tmp = None
         try:
             fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".marker-", suffix=".tmp")
             with os.fdopen(fd, "w") as fh:
-                json.dump(key(d), fh, indent=1, sort_keys=True)
+                json.dump(k, fh, indent=1, sort_keys=True)
             os.replace(tmp, path)                 # whole or not at all, whoever writes it first
             written += 1
         except OSError:
