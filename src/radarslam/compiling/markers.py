@@ -12,13 +12,14 @@ directory under ``numba``. Clearing numba's cache so clears the markers with it,
 own clearing of stale code (:mod:`radarslam.core.numba_cache`) deletes them too.
 
 Its name carries a digest of everything numba checks before it loads cached code, so that it goes
-stale when numba's cache does: the source file's path and stamp (its content from numba 0.68 on,
-its modification time and size before, as numba stamps it), the function's name, line and
+stale when numba's cache does: the source file's path and stamp (its content with numba 0.68 and
+later, its modification time and size before, as numba stamps it), the function's name, line and
 bytecode, the values its closure holds (a family of the fused engine,
-:func:`radarslam.slam.fused.engine.engine`, is one closure per family), the Python and numba versions and the machine (LLVM's target triple, CPU name and features, or the
-``NUMBA_CPU_NAME`` / ``NUMBA_CPU_FEATURES`` that override them). The limit: a marker whose code
-was deleted by hand out of numba's cache (its ``.nbi``/``.nbc`` files alone) still reads as present,
-and the run it decides then compiles first: slow, but with the same results.
+:func:`radarslam.slam.fused.engine.engine`, is one closure per family), the Python and numba
+versions and the machine (LLVM's target triple, CPU name and features, or the ``NUMBA_CPU_NAME`` /
+``NUMBA_CPU_FEATURES`` that override them). The limit: a marker whose code was deleted by hand out
+of numba's cache (its ``.nbi``/``.nbc`` files alone) still reads as present, and the run it decides
+then compiles first: slow, but with the same results.
 """
 
 from __future__ import annotations
