@@ -71,7 +71,8 @@ def test_read_only_install_caches_in_the_user_cache_directory(tmp_path):
 
 def test_cache_is_cold_in_an_empty_cache_directory(tmp_path):
     """The cold-cache test the warm-up relies on: True with an empty NUMBA_CACHE_DIR (a fresh
-    interpreter, nothing compiled), False in this process once the engine's code is cached."""
+    interpreter, nothing compiled), False in this process once the engine's code is cached, and
+    False in a fresh interpreter on this process's cache (the warm-up marked what it compiled)."""
     require("numba")
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "empty"))
     code = "from radarslam.compiling.readiness import cache_is_cold; print(cache_is_cold())"
@@ -79,6 +80,8 @@ def test_cache_is_cold_in_an_empty_cache_directory(tmp_path):
     assert out.stdout.strip() == "True"
     warmup.warm_up(profile_config(), mc.DEFAULT_VARIANTS, lambda s: None, parallel=False)
     assert readiness.cache_is_cold() is False
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
 
 
 def test_warm_up_says_it_compiles_and_leaves_results_unchanged(tmp_path, monkeypatch):
@@ -102,24 +105,36 @@ def test_warm_up_says_it_compiles_and_leaves_results_unchanged(tmp_path, monkeyp
                 assert np.array_equal(a[key], b[key], equal_nan=True), key
 
 
-def test_a_stale_index_counts_as_cold(monkeypatch):
-    """An index written for another version of the source (an upgraded install) holds no code numba
-    will load: the warm-up must take it as cold, not only a missing index. Negative control: the
-    same index with its own source stamp is fresh."""
+# A fresh interpreter on this process's cache: the readiness of the default engine, the simulation
+# and the evaluation, with the stamp of every source taken as another file's when asked.
+STALE = """
+import sys
+from radarslam.compiling import markers, readiness
+if sys.argv[1] == "edited":
+    markers._source_stamp = lambda source: "another source"
+print(readiness.cache_is_cold(), readiness.fused_is_cold())
+"""
+
+
+def test_a_stale_marker_counts_as_cold():
+    """A marker written for another version of the source (an upgraded install) stands for no code
+    numba will load: readiness must take it as cold, not only a missing marker. Negative control:
+    the same marker for its own source is fresh. (tests/test_compile_markers.py edits a real file.)"""
     require("numba")
+    from radarslam.compiling import markers
     from radarslam.slam._fused import run_stream
 
     warmup.warm_up(profile_config(), mc.DEFAULT_VARIANTS[:1], lambda s: None, parallel=False)
-    fresh = readiness.has_fresh_code(run_stream)
-    assert fresh is not None, "numba's cache layout is not the one cache_is_cold reads"
-    cache_file = run_stream._cache._cache_file
-    if not fresh:                # the warm-up only compiles a cold engine; make sure it is cached
+    if not markers.is_marked(run_stream):    # the warm-up only compiles a cold engine; make sure it is marked
         from radarslam.slam.driver import run_filter
         run_filter(profile_config(), warmup._tiny_stream())
+        markers.mark(run_stream)
+    assert markers.is_marked(run_stream) is True
     assert readiness.has_fresh_code(run_stream) is True
-    monkeypatch.setattr(cache_file, "_source_stamp", ("another source", 0))
-    assert readiness.has_fresh_code(run_stream) is False
-    assert readiness.cache_is_cold() is True and readiness.fused_is_cold() is True
+    fresh = subprocess.run([sys.executable, "-c", STALE, "as-is"], capture_output=True, text=True, check=True)
+    assert fresh.stdout.split() == ["False", "False"]
+    edited = subprocess.run([sys.executable, "-c", STALE, "edited"], capture_output=True, text=True, check=True)
+    assert edited.stdout.split() == ["True", "True"]
 
 
 def test_first_run_engine_takes_the_orchestrator_while_it_ends_sooner():
@@ -250,8 +265,14 @@ def test_background_compilation_runs_once_per_cache(tmp_path, monkeypatch):
     assert background.enabled() is False and background.start({}, []) is None
     job.write_text(json.dumps({"config": mc.to_dict(profile_config()),
                                "variants": variants_to_json(mc.DEFAULT_VARIANTS[:1])}))
+    from radarslam.compiling import markers
+    from radarslam.slam._fused import run_stream
+
+    marker = markers.marker_path(run_stream)
+    marker.unlink(missing_ok=True)                                  # the job must leave it
+    assert markers.is_marked(run_stream) is False
     assert background_job.main(str(job)) == 0 and not job.exists()
-    assert readiness.has_fresh_code(__import__("radarslam.slam._fused", fromlist=["run_stream"]).run_stream) is True
+    assert markers.is_marked(run_stream) is True and readiness.has_fresh_code(run_stream) is True
 
 
 def test_first_run_engine_scans_for_a_recording():

@@ -162,7 +162,8 @@ def test_numba_cache_stamp_covers_every_compiled_source():
 
 
 def test_numba_cache_refresh_deletes_stale_machine_code(tmp_path):
-    """A changed compiled source deletes the cached code once; an unchanged one keeps it."""
+    """A changed compiled source deletes the cached code once, with radarslam's markers that say it
+    is cached (compiling/markers.py); an unchanged one keeps both."""
     import os
 
     from radarslam.core import numba_cache
@@ -176,14 +177,16 @@ def test_numba_cache_refresh_deletes_stale_machine_code(tmp_path):
     assert numba_cache.refresh(tmp_path)                       # no stamp yet: cleared, stamped
     assert not (cache / "_fused.run_stream-1.py311.nbi").exists()
     (cache / "_fused.run_stream-1.py311.nbi").write_text("new")
+    marker = cache / f"radarslam.slam.fused.engine.engine.locals.run_stream.0123{numba_cache.MARKER_SUFFIX}"
+    marker.write_text("{}")
     assert not numba_cache.refresh(tmp_path)                   # nothing changed: kept
-    assert (cache / "_fused.run_stream-1.py311.nbi").exists()
+    assert (cache / "_fused.run_stream-1.py311.nbi").exists() and marker.exists()
     src = tmp_path / "slam" / "_numba.py"                       # a callee's file changes
     src.write_text("x = 2\n")
     st = src.stat()
     os.utime(src, ns=(st.st_atime_ns, st.st_mtime_ns + 10**9))
     assert numba_cache.refresh(tmp_path)
-    assert not (cache / "_fused.run_stream-1.py311.nbi").exists()
+    assert not (cache / "_fused.run_stream-1.py311.nbi").exists() and not marker.exists()
 
 
 # --- the order of the packages, and no circle anywhere ------------------------------------------

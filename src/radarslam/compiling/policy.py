@@ -162,11 +162,11 @@ def _trials(config: Config, w: Workload) -> Plan:
 def _orchestrator_ready() -> bool:
     """True when the kernels of a run event by event are compiled or cached: the associators, the
     M/N rules and the extent step (the last to compile)."""
-    from radarslam.extent.rows import rma_efa_rows
-    from radarslam.landmarks.confirmation import rule12
+    from radarslam.extent._compiled import rma_efa_rows
+    from radarslam.landmarks._compiled import compiled_rule12
     from radarslam.slam._numba import associate_scan, batch_associate_scan
 
-    return (ready(rule12) and ready(rma_efa_rows)) and (ready(batch_associate_scan) or ready(associate_scan))
+    return (ready(compiled_rule12) and ready(rma_efa_rows)) and (ready(batch_associate_scan) or ready(associate_scan))
 
 
 def _fused_ready(*families) -> bool:

@@ -1,32 +1,62 @@
 """Whether numba's cache already holds the machine code a command needs (docs/speed.md "First run"):
 the fused engine of each family, the orchestrator's kernels, the scan simulation and the
-evaluation's matching. Nothing here compiles."""
+evaluation's matching. Nothing here compiles.
+
+What the cache holds is read from radarslam's own markers (:mod:`.markers`), never out of numba's
+private index: a process in which a watched dispatcher (:func:`watched`) has machine code marks it
+when its compiled path ends (the warm-up, the background compile, the second compiling process)
+and, for what the command itself compiled or loaded, when it exits (:func:`mark_compiled`,
+registered with :mod:`atexit` on import)."""
 
 from __future__ import annotations
 
-import os
+import atexit
+import itertools
+import sys
 
+from radarslam.compiling import markers
 from radarslam.config import Config
 from radarslam.config.variants import Variant, apply_variant
 
+#: The compiled functions the policy (:mod:`.policy`) asks about, beside the fused engine's
+#: families: ``(module, name)``.
+WATCHED = (("radarslam.simulation._compiled", "simulate_scans"), ("radarslam.metrics._compiled", "match_scans"),
+           ("radarslam.slam._numba", "associate_scan"), ("radarslam.slam._numba", "batch_associate_scan"),
+           ("radarslam.landmarks._compiled", "compiled_rule12"), ("radarslam.extent._compiled", "rma_efa_rows"))
+
 
 def has_fresh_code(dispatcher) -> bool | None:
-    """Whether numba's cache holds machine code of ``dispatcher`` for its current source (an index
-    that exists and whose source stamp matches), or None where that cannot be told. A closure (a
-    family's engine, :func:`radarslam.slam.fused.engine.engine`) shares its index with the other
-    families'; its own entries are those keyed by its closure's values."""
-    try:
-        cache = dispatcher._cache
-        cache_file = cache._cache_file                      # numba's FunctionCache, in-tree or user-wide
-        if not os.path.exists(cache_file._index_path):
-            return False
-        index = cache_file._load_index()                    # {} when stale (another source stamp)
-        if dispatcher.py_func.__closure__ is None:
-            return bool(index)
-        own = cache._index_key(None, dispatcher.targetctx.codegen())[1:]
-        return any(key[1:] == own for key in index)
-    except (AttributeError, OSError, EOFError, ValueError, TypeError):  # pragma: no cover - another numba layout
+    """Whether ``dispatcher`` has machine code without compiling: compiled or loaded in this process
+    (``dispatcher.signatures``), or marked as cached for its current source, closure, Python, numba
+    and machine (:func:`.markers.is_marked`; a family's engine by its own closure's values, not
+    another family's). None where that cannot be told (not a numba dispatcher)."""
+    if getattr(dispatcher, "py_func", None) is None:
         return None
+    if getattr(dispatcher, "signatures", None):
+        return True
+    return markers.is_marked(dispatcher)
+
+
+def watched() -> list:
+    """The dispatchers of :data:`WATCHED` and the fused engine of every family, of the modules this
+    process has imported (none is imported here: a module not imported has no machine code)."""
+    found = [getattr(sys.modules[m], name) for m, name in WATCHED if m in sys.modules]
+    if "radarslam.slam.fused.engine" in sys.modules:
+        fused = sys.modules["radarslam.slam.fused.engine"]
+        found += [fused.engine(fused.Family(*flags)) for flags in itertools.product((False, True), repeat=3)]
+    return found
+
+
+def mark_compiled() -> int:
+    """Mark every watched dispatcher that has machine code in this process (:func:`.markers.mark`);
+    the number of markers written. Called where a compiled path ends, and at exit."""
+    try:
+        return markers.mark(*watched())
+    except Exception:               # pragma: no cover - a marker is only a hint: never fail a run for it
+        return 0
+
+
+atexit.register(mark_compiled)
 
 
 def fused_families(config: Config, variants: tuple[Variant, ...] = ()) -> tuple:
@@ -55,7 +85,7 @@ def engines(families: tuple) -> list:
 def cache_is_cold(*families) -> bool:
     """True when numba has no fresh cached machine code of the fused engine of each of ``families``
     (none given: the default family, :func:`fused_families`), the scan simulation or the
-    evaluation's matching (an index file absent or stale), so that the next compiled run compiles
+    evaluation's matching (no marker for their current source), so that the next compiled run compiles
     first. Where that cannot be told, False."""
     from radarslam.metrics._compiled import match_scans
     from radarslam.simulation._compiled import simulate_scans
@@ -82,4 +112,4 @@ def _orchestrator_is_cold() -> bool:
 def ready(dispatcher) -> bool:
     """True when numba need not compile ``dispatcher`` for its next call: it was compiled in this
     process, or its cache holds fresh machine code."""
-    return bool(getattr(dispatcher, "signatures", ())) or has_fresh_code(dispatcher) is True
+    return has_fresh_code(dispatcher) is True

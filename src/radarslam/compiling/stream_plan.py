@@ -7,6 +7,7 @@ from __future__ import annotations
 from radarslam.compiling.costs import ANNOUNCE_S, HEARTBEAT_S, ORCHESTRATOR_COMPILE_S, PYTHON_SCAN_S  # noqa: F401
 from radarslam.compiling.heartbeat import _heartbeat  # noqa: F401  (runs.dataset's)
 from radarslam.compiling.policy import Plan, Workload, plan
+from radarslam.compiling.readiness import mark_compiled
 from radarslam.config import Config, to_dict
 from radarslam.core.types import Scan
 from radarslam.slam.driver import drive
@@ -61,6 +62,7 @@ def _side_compile(cfg_dict: dict, events: list) -> None:
     slam = EkfSlam(est, associator=ASSOCIATORS.create(est.landmarks.associator, est, backend="python"))
     slam._clusters = cluster_kernel("python")     # its reference; the compiled one is the run's to compile
     drive(est, events, slam=slam)
+    mark_compiled()                               # a pool's process ends without running atexit
 
 
 def _compile_beside(config: Config, events) -> object | None:

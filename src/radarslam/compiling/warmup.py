@@ -29,6 +29,7 @@ import numpy as np
 from radarslam.compiling.costs import FUSED_COMPILE_S, ORCHESTRATOR_WARM_UP_S
 from radarslam.compiling.heartbeat import _heartbeat
 from radarslam.compiling.policy import COMPILING, Workload, plan
+from radarslam.compiling.readiness import mark_compiled
 from radarslam.config import Config, from_dict, to_dict
 from radarslam.config.variants import Variant, apply_variant
 from radarslam.core.types import Odometry, Scan
@@ -53,6 +54,7 @@ def compile_fused(config: Config, variants: tuple[Variant, ...]) -> None:
     engine of each variant's family whole (and, for a variant outside the engine, what it runs)."""
     for v in variants:
         run_filter(apply_variant(config, v), _tiny_stream())
+    mark_compiled()
 
 
 def _side(cfg_dict: dict, overlay: dict) -> None:
@@ -62,6 +64,7 @@ def _side(cfg_dict: dict, overlay: dict) -> None:
 
     python = {**overlay, "filter": {**overlay.get("filter", {}), "backend": "python"}}
     run_trial(apply_variant(from_dict(cfg_dict), Variant("warmup", "warm-up", python)), np.random.SeedSequence(1))
+    mark_compiled()          # a pool's process ends without running atexit
 
 
 def _orchestrator_trial(config: Config, variants: tuple[Variant, ...], evaluation: bool = False,
@@ -78,6 +81,7 @@ def _orchestrator_trial(config: Config, variants: tuple[Variant, ...], evaluatio
         rec = run_filter(apply_variant(config, v), scenario.events, engine="orchestrator")
         if evaluation and i == 0:
             evaluate(apply_variant(config, v), scenario, rec)
+    mark_compiled()
 
 
 def _short_side(cfg_dict: dict, variants: tuple[Variant, ...]) -> None:

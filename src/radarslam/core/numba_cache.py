@@ -5,7 +5,8 @@ another module (the fused engine calls the associators of ``slam/_numba.py``, wh
 kernels of ``slam/ekf.py``) keeps its old machine code when only the callee's file changes. An
 edited kernel would then run in the orchestrator but not in the fused engine. So at import the
 package stamps the size and modification time of every file with compiled code; when the stamp
-changes, the package's cached machine code is deleted (it is rebuilt on first use, ~90 s).
+changes, the package's cached machine code is deleted (it is rebuilt on first use, ~90 s), with
+the markers that say it is there (:mod:`radarslam.compiling.markers`).
 Nothing here imports numba or touches its configuration; a ``NUMBA_CACHE_DIR`` of your own is
 yours to clear after editing a compiled source.
 """
@@ -34,6 +35,9 @@ COMPILED_SOURCES = (
     "extent/rows.py", "slam/sensor_frame.py", "slam/fused/sensor.py",
 )
 ROOT = Path(__file__).resolve().parents[1]
+#: The ending of radarslam's own markers of what numba's cache holds (:mod:`radarslam.compiling.markers`),
+#: written beside numba's files and deleted with them.
+MARKER_SUFFIX = ".ready"
 STAMP = ROOT / "__pycache__" / "numba-sources.stamp"
 
 
@@ -54,6 +58,11 @@ def cached_files(root: Path = ROOT) -> list[Path]:
     return [p for pattern in ("*.nbi", "*.nbc") for p in root.rglob(f"__pycache__/{pattern}")]
 
 
+def marker_files(root: Path = ROOT) -> list[Path]:
+    """radarslam's markers of the package's cached code beside numba's files (:data:`MARKER_SUFFIX`)."""
+    return list(root.rglob(f"__pycache__/*{MARKER_SUFFIX}"))
+
+
 def refresh(root: Path = ROOT, stamp_file: Path | None = None) -> bool:
     """Delete the package's cached machine code if a compiled source changed since the stamp was
     written; True when it did. An unwritable install (numba then caches elsewhere) is left alone."""
@@ -65,7 +74,7 @@ def refresh(root: Path = ROOT, stamp_file: Path | None = None) -> bool:
     except OSError:
         pass
     try:
-        for p in cached_files(root):
+        for p in cached_files(root) + marker_files(root):
             p.unlink(missing_ok=True)
         stamp_file.parent.mkdir(exist_ok=True)
         stamp_file.write_text(now)
