@@ -61,30 +61,39 @@ def test_platform_jacobians_match_central_differences(model, u, tau, theta):
     assert np.all(Gn[3:] == 0.0)                    # the measured input does not move the biases
 
 
-def test_prediction_equals_the_dense_augmented_ekf(rng):
-    """The O(N) prediction with bias states equals ``F P F^T + G U G^T + Q`` on the whole state,
-    with F the identity on the landmarks (c.11.2), and moves no landmark row."""
-    model = AckermannModel()
-    bias = BiasStates(model.input_bias, [0.05, 0.03], [1e-3, 2e-3], 0.0)
-    n = 5 + 2 * 3
-    x = np.concatenate([[1.0, 2.0, 0.7, 0.02, 0.01], rng.normal(0, 10, 6)])
+def assert_dense_prediction(bias, model, platform: np.ndarray, rng, n_landmarks: int = 3):
+    """``bias.predict_terms`` applied equals ``F P F^T + G U G^T + Q`` on the whole state (F the
+    identity on the landmarks, c.11.2) about the platform block ``platform``, and moves no landmark
+    row; returns the new state's platform block."""
+    p = platform.size
+    n = p + 2 * n_landmarks
+    x = np.concatenate([platform, rng.normal(0, 10, 2 * n_landmarks)])
     A = rng.normal(size=(n, n))
     P = A @ A.T / n + np.eye(n) * 0.1
     u, dt, U, Q = np.array([2.5, 0.15]), 0.025, np.diag([0.1 ** 2, 0.03 ** 2]), np.diag([1e-6, 1e-6, 1e-7])
     s, Pss, Psl = bias.predict_terms(x, P, u, dt, model, U, Q)
     x1, P1 = x.copy(), P.copy()
     ekf.apply_prediction(x1, P1, s, Pss, Psl)
-    F5, G, uc = bias.jacobians(x[:3], x[3:5], u, dt, model)
+    Fs, G, uc = bias.jacobians(x[:3], x[3:p], u, dt, model)
     F = np.eye(n)
-    F[:5, :5] = F5
+    F[:p, :p] = Fs
     Gf = np.zeros((n, 2))
     Gf[:3] = G
     Qf = np.zeros((n, n))
     Qf[:3, :3] = Q
-    Qf[3:5, 3:5] = np.diag(bias.transition(dt)[1])
+    Qf[3:p, 3:p] = np.diag(bias.transition(dt)[1])
     np.testing.assert_allclose(P1, F @ P @ F.T + Gf @ U @ Gf.T + Qf, rtol=1e-12, atol=1e-14)
-    np.testing.assert_allclose(x1[:3], model.step(x[:3], uc, dt), rtol=0, atol=0)
-    assert np.array_equal(x1[5:], x[5:]) and np.array_equal(P1[5:, 5:], P[5:, 5:])
+    assert np.array_equal(x1[p:], x[p:]) and np.array_equal(P1[p:, p:], P[p:, p:])
+    return x1[:p], x, uc, dt
+
+
+def test_prediction_equals_the_dense_augmented_ekf(rng):
+    """The O(N) prediction with bias states equals ``F P F^T + G U G^T + Q`` on the whole state,
+    with F the identity on the landmarks (c.11.2), and moves no landmark row."""
+    model = AckermannModel()
+    bias = BiasStates(model.input_bias, [0.05, 0.03], [1e-3, 2e-3], 0.0)
+    new, x, uc, dt = assert_dense_prediction(bias, model, np.array([1.0, 2.0, 0.7, 0.02, 0.01]), rng)
+    np.testing.assert_allclose(new[:3], model.step(x[:3], uc, dt), rtol=0, atol=0)
 
 
 def test_transition_random_walk_and_gauss_markov():

@@ -18,9 +18,9 @@ from radarslam.models.ackermann import AckermannModel
 from radarslam.models.body_velocity import BodyVelocityModel
 from radarslam.models.motion import UnicycleModel
 from radarslam.simulation.point_run import simulate_point_run
-from radarslam.slam import EkfSlam, ekf
+from radarslam.slam import EkfSlam
 from radarslam.slam.bias import BiasStates
-from test_odometry_bias import DT, INPUT_STD, _controls, _point_config, _world, track
+from test_odometry_bias import DT, INPUT_STD, _controls, _point_config, _world, assert_dense_prediction, track
 
 MODELS = [(UnicycleModel(), [3.0, 0.3]), (AckermannModel(), [3.0, 0.2]), (BodyVelocityModel(), [3.0, 0.4, 0.3])]
 
@@ -89,25 +89,7 @@ def test_unicycle_with_thrust_moves_at_beta_from_the_heading():
 def test_thrust_prediction_equals_the_dense_augmented_ekf(rng):
     """The O(N) prediction with the thrust state equals ``F P F^T + G U G^T + Q`` on the whole state."""
     model = UnicycleModel()
-    bias = _thrust_bias(model)
-    n = 6 + 2 * 3
-    x = np.concatenate([[1.0, 2.0, 0.7, 0.02, 0.01, 0.01], rng.normal(0, 10, 6)])
-    A = rng.normal(size=(n, n))
-    P = A @ A.T / n + np.eye(n) * 0.1
-    u, dt, U, Q = np.array([2.5, 0.15]), 0.05, np.diag([0.1 ** 2, 0.03 ** 2]), np.diag([1e-6, 1e-6, 1e-7])
-    s, Pss, Psl = bias.predict_terms(x, P, u, dt, model, U, Q)
-    x1, P1 = x.copy(), P.copy()
-    ekf.apply_prediction(x1, P1, s, Pss, Psl)
-    F6, G, _ = bias.jacobians(x[:3], x[3:6], u, dt, model)
-    F = np.eye(n)
-    F[:6, :6] = F6
-    Gf = np.zeros((n, 2))
-    Gf[:3] = G
-    Qf = np.zeros((n, n))
-    Qf[:3, :3] = Q
-    Qf[3:6, 3:6] = np.diag(bias.transition(dt)[1])
-    np.testing.assert_allclose(P1, F @ P @ F.T + Gf @ U @ Gf.T + Qf, rtol=1e-12, atol=1e-14)
-    assert np.array_equal(x1[6:], x[6:]) and np.array_equal(P1[6:, 6:], P[6:, 6:])
+    assert_dense_prediction(_thrust_bias(model), model, np.array([1.0, 2.0, 0.7, 0.02, 0.01, 0.01]), rng)
 
 
 def test_thrust_option_and_refusals():
