@@ -10,8 +10,9 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from test_odometry_bias import DT, INPUT_STD, _controls, _point_config, _world
 
-from radarslam.config import RigSensorConfig, profile_config
+from radarslam.config import RigSensorConfig
 from radarslam.core.angles import wrap_pi
 from radarslam.core.errors import ConfigError
 from radarslam.core.types import Odometry, Scan, Sensor
@@ -19,7 +20,6 @@ from radarslam.models.motion import UnicycleModel
 from radarslam.slam import EkfSlam
 from radarslam.slam.fused.plan import why_not
 from radarslam.slam.radar_yaw import enter_yaw, leave_yaw
-from test_odometry_bias import DT, INPUT_STD, _controls, _point_config, _world
 
 #: Three radars: front, rear-left, rear-right (x, y, yaw), and their true yaw offsets (sum 0, deg).
 RIG = [(3.5, 0.0, 0.0), (-0.5, 0.8, math.radians(110.0)), (-0.5, -0.8, math.radians(-110.0))]

@@ -11,6 +11,17 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from test_odometry_bias import (
+    DT,
+    INPUT_STD,
+    MODELS,
+    _controls,
+    _point_config,
+    _world,
+    _wrapped,
+    assert_dense_prediction,
+    track,
+)
 
 from radarslam.config import profile_config
 from radarslam.core.errors import ConfigError
@@ -20,9 +31,6 @@ from radarslam.models.motion import UnicycleModel
 from radarslam.simulation.point_run import simulate_point_run
 from radarslam.slam import EkfSlam
 from radarslam.slam.bias import BiasStates
-from test_odometry_bias import DT, INPUT_STD, _controls, _point_config, _world, assert_dense_prediction, track
-
-MODELS = [(UnicycleModel(), [3.0, 0.3]), (AckermannModel(), [3.0, 0.2]), (BodyVelocityModel(), [3.0, 0.4, 0.3])]
 
 
 def _thrust_bias(model, tau=0.0) -> BiasStates:
@@ -39,12 +47,6 @@ def _step(model, bias, s, u, dt):
     d = nxt[:2] - pose[:2]
     out = np.concatenate([pose[:2] + [c * d[0] - si * d[1], si * d[0] + c * d[1]], nxt[2:]])
     return np.concatenate([out, bias.transition(dt)[0] * s[3:]])
-
-
-def _wrapped(d):
-    d = d.copy()
-    d[2] = math.remainder(d[2], 2.0 * math.pi)
-    return d
 
 
 @pytest.mark.parametrize("model, u", MODELS, ids=lambda v: getattr(v, "name", ""))
