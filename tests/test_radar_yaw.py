@@ -109,7 +109,7 @@ def test_simulated_mounting_moves_the_radar_not_the_scene():
     """The mounted radar's detections (in its own frame, Scan.sensor, docs/method.md c.13) lie on the
     same cars, and its Doppler is the mounted sensor's velocity along the directions from the radar
     (residual std about the Doppler noise and the direction noise)."""
-    from radarslam.io.recording.mounting import Mounting, to_platform
+    from radarslam.core.mounting import Mounting, detections_to_platform
 
     from radarslam.simulation.scenario import generate_scenario
 
@@ -129,7 +129,7 @@ def test_simulated_mounting_moves_the_radar_not_the_scene():
     for k, scan in enumerate(scans):
         src = sc.truth.sources[k]
         v, omega = sc.truth.controls[min(k + 1, len(scans) - 1)]
-        U = mounted_directions(to_platform(scan.polar[src >= 0], Mounting(3.7, 0.0, 0.0)))
+        U = mounted_directions(detections_to_platform(scan.polar[src >= 0], Mounting(3.7, 0.0, 0.0)))
         bad.append(scan.channels["doppler_mps"][src >= 0] + U @ sensor_velocity(v, 0.0, omega, 3.7, 0.0, 0.0))
     assert np.concatenate(bad).std() > 3 * res.std()
 

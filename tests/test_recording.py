@@ -14,7 +14,7 @@ import pytest
 from conftest import require
 from radarslam.cli.main import main
 from radarslam.core.errors import InputError
-from radarslam.io.recording.mounting import Mounting, to_platform, to_sensor
+from radarslam.io.recording.mounting import Mounting, detections_to_platform, detections_to_sensor
 from radarslam.io.recording.plain import read_plain, write_plain
 from radarslam.io.recording.pointcloud2 import Field, decode
 from radarslam.io.recording.stream import Recording, to_events
@@ -65,15 +65,15 @@ def test_pointcloud2_decodes_by_offset_datatype_endianness_and_row_padding():
 def test_mounting_moves_detections_into_the_platform_frame():
     """A radar 1 m ahead looking left (yaw 90 deg): a return 2 m straight ahead of it is at (1, 2)."""
     m = Mounting(1.0, 0.0, math.pi / 2)
-    p = to_platform(np.array([[2.0, 0.0]]), m)
+    p = detections_to_platform(np.array([[2.0, 0.0]]), m)
     np.testing.assert_allclose(p, [[math.hypot(1, 2), math.atan2(2, 1)]], atol=1e-12)
     rng = np.random.default_rng(1)
     polar = np.column_stack([rng.uniform(1, 20, 50), rng.uniform(-3, 3, 50)])
     m = Mounting(0.7, -0.4, 0.3)
-    back = to_platform(to_sensor(polar, m), m)
+    back = detections_to_platform(detections_to_sensor(polar, m), m)
     np.testing.assert_allclose(back[:, 0], polar[:, 0], atol=1e-12)
     np.testing.assert_allclose(np.angle(np.exp(1j * (back[:, 1] - polar[:, 1]))), 0, atol=1e-12)
-    assert to_platform(polar, Mounting()) is polar                  # zero mounting: untouched
+    assert detections_to_platform(polar, Mounting()) is polar                  # zero mounting: untouched
 
 
 def test_events_merge_odometry_first_and_carry_channels():

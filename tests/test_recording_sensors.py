@@ -14,7 +14,7 @@ import pytest
 from radarslam.cli.main import main
 from radarslam.core.errors import InputError
 from radarslam.core.types import Scan
-from radarslam.io.recording.mounting import Mounting, to_platform
+from radarslam.io.recording.mounting import Mounting, detections_to_platform
 from radarslam.io.recording.plain import read_plain, write_plain
 from radarslam.io.recording.stream import to_events
 
@@ -37,7 +37,7 @@ def _platform(scan: Scan) -> np.ndarray:
     """A scan's detections about the platform origin: moved by its radar's mounting (``Scan.sensor``,
     docs/method.md c.13; the scan itself stays in the radar's frame)."""
     m = scan.sensor
-    return scan.polar if m is None else to_platform(scan.polar, Mounting(m.x, m.y, m.yaw))
+    return scan.polar if m is None else detections_to_platform(scan.polar, Mounting(m.x, m.y, m.yaw))
 
 
 def _at_zero(events) -> Scan:

@@ -288,7 +288,7 @@ def export_cmd(args: argparse.Namespace) -> int:
     """``radarslam export --seed N --out DIR``: the simulated trial as a bag + plain files + truth."""
     from radarslam.runs.recording import export_simulation
     from radarslam.simulation.trial import check_simulation_config
-    from radarslam.io.recording.mounting import Mounting
+    from radarslam.core.mounting import Mounting
     from radarslam.io.results import prepare_out_dir
 
     if args.seed < 0:

@@ -258,14 +258,18 @@ def _toml_value(v: Any) -> str:
     raise TypeError(f"cannot write {v!r} as TOML")
 
 
-def to_toml(cfg: Config, *, comments: bool = True) -> str:
-    """Serialise ``cfg`` as TOML (the stdlib reads TOML but does not write it)."""
+def to_toml(cfg: Config, *, comments: bool = True, notes: dict[str, str] | None = None) -> str:
+    """Serialise ``cfg`` as TOML (the stdlib reads TOML but does not write it). ``notes`` puts one
+    comment line under a section's header (``{section: text}``), e.g. which radar's mounting a
+    recording run's ``[sensor]`` holds."""
     lines = [f"# radarslam configuration (profile {cfg.profile!r})", f"profile = {_toml_value(cfg.profile)}"]
     for f in dataclasses.fields(cfg):
         sub = getattr(cfg, f.name)
         if not dataclasses.is_dataclass(sub):
             continue
         lines += ["", f"[{f.name}]"]
+        if notes and f.name in notes:
+            lines.append("# " + " ".join(str(notes[f.name]).split()))
         for g in dataclasses.fields(sub):
             doc = f"  # {g.metadata['doc']}" if comments and g.metadata.get("doc") else ""
             lines.append(f"{g.name} = {_toml_value(getattr(sub, g.name))}{doc}")

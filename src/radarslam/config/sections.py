@@ -26,6 +26,7 @@ from radarslam.config.simulation import (  # noqa: F401  (re-exported: their for
     TrajectoryConfig,
     WorldConfig,
 )
+from radarslam.core.mounting import Mounting
 from radarslam.core.registry import (
     ASSOCIATORS,
     BACKENDS,
@@ -340,12 +341,15 @@ class MetricsConfig:
 
 @dataclass
 class SensorConfig:
-    """Where the radar sits on the platform, for recordings (docs/recordings.md "Mounting").
+    """Where the radar sits on the platform (docs/recordings.md "Mounting"), and the 3-D settings.
 
-    The filter measures from the platform origin facing forward; a recording's detections are
-    moved into that frame with this mounting before they reach it. The simulator's radar sits at
-    the origin (all zero), and a bag's ``/tf_static`` wins over these values when it has the radar's
-    frame.
+    ``mount_x_m``, ``mount_y_m``, ``mount_yaw_deg`` are the configuration's way to state one radar's
+    mounting; :meth:`radarslam.core.mounting.Mounting.from_config` turns them into the one mounting
+    type (``EstimatorConfig.mounting``) and :meth:`~radarslam.core.mounting.Mounting.sensor_config`
+    writes one back. The simulator measures from it (zero by default: the platform origin); a
+    bag's ``/tf_static`` wins over these values when it has the radar's frame, and under a rig a
+    recording run writes here the mounting it takes for the steps that take one (the radar of the
+    most detections; docs/recordings.md "Several radars").
     """
 
     mount_x_m: float = param(0.0, "sensor position ahead of the platform origin (m)")
@@ -403,7 +407,7 @@ RIG_REQUIRED = ("id", "x_m", "y_m", "yaw_deg")
 @dataclass(frozen=True)
 class EstimatorConfig:
     """The sections the estimator receives (config by owner): ``filter``, ``landmarks``, ``extent`` and
-    ``sensor`` (the radar's mounting, for the Doppler).
+    ``sensor`` (the radar's mounting, for the Doppler), and the rig's mountings.
 
     The simulation, world and metrics sections never reach :class:`~radarslam.slam.EkfSlam`.
     """
@@ -413,12 +417,19 @@ class EstimatorConfig:
     extent: ExtentConfig
     #: The radar's mounting: the Doppler's directions and the sensor's velocity (c.10.1, c.10.4, c.10.5.1).
     sensor: SensorConfig = field(default_factory=SensorConfig)
-    #: A multi-radar rig's mountings ``((x m, y m, yaw rad), ...)`` (the config's ``[[sensors]]``, or
-    #: the recording's sensors.csv set by the recording run), empty for one radar (``sensor``): what the
-    #: radar alone observes (c.10.5.1, c.12.2) and the retirement's lever-arm margin (c.15).
+    #: A multi-radar rig's :class:`~radarslam.core.mounting.Mounting` s (the config's ``[[sensors]]``,
+    #: or the recording's sensors.csv set by the recording run), empty for one radar (``sensor``): what
+    #: the radar alone observes (c.10.5.1, c.12.2) and the retirement's lever-arm margin (c.15).
     rig: tuple = ()
     #: The sensor ids of ``rig``'s radars, in its order (each radar's yaw-offset state, c.13.1).
     rig_ids: tuple = ()
+
+    @property
+    def mounting(self) -> Mounting:
+        """The one radar's mounting, ``[sensor]``'s (:meth:`Mounting.from_config`): what the steps that
+        take one mounting use for a scan in the platform frame (the Doppler gate's and odometry's
+        directions, c.10.1), and without a rig the radar alone's lever arm and the retirement's margin."""
+        return Mounting.from_config(self.sensor)
 
 
 @dataclass
@@ -446,6 +457,6 @@ class Config:
     @property
     def estimator(self) -> EstimatorConfig:
         """The estimator's own sections (shared, not copied)."""
-        rig = tuple((float(s.x_m), float(s.y_m), math.radians(s.yaw_deg)) for s in self.sensors)
+        rig = tuple(Mounting.from_rig_config(s) for s in self.sensors)
         return EstimatorConfig(self.filter, self.landmarks, self.extent, self.sensor, rig,
                                tuple(int(s.id) for s in self.sensors))

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from radarslam.core.errors import InputError
+from radarslam.core.mounting import Mounting
 from radarslam.core.validation import as_array
 
 
@@ -49,29 +50,14 @@ class Odometry:
         return cls(float(t), float(dt), as_array("odometry.control", control, (2,)))
 
 
-@dataclass(frozen=True, slots=True)
-class Sensor:
-    """The radar that made a scan: its mounting on the platform and its own view (docs/method.md c.13).
-
-    Attributes
-    ----------
-    x, y : float
-        Position ahead of and to the left of the platform origin (m).
-    yaw : float
-        Boresight relative to the platform heading, counter-clockwise (rad).
-    max_range_m, fov_rad : float or None
-        Its range and full opening angle for the M/N view test (None: ``filter.max_range_m``,
-        ``filter.field_of_view_deg``).
-    sensor_id : int
-        The id the recording gave it.
-    """
-
-    x: float
-    y: float
-    yaw: float
-    max_range_m: float | None = None
-    fov_rad: float | None = None
-    sensor_id: int = 0
+def Sensor(x: float, y: float, yaw: float, max_range_m: float | None = None, fov_rad: float | None = None,
+           sensor_id: int = 0) -> Mounting:
+    """The radar that made a scan, as the one mounting type :class:`~radarslam.core.mounting.Mounting`
+    (``Scan.sensor``, docs/method.md c.13). ``Sensor`` was a type of its own with the same fields; this
+    is its constructor, kept for its argument order (``x``, ``y`` m, ``yaw`` rad, then the range and
+    full opening angle of the M/N view test, None: ``filter.max_range_m``, ``filter.field_of_view_deg``,
+    and the id the recording gave it)."""
+    return Mounting(x, y, yaw, sensor_id=sensor_id, max_range_m=max_range_m, fov_rad=fov_rad)
 
 
 @dataclass(frozen=True, slots=True)
@@ -97,10 +83,11 @@ class Scan:
         with ``v`` (2,) forward and lateral m/s in the levelled platform frame and its ``cov``): a 3-D
         recording's Doppler fit (docs/method.md c.10.6). ``filter.odometry`` "doppler" / "both" then
         use it instead of fitting the scan's own azimuths (c.10.5). ``None``: the filter fits.
-    sensor : Sensor or None
-        The radar that made the scan, its ``polar`` (and Doppler) then in THAT radar's frame: the
-        filter measures from the sensor's pose (docs/method.md c.13). ``None``: the detections are
-        about the platform origin along the heading (the simulator, a radar at the axle).
+    sensor : Mounting or None
+        The radar that made the scan (:class:`~radarslam.core.mounting.Mounting`: its mounting and
+        view), its ``polar`` (and Doppler) then in THAT radar's frame: the filter measures from the
+        sensor's pose (docs/method.md c.13). ``None``: the detections are about the platform origin
+        along the heading (the simulator, a radar at the axle).
     """
 
     t: float
@@ -108,7 +95,7 @@ class Scan:
     polar: np.ndarray
     channels: dict | None = None
     ego: object | None = None
-    sensor: Sensor | None = None
+    sensor: Mounting | None = None
 
     @classmethod
     def checked(cls, t: float, index: int, polar: object) -> "Scan":

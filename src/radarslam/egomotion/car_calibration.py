@@ -384,8 +384,6 @@ def apply_calibration(rec, cal: CarCalibration, *, gyro_bias: bool = False):
     (:func:`car_heading`). Refuses a recording whose sensors the file does not name."""
     import dataclasses
 
-    from radarslam.io.recording.mounting import Mounting
-
     if rec.odo_kind != "unicycle":
         raise InputError(f"--calibration: expected a recording with unicycle odometry (speed_mps, yaw_rate_rad_s), "
                          f"got {rec.odo_kind!r}")
@@ -408,8 +406,8 @@ def apply_calibration(rec, cal: CarCalibration, *, gyro_bias: bool = False):
         sensors = new
     mounting = rec.mounting
     if mounting is not None:
-        mounting = Mounting(c * mounting.x - s * mounting.y, s * mounting.x + c * mounting.y, mounting.yaw - d,
-                            mounting.source, mounting.sensor_id, mounting.name, mounting.max_range_m, mounting.fov_rad)
+        mounting = dataclasses.replace(mounting, x=c * mounting.x - s * mounting.y, y=s * mounting.x + c * mounting.y,
+                                       yaw=mounting.yaw - d)
     det_t = rec.det_t
     order = None
     if any(cal.time_offset_s) and "sensor_id" in rec.channels:

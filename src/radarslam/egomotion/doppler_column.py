@@ -78,7 +78,7 @@ def with_doppler_sign(rec, sign: int):
 def doppler_consensus(rec, mounting, rng: np.random.Generator | None = None) -> DopplerConsensus:
     """The sweeps' static consensus against the odometry (module docstring). A sweep is the rows of
     one ``(t_s, sensor_id)``; its mounting is its sensor's (``rec.sensors``), else ``mounting``
-    (the single radar's: a :class:`~radarslam.io.recording.mounting.Mounting`). Needs a unicycle
+    (the single radar's: a :class:`~radarslam.core.mounting.Mounting`). Needs a unicycle
     odometry (``speed_mps, yaw_rate_rad_s``).
 
     Each sweep's sensor velocity is the least-squares fit of ``d = -u . w`` to its detections, once

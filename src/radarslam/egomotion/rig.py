@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from radarslam.core.errors import InputError
+from radarslam.core.mounting import Mounting
 from radarslam.models.rig_gates import gate_rig_velocity
 from radarslam.models.rig_velocity import (
     DEFAULTS,
@@ -47,7 +48,8 @@ class Rig:
     sensor_ids : ndarray of int, shape (S,)
     names : list of str
     mount : ndarray, shape (S, 3)
-        ``(x m, y m, yaw rad)`` of each sensor in the vehicle frame.
+        ``(x m, y m, yaw rad)`` of each sensor in the vehicle frame: the rows
+        :meth:`~radarslam.core.mounting.Mounting.stack` of its mountings.
     odometry : ndarray, shape (T, 3) or None
         ``t_s, speed_mps, yaw_rate_rad_s``.
     label : ndarray of int, shape (n,) or None
@@ -100,13 +102,13 @@ def read_rig(path: str | Path, sensors: dict | None = None, origin: str = "senso
     if sensors is not None:
         rows = [{"name": sensors[k].name} for k in sorted(sensors)]
         ids = np.array(sorted(sensors), dtype=np.int64)
-        mount = np.array([[sensors[k].x, sensors[k].y, sensors[k].yaw] for k in sorted(sensors)], dtype=float)
+        mount = Mounting.stack(sensors[k] for k in sorted(sensors))
     else:
         with (path / "sensors.csv").open(newline="", encoding="utf-8") as fh:
             rows = list(csv.DictReader(fh))
         try:
             ids = np.array([int(r["sensor_id"]) for r in rows])
-            mount = np.array([[float(r["x_m"]), float(r["y_m"]), float(r["yaw_rad"])] for r in rows])
+            mount = Mounting.stack(Mounting(float(r["x_m"]), float(r["y_m"]), float(r["yaw_rad"])) for r in rows)
         except (KeyError, ValueError, TypeError) as exc:
             raise InputError(f"{path / 'sensors.csv'}: expected sensor_id, x_m, y_m, yaw_rad numbers, "
                              f"got {exc}") from None

@@ -14,6 +14,7 @@ import math
 
 import numpy as np
 
+from radarslam.core.mounting import Mounting
 from radarslam.core.types import Scan
 from radarslam.egomotion.rig import Rig, checked_rig_velocity
 from radarslam.models.doppler import EgoVelocity
@@ -32,7 +33,7 @@ def rig_of(rec) -> Rig | None:
     order = np.argsort(rec.det_t, kind="stable")
     keep = order[rec.det_polar[order, 0] > 0]                       # zero ranges: a driver's invalid returns
     row = np.searchsorted(ids, sid[keep].astype(np.int64))
-    mount = np.array([[rec.sensors[i].x, rec.sensors[i].y, rec.sensors[i].yaw] for i in ids.tolist()])
+    mount = Mounting.stack(rec.sensors[i] for i in ids.tolist())
     odo = np.column_stack([rec.odo_t, rec.odo]) if rec.odo_kind == "unicycle" and rec.odo_t.size >= 2 else None
     return Rig(rec.det_t[keep], rec.det_polar[keep, 0], rec.det_polar[keep, 1], d[keep], row, ids,
                [rec.sensors[i].name for i in ids.tolist()], mount, odo)
@@ -51,7 +52,7 @@ def with_rig_velocity(events: list, rec, config) -> list:
         return events
     from radarslam.slam.odometry_source import distinct_lever_arms
 
-    if alone and not distinct_lever_arms(rig.mount.tolist()):
+    if alone and not distinct_lever_arms(rec.sensors.values()):
         return events                         # one lever arm: each scan's own no-sideslip fit (c.10.5.1)
     n = 3 if alone else 2
     series = checked_rig_velocity(rig, f)

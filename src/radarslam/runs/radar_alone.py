@@ -216,7 +216,7 @@ def run_radar_alone(rec, imu: Imu, config: Config, *, on_scan=None, first_run=No
     """Level ``rec`` and run :class:`~radarslam.slam.EkfSlam` over it by ``first_run``'s engine (a
     :class:`~radarslam.compiling.policy.Plan`, as a recording's run): ``(RecordingRun, LevelledRecording)``."""
     from radarslam.runs.recording import RecordingRun, _run_filter
-    from radarslam.io.recording.mounting import Mounting
+    from radarslam.core.mounting import Mounting
 
     config = check_radar_alone_config(config)
     lev = level_recording(rec, imu, config, np.random.default_rng(0))

@@ -18,10 +18,10 @@ from radarslam.egomotion.rig_odometry import with_rig_velocity
 from radarslam.runs.start import (FRAMES, START_STD, filter_to_platform, platform_to_filter,  # noqa: F401
                                   sensor_lever, start_pose, start_std, truth_at)
 from radarslam.runs.dead_reckoning import dead_reckoning  # noqa: F401  (runs.recording.dead_reckoning, its former home)
-from radarslam.runs.recording_outputs import bias_metrics
+from radarslam.runs.recording_outputs import bias_metrics, mounting_metrics
 from radarslam.models.radar import polar_to_xy
 from radarslam.slam.driver import FilterRecord, Observer, drive, fused_maps
-from radarslam.io.recording.mounting import Mounting, to_sensor
+from radarslam.core.mounting import Mounting, detections_to_sensor
 from radarslam.io.recording.stream import Recording, StreamReport, check_motion_model, stream_events
 from radarslam.metrics.trajectory import DEFINITIONS, trajectory_errors
 
@@ -33,9 +33,10 @@ class RecordingRun:
     Attributes
     ----------
     config : Config
-        The effective configuration (``sensor`` holds the mounting used).
+        The effective configuration (``sensor`` states ``mounting``, :func:`with_mounting`).
     recording : Recording
     mounting : Mounting
+        The one mounting of the steps that take one (:func:`effective_mounting`).
     events : list of Event
         The stream the filter consumed (detections in the platform frame).
     times : ndarray, shape (K,)
@@ -67,10 +68,12 @@ class RecordingRun:
 
 
 def effective_mounting(rec: Recording, config: Config) -> Mounting:
-    """The bag's ``/tf_static`` mounting when it has one, else the config's ``[sensor]``; with a
-    multi-radar rig (``rec.sensors``) the sensor of the most detections (each detection is moved by
-    its own sensor's mounting; this one is what the config's ``[sensor]`` holds for the steps that
-    take one mounting, e.g. the Doppler's).
+    """The one mounting of the run's steps that take one: the bag's ``/tf_static`` mounting when it
+    has one, else the config's ``[sensor]``; with a multi-radar rig (``rec.sensors``) the sensor of
+    the most detections (each scan is measured from its own radar's pose, docs/method.md c.13; this
+    one is what the filter takes for a scan without a radar of its own, the Doppler gate's and
+    odometry's directions). The run states it in its config's ``[sensor]`` (:func:`with_mounting`)
+    and says which it is in ``metrics.json["mounting"]`` (``mounting_metrics``).
 
     With the ``ackermann`` model the pose already is the sensor's (``filter.sensor_a_m``,
     ``sensor_b_m``), so only a yaw may be added.
@@ -133,17 +136,22 @@ def _ratio(a: dict, b: dict, key: str) -> float | None:
     return a[key] / b[key] if b[key] > 0 else None
 
 
+def with_mounting(config: Config, m: Mounting) -> Config:
+    """``config`` whose ``[sensor]`` states ``m`` (:meth:`Mounting.sensor_config`, its other keys kept):
+    the mounting the filter's steps that take one read (``EstimatorConfig.mounting``), and the one
+    the run's config.toml holds, so that it runs again to the same numbers."""
+    return dataclasses.replace(config, sensor=m.sensor_config(config.sensor))
+
+
 def with_rig(rec: Recording, config: Config) -> Config:
     """``config`` as the filter takes it for ``rec``: ``[sensor]`` the effective mounting
-    (:func:`effective_mounting`) and, for a rig, ``sensors`` the recording's mountings when the config
-    names none, so that the estimator's ``EstimatorConfig.rig`` is the rig the scans come from (the
-    radar alone's observability, c.10.5.1 / c.12.2; the retirement's margin, c.15). The written
-    config is not this one."""
+    (:func:`effective_mounting`, :func:`with_mounting`) and, for a rig, ``sensors`` the recording's
+    mountings when the config names none, so that the estimator's ``EstimatorConfig.rig`` is the rig
+    the scans come from (the radar alone's observability, c.10.5.1 / c.12.2; the retirement's
+    margin, c.15). The written config is not this one."""
     from radarslam.config import RigSensorConfig
 
-    m = effective_mounting(rec, config)
-    config = dataclasses.replace(config, sensor=dataclasses.replace(
-        config.sensor, mount_x_m=m.x, mount_y_m=m.y, mount_yaw_deg=math.degrees(m.yaw)))
+    config = with_mounting(config, effective_mounting(rec, config))
     if rec.sensors and not config.sensors:
         config = dataclasses.replace(config, sensors=[
             RigSensorConfig(int(k), float(v.x), float(v.y), math.degrees(v.yaw), v.name or "")
@@ -193,9 +201,8 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
     if config.filter.initial_error != "fixed":   # b.5: a draw needs the true first pose of a simulation
         raise ConfigError(f"filter.initial_error: expected 'fixed' for real data (no true first pose to draw about), "
                           f"got {config.filter.initial_error!r}")
-    m = effective_mounting(rec, config)
-    config = dataclasses.replace(config, sensor=dataclasses.replace(
-        config.sensor, mount_x_m=m.x, mount_y_m=m.y, mount_yaw_deg=math.degrees(m.yaw)))
+    m = effective_mounting(rec, config)          # the steps that take one mounting (metrics.json says which)
+    config = with_mounting(config, m)
     rec = checked_doppler(rec, config, m)
     events, report = stream_events(rec, m)
     events = with_rig_velocity(events, rec, config)          # c.12: the rig's Doppler odometry, if asked
@@ -212,10 +219,7 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
                # the map: the state's landmarks and those retired from it (docs/method.md c.15)
                "landmarks_final": int(record.maps[-1].ids.size), "landmarks_in_state": int(record.n_landmarks[-1]),
                "landmarks_retired": int(record.maps[-1].ids.size - record.n_landmarks[-1]),
-               "filter_seconds": record.seconds, "mounting": {"x_m": m.x, "y_m": m.y, "yaw_rad": m.yaw,
-                                                              "source": m.source,
-                                                              "sensors": {str(k): v.name or str(k) for k, v in
-                                                                          (rec.sensors or {}).items()}},
+               "filter_seconds": record.seconds, "mounting": mounting_metrics(rec, m, events),
                "start": {"pose": pose, "from": origin, "frame": FRAMES[origin], "std": std,
                          "std_from": START_STD[origin]},
                "dropped_scans": report.dropped_scans, "zero_range_dropped": report.zero_range,
@@ -390,7 +394,9 @@ def write_recording_outputs(out: Path, run: RecordingRun, extra: dict) -> list[s
         lines.append(",".join([str(r["id"])] + [repr(float(v)) for v in vals]))
     atomic_write_text(out / "map.csv", "\n".join(lines) + "\n")
     names += ["map.json", "map.csv"] + write_run_tables(out, run) + write_run_figures(out, run)
-    atomic_write_text(out / "config.toml", to_toml(run.config))
+    chosen = run.metrics.get("mounting", {}).get("chosen")       # which radar [sensor] holds, and why
+    note = {"sensor": f"mount_*: {chosen}, the mounting of the steps that take one (metrics.json mounting)"}
+    atomic_write_text(out / "config.toml", to_toml(run.config, notes=note if chosen else None))
     write_json(out / "metrics.json", run.metrics)
     names += ["config.toml", "metrics.json", "run.json"]
     write_json(out / "run.json", {**extra, "source": run.recording.source, "t0_ns": run.recording.t0_ns,
@@ -404,7 +410,7 @@ def recording_from_scenario(scenario, dt: float, mounting: Mounting | None = Non
     m = mounting or Mounting()
     scans = scenario.scans
     t = np.concatenate([np.full(s.polar.shape[0], s.t) for s in scans])
-    polar = np.concatenate([s.polar if s.sensor is not None else to_sensor(s.polar, m)   # c.13: in its frame
+    polar = np.concatenate([s.polar if s.sensor is not None else detections_to_sensor(s.polar, m)   # c.13: its frame
                             for s in scans]).reshape(-1, 2)
     scan_t = np.array([s.t for s in scans])
     odo_t = (np.arange(scenario.odometry.shape[0]) * dt)
@@ -427,8 +433,7 @@ def export_simulation(config: Config, seed: int, out: Path, *, fmt: str = "mcap"
 
     config = check_simulation_config(validate(config))
     m = mounting or Mounting()
-    config = dataclasses.replace(config, sensor=dataclasses.replace(
-        config.sensor, mount_x_m=m.x, mount_y_m=m.y, mount_yaw_deg=math.degrees(m.yaw)))
+    config = with_mounting(config, m)
     scenario = generate_scenario(config, np.random.default_rng(np.random.SeedSequence(seed)), compiled=compiled)
     rec = recording_from_scenario(scenario, config.trajectory.dt_s, m)
     bag = out / ("bag.bag" if fmt == "ros1" else "bag")

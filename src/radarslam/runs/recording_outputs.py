@@ -15,11 +15,11 @@ import numpy as np
 from radarslam.core.errors import InputError
 from radarslam.core.types import Scan
 from radarslam.egomotion.rig import Rig, checked_rig_velocity, compare_with_odometry, write_ego_velocity_csv
-from radarslam.io.recording.mounting import Mounting
+from radarslam.core.mounting import Mounting
 from radarslam.io.recording.stream import Recording
 
-__all__ = ["landmark_sensors", "recording_rig", "rig_velocity_of", "with_sensors_file", "write_run_figures",
-           "write_run_tables"]
+__all__ = ["landmark_sensors", "mounting_metrics", "recording_rig", "rig_velocity_of", "with_sensors_file",
+           "write_run_figures", "write_run_tables"]
 
 #: The seed of the rig fit's RANSAC draws (a run is reproducible).
 EGO_SEED = 0
@@ -55,7 +55,7 @@ def recording_rig(rec: Recording, mounting: Mounting) -> Rig | None:
     sid = np.full(rec.det_t.size, ids[0]) if sid is None else sid.astype(np.int64)
     keep = rec.det_polar[:, 0] > 0.0
     order = np.flatnonzero(keep)[np.argsort(rec.det_t[keep], kind="stable")]
-    mount = np.array([[sensors[k].x, sensors[k].y, sensors[k].yaw] for k in ids.tolist()], dtype=float)
+    mount = Mounting.stack(sensors[k] for k in ids.tolist())
     odo = np.column_stack([rec.odo_t, rec.odo]) if rec.odo_kind == "unicycle" and rec.odo_t.size else None
     return Rig(rec.det_t[order], rec.det_polar[order, 0], rec.det_polar[order, 1], d[order],
                np.searchsorted(ids, sid[order]), ids, [sensors[k].name or str(k) for k in ids.tolist()], mount, odo,
@@ -69,6 +69,30 @@ def rig_velocity_of(rig: Rig, filter_config):
     (``v_y = 0``: one radar sees its own velocity only, rank 2, c.12.2)."""
     return checked_rig_velocity(rig, filter_config, np.random.default_rng(EGO_SEED),
                                 lateral=rig.sensor_ids.size >= 2)
+
+
+def mounting_metrics(rec: Recording, m: Mounting, events: list) -> dict:
+    """``metrics.json["mounting"]``: the one mounting ``m`` the run took for the steps that take one
+    (``runs.recording.effective_mounting``; its ``[sensor]`` in the run's config.toml), which radar it
+    is and why (``chosen``), and how many scans the filter measured about the platform origin with
+    it (``single_mounting_scans``: the Doppler gate's and odometry's directions of a scan without a
+    radar of its own; every other scan is measured from its own radar's pose, docs/method.md c.13)."""
+    from radarslam.slam.sensor_frame import scan_mounting
+
+    sensors = rec.sensors or {}
+    if len(sensors) > 1:
+        chosen = (f"sensor {m.sensor_id}{f' ({m.name})' if m.name else ''}, the radar of the most detections of the "
+                  f"rig's {len(sensors)}")
+    elif sensors:
+        chosen = f"sensor {m.sensor_id}{f' ({m.name})' if m.name else ''}, the rig's one radar"
+    elif rec.mounting is not None:
+        chosen = "the recording's own (a bag's /tf_static), over the config's [sensor]"
+    else:
+        chosen = "the config's [sensor]"
+    n = sum(1 for e in events if isinstance(e, Scan) and scan_mounting(e.sensor) is None)
+    return {"x_m": m.x, "y_m": m.y, "yaw_rad": m.yaw, "source": m.source,
+            "sensors": {str(k): v.name or str(k) for k, v in sensors.items()},
+            "chosen": chosen, "single_mounting_scans": int(n)}
 
 
 def landmark_sensors(events: list, created: np.ndarray) -> np.ndarray:

@@ -24,6 +24,7 @@ import numpy as np
 
 from radarslam.config import Config
 from radarslam.core.angles import wrap_pi
+from radarslam.core.mounting import Mounting
 from radarslam.models.doppler import sensor_velocity
 
 #: Size (m) of a moving car along and across its lane.
@@ -113,8 +114,8 @@ def moving_detections(traffic: MovingTraffic, k: int, pose: np.ndarray, config: 
 
 
 def sensor_poses(poses: np.ndarray, mount) -> np.ndarray:
-    """The radar's poses ``(K, 3)`` from the platform's ``poses`` and its ``mount`` (``x``, ``y``,
-    ``yaw``): ``[p + R(theta) l, theta + yaw_m]``."""
+    """The radar's poses ``(K, 3)`` from the platform's ``poses`` and its ``mount`` (a
+    :class:`~radarslam.core.mounting.Mounting`): ``[p + R(theta) l, theta + yaw_m]``."""
     c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
     return np.column_stack([poses[:, 0] + c * mount.x - s * mount.y, poses[:, 1] + s * mount.x + c * mount.y,
                             poses[:, 2] + mount.yaw])
@@ -135,9 +136,9 @@ def scan_doppler(true_az: np.ndarray, sources: np.ndarray, pose: np.ndarray, vel
     pose, :func:`sensor_poses`); the sensor's mounting from ``[sensor]`` (the platform origin by
     default) sets its velocity, ``pose`` is the platform's.
     """
-    radar, sc = config.radar, config.sensor
-    yaw_m = math.radians(sc.mount_yaw_deg)
-    vs = sensor_velocity(float(velocity[0]), 0.0, float(velocity[1]), sc.mount_x_m, sc.mount_y_m, yaw_m)
+    radar, m = config.radar, Mounting.from_config(config.sensor)
+    yaw_m = m.yaw
+    vs = sensor_velocity(float(velocity[0]), 0.0, float(velocity[1]), m.x, m.y, yaw_m)
     u = np.column_stack([np.cos(true_az), np.sin(true_az)])
     obj = np.zeros((sources.size, 2))
     moving = is_moving_source(sources)

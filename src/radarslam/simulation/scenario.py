@@ -9,8 +9,8 @@ import numpy as np
 
 from radarslam.config import Config, FilterConfig
 from radarslam.core.errors import InputError
-from radarslam.core.types import Odometry, Scan, Sensor
-from radarslam.io.recording.mounting import Mounting
+from radarslam.core.mounting import Mounting
+from radarslam.core.types import Odometry, Scan
 from radarslam.simulation.doppler import (MovingTraffic, moving_detections, moving_traffic, platform_velocities,
                                           scan_doppler, sensor_poses)
 from radarslam.simulation.radar import simulate_scan
@@ -96,7 +96,7 @@ def generate_scenario(config: Config, rng: np.random.Generator, *, compiled: boo
     mount = Mounting.from_config(config.sensor)
     spose = poses if mount.is_identity else sensor_poses(poses, mount)    # b.4.3: measured from the radar
     # c.13: a mounted radar's scans stay in its frame, the filter measuring from its pose
-    sensor = None if mount.is_identity else Sensor(mount.x, mount.y, mount.yaw)
+    sensor = None if mount.is_identity else mount
     if compiled and config.radar.spread_model == "surface":
         from radarslam.simulation._compiled import simulate
 

@@ -3,7 +3,9 @@
 Per scan (:meth:`DopplerGate.apply`, before sifting):
 
 1. the sensor velocity is fitted to the scan's Doppler (c.10.2), with the directions from the
-   sensor's mounting (``[sensor]``, :func:`~radarslam.models.doppler.mounted_directions`);
+   sensor's mounting (a :class:`~radarslam.core.mounting.Mounting`: ``[sensor]``'s for a scan in the
+   platform frame, zero for a scan in its own radar's frame, c.13;
+   :func:`~radarslam.models.doppler.mounted_directions`);
 2. each detection is tested against the static world (the per-detection test, c.10.4.1);
 3. the detections are grouped into objects (single linkage within ``filter.doppler_object_radius_m``)
    and each object is tested as a whole (its own fitted velocity, c.10.4.2): all detections of a
@@ -23,7 +25,9 @@ import math
 
 import numpy as np
 
+from radarslam.core.deprecation import renamed
 from radarslam.core.errors import InputError
+from radarslam.core.mounting import Mounting
 from radarslam.landmarks.clustering import Cluster
 from radarslam.models import doppler_kernels
 from radarslam.models._doppler_compiled import classify_scan
@@ -32,7 +36,7 @@ from radarslam.models.doppler import EgoVelocity, chi2_quantile
 #: The least consensus fraction of a valid fit (``fit_ego_velocity``'s default, c.10.3).
 MIN_INLIER_FRACTION = 0.3
 
-__all__ = ["DopplerGate", "mounting"]
+__all__ = ["DopplerGate"]
 
 
 class DopplerGate:
@@ -44,13 +48,14 @@ class DopplerGate:
         The RANSAC settings (c.10.2) and the gate's (``doppler_gate_probability``,
         ``doppler_object_radius_m``, ``doppler_object_probability``, ``doppler_memory_scans``,
         ``doppler_memory_radius_m``).
-    mounting : tuple of float
-        ``(x m, y m, yaw rad)`` of the radar on the platform (``[sensor]``).
+    mounting : Mounting
+        The radar's on the platform, for scans in the platform frame (``Mounting.from_config`` of
+        ``[sensor]``; the former ``(x m, y m, yaw rad)`` tuple is taken too).
     """
 
-    def __init__(self, filter_config, mounting=(0.0, 0.0, 0.0)):
+    def __init__(self, filter_config, mounting: Mounting = Mounting()):
         self.f = filter_config
-        self.mounting = tuple(float(m) for m in mounting)
+        self.mounting = Mounting.coerce(mounting)
         #: RANSAC's minimal sets (c.10.2): a fixed seed, so a run is reproducible.
         self.rng = np.random.default_rng(0)
         #: (scan index, world positions (n, 2)) of the moving objects' detections, newest last.
@@ -58,15 +63,15 @@ class DopplerGate:
         #: World positions (n, 2) of this scan's moving objects' detections (c.10.4.4).
         self.now = np.empty((0, 2))
 
-    def apply(self, scan, polar: np.ndarray, pose: np.ndarray, mount=None):
+    def apply(self, scan, polar: np.ndarray, pose: np.ndarray, mount: Mounting | None = None):
         """Steps 1-4 on one scan: ``(kept rows, moving rows, EgoVelocity)``; ``mount`` replaces the
-        configured mounting (zero for a scan in its own radar's frame, docs/method.md c.13)."""
+        configured mounting (a zero :class:`Mounting` for a scan in its own radar's frame, docs/method.md c.13)."""
         keep, bad, ego, objects = self.classify(scan, polar, mount)
         if objects is not None:
             self._remember(scan.index, objects, pose)
         return keep, bad, ego
 
-    def classify(self, scan, polar: np.ndarray, mount=None):
+    def classify(self, scan, polar: np.ndarray, mount: Mounting | None = None):
         """Steps 1-3 on one scan, which depend on the scan alone (not on the filter's state):
         ``(kept rows, moving rows, EgoVelocity, the moving objects' detections in the platform
         frame (n, 2), or None when the objects were not tested)``; step 4 (:meth:`_remember`, in the
@@ -84,8 +89,9 @@ class DopplerGate:
         # the backend's form (filter.backend): the reference compiles nothing (a first run on a machine),
         # the same draws, inliers and generator state as the compiled one (tests/test_doppler_kernels.py)
         kernel = doppler_kernels.classify_scan if f.backend == "python" else classify_scan
+        m = self.mounting if mount is None else mount
         v, cov, inl, sigma, stat, rest, valid, bad, objects, tested = kernel(
-            polar, np.ascontiguousarray(d), *(self.mounting if mount is None else mount), self.rng, int(f.doppler_iterations),
+            polar, np.ascontiguousarray(d), m.x, m.y, m.yaw, self.rng, int(f.doppler_iterations),
             float(f.doppler_threshold_mps), float(f.doppler_std_floor_mps), MIN_INLIER_FRACTION, *self.quantiles())
         ego = EgoVelocity(v, cov, inl, float(sigma), float(stat), bool(rest), bool(valid))
         seen = _platform_xy(polar[objects]) if tested else None
@@ -128,9 +134,13 @@ class DopplerGate:
         return [c for c in clusters if not _near(xy[c.members], self.memory, self.f.doppler_memory_radius_m).any()]
 
 
-def mounting(sensor) -> tuple[float, float, float]:
-    """``(x m, y m, yaw rad)`` of the radar from a :class:`~radarslam.config.SensorConfig`."""
-    return float(sensor.mount_x_m), float(sensor.mount_y_m), math.radians(sensor.mount_yaw_deg)
+def _mounting(sensor) -> tuple[float, float, float]:
+    m = Mounting.from_config(sensor)
+    return m.x, m.y, m.yaw
+
+
+#: ``mounting(sensor)``, the former ``(x, y, yaw)`` of ``[sensor]``, with a DeprecationWarning.
+__getattr__ = renamed(__name__, {"mounting": (_mounting, "radarslam.core.mounting.Mounting.from_config(sensor)")})
 
 
 def _to_world(xy: np.ndarray, pose: np.ndarray) -> np.ndarray:

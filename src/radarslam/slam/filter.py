@@ -35,10 +35,10 @@ from radarslam.slam import ekf
 from radarslam.slam.association import Associator, Spreads
 from radarslam.slam.bias import (bias_states, control_noise, initial_state, measurement_noise, predict_terms,
                                  turn_noise, turn_noise_gain2, turn_noise_index)
-from radarslam.slam.doppler_gate import DopplerGate, mounting
+from radarslam.core.mounting import ORIGIN
+from radarslam.slam.doppler_gate import DopplerGate
 from radarslam.slam import sensor_frame
 from radarslam.slam.radar_yaw import enter_yaw, leave_yaw, radar_yaw_states
-from radarslam.slam.sensor_frame import mount_of
 from radarslam.slam.map_rows import MapSnapshot, RetiredMap, retire_radius, state_rows
 from radarslam.slam.kernels import cluster_kernel as _cluster_kernel, step_kernels as _step_kernels
 from radarslam.slam.odometry_source import odometry_source
@@ -130,7 +130,7 @@ class EkfSlam:
         self._last_scan_t: float | None = None
         self._view = (f.max_range_m, math.radians(f.field_of_view_deg) / 2)   # the M/N view test's (c.13)
         #: filter.doppler_gate: moving objects kept out of the map (c.10.4), else None.
-        self._gate = DopplerGate(f, mounting(config.sensor)) if f.doppler_gate else None
+        self._gate = DopplerGate(f, config.mounting) if f.doppler_gate else None
         #: filter.odometry "doppler"/"both": the Doppler-and-gyro prediction driver (c.10.5), else None.
         self._odometry = odometry_source(self)
 
@@ -253,7 +253,7 @@ class EkfSlam:
             raise InputError(f"scan.t: expected scan times that do not go backwards, got {t!r} after "
                              f"{self._last_scan_t!r} (scan {scan.index})")
         self._last_scan_t = t
-        mount = mount_of(scan.sensor)
+        mount = sensor_frame.scan_mounting(scan.sensor)
         sen = scan.sensor
         f = self.config.filter
         self._view = (f.max_range_m if sen is None or sen.max_range_m is None else sen.max_range_m,
@@ -261,13 +261,13 @@ class EkfSlam:
         yaw = None if sen is None or self.bias_model is None else self.bias_model.yaw_index(sen.sensor_id)
         if mount is None and yaw is None:
             return self._steps(scan, polar, mount)
-        mount = mount or (0.0, 0.0, 0.0)
+        mount = mount or ORIGIN
         st, first = self.state, self._pose_first          # c.13: the scan about its own radar's pose
-        sensor_frame.to_sensor(st.x, st.P, mount)
+        sensor_frame.state_to_sensor(st.x, st.P, mount)
         if yaw is not None:                               # c.13.1: turned by its yaw offset's estimate
             enter_yaw(st.x, st.P, 2, yaw)
         if self.fej:
-            self._pose_first = sensor_frame.sensor_pose(first, *mount)
+            self._pose_first = sensor_frame.sensor_pose(first, mount.x, mount.y, mount.yaw)
             if yaw is not None:
                 self._pose_first[2] += st.x[yaw]
         try:
@@ -275,7 +275,7 @@ class EkfSlam:
         finally:
             if yaw is not None:
                 leave_yaw(self.state.x, self.state.P, 2, yaw)
-            sensor_frame.to_platform(self.state.x, self.state.P, mount)
+            sensor_frame.state_to_platform(self.state.x, self.state.P, mount)
             self._pose_first = first
 
     def _steps(self, scan: Scan, polar: np.ndarray, mount) -> ScanReport:
@@ -283,7 +283,7 @@ class EkfSlam:
         k = scan.index
         keep, moving, ego = None, np.empty(0, dtype=int), None
         if self._gate is not None:                                        # c.10.4
-            keep, moving, ego = self._gate.apply(scan, polar, self.state.pose, None if mount is None else (0.0,) * 3)
+            keep, moving, ego = self._gate.apply(scan, polar, self.state.pose, None if mount is None else ORIGIN)
             polar = polar[keep]
         dt = self._take_scan_interval()
         if self.view is not None:

@@ -18,14 +18,13 @@ __all__ = ["MAP_FIELDS", "MapSnapshot", "RetiredMap", "retire_radius", "state_ro
 def retire_radius(config) -> float:
     """The distance (m) from the platform's origin (the pose block) beyond which a landmark is retired
     (c.15): ``landmarks.retire_distance_m`` (a radar's reach) plus the lever-arm margin, the largest
-    ``|l|`` of the rig's radars (``EstimatorConfig.rig``, else ``[sensor]``), so that no radar can
-    still see a landmark when it leaves (a radar at ``l`` sees to ``d_r + |l|`` from the origin);
-    0 (never) for ``retire_distance_m`` 0."""
+    ``|l|`` of the rig's radars (``EstimatorConfig.rig``, else its ``mounting``, ``[sensor]``'s), so
+    that no radar can still see a landmark when it leaves (a radar at ``l`` sees to ``d_r + |l|`` from
+    the origin); 0 (never) for ``retire_distance_m`` 0."""
     d = float(config.landmarks.retire_distance_m)
     if d <= 0.0:
         return 0.0
-    arms = [(float(m[0]), float(m[1])) for m in config.rig] or [(float(config.sensor.mount_x_m),
-                                                               float(config.sensor.mount_y_m))]
+    arms = [(float(m.x), float(m.y)) for m in (config.rig or (config.mounting,))]
     return d + max(float(np.hypot(x, y)) for x, y in arms)
 
 

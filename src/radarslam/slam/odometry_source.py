@@ -38,11 +38,11 @@ import math
 import numpy as np
 
 from radarslam.core.errors import ConfigError, InputError
+from radarslam.core.mounting import ORIGIN, Mounting
 from radarslam.core.types import Odometry, Scan
 from radarslam.models.body_velocity import BodyVelocityModel
 from radarslam.slam import ekf
 from radarslam.slam.bias import predict_terms
-from radarslam.slam.doppler_gate import mounting
 
 __all__ = ["DopplerOdometry", "fuse_forward_speed", "odometry_source", "platform_input"]
 
@@ -79,33 +79,35 @@ def odometry_source(slam) -> "DopplerOdometry | None":
     if f.odometry == "both" and f.motion_model != "unicycle":
         raise ConfigError(f"filter.motion_model: expected 'unicycle' with filter.odometry 'both' (its control[0] is "
                           f"the forward speed), got {f.motion_model!r}")
-    return DopplerOdometry(f, mounting(slam.config.sensor),
+    return DopplerOdometry(f, slam.config.mounting,
                            rig_fit=f.yaw_rate == "doppler" and distinct_lever_arms(slam.config.rig))
 
 
 def distinct_lever_arms(rig) -> bool:
-    """Whether a rig ``((x, y, yaw), ...)`` has two radars at different positions: then its joint
-    Doppler fit observes ``(v_x, v_y, omega)`` (c.12.2: one radar's rows have the null direction
-    ``(y_s, -x_s, 1)``; two radars share it only if ``l_s = l_r``)."""
-    pos = {(float(m[0]), float(m[1])) for m in rig}
+    """Whether a rig (its :class:`Mounting` s, or their ``(x, y, yaw)`` rows) has two radars at
+    different positions: then its joint Doppler fit observes ``(v_x, v_y, omega)`` (c.12.2: one radar's
+    rows have the null direction ``(y_s, -x_s, 1)``; two radars share it only if ``l_s = l_r``)."""
+    pos = {(float(m.x), float(m.y)) for m in map(Mounting.coerce, rig)}
     return len(pos) >= 2
 
 
 def radar_alone_unobservable(rig, sensor) -> str | None:
     """Why the radar alone (``filter.yaw_rate = "doppler"``) cannot give the yaw rate, or None when it
-    can: a rig with two distinct lever arms fits ``(v_x, v_y, omega)`` (c.12.2), whatever the axle;
-    a single radar (the rig's one, else ``[sensor]``) needs the no-sideslip model and ``l_x != 0``
+    can: a rig (its :class:`Mounting` s, or their ``(x, y, yaw)`` rows) with two distinct lever arms
+    fits ``(v_x, v_y, omega)`` (c.12.2), whatever the axle; a single radar (the rig's one, else
+    ``sensor``, the ``[sensor]`` section) needs the no-sideslip model and ``l_x != 0``
     (``omega = w'_y / l_x``, c.10.5.1)."""
     if distinct_lever_arms(rig):
         return None
     if rig:
-        x, y = float(rig[0][0]), float(rig[0][1])
+        first = Mounting.coerce(rig[0])
+        x, y = float(first.x), float(first.y)
         if x != 0.0:
             return None
         return (f"filter.yaw_rate: 'doppler' needs two radars at different positions (the rig's joint fit, c.12.2) "
                 f"or one off the rear axle (omega = w_y / l_x, c.10.5.1), got a rig of {len(rig)} radar(s), all at "
                 f"x = {x}, y = {y}")
-    if sensor.mount_x_m != 0.0:
+    if Mounting.from_config(sensor).x != 0.0:
         return None
     return ("filter.yaw_rate: 'doppler' needs the radar off the rear axle (omega = w_y / l_x is unobservable at "
             "l_x = 0, c.10.5.1) or a rig of two radars at different positions (c.12.2), got sensor.mount_x_m = 0.0 "
@@ -116,7 +118,8 @@ def platform_input(w: np.ndarray, C: np.ndarray, mount, yaw_rate: float | None,
                    yaw_var: float) -> tuple[np.ndarray, np.ndarray]:
     """The body-velocity model's input ``u = [v_x, v_y, omega]`` and its covariance ``U`` (3, 3) from a
     sensor velocity ``w`` (2,) (sensor frame, m/s) of covariance ``C`` (2, 2) of a radar mounted at
-    ``mount = (l_x, l_y, yaw_m)`` (m, m, rad) (c.10.1, c.10.5.1; both maps linear, so ``U`` is exact).
+    ``mount`` (a :class:`Mounting`, or ``(l_x, l_y, yaw_m)`` (m, m, rad); c.10.1, c.10.5.1; both maps
+    linear, so ``U`` is exact).
 
     With a gyro (``yaw_rate`` its reading, rad/s, variance ``yaw_var``): ``w' = R(yaw_m) w`` and
     ``u = J [w', omega]`` with ``J = [[1, 0, l_y], [0, 1, -l_x], [0, 0, 1]]``,
@@ -124,7 +127,8 @@ def platform_input(w: np.ndarray, C: np.ndarray, mount, yaw_rate: float | None,
     ``l_x != 0``): no sideslip, ``u = [w'_x + (l_y / l_x) w'_y, 0, w'_y / l_x] = A w'`` on rows 0 and 2,
     ``U = A R C R^T A^T`` there with ``A = [[1, l_y / l_x], [0, 1 / l_x]]`` and zero on row 1.
     """
-    lx, ly, yaw = mount
+    m = Mounting.coerce(mount)
+    lx, ly, yaw = float(m.x), float(m.y), float(m.yaw)
     if yaw != 0.0:
         c, s = math.cos(yaw), math.sin(yaw)
         R = np.array([[c, -s], [s, c]])
@@ -168,9 +172,11 @@ class DopplerOdometry:
         ``doppler_std_floor_mps``, ``zero_velocity_probability``).
     """
 
-    def __init__(self, filter_config, mount=(0.0, 0.0, 0.0), rig_fit: bool = False):
+    def __init__(self, filter_config, mount: Mounting = Mounting(), rig_fit: bool = False):
         self.f = filter_config
-        self.mount = tuple(float(m) for m in mount)
+        #: The radar whose velocity is held: ``mount`` (``[sensor]``) for a scan in the platform frame,
+        #: else the scan's own (``Scan.sensor``, c.13).
+        self.mount = Mounting.coerce(mount)
         self.config_mount = self.mount
         #: Whether the held velocity is the sensor's (a fit of the scan) or the platform's (``Scan.ego``).
         self.sensor_frame = True
@@ -240,8 +246,7 @@ class DopplerOdometry:
         # noise_interval_s (a density sigma^2 dt_0), so its mean over dt has variance sigma^2 dt_0 / dt and the
         # heading variance it adds, sigma^2 dt_0 dt, grows with time, not with the number of scans (radars)
         gyro_var = self.gyro_var * (self.noise_ref / self.dt)
-        u, U = platform_input(self.v, self.C, self.mount if self.sensor_frame else (0.0, 0.0, 0.0), omega,
-                              gyro_var)
+        u, U = platform_input(self.v, self.C, self.mount if self.sensor_frame else ORIGIN, omega, gyro_var)
         if self.f.odometry == "both":
             u, U = fuse_forward_speed(u, U, self.speed_dt / self.dt, self.f.speed_std_mps ** 2)
         # Q a density (c.2.2): n readings of the reference interval take n Q, as before, bit for bit
@@ -274,7 +279,7 @@ class DopplerOdometry:
                              f"carrying its velocity at the platform origin (Scan.ego, c.10.6)")
         self.sensor_frame = scan.ego is None
         sen = scan.sensor              # c.13: a scan in its own radar's frame, the held velocity that radar's
-        self.mount = self.config_mount if sen is None else (float(sen.x), float(sen.y), float(sen.yaw))
+        self.mount = self.config_mount if sen is None else sen
         if ego is None:
             from radarslam.models.doppler import fit_ego_velocity, mounted_directions
 
@@ -284,7 +289,8 @@ class DopplerOdometry:
                 raise InputError(f"scan {scan.index}: channels['doppler_mps']: filter.odometry {self.f.odometry!r} "
                                  f"expected shape ({polar.shape[0]},), got {d.shape}")
             f = self.f
-            ego = fit_ego_velocity(mounted_directions(polar, *(self.mount if sen is None else (0.0,) * 3)), d, self.rng,
+            m = self.mount if sen is None else ORIGIN
+            ego = fit_ego_velocity(mounted_directions(polar, m.x, m.y, m.yaw), d, self.rng,
                                    threshold_mps=f.doppler_threshold_mps, iterations=f.doppler_iterations,
                                    sigma_floor_mps=f.doppler_std_floor_mps,
                                    zero_probability=f.zero_velocity_probability)

@@ -19,6 +19,10 @@ the lever arm in the measurement model, ``H_p = H_s G`` (the Jacobians evaluated
 = (-sin(theta) m_x - cos(theta) m_y,  cos(theta) m_x - sin(theta) m_y)``, and ``G^{-1}`` has
 ``(-a, -b)`` there; so the transform costs O(n) (two row and two column updates), in place.
 A mounting at zero leaves the state untouched, bit for bit.
+
+The mounting is the one type :class:`~radarslam.core.mounting.Mounting` (``Scan.sensor``):
+:func:`state_to_sensor` and :func:`state_to_platform` move the *state* (not detections) by it; the
+kernels they call take its ``x``, ``y``, ``yaw`` (compiled, its :meth:`~Mounting.as_array` rows).
 """
 
 from __future__ import annotations
@@ -26,6 +30,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
+from radarslam.core.deprecation import renamed
+from radarslam.core.mounting import Mounting
 
 
 def lever_column(theta: float, mx: float, my: float) -> tuple[float, float]:
@@ -55,35 +62,57 @@ def shear(P: np.ndarray, a: float, b: float) -> None:
     P[:, 1] += b * P[:, 2]
 
 
-def to_sensor_xyz(x: np.ndarray, P: np.ndarray, mx: float, my: float, myaw: float) -> None:
-    """Replace the pose block of ``(x, P)`` (in place) by the sensor's pose and its covariance. A
-    kernel (the fused engine compiles it as it is, slam/fused/sensor.py)."""
+def state_to_sensor_kernel(x: np.ndarray, P: np.ndarray, mx: float, my: float, myaw: float) -> None:
+    """Replace the pose block of the state ``(x, P)`` (in place) by the sensor's pose and its
+    covariance, for a radar mounted at ``(mx, my, myaw)``. A kernel (the fused engine compiles it as
+    it is, slam/fused/sensor.py); from Python, :func:`state_to_sensor`."""
     a, b = lever_column(x[2], mx, my)
     x[:3] = sensor_pose(x[:3], mx, my, myaw)
     shear(P, a, b)
 
 
-def to_platform_xyz(x: np.ndarray, P: np.ndarray, mx: float, my: float, myaw: float) -> None:
-    """The inverse of :func:`to_sensor_xyz` (in place), its Jacobian at the updated pose. A kernel."""
+def state_to_platform_kernel(x: np.ndarray, P: np.ndarray, mx: float, my: float, myaw: float) -> None:
+    """The inverse of :func:`state_to_sensor_kernel` (in place), its Jacobian at the updated pose. A kernel."""
     x[:3] = platform_pose(x[:3], mx, my, myaw)
     a, b = lever_column(x[2], mx, my)
     shear(P, -a, -b)
 
 
-def to_sensor(x: np.ndarray, P: np.ndarray, mount: tuple[float, float, float]) -> None:
-    """:func:`to_sensor_xyz` with the mounting ``(x, y, yaw)``."""
-    to_sensor_xyz(x, P, *mount)
+def state_to_sensor(x: np.ndarray, P: np.ndarray, m: Mounting) -> None:
+    """The state ``(x, P)`` (in place) about the sensor's pose of the radar at ``m`` for a scan (module
+    docstring). Not the detections: those move by :func:`radarslam.core.mounting.detections_to_sensor`."""
+    state_to_sensor_kernel(x, P, m.x, m.y, m.yaw)
 
 
-def to_platform(x: np.ndarray, P: np.ndarray, mount: tuple[float, float, float]) -> None:
-    """:func:`to_platform_xyz` with the mounting ``(x, y, yaw)``."""
-    to_platform_xyz(x, P, *mount)
+def state_to_platform(x: np.ndarray, P: np.ndarray, m: Mounting) -> None:
+    """The inverse of :func:`state_to_sensor` (in place): the state back about the platform's pose."""
+    state_to_platform_kernel(x, P, m.x, m.y, m.yaw)
 
 
-def mount_of(sensor) -> tuple[float, float, float] | None:
-    """``(x, y, yaw)`` of a :class:`~radarslam.core.types.Sensor`, or None for none or a zero mounting
-    (the scan is then processed exactly as before)."""
-    if sensor is None:
-        return None
-    m = (float(sensor.x), float(sensor.y), float(sensor.yaw))
-    return None if m == (0.0, 0.0, 0.0) else m
+def scan_mounting(sensor: Mounting | None) -> Mounting | None:
+    """The mounting a scan's state moves by (``Scan.sensor``), or None for none or a zero mounting
+    (the scan is then processed exactly as before, bit for bit)."""
+    return None if sensor is None or sensor.is_identity else sensor
+
+
+def _to_sensor(x, P, mount) -> None:
+    state_to_sensor(x, P, Mounting.coerce(mount))
+
+
+def _to_platform(x, P, mount) -> None:
+    state_to_platform(x, P, Mounting.coerce(mount))
+
+
+def _mount_of(sensor):
+    m = scan_mounting(sensor)
+    return None if m is None else (float(m.x), float(m.y), float(m.yaw))
+
+
+#: The former names (``to_sensor`` and ``to_platform`` clashed with the detections' moves of the
+#: readers; they took ``(x, y, yaw)`` tuples), with a DeprecationWarning.
+__getattr__ = renamed(__name__, {
+    "to_sensor": (_to_sensor, "state_to_sensor(x, P, mounting)"),
+    "to_platform": (_to_platform, "state_to_platform(x, P, mounting)"),
+    "to_sensor_xyz": (state_to_sensor_kernel, "state_to_sensor_kernel"),
+    "to_platform_xyz": (state_to_platform_kernel, "state_to_platform_kernel"),
+    "mount_of": (_mount_of, "scan_mounting (a Mounting or None)")})

@@ -4,7 +4,8 @@
 - :mod:`.bag`: ROS 1 and ROS 2 (sqlite3, MCAP) bags read through ``rosbags`` (the ``ros`` extra);
 - :mod:`.bag_write`: bags written (the simulator's export, the tests);
 - :mod:`.pointcloud2`: PointCloud2 decoding by field offset and datatype;
-- :mod:`.mounting`: the radar's planar mounting and the move into the platform frame;
+- :mod:`.mounting`: a bag's ``/tf_static`` as a mounting (the one type,
+  :class:`radarslam.core.mounting.Mounting`, re-exported there with the detections' moves);
 - :mod:`.stream`: the :class:`~.stream.Recording` arrays and their event stream.
 """
 

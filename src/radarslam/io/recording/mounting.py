@@ -1,73 +1,31 @@
-"""The radar's planar mounting on the platform and the move of detections into the platform frame.
+"""Mountings as the readers meet them: a bag's ``/tf_static`` transform (quaternions) as a
+:class:`~radarslam.core.mounting.Mounting`, the one mounting type (defined in ``core``, re-exported here).
 
-The filter's measurement model (docs/method.md a.1) has the sensor at the platform origin looking
-along the heading. A recording's detections are in the sensor frame, so each detection is moved to
-the platform frame before it reaches the filter (docs/recordings.md "Mounting")::
+A recording's detections are in their radar's frame; the filter measures each scan from its radar's
+pose (docs/method.md c.13), and :func:`detections_to_platform` / :func:`detections_to_sensor` move
+detections between that frame and the platform's (docs/recordings.md "Mounting")::
 
     p_platform = [x_m, y_m] + R(yaw) [r cos(phi), r sin(phi)]
     r' = |p_platform|,  phi' = atan2(p_platform)
 
-The filter then sees ranges and azimuths about the platform origin; its range-azimuth noise is
-applied there (exact for a zero lever arm, an approximation of the order of the lever arm over the
-range otherwise). A zero mounting leaves the numbers untouched (no round trip through x, y).
+A zero mounting leaves the numbers untouched (no round trip through x, y). ``to_platform`` and
+``to_sensor``, their former names, still import, with a :class:`DeprecationWarning` (the filter's
+state moves by ``slam/sensor_frame.py``'s ``state_to_sensor`` / ``state_to_platform``).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
-import numpy as np
-
+from radarslam.core.deprecation import renamed
 from radarslam.core.errors import InputError
+from radarslam.core.mounting import Mounting, detections_to_platform, detections_to_sensor
 
+__all__ = ["MAX_TILT_RAD", "Mounting", "detections_to_platform", "detections_to_sensor", "mounting_from_transform",
+           "quaternion_to_rpy", "yaw_quaternion"]
 
-@dataclass(frozen=True)
-class Mounting:
-    """Sensor pose in the platform frame: ``x`` ahead (m), ``y`` left (m), ``yaw`` (rad, CCW).
-
-    A multi-radar rig (``sensors.csv``, docs/recordings.md "Several radars") gives each sensor its
-    ``sensor_id`` and ``name`` and, optionally, its ``max_range_m`` and full field of view ``fov_rad``
-    (None: not stated). Only ``x``, ``y`` and ``yaw`` move detections.
-    """
-
-    x: float = 0.0
-    y: float = 0.0
-    yaw: float = 0.0
-    source: str = "config"
-    sensor_id: int = 0
-    name: str = ""
-    max_range_m: float | None = None
-    fov_rad: float | None = None
-
-    @property
-    def is_identity(self) -> bool:
-        return self.x == 0.0 and self.y == 0.0 and self.yaw == 0.0
-
-    @classmethod
-    def from_config(cls, sensor) -> "Mounting":
-        """From a :class:`radarslam.config.SensorConfig` (degrees at the edge, radians inside)."""
-        return cls(float(sensor.mount_x_m), float(sensor.mount_y_m), math.radians(sensor.mount_yaw_deg), "config")
-
-
-def to_platform(polar: np.ndarray, m: Mounting) -> np.ndarray:
-    """Sensor-frame ``(n, 2)`` ``[range m, azimuth rad]`` -> the same about the platform origin."""
-    if m.is_identity:
-        return polar
-    r, a = polar[:, 0], polar[:, 1] + m.yaw
-    x, y = m.x + r * np.cos(a), m.y + r * np.sin(a)
-    return np.column_stack([np.hypot(x, y), np.arctan2(y, x)])
-
-
-def to_sensor(polar: np.ndarray, m: Mounting) -> np.ndarray:
-    """The inverse of :func:`to_platform`: platform-frame polar detections -> sensor frame."""
-    if m.is_identity:
-        return polar
-    x = polar[:, 0] * np.cos(polar[:, 1]) - m.x
-    y = polar[:, 0] * np.sin(polar[:, 1]) - m.y
-    c, s = math.cos(m.yaw), math.sin(m.yaw)
-    xs, ys = c * x + s * y, -s * x + c * y
-    return np.column_stack([np.hypot(xs, ys), np.arctan2(ys, xs)])
+__getattr__ = renamed(__name__, {"to_platform": (detections_to_platform, "detections_to_platform"),
+                                 "to_sensor": (detections_to_sensor, "detections_to_sensor")})
 
 
 def quaternion_to_rpy(x: float, y: float, z: float, w: float) -> tuple[float, float, float]:

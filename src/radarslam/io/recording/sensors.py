@@ -1,7 +1,7 @@
 """A multi-radar rig in the plain format: ``sensors.csv`` (docs/recordings.md "Several radars").
 
 One row per radar: ``sensor_id, x_m, y_m, yaw_rad`` (its mounting in the platform frame, as
-:class:`~.mounting.Mounting`) and optionally ``name``, ``max_range_m`` and ``fov_deg`` (the full
+:class:`~radarslam.core.mounting.Mounting`) and optionally ``name``, ``max_range_m`` and ``fov_deg`` (the full
 opening angle). Each detection's ``sensor_id`` names its row. Every fault is one
 :class:`InputError` line naming the file, the line (CSV) or row (NPZ), the column and the fault.
 """
@@ -13,7 +13,7 @@ import math
 import numpy as np
 
 from radarslam.core.errors import InputError
-from radarslam.io.recording.mounting import Mounting
+from radarslam.core.mounting import Mounting
 
 #: Columns of ``sensors.csv``: required, then optional.
 REQUIRED = ("sensor_id", "x_m", "y_m", "yaw_rad")
@@ -86,10 +86,8 @@ def sensors_from_config(rig, where: str = "the config's [[sensors]]") -> dict[in
     """The config's rig (``Config.sensors``, :class:`radarslam.config.RigSensorConfig`, checked when
     loaded) as ``sensors.csv`` would give it: each :class:`Mounting` by ``sensor_id``, the yaw and the
     field of view in radians (``math.radians`` of the degrees, as :func:`sensors_from_columns` takes
-    ``fov_deg``), ``source`` naming ``where``."""
-    return {int(s.id): Mounting(float(s.x_m), float(s.y_m), math.radians(s.yaw_deg), where, int(s.id), s.name,
-                                None if s.max_range_m is None else float(s.max_range_m),
-                                None if s.fov_deg is None else math.radians(s.fov_deg)) for s in rig}
+    ``fov_deg``; :meth:`Mounting.from_rig_config`), ``source`` naming ``where``."""
+    return {int(s.id): Mounting.from_rig_config(s, where) for s in rig}
 
 
 def with_sensors(rec, sensors: dict[int, Mounting], origin: str):

@@ -12,8 +12,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from radarslam.core.errors import InputError
-from radarslam.core.types import Event, Odometry, Scan, Sensor
-from radarslam.io.recording.mounting import Mounting, to_platform
+from radarslam.core.mounting import Mounting, detections_to_platform
+from radarslam.core.types import Event, Odometry, Scan
 
 #: Times closer than this (s) are one time: a scan this close to an odometry stamp is at the stamp
 #: (no sliver of an odometry piece; a bag's stamps are whole nanoseconds).
@@ -253,17 +253,18 @@ def _scan_times(t: np.ndarray, scan: np.ndarray) -> np.ndarray:
     return (first + mean)[inv]
 
 
-def _sensor(m: Mounting) -> Sensor | None:
-    """The :class:`Sensor` of a mounting, None for a radar at the origin along the heading with the
-    configuration's view (the scan then runs exactly as the simulator's)."""
+def _sensor(m: Mounting) -> Mounting | None:
+    """A scan's ``Scan.sensor``: the mounting itself, None for a radar at the origin along the heading
+    with the configuration's view (the scan then runs exactly as the simulator's)."""
     if m.is_identity and m.max_range_m is None and m.fov_rad is None:
         return None
-    return Sensor(m.x, m.y, m.yaw, m.max_range_m, m.fov_rad, m.sensor_id)
+    return m
 
 
 def scan_sensors(rec: Recording, mounting: Mounting) -> dict:
-    """Each sensor's :class:`Sensor` by ``sensor_id`` (``rec.sensors``), or under ``None`` the one
-    ``mounting`` of a recording without sensors.csv; refuses a detection of an unknown sensor."""
+    """Each sensor's ``Scan.sensor`` (its :class:`Mounting`) by ``sensor_id`` (``rec.sensors``), or
+    under ``None`` the one ``mounting`` of a recording without sensors.csv; refuses a detection of an
+    unknown sensor."""
     if not rec.sensors:
         return {None: _sensor(mounting)}
     sid = rec.channels.get("sensor_id")
@@ -280,10 +281,10 @@ def platform_polar(rec: Recording, mounting: Mounting) -> np.ndarray:
     """Every detection ``(n, 2)`` moved to the platform frame by its OWN sensor's mounting
     (``rec.sensors`` by ``channels["sensor_id"]``), else by ``mounting``."""
     if not rec.sensors:
-        return to_platform(rec.det_polar, mounting)
+        return detections_to_platform(rec.det_polar, mounting)
     sid = rec.channels.get("sensor_id")
     if sid is None:                           # one sensor and no sensor_id column (checked by the reader)
-        return to_platform(rec.det_polar, next(iter(rec.sensors.values())))
+        return detections_to_platform(rec.det_polar, next(iter(rec.sensors.values())))
     unknown = np.flatnonzero(~np.isin(sid, np.array(sorted(rec.sensors), dtype=float)))
     if unknown.size:
         raise InputError(f"{rec.source}: detection {int(unknown[0]) + 1} has sensor_id {float(sid[unknown[0]])!r}, "
@@ -291,7 +292,7 @@ def platform_polar(rec: Recording, mounting: Mounting) -> np.ndarray:
     out = np.empty_like(rec.det_polar)
     for k, m in rec.sensors.items():
         rows = sid == k
-        out[rows] = to_platform(rec.det_polar[rows], m)
+        out[rows] = detections_to_platform(rec.det_polar[rows], m)
     return out
 
 

@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from radarslam.io.recording.mounting import Mounting, to_sensor
+from radarslam.core.mounting import Mounting, detections_to_sensor
 from radarslam.io.recording.stream import Recording
 
 
@@ -84,7 +84,7 @@ def synthetic_recording(*, duration_s: float = 10.0, speed_mps: float = 10.0, tu
             c, s = math.cos(pose[2]), math.sin(pose[2])
             dx, dy = refl[:, 0] - pose[0], refl[:, 1] - pose[1]
             local = np.column_stack([c * dx + s * dy, -s * dx + c * dy])          # platform frame
-            polar = to_sensor(np.column_stack([np.hypot(*local.T), np.arctan2(local[:, 1], local[:, 0])]), m)
+            polar = detections_to_sensor(np.column_stack([np.hypot(*local.T), np.arctan2(local[:, 1], local[:, 0])]), m)
             keep = (polar[:, 0] <= max_range_m) & (np.abs(polar[:, 1]) <= fov_rad / 2)
             polar = polar[keep]
             if range_std_m or azimuth_std_rad:

@@ -59,7 +59,7 @@ def gate_stream(events, gate):
     f = gate.f
     q_zero, q_gate, radius, q_one, q_two = gate.quantiles()
     v, cov, inl, sigma, stat, rest, valid, bad, objects, tested = _C.classify_stream(
-        polar, off, dop, np.array(gate.mounting), gate.rng, int(f.doppler_iterations), float(f.doppler_threshold_mps),
+        polar, off, dop, gate.mounting.as_array(), gate.rng, int(f.doppler_iterations), float(f.doppler_threshold_mps),
         float(f.doppler_std_floor_mps), MIN_INLIER_FRACTION, np.array([q_zero, q_gate, q_one, q_two]), radius)
     xy = _platform_xy(polar[objects])                       # the moving objects' detections, scan by scan
     xy_off = np.concatenate([[0], np.cumsum(objects)])[off]
@@ -79,7 +79,7 @@ def odometry_stream(events, src):
         return None
     polar, off, dop = plain
     f = src.f
-    out = _C.fit_stream(polar, off, dop, np.array(src.mount), src.rng, int(f.doppler_iterations),
+    out = _C.fit_stream(polar, off, dop, src.mount.as_array(), src.rng, int(f.doppler_iterations),
                         float(f.doppler_threshold_mps), float(f.doppler_std_floor_mps), MIN_INLIER_FRACTION,
                         chi2_quantile(f.zero_velocity_probability, 2))
     return _egos(off, *out)

@@ -18,7 +18,8 @@ import numpy as np
 
 from radarslam.slam.fused.engine import BAD_PREDICTION, ODOMETRY, OK, SCAN, VELOCITY, engine, family_of
 from radarslam.slam.fused.view import ViewParams, view_parameters
-from radarslam.slam.sensor_frame import mount_of
+from radarslam.core.mounting import ORIGIN
+from radarslam.slam.sensor_frame import scan_mounting
 
 
 class FusedParams(NamedTuple):
@@ -115,7 +116,7 @@ class Stream(NamedTuple):
     seen_off: np.ndarray   #: (S + 1,) int64, scan s's moving-object detections are seen[seen_off[s]:seen_off[s + 1]]
     seen: np.ndarray       #: (G, 2) those detections in the platform frame
     kept: np.ndarray       #: (M,) int64, under the gate each row of ``polar``'s row in its scan (else empty)
-    mount: np.ndarray      #: (S, 3) each scan's radar's mounting (x, y, yaw) (docs/method.md c.13)
+    mount: np.ndarray      #: (S, 3) each scan's radar's mounting, ``Mounting.as_array`` (docs/method.md c.13)
     has_mount: np.ndarray  #: (S,) bool: the scan is in its radar's frame (a non-zero mounting)
     sensor_view: np.ndarray  #: (S, 2) the M/N view test's range and half field of view (rad) of each scan
 
@@ -321,7 +322,7 @@ def _stream_arrays_checked(events, defer_polar: bool, slam=None) -> Stream:
     # c.10.4, c.10.5: the whole stream's classification or fits in one compiled call where the scans allow it
     gated, fits = None, None
     sensors = any(isinstance(e, Scan) and e.sensor is not None for e in events)      # c.13: per scan, below
-    own = [mount_of(e.sensor) is not None for e in events if isinstance(e, Scan)]
+    own = [scan_mounting(e.sensor) is not None for e in events if isinstance(e, Scan)]
     if (gate is not None or src is not None) and not sensors:
         from radarslam.slam.fused.doppler import gate_stream, odometry_stream
 
@@ -333,7 +334,7 @@ def _stream_arrays_checked(events, defer_polar: bool, slam=None) -> Stream:
         from radarslam.slam.fused.doppler import gate_stream
 
         zero = copy.copy(gate)
-        zero.mounting = (0.0, 0.0, 0.0)
+        zero.mounting = ORIGIN
         gated = gate_stream(events, zero)
     kinds, odo, odo_dt, polars, scan_k, last_t = [], [], [], [], [], None
     vel, vel_dt, vel_U, vel_Q = [], [], [], []
@@ -372,7 +373,7 @@ def _stream_arrays_checked(events, defer_polar: bool, slam=None) -> Stream:
             last_t = t
             ego = None
             if gate is not None:                                            # c.10.4
-                own = None if mount_of(ev.sensor) is None else (0.0, 0.0, 0.0)     # c.13: in the radar's frame
+                own = None if scan_mounting(ev.sensor) is None else ORIGIN     # c.13: in the radar's frame
                 keep, bad, ego, objects = gate.classify(ev, polar, own) if gated is None else gated[len(polars)]
                 polar = polar[keep]
                 moving.append(bad.size)
@@ -381,8 +382,7 @@ def _stream_arrays_checked(events, defer_polar: bool, slam=None) -> Stream:
                 kept.append(keep)
             kinds.append(SCAN)
             sen = ev.sensor
-            m = mount_of(sen)
-            mounts.append((0.0, 0.0, 0.0) if m is None else m)
+            mounts.append((ORIGIN if scan_mounting(sen) is None else sen).as_array())
             views.append((view0[0] if sen is None or sen.max_range_m is None else float(sen.max_range_m),
                           view0[1] if sen is None or sen.fov_rad is None else float(sen.fov_rad) / 2))
             polars.append(polar)
