@@ -45,6 +45,8 @@ class FilterRecord:
     bias : ndarray (K, 2m) or None
         Under the odometry-bias states (docs/method.md c.11): their values and standard deviations
         after every scan; None without them.
+    bias_names, bias_units : tuple of str (m,)
+        The bias states' names and units; empty without them.
     """
 
     poses: np.ndarray
@@ -61,6 +63,8 @@ class FilterRecord:
     times: np.ndarray = field(default_factory=lambda: np.empty(0))
     nis_rows: np.ndarray = field(default_factory=lambda: np.empty((0, 2)))
     bias: np.ndarray | None = None
+    bias_names: tuple[str, ...] = ()
+    bias_units: tuple[str, ...] = ()
 
 
 #: ``engine`` of :func:`run_filter`: the fused engine where it covers the configuration, or never.
@@ -115,6 +119,12 @@ def _bias_row(slam: EkfSlam) -> np.ndarray:
     return np.concatenate([slam.state.bias, np.sqrt(np.diag(slam.state.bias_cov))])
 
 
+def _bias_labels(slam: EkfSlam) -> dict:
+    """The odometry-bias states' names and units (c.11), empty without them."""
+    b = slam.bias_model
+    return {"bias_names": b.names, "bias_units": b.units} if b is not None and b.dim else {}
+
+
 def _drive_events(slam: EkfSlam, events, observers, maps: str, on_scan, t0: float) -> FilterRecord:
     """:func:`drive` event by event (:meth:`EkfSlam.process`)."""
     poses, covs, snaps, ndet, nass, nlm, nis_sum, nis_n, times, nis_rows, bias = ([] for _ in range(11))
@@ -148,7 +158,7 @@ def _drive_events(slam: EkfSlam, events, observers, maps: str, on_scan, t0: floa
                         np.array(nass), np.array(nlm), time.perf_counter() - t0, nis_sum=np.array(nis_sum),
                         nis_count=np.array(nis_n, dtype=float), times=np.array(times, dtype=float),
                         nis_rows=np.concatenate(nis_rows) if nis_rows else np.empty((0, 2)),
-                        bias=np.array(bias).reshape(-1, 2 * m) if m else None)
+                        bias=np.array(bias).reshape(-1, 2 * m) if m else None, **_bias_labels(slam))
 
 
 def fused_maps(result: dict, maps: str = "all") -> list[MapSnapshot]:
@@ -174,7 +184,7 @@ def _drive_fused(slam: EkfSlam, events, observers, maps: str, on_scan, t0: float
     record = FilterRecord(r["poses"], r["pose_covs"], snaps, r["n_detections"], r["n_associated"], r["n_landmarks"],
                           time.perf_counter() - t0, nis_sum=r["nis_sum"], nis_count=r["nis_count"].astype(float),
                           engine="fused", times=np.array([ev.t for ev in scans], dtype=float), nis_rows=nis_rows,
-                          bias=bias)
+                          bias=bias, **_bias_labels(slam))
     for o in observers:
         o.after_fused(slam, scans, r, arows)
     if on_scan is not None:
