@@ -12,13 +12,14 @@ import numpy as np
 
 from radarslam.config import Config, to_toml, validate
 from radarslam.core.angles import wrap_pi
-from radarslam.core.errors import ConfigError, InputError
+from radarslam.core.errors import InputError
 from radarslam.core.types import Scan
 from radarslam.egomotion.rig_odometry import with_rig_velocity
 from radarslam.runs.start import (FRAMES, START_STD, filter_to_platform, platform_to_filter,  # noqa: F401
                                   sensor_lever, start_pose, start_std, truth_at)
 from radarslam.runs.dead_reckoning import dead_reckoning  # noqa: F401  (runs.recording.dead_reckoning, its former home)
 from radarslam.runs.recording_outputs import bias_metrics, mounting_metrics
+from radarslam.runs.stream_run import RecordViews, refuse_drawn_start, run_stream
 from radarslam.models.radar import polar_to_xy
 from radarslam.slam.driver import FilterRecord, Observer, drive, fused_maps
 from radarslam.core.mounting import Mounting, detections_to_sensor
@@ -27,14 +28,17 @@ from radarslam.metrics.trajectory import DEFINITIONS, trajectory_errors
 
 
 @dataclass
-class RecordingRun:
-    """EKF-SLAM over a recording.
+class RecordingRun(RecordViews):
+    """EKF-SLAM over a recording: the one run type of a recorded stream, your own recording's or a
+    dataset's (:func:`radarslam.runs.dataset.run_dataset`). Its record's views by name
+    (``poses``, ``final_map``, ``nis``, ``bias``, ...) are :class:`~radarslam.runs.stream_run.RecordViews`'.
 
     Attributes
     ----------
     config : Config
         The effective configuration (``sensor`` states ``mounting``, :func:`with_mounting`).
     recording : Recording
+        What was read: a recording, or a dataset's loaded data (e.g. ``VictoriaParkData``).
     mounting : Mounting
         The one mounting of the steps that take one (:func:`effective_mounting`).
     events : list of Event
@@ -52,6 +56,14 @@ class RecordingRun:
         The rig's ego-motion from every radar's Doppler (detections with ``doppler_mps``).
     flags : DetectionFlags or None
         Each input detection's fate under ``filter.doppler_gate`` (moving, landmark, used).
+    name : str
+        What ran, for messages and figures: a dataset's name, else "".
+    gps : object or None
+        Position fixes to evaluate against (``t`` (n,) s on the scans' clock, ``xy`` (n, 2) m):
+        a GPS (Victoria Park's), or None.
+    reference_hits : ndarray, shape (n, 3), or None
+        A reference detector's detections attributed to the landmarks after each scan that has
+        some: landmark id, reference diameter (m), distance (m) (Victoria Park's laser mode: ACFR's trees).
     """
 
     config: Config
@@ -65,6 +77,9 @@ class RecordingRun:
     stream: StreamReport = dataclasses.field(default_factory=StreamReport)
     ego: object = None
     flags: object = None
+    name: str = ""
+    gps: object = None
+    reference_hits: np.ndarray | None = None
 
 
 def effective_mounting(rec: Recording, config: Config) -> Mounting:
@@ -198,9 +213,7 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
         return _in_car_frame(run, rec, calibration, align)
     config = validate(config)
     check_motion_model(rec, config.filter.motion_model)
-    if config.filter.initial_error != "fixed":   # b.5: a draw needs the true first pose of a simulation
-        raise ConfigError(f"filter.initial_error: expected 'fixed' for real data (no true first pose to draw about), "
-                          f"got {config.filter.initial_error!r}")
+    refuse_drawn_start(config)                  # b.5: a draw needs the true first pose of a simulation
     m = effective_mounting(rec, config)          # the steps that take one mounting (metrics.json says which)
     config = with_mounting(config, m)
     rec = checked_doppler(rec, config, m)
@@ -264,36 +277,12 @@ def _in_car_frame(run: RecordingRun, rec: Recording, calibration, align: str) ->
 
 
 def _run_filter(config: Config, events: list, on_scan, first_run):
-    """The filter over ``events`` by the first-run plan's engine (``first_run``, a
-    :class:`~radarslam.compiling.policy.Plan`; None: the configuration's) and, under
-    ``filter.doppler_gate``, every scan detection's flags (runs/detection_flags.py). A plan that
-    compiles the orchestrator's kernels first splits the compile over the two cores and says every
-    few seconds that it is still compiling."""
-    from radarslam.compiling.stream_plan import _compile_beside, _heartbeat
+    """The filter over ``events`` by the first-run plan's engine (:func:`~radarslam.runs.stream_run.run_stream`)
+    and, under ``filter.doppler_gate``, every scan detection's flags (runs/detection_flags.py)."""
     from radarslam.runs.detection_flags import FlagsObserver
 
-    engine = "auto" if first_run is None else first_run.engine
-    run_config = config
-    if engine == "python":
-        run_config = dataclasses.replace(config, filter=dataclasses.replace(config.filter, backend="python"))
-    compiles = first_run is not None and first_run.compiles and engine == "orchestrator"
-    side = _compile_beside(config, events) if compiles else None
     flags = FlagsObserver() if config.filter.doppler_gate else None
-    with _heartbeat(first_run.compile_s if compiles else 0.0) as compiled:
-        n = [0]
-
-        def tick():                      # numba compiles within the first two scans (stream_plan)
-            if on_scan is not None:
-                on_scan()
-            n[0] += 1
-            if n[0] == 2:
-                compiled.set()
-        record = drive(run_config, events, engine="orchestrator" if engine in ("python", "orchestrator") else "auto",
-                       observers=[flags] if flags is not None else [], on_scan=tick)
-    if side is not None:
-        side.shutdown(wait=False, cancel_futures=True)
-    if engine == "python" and config.filter.backend != "python":   # the plan chose the reference (a first run)
-        record.engine = "python"
+    record = run_stream(config, events, first_run, observers=[flags] if flags is not None else [], on_scan=on_scan)
     return record, None if flags is None else flags.result()
 
 
