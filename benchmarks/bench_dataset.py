@@ -76,7 +76,7 @@ def main() -> None:
     t0 = time.perf_counter()
     evaluate_against_gps(run)
     diam = compare_tree_diameters(run) if mode == "laser" else None
-    print(f"  last run ({mode}): load {run.load_seconds:.1f} s   evaluation {time.perf_counter() - t0:.1f} s"
+    print(f"  last run ({mode}): load {run.metrics['load_seconds']:.1f} s   evaluation {time.perf_counter() - t0:.1f} s"
           + ("" if diam is None else f"   matched trees {diam['n_matched']}"))
 
 

@@ -56,7 +56,7 @@ def main(argv=None) -> None:
                       loader_options=victoria_park_options(cfg, a.input))
     pub = evaluate_published(run)
     t_fix, e = run.times[pub["index"]], pub["errors_m"]
-    gt, gxy = np.asarray(run.data.gps.t), np.asarray(run.data.gps.xy)
+    gt, gxy = np.asarray(run.gps.t), np.asarray(run.gps.xy)
     print(f"{a.input}: published RMSE {pub['rmse_m']:.2f} m over {e.size} fixes")
     print("| window (s) | RMSE (m) | pos std (m) | heading std (deg) | associated/scan | landmarks | GPS gaps | GPS jumps |")
     print("|---|---|---|---|---|---|---|---|")

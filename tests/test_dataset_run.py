@@ -12,7 +12,9 @@ import pytest
 
 from radarslam.config import profile_config
 from radarslam.core.errors import InputError
-from radarslam.runs.dataset import (REFERENCE_GATE_M, DatasetRun, _attribute_reference, compare_tree_diameters, trunk_diameter)
+from radarslam.runs.dataset import (REFERENCE_GATE_M, _attribute_reference, compare_tree_diameters, trunk_diameter)
+from radarslam.runs.recording import RecordingRun
+from radarslam.slam.driver import FilterRecord
 from radarslam.slam.filter import MapSnapshot
 
 
@@ -56,15 +58,16 @@ def test_trunk_diameter_scales_with_gamma_and_batches():
         trunk_diameter(np.eye(2), 0.0)
 
 
-def _run_with(ids, rma, hits, estimator="rma-efa") -> DatasetRun:
+def _run_with(ids, rma, hits, estimator="rma-efa") -> RecordingRun:
     n = len(ids)
     snap = MapSnapshot(ids=np.array(ids), positions=np.zeros((n, 2)), covs=np.zeros((n, 2, 2)),
                        rma=np.asarray(rma, dtype=float), efa=np.full((n, 2, 2), np.nan), created=np.zeros(n, int))
     e = np.empty(0)
     cfg = profile_config("victoria-park")
     cfg = dataclasses.replace(cfg, extent=dataclasses.replace(cfg.extent, estimator=estimator))
-    return DatasetRun("x", cfg, None, e, e.reshape(0, 3), e.reshape(0, 3, 3), e, e,
-                      snap, 0.0, 0.0, None if hits is None else np.asarray(hits, dtype=float))
+    record = FilterRecord(e.reshape(0, 3), e.reshape(0, 3, 3), [snap], e, e, e)
+    return RecordingRun(cfg, None, None, [], e, record, None, {}, name="x",
+                        reference_hits=None if hits is None else np.asarray(hits, dtype=float))
 
 
 def test_compare_tree_diameters_matches_by_id_and_counts():
@@ -113,7 +116,7 @@ def test_duplicate_landmarks_counts_pairs_by_radius():
 
     run = _run_with([1, 2, 3, 4], np.zeros((4, 2, 2)), None)
     pos = np.array([[0.0, 0.0], [0.3, 0.0], [1.7, 0.0], [10.0, 0.0]])
-    run.final_map = MapSnapshot(ids=np.array([1, 2, 3, 4]), positions=pos, covs=np.zeros((4, 2, 2)),
+    run.record.maps[-1] = MapSnapshot(ids=np.array([1, 2, 3, 4]), positions=pos, covs=np.zeros((4, 2, 2)),
                                 rma=np.zeros((4, 2, 2)), efa=np.zeros((4, 2, 2)), created=np.zeros(4, int))
     d = duplicate_landmarks(run, 0.42)
     assert d["n_pairs"] == 1 and d["pairs"] == [(1, 2)]
@@ -132,8 +135,7 @@ def test_position_consistency_counts_the_bound_per_axis_with_the_gps_std():
 
     poses = np.array([[1.0, 0.0, 0.0], [3.0, 0.0, 0.0], [5.0, 0.0, 0.0]])
     covs = np.tile(np.diag([1.0, 1.0, 0.01]), (3, 1, 1))
-    run = SimpleNamespace(poses=poses, pose_covs=covs, times=np.arange(3.0),
-                          data=SimpleNamespace(gps=SimpleNamespace(xy=np.zeros((3, 2)))))
+    run = SimpleNamespace(poses=poses, pose_covs=covs, times=np.arange(3.0), gps=SimpleNamespace(xy=np.zeros((3, 2))))
     c = position_consistency(run, {"index": np.arange(3), "fix": np.arange(3)}, gps_std_m=1.0)
     assert c["inside_east"] == pytest.approx(2 / 3) and c["inside_north"] == 1.0
     assert c["inside_both"] == pytest.approx(2 / 3) and c["inside_both_filter_only"] == pytest.approx(1 / 3)

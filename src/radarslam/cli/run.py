@@ -164,7 +164,8 @@ def write_outputs(out, res, wall: float, argv=None) -> None:
 
 
 def run_dataset_cmd(args: argparse.Namespace) -> int:
-    """``radarslam run --dataset NAME PATH``: the whole recording, evaluated against its GPS."""
+    """``radarslam run --dataset NAME PATH``: the whole recording, run as a recording is (one
+    :class:`~radarslam.runs.recording.RecordingRun`), evaluated against its GPS."""
     from radarslam.runs.dataset import (compare_tree_diameters, dead_reckoning, evaluate_against_gps, duplicate_landmarks, evaluate_published, nis_fraction, position_consistency, run_dataset, victoria_park_options)
     from radarslam.io.datasets import list_datasets
 
@@ -196,7 +197,7 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
     ev = evaluate_against_gps(res)
     pub = evaluate_published(res) if published else None
     cons = position_consistency(res, pub) if published else None     # docs/method.md v.7
-    dr_poses = dead_reckoning(res.data, res.config)[1]
+    dr_poses = dead_reckoning(res.recording, res.config)[1]
     dr_ev = evaluate_against_gps(res, dr_poses)
     diam = compare_tree_diameters(res) if res.reference_hits is not None and args.input == "laser" else None
     nis = nis_fraction(res)
@@ -240,7 +241,7 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
                        "unit": res.bias_units[i]}
                    for i, n in enumerate(res.bias_names)},
                "engine": res.engine, "filter_seconds": res.seconds, "filter_ms_per_scan": 1e3 * res.seconds / max(res.times.size, 1),
-               "load_seconds": res.load_seconds, "wall_seconds": wall}
+               "load_seconds": res.metrics["load_seconds"], "wall_seconds": wall}
     write_json(out / "metrics.json", metrics)
     atomic_write_text(out / "config.toml", to_toml(res.config))
     write_json(out / "run.json", {"dataset": name, "input": args.input, "path": str(path), "first_scan": args.first_scan,

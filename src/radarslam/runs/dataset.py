@@ -1,24 +1,32 @@
-"""Running EKF-SLAM over a recorded dataset (``radarslam run --dataset NAME PATH``)."""
+"""Running EKF-SLAM over a recorded dataset (``radarslam run --dataset NAME PATH``).
+
+A dataset is run as a recording is: its loaded data is the run's input, its event stream goes
+through the one filter run of a recorded stream (:func:`~radarslam.runs.stream_run.run_stream`),
+and the run is the one run type, :class:`~radarslam.runs.recording.RecordingRun`, with the GPS
+and the reference detector's hits beside the record. The evaluations below take that run."""
 
 from __future__ import annotations
 
 import math
 import sys
 import time
-from dataclasses import dataclass
+import warnings
 
 import numpy as np
 
 from radarslam.config import Config, validate
-from radarslam.core.errors import ConfigError, InputError
+from radarslam.core.errors import InputError
 from radarslam.core.registry import EXTENT_ESTIMATORS
 from radarslam.core.types import Odometry, Scan
 from radarslam.extent.ellipse import trunk_diameter  # noqa: F401  (re-exported: its former home)
+from radarslam.io.recording.mounting import Mounting
 from radarslam.metrics.alignment import error_against_fixes
 from radarslam.models.radar import polar_to_xy
+from radarslam.runs.recording import RecordingRun
+from radarslam.runs.stream_run import refuse_drawn_start, run_stream
 from radarslam.slam import _fused
-from radarslam.slam.driver import Observer, drive
-from radarslam.slam.filter import EkfSlam, MapSnapshot
+from radarslam.slam.driver import Observer
+from radarslam.slam.filter import EkfSlam
 from radarslam.compiling.stream_plan import (  # noqa: F401  (re-exported: their former home)
     HEARTBEAT_S,
     ORCHESTRATOR_COMPILE_S,
@@ -36,35 +44,13 @@ from radarslam.compiling.stream_plan import (  # noqa: F401  (re-exported: their
 REFERENCE_GATE_M = 0.6
 
 
-@dataclass
-class DatasetRun:
-    """The estimate over a dataset: the pose after every scan and the final map.
-
-    Per-scan map snapshots are not kept (hundreds of landmarks over thousands of scans).
-    """
-
-    name: str
-    config: Config
-    data: object
-    times: np.ndarray  # (K,) scan times (s)
-    poses: np.ndarray  # (K, 3)
-    pose_covs: np.ndarray  # (K, 3, 3)
-    n_landmarks: np.ndarray  # (K,)
-    n_associated: np.ndarray  # (K,)
-    final_map: MapSnapshot
-    seconds: float
-    load_seconds: float
-    reference_hits: np.ndarray | None = None  # (n, 3): landmark id, reference diameter (m), distance (m)
-    nis: np.ndarray | None = None  # (u, 2): scan position, NIS of each association update (2 dof)
-    #: Under filter.odometry_bias "states" (docs/method.md c.11): the bias states after every scan
-    #: (K, m), their std (K, m), names and units (m,); None without them.
-    bias: np.ndarray | None = None
-    bias_std: np.ndarray | None = None
-    bias_names: tuple[str, ...] = ()
-    bias_units: tuple[str, ...] = ()
-    #: What ran the filter: "fused", "orchestrator" (event by event, compiled steps) or "python"
-    #: (the reference; the first run on a machine, :func:`first_run_plan`).
-    engine: str = ""
+def __getattr__(name: str):
+    """``DatasetRun``, the former run type of a dataset: now :class:`RecordingRun` (deprecated name)."""
+    if name == "DatasetRun":
+        warnings.warn("radarslam.runs.dataset.DatasetRun is now radarslam.runs.recording.RecordingRun, the one run "
+                      "type of a recording or a dataset; import that", DeprecationWarning, stacklevel=2)
+        return RecordingRun
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def victoria_park_options(config: Config, input: str = "laser", **extra) -> dict:
@@ -74,8 +60,12 @@ def victoria_park_options(config: Config, input: str = "laser", **extra) -> dict
 
 
 def run_dataset(name: str, path, config: Config, *, first_scan: int | None = None, n_scans: int | None = None,
-                progress: bool = True, loader_options: dict | None = None) -> DatasetRun:
-    """Load dataset ``name`` from ``path`` and run :class:`EkfSlam` over its event stream.
+                progress: bool = True, loader_options: dict | None = None) -> RecordingRun:
+    """Load dataset ``name`` from ``path`` and run :class:`EkfSlam` over its event stream as a
+    recording's is run (:func:`~radarslam.runs.stream_run.run_stream`): a :class:`RecordingRun`
+    whose ``recording`` is the loaded data, with its ``gps`` and, in Victoria Park's laser mode,
+    ACFR's tree detections attributed to the landmarks after each scan (``reference_hits``); the
+    map is kept after the last scan only, and ``metrics`` holds ``load_seconds``.
 
     A configuration the fused engine covers (:func:`radarslam.slam._fused.why_not`; the Victoria
     Park profiles of both input modes do) runs the whole stream in one compiled call and gives the
@@ -86,45 +76,31 @@ def run_dataset(name: str, path, config: Config, *, first_scan: int | None = Non
     from radarslam.io.datasets import get_dataset
 
     config = validate(config)
-    if config.filter.initial_error != "fixed":   # b.5: a draw needs the true first pose of a simulation
-        raise ConfigError(f"filter.initial_error: expected 'fixed' for real data (no true first pose to draw about), "
-                          f"got {config.filter.initial_error!r}")
+    refuse_drawn_start(config)                  # b.5: a draw needs the true first pose of a simulation
     t0 = time.perf_counter()
     data = get_dataset(name)(path, first_scan=first_scan, n_scans=n_scans, **(loader_options or {}))
     load_s = time.perf_counter() - t0
     n = sum(isinstance(e, Scan) for e in data.events)
-    slam = EkfSlam(config)
     trees = getattr(data, "trees", None)
     if getattr(data, "options", {}).get("input") == "trees":
         trees = None      # the trees are the input: there is no independent reference to attribute
-    reference = _Reference(trees, config.filter.max_range_m)
-    fused = _fused.why_not(slam, data.events) is None
-    plan = first_run_plan(config, n, fused)
-    hits = _ReferenceHits(reference)
-    t0 = time.perf_counter()
+    hits = _ReferenceHits(_Reference(trees, config.filter.max_range_m))
+    plan = first_run_plan(config, n, _fused.why_not(EkfSlam(config), data.events) is None)
     if plan.announce and progress:
         print(f"run: {plan.announce}", file=sys.stderr, flush=True)
-    if plan.engine == "fused":
-        bar = Progress(n, 0, enabled=progress, unit="scans")      # its clock from the call's start: the true rate
-        rec = drive(config, data.events, observers=[hits], maps="last")
+    fused = plan.engine == "fused"
+    # the fused call's bar: its clock from the call's start (the true rate); event by event, its first
+    # scan carries the imports and the compile
+    bar = Progress(n, 0, enabled=progress, unit="scans", warm_up_unit=not fused)
+    record = run_stream(config, data.events, plan, observers=[hits], maps="last",
+                        on_scan=None if fused else scan_clock(bar), heartbeat=progress)
+    if fused:
         bar.update(n)
-    else:
-        run_config = _with_backend(config, "python") if plan.engine == "python" else config
-        slam = EkfSlam(run_config)
-        side = _compile_beside(config, data.events) if plan.compiles else None
-        bar = Progress(n, 0, enabled=progress, unit="scans", warm_up_unit=True)   # its first scan: imports, compiles
-        with _heartbeat(plan.compile_s if plan.compiles and progress else 0.0) as compiled:
-            rec = drive(run_config, data.events, slam=slam, observers=[hits], maps="last",
-                        on_scan=scan_clock(bar, compiled))
-        if side is not None:
-            side.shutdown(wait=False, cancel_futures=True)
+    if plan.engine == "python":
+        record.engine = "python"                # the reference, also under filter.backend "python"
     ref = (np.concatenate(hits.hits) if hits.hits else np.empty((0, 3))) if trees is not None else None
-    m = 0 if slam.bias_model is None else slam.bias_model.dim     # c.11: the bias states, if any
-    b = rec.bias
-    return DatasetRun(name, config, data, rec.times, rec.poses, rec.pose_covs, rec.n_landmarks, rec.n_associated,
-                      rec.maps[-1], time.perf_counter() - t0, load_s, ref, rec.nis_rows,
-                      None if b is None else b[:, :m], None if b is None else b[:, m:],
-                      slam.bias_model.names if m else (), slam.bias_model.units if m else (), plan.engine)
+    return RecordingRun(config, data, Mounting.from_config(config.sensor), data.events, record.times, record, None,
+                        {"load_seconds": load_s}, name=name, gps=getattr(data, "gps", None), reference_hits=ref)
 
 
 class _Reference:
@@ -207,7 +183,7 @@ def _attribute_reference(pose: np.ndarray, positions: np.ndarray, ids: np.ndarra
     return np.column_stack([np.asarray(ids)[j[ok]].astype(float), det[ok, 2], dist[ok]])
 
 
-def compare_tree_diameters(run: DatasetRun, *, min_detections: int = 3) -> dict:
+def compare_tree_diameters(run: RecordingRun, *, min_detections: int = 3) -> dict:
     """Trunk diameters of the final map against a reference tree detector (ACFR's ``detectTreesI16``).
 
     Every reference detection was attributed online to its nearest landmark (:func:`run_dataset`);
@@ -229,7 +205,7 @@ def compare_tree_diameters(run: DatasetRun, *, min_detections: int = 3) -> dict:
         and per-tree arrays ``ids``, ``estimate_m``, ``baseline_m``, ``reference_m``, ``n_detections``.
     """
     if run.reference_hits is None:
-        raise InputError(f"run: expected a dataset run with reference tree detections, got none for {run.name!r}")
+        raise InputError(f"run: expected a run with reference tree detections, got none for {run.name!r}")
     if min_detections < 1:
         raise InputError(f"min_detections: expected an integer >= 1, got {min_detections!r}")
     mp = run.final_map
@@ -273,7 +249,7 @@ def compare_tree_diameters(run: DatasetRun, *, min_detections: int = 3) -> dict:
 DUPLICATE_RADII_M = (1.0, 1.5, 2.0, 3.0)
 
 
-def duplicate_landmarks(run: DatasetRun, diameter_m: float | None = None) -> dict:
+def duplicate_landmarks(run: RecordingRun, diameter_m: float | None = None) -> dict:
     """Pairs of final landmarks closer than a trunk diameter: one trunk mapped twice (issue 11).
 
     ``diameter_m`` defaults to the median reference diameter of the run's trees (ACFR's detector),
@@ -286,7 +262,7 @@ def duplicate_landmarks(run: DatasetRun, diameter_m: float | None = None) -> dic
     """
     mp = run.final_map
     if diameter_m is None:
-        tr = getattr(run.data, "trees", None)
+        tr = getattr(run.recording, "trees", None)
         diameter_m = float(np.nanmedian(tr.diameters)) if tr is not None and np.any(tr.valid) else 0.42
     if not diameter_m > 0:
         raise InputError(f"diameter_m: expected a positive number, got {diameter_m!r}")
@@ -300,26 +276,33 @@ def duplicate_landmarks(run: DatasetRun, diameter_m: float | None = None) -> dic
             "pairs_within": within, "pairs": close}
 
 
-def evaluate_published(run: DatasetRun, poses: np.ndarray | None = None) -> dict:
+def _gps(run: RecordingRun):
+    """The run's position fixes (``run.gps``), refused in one line when it has none."""
+    if run.gps is None:
+        raise InputError(f"run: expected a run with GPS fixes (gps), got none for {run.name!r}")
+    return run.gps
+
+
+def evaluate_published(run: RecordingRun, poses: np.ndarray | None = None) -> dict:
     """The published protocol (docs/method.md v.4): no alignment; the error at every scan within
     25 ms of a GPS fix, over the unfiltered fixes. The run must have started at the first fix in the
     GPS frame (``--protocol published``)."""
     from radarslam.io.datasets.victoria_park import PUBLISHED_TOLERANCE_S
     from radarslam.metrics.alignment import error_at_fixes
 
-    gps = run.data.gps
+    gps = _gps(run)
     poses = run.poses if poses is None else np.asarray(poses)
     return error_at_fixes(run.times, poses[:, :2], np.asarray(gps.t), np.asarray(gps.xy), PUBLISHED_TOLERANCE_S)
 
 
-def evaluate_against_gps(run: DatasetRun, poses: np.ndarray | None = None) -> dict:
+def evaluate_against_gps(run: RecordingRun, poses: np.ndarray | None = None) -> dict:
     """GPS-aligned position error of the estimated sensor track (the antenna sits at the laser).
 
     GPS jumps are removed by the fixes' own implied speed (> 8 m/s; the car's top speed is about
     6.6 m/s); the remaining fixes are aligned by least squares with no residual-based rejection.
     ``poses (K, 3)`` at the run's scan times replaces the estimate (e.g. :func:`dead_reckoning`).
     """
-    gps = run.data.gps
+    gps = _gps(run)
     poses = run.poses if poses is None else np.asarray(poses)
     return error_against_fixes(run.times, poses[:, :2], np.asarray(gps.t), np.asarray(gps.xy),
                                robust=False, max_speed=8.0)
@@ -329,7 +312,7 @@ def evaluate_against_gps(run: DatasetRun, poses: np.ndarray | None = None) -> di
 NIS_BAND_PROBABILITY = 0.95
 
 
-def nis_fraction(run: DatasetRun, *, window: int = 100) -> dict:
+def nis_fraction(run: RecordingRun, *, window: int = 100) -> dict:
     """The NIS of every association update of a run against its chi-square band (2 dof each).
 
     A consistent filter's NIS is chi-square with 2 degrees of freedom, so 95% of the updates fall
@@ -341,7 +324,7 @@ def nis_fraction(run: DatasetRun, *, window: int = 100) -> dict:
     from radarslam.extent.sifting import chi2_2dof_quantile
 
     if run.nis is None:
-        raise InputError(f"run: expected a dataset run with recorded NIS, got none for {run.name!r}")
+        raise InputError(f"run: expected a run with recorded NIS, got none for {run.name!r}")
     if isinstance(window, bool) or not isinstance(window, int) or window < 1:
         raise InputError(f"window: expected an integer >= 1, got {window!r}")
     lo, hi = (chi2_2dof_quantile((1 - NIS_BAND_PROBABILITY) / 2), chi2_2dof_quantile((1 + NIS_BAND_PROBABILITY) / 2))
@@ -370,7 +353,7 @@ GPS_STD_M = 1.0
 TWO_SIGMA_PROBABILITY = 0.9545
 
 
-def position_consistency(run: DatasetRun, published: dict, gps_std_m: float = GPS_STD_M) -> dict:
+def position_consistency(run: RecordingRun, published: dict, gps_std_m: float = GPS_STD_M) -> dict:
     """The filter's position covariance against the GPS error of the published protocol (v.7).
 
     At every scan of ``published`` (:func:`evaluate_published`: ``index``, ``fix``) the error
@@ -391,7 +374,7 @@ def position_consistency(run: DatasetRun, published: dict, gps_std_m: float = GP
     if not (isinstance(gps_std_m, (int, float)) and math.isfinite(gps_std_m) and gps_std_m >= 0):
         raise InputError(f"gps_std_m: expected a finite number >= 0, got {gps_std_m!r}")
     idx, fix = np.asarray(published["index"], dtype=int), np.asarray(published["fix"], dtype=int)
-    e = run.poses[idx, :2] - np.asarray(run.data.gps.xy, dtype=float)[fix]
+    e = run.poses[idx, :2] - np.asarray(_gps(run).xy, dtype=float)[fix]
     Pf = run.pose_covs[idx, :2, :2]
     var_f = np.stack([Pf[:, 0, 0], Pf[:, 1, 1]], axis=1)
     sig = np.sqrt(var_f + 2.0 * gps_std_m ** 2)
