@@ -143,3 +143,58 @@ def test_position_consistency_counts_the_bound_per_axis_with_the_gps_std():
     assert c["mean_mahalanobis2"] == pytest.approx((1 + 9 + 25) / 3 / 3)
     with pytest.raises(InputError, match="gps_std_m"):
         position_consistency(run, {"index": np.arange(3), "fix": np.arange(3)}, gps_std_m=-1.0)
+
+
+def test_a_recording_run_with_gps_is_evaluated_as_victoria_park_is():
+    """The one run type: a RecordingRun with ``gps`` set (a recording of your own) takes the GPS
+    evaluations. Analytic oracle: every pose 0.3 m east and 0.4 m north of its fix gives a published
+    error of 0.5 m at every fix, and an aligned error of 0 (the offset is a translation); without
+    fixes the evaluations are refused in one line."""
+    from types import SimpleNamespace
+
+    from radarslam.runs.dataset import evaluate_against_gps, evaluate_published, position_consistency
+
+    t = np.arange(40) * 0.5
+    xy = np.column_stack([t, np.sin(t)])                      # a curved track at ~1-1.4 m/s
+    poses = np.column_stack([xy + [0.3, 0.4], np.zeros(t.size)])
+    record = FilterRecord(poses, np.tile(np.eye(3), (t.size, 1, 1)), [], *(np.zeros(t.size, int),) * 3, times=t)
+    run = RecordingRun(profile_config("victoria-park"), None, None, [], t, record, None, {}, name="mine",
+                       gps=SimpleNamespace(t=t, xy=xy))
+    pub = evaluate_published(run)
+    assert pub["n_matched"] == t.size and pub["rmse_m"] == pytest.approx(0.5)
+    ev = evaluate_against_gps(run)
+    assert ev["n_fixes"] == t.size and ev["rmse_m"] == pytest.approx(0.0, abs=1e-9)
+    assert position_consistency(run, pub)["n"] == t.size
+    no_gps = dataclasses.replace(run, gps=None)
+    for evaluate in (evaluate_published, evaluate_against_gps):
+        with pytest.raises(InputError, match="expected a run with GPS fixes") as err:
+            evaluate(no_gps)
+        assert "\n" not in str(err.value) and "'mine'" in str(err.value)
+
+
+def test_datasetrun_is_a_deprecated_name_of_the_one_run_type():
+    from radarslam.runs import dataset
+
+    with pytest.warns(DeprecationWarning, match="RecordingRun"):
+        assert dataset.DatasetRun is RecordingRun
+    with pytest.raises(AttributeError):
+        dataset.NoSuchRun  # noqa: B018
+
+
+def test_run_dataset_runs_victoria_park_as_a_recording(victoria_park_dir, monkeypatch):
+    """``run_dataset`` goes through the recordings' filter run (``run_stream``, once) and gives the
+    one run type, the loaded data as its input, with its GPS and the reference hits (laser mode)."""
+    from radarslam.runs import dataset, stream_run
+
+    calls = []
+    real = stream_run.run_stream
+    monkeypatch.setattr(dataset, "run_stream", lambda *a, **k: calls.append(k) or real(*a, **k))
+    cfg = profile_config("victoria-park")
+    run = dataset.run_dataset("victoria-park", victoria_park_dir, cfg, n_scans=40, progress=False,
+                              loader_options=dataset.victoria_park_options(cfg))
+    assert len(calls) == 1 and calls[0]["maps"] == "last"
+    assert type(run) is RecordingRun and run.name == "victoria-park"
+    assert run.events is run.recording.events and run.gps is run.recording.gps
+    assert run.reference_hits is not None and run.reference_hits.shape[1] == 3
+    assert run.times.size == run.poses.shape[0] == 40 and run.truth is None
+    assert run.metrics["load_seconds"] > 0 and run.engine in ("fused", "orchestrator", "python")
