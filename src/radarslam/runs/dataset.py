@@ -19,7 +19,7 @@ from radarslam.core.errors import InputError
 from radarslam.core.registry import EXTENT_ESTIMATORS
 from radarslam.core.types import Odometry, Scan
 from radarslam.extent.ellipse import trunk_diameter  # noqa: F401  (re-exported: its former home)
-from radarslam.io.recording.mounting import Mounting
+from radarslam.core.mounting import Mounting
 from radarslam.metrics.alignment import error_against_fixes
 from radarslam.models.radar import polar_to_xy
 from radarslam.runs.recording import RecordingRun
