@@ -224,8 +224,7 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
     std = start_std(config, origin)             # the written config.toml reruns the same start
     config = dataclasses.replace(config, filter=dataclasses.replace(config.filter, initial_pose=pose,
                                                                     initial_pose_std=std))
-    filter_config = with_rig(rec, config)
-    record, flags = _run_filter(filter_config, events, on_scan, first_run)
+    record, flags = _run_filter(with_rig(rec, config), events, on_scan, first_run)
     truth = None if rec.truth is None else truth_at(times, rec.truth_t, rec.truth)
     metrics = {"scans": int(times.size), "detections": int(record.n_detections.sum()),
                "associated": int(record.n_associated.sum()),
@@ -241,7 +240,7 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
         metrics.update(evaluate_truth(record.poses, dead_reckoning(events, config, pose), truth, config, align,
                                       metrics["start"]))
     if record.bias is not None:                                # c.11, c.11.12: the car's states
-        metrics["odometry_bias"] = bias_metrics(filter_config, record)
+        metrics["odometry_bias"] = bias_metrics(record)
     ego, flags = _doppler_outputs(rec, m, flags, metrics, config)
     return RecordingRun(config, rec, m, events, times, record, truth, metrics, report, ego, flags)
 

@@ -108,28 +108,14 @@ def landmark_sensors(events: list, created: np.ndarray) -> np.ndarray:
     return np.array([by_index.get(int(k), -1) for k in np.asarray(created).reshape(-1)], dtype=np.int64)
 
 
-def bias_names(config) -> tuple[tuple[str, ...], tuple[str, ...]]:
-    """The odometry-bias states' names and units of a run with ``config`` (the filter's, its rig
-    included; docs/method.md c.11, c.11.12, c.13.1), empty without them."""
-    from radarslam.models.body_velocity import BodyVelocityModel
-    from radarslam.models.motion import motion_model_from_config
-    from radarslam.slam.bias import bias_states
-    from radarslam.slam.radar_yaw import radar_yaw_states
-
-    f = config.filter
-    b = bias_states(motion_model_from_config(f) if f.odometry == "odometer" else BodyVelocityModel(), f,
-                    radar_yaw_states(config.estimator))
-    return ((), ()) if b is None else (b.names, b.units)
-
-
-def bias_metrics(config, record) -> dict | None:
-    """metrics.json's ``odometry_bias``: each state's final value, std and unit (c.11), or None."""
+def bias_metrics(record) -> dict | None:
+    """metrics.json's ``odometry_bias``: each state's final value, std and unit (docs/method.md c.11,
+    c.11.12, c.13.1), named as the filter's record names them, or None without the states."""
     if record.bias is None:
         return None
-    names, units = bias_names(config)
-    m = len(names)
+    m = len(record.bias_names)
     return {n: {"final": float(record.bias[-1, i]), "final_std": float(record.bias[-1, m + i]), "unit": u}
-            for i, (n, u) in enumerate(zip(names, units))}
+            for i, (n, u) in enumerate(zip(record.bias_names, record.bias_units))}
 
 
 def write_run_tables(out: Path, run) -> list[str]:
@@ -143,7 +129,7 @@ def write_run_tables(out: Path, run) -> list[str]:
     if run.record.bias is not None:                       # filter.odometry_bias "states" (c.11, c.11.12)
         m = run.record.bias.shape[1] // 2
         write_bias_csv(out / "bias.csv", run.times, run.record.bias[:, :m], run.record.bias[:, m:],
-                       list(run.metrics["odometry_bias"]))
+                       run.record.bias_names)
         names.append("bias.csv")
     if run.ego is not None:
         write_ego_velocity_csv(out / "ego_velocity.csv", run.ego)
