@@ -81,8 +81,9 @@ def test_dask_scheduler_address_equals_local_run(reference_run, tmp_path):
     assert_same_results(reference_run, tmp_path, range(1, 4))
 
 
-def test_unreachable_scheduler_is_a_clear_error(tmp_path):
+def test_unreachable_scheduler_is_a_clear_error(tmp_path, monkeypatch):
     require("distributed")
+    monkeypatch.setattr(mc, "CONNECT_TIMEOUT_S", 2.0)        # the same refusal, sooner than the 20 s default
     with pytest.raises(InputError, match="--scheduler"):
         run_montecarlo(short_config(), 1, 1, tmp_path, scheduler="tcp://127.0.0.1:9", progress=False)
 

@@ -147,6 +147,10 @@ class MonteCarloSummary:
     seconds: float
 
 
+#: How long a Dask client waits for its scheduler before the run is refused (s).
+CONNECT_TIMEOUT_S = 20.0
+
+
 def run_montecarlo(config: Config, seed: int, n_trials: int, out: str | Path, *, jobs: int = 1,
                    scheduler: str | None = None, dask_local: int | None = None, progress: bool = True,
                    log: Callable[[str], None] | None = None,
@@ -330,7 +334,7 @@ def _run_dask(cfg_dict: dict, seed: int, variants: tuple[Variant, ...], todo: li
                                dashboard_address=None)
     try:
         try:
-            client = Client(cluster if cluster is not None else scheduler, timeout="20s")
+            client = Client(cluster if cluster is not None else scheduler, timeout=f"{CONNECT_TIMEOUT_S:g}s")
         except OSError as exc:
             raise InputError(f"--scheduler: cannot reach {scheduler} ({exc})") from None
         try:
