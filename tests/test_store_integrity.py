@@ -244,11 +244,18 @@ if __name__ == "__main__":
 
 def test_negative_control_a_worker_ended_while_sending_bytes_leaves_the_manager_stuck(tmp_path):
     """The hazard that the spool avoids, seen: a plain pool whose workers send 16 MB results back,
-    ended while they do, leaves its manager thread blocked (the script leaves with os._exit)."""
+    ended while they do, leaves its manager thread blocked (the script leaves with os._exit). Whether
+    a worker is caught mid-send is a race (on a loaded machine once in CI none was, at 775bd71): the
+    hazard must show in one of three tries."""
     script = tmp_path / "pipe.py"
     script.write_text(_BYTES_OVER_THE_PIPE)
-    out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120)
-    assert out.stdout.strip() == "stuck", out.stderr
+    seen = []
+    for _ in range(3):
+        out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120)
+        seen.append(out.stdout.strip())
+        if seen[-1] == "stuck":
+            break
+    assert seen[-1] == "stuck", (seen, out.stderr)
 
 
 def test_negative_control_a_raising_handler_does_cut_a_slow_step_short():
