@@ -167,6 +167,7 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
     """``radarslam run --dataset NAME PATH``: the whole recording, run as a recording is (one
     :class:`~radarslam.runs.recording.RecordingRun`), evaluated against its GPS."""
     from radarslam.runs.dataset import (compare_tree_diameters, dead_reckoning, evaluate_against_gps, duplicate_landmarks, evaluate_published, nis_fraction, position_consistency, run_dataset, victoria_park_options)
+    from radarslam.runs.recording_outputs import bias_metrics
     from radarslam.io.datasets import list_datasets
 
     name, path = args.dataset
@@ -236,10 +237,7 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
                "consistency": None if cons is None else {
                    k: v for k, v in cons.items() if not isinstance(v, np.ndarray)},
                "nis": {k: nis[k] for k in ("n", "mean", "median", "inside", "below", "above", "band", "probability")},
-               "odometry_bias": None if res.bias is None else {
-                   n: {"final": float(res.bias[-1, i]), "final_std": float(res.bias_std[-1, i]),
-                       "unit": res.bias_units[i]}
-                   for i, n in enumerate(res.bias_names)},
+               "odometry_bias": bias_metrics(res.record),
                "engine": res.engine, "filter_seconds": res.seconds, "filter_ms_per_scan": 1e3 * res.seconds / max(res.times.size, 1),
                "load_seconds": res.metrics["load_seconds"], "wall_seconds": wall}
     write_json(out / "metrics.json", metrics)

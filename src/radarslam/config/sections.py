@@ -421,8 +421,6 @@ class EstimatorConfig:
     #: or the recording's sensors.csv set by the recording run), empty for one radar (``sensor``): what
     #: the radar alone observes (c.10.5.1, c.12.2) and the retirement's lever-arm margin (c.15).
     rig: tuple = ()
-    #: The sensor ids of ``rig``'s radars, in its order (each radar's yaw-offset state, c.13.1).
-    rig_ids: tuple = ()
 
     @property
     def mounting(self) -> Mounting:
@@ -458,5 +456,4 @@ class Config:
     def estimator(self) -> EstimatorConfig:
         """The estimator's own sections (shared, not copied)."""
         rig = tuple(Mounting.from_rig_config(s) for s in self.sensors)
-        return EstimatorConfig(self.filter, self.landmarks, self.extent, self.sensor, rig,
-                               tuple(int(s.id) for s in self.sensors))
+        return EstimatorConfig(self.filter, self.landmarks, self.extent, self.sensor, rig)

@@ -126,10 +126,8 @@ def write_run_tables(out: Path, run) -> list[str]:
     from radarslam.runs.detection_flags import write_moving_csv
 
     names = []
-    if run.record.bias is not None:                       # filter.odometry_bias "states" (c.11, c.11.12)
-        m = run.record.bias.shape[1] // 2
-        write_bias_csv(out / "bias.csv", run.times, run.record.bias[:, :m], run.record.bias[:, m:],
-                       run.record.bias_names)
+    if run.bias is not None:                              # filter.odometry_bias "states" (c.11, c.11.12)
+        write_bias_csv(out / "bias.csv", run.times, run.bias, run.bias_std, run.bias_names)
         names.append("bias.csv")
     if run.ego is not None:
         write_ego_velocity_csv(out / "ego_velocity.csv", run.ego)

@@ -2,7 +2,7 @@
 ``psi_j`` from the rig's stated yaw, learnt through the landmarks.
 
 Under ``filter.radar_yaw_states`` the platform block ends with one state ``psi_j`` per radar of the
-rig (``EstimatorConfig.rig_ids``, the config's ``sensors``, in sensor-id order), after the odometry-bias states (c.11). A scan from
+rig (``EstimatorConfig.rig``'s ``sensor_id``, the config's ``sensors``, in sensor-id order), after the odometry-bias states (c.11). A scan from
 radar ``j`` is measured from the sensor pose (c.13)
 
     s = (t + R(theta) [m_x, m_y],  theta + m_yaw + psi_j),
@@ -107,9 +107,9 @@ def radar_yaw_states(config) -> RadarYawStates | None:
         raise ConfigError("filter.radar_yaw_states: expected filter.odometry_bias 'states' (the offsets join the "
                           f"odometry-bias block, c.13.1; set its priors to 0 to hold the odometry's), got "
                           f"{f.odometry_bias!r}")
-    if not config.rig_ids:
+    if not config.rig:
         raise ConfigError("filter.radar_yaw_states: expected a rig of radars (a recording's sensors.csv or "
                           "[[sensors]] in the config), got none")
-    ids = sorted(config.rig_ids)
+    ids = sorted(int(m.sensor_id) for m in config.rig)
     return RadarYawStates(ids, math.radians(f.radar_yaw_std_deg), math.radians(f.radar_yaw_drift_deg_per_rt_s),
                           f.radar_yaw_reference == "rig")
