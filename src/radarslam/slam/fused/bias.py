@@ -67,8 +67,8 @@ def predict_biased(x, P, u, dt, U, Q, pose_first, model, cfg):  # pragma: no cov
     uc = _correct_input(u, b, cfg.bias_scaled, cfg.bias_offset, cfg.bias_turn)
     Cu, Cb = _input_jacobians(u, b, cfg.bias_scaled, cfg.bias_offset, cfg.bias_turn)
     pose, Fx, Fu = _motion(x, uc, dt, model, cfg)
-    if cfg.bias_thrust:                                     # c.11.12: the increment turned by the thrust angle
-        pose, Fx, Fu, Fb = _thrust_turn(x[:POSE_DIM], pose, Fx, Fu, Cb, b, p - POSE_DIM - 1)
+    if cfg.bias_thrust >= 0:                                # c.11.12: the increment turned by the thrust angle
+        pose, Fx, Fu, Fb = _thrust_turn(x[:POSE_DIM], pose, Fx, Fu, Cb, b, cfg.bias_thrust)
     else:
         Fb = Fu @ Cb
     if cfg.fej:

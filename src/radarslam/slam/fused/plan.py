@@ -91,7 +91,7 @@ class FusedParams(NamedTuple):
     bias_scaled: np.ndarray  #: (k,) int64, the inputs the speed-scale bias scales (InputBias.scaled; empty: none)
     bias_offset: int       #: the turning input (InputBias.offset)
     bias_turn: int         #: its error: models.input_bias.TURN_OFFSET, TURN_SCALE or TURN_BOTH (c.11.8)
-    bias_thrust: bool      #: a thrust-angle state last (c.11.12, slam.bias.thrust_turn)
+    bias_thrust: int       #: the thrust angle's index among the bias states, -1 none (BiasStates.thrust_index)
     bias_drift: np.ndarray   #: (m,) the bias states' drift per sqrt(s) (BiasStates.drift)
     bias_tau: float        #: their time constant, 0 for a random walk (filter.bias_tau_s)
     pv: ViewParams         #: the partial-view model's parameters (docs/method.md a.12; fused.view)
@@ -272,11 +272,11 @@ def _bias_parameters(bias) -> dict:
     """The :class:`FusedParams` fields of the odometry-bias states ``bias`` (a
     :class:`~radarslam.slam.bias.BiasStates`, or None without them; c.11)."""
     if bias is None:
-        return dict(platform=3, bias_scaled=np.zeros(0, dtype=np.int64), bias_offset=0, bias_turn=0, bias_thrust=False,
+        return dict(platform=3, bias_scaled=np.zeros(0, dtype=np.int64), bias_offset=0, bias_turn=0, bias_thrust=-1,
                     bias_drift=np.zeros(0), bias_tau=0.0)
     return dict(platform=int(bias.platform_dim), bias_scaled=bias.spec.scaled_index,
                 bias_offset=int(bias.spec.offset), bias_turn=int(bias.spec.turn_code),
-                bias_thrust=bool(bias.spec.thrust),
+                bias_thrust=int(bias.thrust_index),
                 bias_drift=np.ascontiguousarray(bias.drift, dtype=float), bias_tau=float(bias.tau))
 
 
