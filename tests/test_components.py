@@ -204,7 +204,7 @@ def _scan_near(rng, st: SlamState, m: int) -> np.ndarray:
 @pytest.mark.parametrize("seed", range(12))
 def test_compiled_associator_matches_python_on_random_states(seed, kind):
     require("numba")
-    from radarslam.slam._numba import CompiledBatchAssociator, CompiledNearestNeighbourAssociator
+    from radarslam.slam.compiled_associators import CompiledBatchAssociator, CompiledNearestNeighbourAssociator
 
     rng = np.random.default_rng(seed)
     n_lm = int(rng.integers(1, 25))
@@ -235,7 +235,7 @@ def test_compiled_associator_matches_python_on_random_states(seed, kind):
 
 def test_compiled_associator_without_landmarks_associates_nothing():
     require("numba")
-    from radarslam.slam._numba import CompiledNearestNeighbourAssociator
+    from radarslam.slam.compiled_associators import CompiledNearestNeighbourAssociator
 
     st = SlamState(np.zeros(3), np.eye(3))
     out, nis = CompiledNearestNeighbourAssociator(20.0, 3, 5).associate(st, np.array([[5.0, 0.1]]), np.array([0]),

@@ -245,6 +245,11 @@ class ExtentConfig:
                                          "training seeds)",
                                          low=0.0, low_open=True)
     inflate_noise: bool = param(True, "with use_in_slam: R_eff = R + H_p gamma X H_p^T (a.7.2); for ablations")
+    view_offset: str = param("none", "[PROP] with use_in_slam and the batch associators: where the part of an object "
+                             "in view is centred (docs/method.md c.17): none (at the object's centre: the mean of m "
+                             "detections has the spread / m) or uniform (anywhere on the object: X / 4 is added once, "
+                             "not divided by m, so a long object seen in part does not drag the pose along itself)",
+                             choices=("none", "uniform"))
     n_init: int = param(20, "N_i: initialise once more than this many detections are buffered", low=1)
     alpha0: float = param(50.0, "alpha_0 at initialisation", low=2.0, low_open=True)
     tau_s: float = param(100.0, "tau: extent decay constant (s)", low=0.0, low_open=True)

@@ -1,4 +1,5 @@
-"""The compiled associators (``filter.backend = "numba"``, the default).
+"""The compiled associators' kernels (``filter.backend = "numba"``, the default; the classes that
+wrap them: :mod:`radarslam.slam.compiled_associators`).
 
 The same association scheme as :class:`radarslam.slam.association.NearestNeighbourAssociator`,
 compiled as one loop over the scan's candidates. It has no maths of its own: the measurement
@@ -20,8 +21,6 @@ from radarslam.core import angles
 from radarslam.core.jit import compile_kernels
 from radarslam.landmarks._compiled import compiled_seen_landmarks
 from radarslam.slam import ekf, layout
-from radarslam.slam.association import Spreads
-from radarslam.slam.state import SlamState
 
 
 def joseph_apply_rows(P, W):  # pragma: no cover - compiled
@@ -259,11 +258,11 @@ def _batch_scores(x, P, polar, cand, R, gX, has_gX, n_nearest, beta, platform): 
 
 
 @njit(cache=True)
-def batch_associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta, platform, xlin):  # pragma: no cover
+def batch_associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta, platform, xlin, offset_k=0.0):  # pragma: no cover
     """The per-landmark batch update (:class:`radarslam.slam.association.BatchAssociator`): score
     every candidate at the prior state, then one update per landmark with the mean of its
-    detections (its Jacobian at ``xlin`` under first-estimates Jacobians, c.2.1). Returns
-    ``(x, P, out, nis)``."""
+    detections (its Jacobian at ``xlin`` under first-estimates Jacobians, c.2.1; ``offset_k`` the
+    part in view's offset, c.17). Returns ``(x, P, out, nis)``."""
     N = (x.shape[0] - platform) // 2
     nis = np.empty(N)
     if N == 0:
@@ -279,7 +278,7 @@ def batch_associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta, plat
         zbar = np.empty(2)
         zbar[0] = pts[:, 0].mean()
         zbar[1] = pts[:, 1].mean()
-        noise = _batch_noise(x[2], np.ascontiguousarray(gX[j]), has_gX[j], R_xy, m)
+        noise = _batch_noise(x[2], np.ascontiguousarray(gX[j]), has_gX[j], R_xy, m, offset_k)
         h, Hs, idx = _sensor_xy_measurement(x, j, platform)
         if xlin.shape[0]:                           # first-estimates Jacobian (c.2.1), h at the estimate
             Hs = _sensor_xy_measurement(xlin, j, platform)[1]
@@ -403,10 +402,11 @@ def joint_update_loops(x, P, e, Hs, idx, Rb):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def joint_batch_associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta, platform, xlin):  # pragma: no cover
+def joint_batch_associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta, platform, xlin, offset_k=0.0):  # pragma: no cover
     """:class:`radarslam.slam.association.JointBatchAssociator`: the batch scoring, then every
     landmark seen in one stacked update at the prior state (the Jacobians at ``xlin`` under
-    first-estimates Jacobians, c.2.1). Returns ``(x, P, out, nis)``."""
+    first-estimates Jacobians, c.2.1; ``offset_k`` the part in view's offset, c.17). Returns
+    ``(x, P, out, nis)``."""
     N = (x.shape[0] - platform) // 2
     if N == 0:
         return x, P, np.full(cand.shape[0], -1), np.empty(0)
@@ -427,74 +427,6 @@ def joint_batch_associate_scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta
         e[2 * a + 1] = pts[:, 1].mean() - h[1]
         Hs_all[a] = Hs
         idx_all[a] = idx
-        Rb[a] = _batch_noise(x[2], np.ascontiguousarray(gX[j]), has_gX[j], R_xy, rows.shape[0])
+        Rb[a] = _batch_noise(x[2], np.ascontiguousarray(gX[j]), has_gX[j], R_xy, rows.shape[0], offset_k)
     nis = joint_update_loops(x, P, e, Hs_all, idx_all, Rb)
     return x, P, out, nis
-
-
-class _CompiledAssociator:
-    """A compiled associator: ``scan`` is the njit function ``(x, P, polar, cand, R, gX, has_gX,
-    n_nearest, beta, platform, xlin) -> (x, P, out, nis)`` that does the work."""
-
-    name = ""
-    backend = "numba"
-    #: Evaluates its Jacobians at the first estimates when ``state.lin_pose`` is set (c.2.1).
-    fej = True
-
-    def __init__(self, beta: float, n_nearest: int, n_nearest_new: int):
-        self.beta = float(beta)
-        self.n_nearest = int(n_nearest)
-        self.n_nearest_new = int(n_nearest_new)
-
-    @staticmethod
-    def scan(x, P, polar, cand, R, gX, has_gX, n_nearest, beta, platform, xlin):  # pragma: no cover - abstract
-        raise NotImplementedError
-
-    def associate(self, state: SlamState, polar: np.ndarray, candidates: np.ndarray, R: np.ndarray,
-                  spreads: Spreads) -> tuple[np.ndarray, np.ndarray]:
-        if not state.n_landmarks:
-            return np.full(candidates.shape[0], -1, dtype=int), np.empty(0)
-        x, P, out, nis = self.scan(state.x, state.P, polar, candidates.astype(np.int64), R, spreads.gX,
-                                   spreads.has, self.n_nearest, self.beta, state.platform_dim,
-                                   state.linearisation_all())
-        state.set(x, P)
-        return out, nis
-
-    def min_log_distance(self, state: SlamState, s: np.ndarray, R: np.ndarray) -> float:
-        return float(min_log_distance(state.x, state.P, float(s[0]), float(s[1]), self.n_nearest_new, R,
-                                      state.platform_dim))
-
-
-class CompiledNearestNeighbourAssociator(_CompiledAssociator):
-    """:class:`~radarslam.slam.association.NearestNeighbourAssociator`, compiled."""
-
-    name = "nearest-neighbour"
-    scan = staticmethod(associate_scan)
-
-
-class CompiledBatchAssociator(_CompiledAssociator):
-    """:class:`~radarslam.slam.association.BatchAssociator`, compiled."""
-
-    name = "batch"
-    scan = staticmethod(batch_associate_scan)
-
-
-class CompiledJointBatchAssociator(_CompiledAssociator):
-    """:class:`~radarslam.slam.association.JointBatchAssociator`, compiled."""
-
-    name = "batch-joint"
-    scan = staticmethod(joint_batch_associate_scan)
-
-
-def _factory(cls):
-    def make(config):
-        """From the ``landmarks`` section: ``beta``, ``n_nearest_assoc``, ``n_nearest_new``."""
-        lc = config.landmarks
-        return cls(lc.beta, lc.n_nearest_assoc, lc.n_nearest_new)
-    return make
-
-
-# The factories core.registry.BUILT_INS names (filter.backend "numba").
-make_nearest_neighbour = _factory(CompiledNearestNeighbourAssociator)
-make_batch = _factory(CompiledBatchAssociator)
-make_batch_joint = _factory(CompiledJointBatchAssociator)

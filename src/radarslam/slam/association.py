@@ -43,6 +43,9 @@ class Spreads:
     #: covariance (N, 3, 3), whose effect on the predicted mean joins the model error (a.12.5).
     log_shapes: np.ndarray | None = None
     shape_covs: np.ndarray | None = None
+    #: The part in view's offset (docs/method.md c.17): the batch associators add ``offset_k gX_j``
+    #: to a landmark's mean detection's noise, undivided by the number of detections (0: none).
+    offset_k: float = 0.0
 
     @classmethod
     def none(cls, n: int) -> "Spreads":
@@ -168,7 +171,7 @@ class BatchAssociator(NearestNeighbourAssociator):
         for j in np.unique(out[out >= 0]).tolist():
             dets = candidates[out == j]
             pts, R_xy = ekf.polar_to_sensor_xy(polar[dets], R)
-            noise = ekf.batch_noise(state.x[2], spreads.gX[j], spreads.has[j], R_xy, dets.size)
+            noise = ekf.batch_noise(state.x[2], spreads.gX[j], spreads.has[j], R_xy, dets.size, spreads.offset_k)
             h, Hs, idx = ekf.sensor_xy_measurement(state.x, j, state.platform_dim)
             if state.lin_pose is not None:        # first-estimates Jacobian (c.2.1), h at the estimate
                 Hs = ekf.sensor_xy_measurement(state.linearisation(j), j, state.platform_dim)[1]
@@ -207,7 +210,7 @@ class JointBatchAssociator(BatchAssociator):
             e[2 * a:2 * a + 2] = pts.mean(axis=0) - h
             H[2 * a:2 * a + 2, idx] = Hs
             Rb[2 * a:2 * a + 2, 2 * a:2 * a + 2] = ekf.batch_noise(state.x[2], spreads.gX[j], spreads.has[j], R_xy,
-                                                                   dets.size)
+                                                                   dets.size, spreads.offset_k)
         return out, ekf.joint_update_inplace(state.x, state.P, e, H, Rb)
 
 

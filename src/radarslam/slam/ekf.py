@@ -360,13 +360,20 @@ def rotate_to_sensor(theta: float, C: np.ndarray) -> np.ndarray:
     return Rt @ C @ Rt.T
 
 
-def batch_noise(theta: float, gX_j: np.ndarray, has_j: bool, R_xy: np.ndarray, m: int) -> np.ndarray:
+def batch_noise(theta: float, gX_j: np.ndarray, has_j: bool, R_xy: np.ndarray, m: int,
+                offset_k: float = 0.0) -> np.ndarray:
     """Covariance ``(2, 2)`` of the sensor-frame mean of ``m`` detections about a landmark's
     predicted centroid (docs/method.md a.7.3 part 3): ``(Rot(-theta) gamma_z X Rot(-theta)^T + R_xy) / m``,
-    the spread term only where ``has_j``; ``R_xy`` is the detections' mean sensor noise. A kernel."""
+    the spread term only where ``has_j``; ``R_xy`` is the detections' mean sensor noise. With
+    ``offset_k`` > 0 the part in view may be centred anywhere on the object (c.17): ``offset_k``
+    times the spread is added once, not divided by ``m`` (``offset_k = 1 / (4 gamma_z)`` gives X/4,
+    a point uniform over the ellipse). A kernel."""
     noise = R_xy.copy()
     if has_j:
-        noise += rotate_to_sensor(theta, gX_j)
+        S = rotate_to_sensor(theta, gX_j)
+        noise += S
+        if offset_k != 0.0:
+            return noise / m + offset_k * S
     return noise / m
 
 

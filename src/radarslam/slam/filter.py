@@ -39,6 +39,7 @@ from radarslam.core.mounting import ORIGIN
 from radarslam.slam.doppler_gate import DopplerGate
 from radarslam.slam import sensor_frame
 from radarslam.slam.radar_yaw import enter_yaw, leave_yaw, radar_yaw_states
+from radarslam.slam.view_offset import view_offset_k
 from radarslam.slam.map_rows import MapSnapshot, RetiredMap, retire_radius, state_rows
 from radarslam.slam.kernels import cluster_kernel as _cluster_kernel, step_kernels as _step_kernels
 from radarslam.slam.odometry_source import odometry_source
@@ -105,6 +106,8 @@ class EkfSlam:
         #: replace the defaults), or None for the full view.
         self.view, self.extent, self.associator = view_components(config, self.extent, self.associator,
                                                                   extent_estimator is None, associator is None)
+        #: c.17: the part in view's offset, added once to a landmark's mean detection's noise (0: none).
+        self._offset_k = view_offset_k(config, self.view is not None)
         self._clusters = _cluster_kernel(f.backend)
         self._candidates, self._group, self._in_view = _step_kernels(f.backend)
         self.R = self.measurement.noise(f)
@@ -348,7 +351,7 @@ class EkfSlam:
             return assoc, np.empty(0)
         candidates = np.flatnonzero(cand)
         states = st.extents
-        spreads = Spreads(*self.extent.spreads(states))
+        spreads = Spreads(*self.extent.spreads(states), offset_k=self._offset_k)
         if self.view is not None:
             covs = self.extent.view_shape_covs(states) if self.config.extent.view_shape_uncertainty else None
             spreads = Spreads(spreads.gX, spreads.has, self.extent.view_shapes(states), self.view,

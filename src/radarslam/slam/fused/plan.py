@@ -87,6 +87,7 @@ class FusedParams(NamedTuple):
     turn_index: int        #: the turning input whose variance grows with the turn (c.11.8), -1 for none
     turn_gain2: float      #: its k^2 (slam.bias.turn_noise_gain2)
     noise_ref: float       #: filter.noise_interval_s: U and Q are a reading's over it (c.2.2)
+    offset_k: float        #: the part in view's offset, times a landmark's spread (extent.view_offset, c.17; 0 none)
     platform: int          #: the platform block's size: 3, or 3 + m with m odometry-bias states (c.11)
     bias_scaled: np.ndarray  #: (k,) int64, the inputs the speed-scale bias scales (InputBias.scaled; empty: none)
     bias_offset: int       #: the turning input (InputBias.offset)
@@ -149,8 +150,8 @@ def why_not(slam, events=None) -> str | None:
     from radarslam.slam.partial_view import PARTIAL_VIEW_ASSOCIATORS
     from radarslam.models.radar import RangeAzimuthModel
     from radarslam.slam._jcbb_numba import CompiledJcbbAssociator
-    from radarslam.slam._numba import (CompiledBatchAssociator, CompiledJointBatchAssociator,
-                                       CompiledNearestNeighbourAssociator)
+    from radarslam.slam.compiled_associators import (CompiledBatchAssociator, CompiledJointBatchAssociator,
+                                                     CompiledNearestNeighbourAssociator)
     from radarslam.slam.doppler_gate import DopplerGate
     from radarslam.slam.odometry_source import DopplerOdometry
 
@@ -210,7 +211,7 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
     from radarslam.models.ackermann import AckermannModel
     from radarslam.slam._jcbb_numba import CompiledJcbbAssociator
     from radarslam.extent.rows import MEM_NOISE
-    from radarslam.slam._numba import CompiledBatchAssociator, CompiledJointBatchAssociator
+    from radarslam.slam.compiled_associators import CompiledBatchAssociator, CompiledJointBatchAssociator
     from radarslam.slam.fused.tracking import ACKERMANN, UNICYCLE
     from radarslam.slam.partial_view import PartialViewBatch, PartialViewJointBatch
 
@@ -262,7 +263,7 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
         doppler_gate=bool(f.doppler_gate), gate_memory=int(f.doppler_memory_scans),
         gate_probation=int(f.doppler_probation_scans), gate_radius=float(f.doppler_memory_radius_m),
         turn_index=-1 if slam._turn_k[0] is None else int(slam._turn_k[0]), turn_gain2=float(slam._turn_k[1]),
-        noise_ref=float(slam._noise_ref),
+        noise_ref=float(slam._noise_ref), offset_k=float(slam._offset_k),
         **_bias_parameters(slam.bias_model),
         pv=view_parameters(slam),
     )

@@ -190,8 +190,10 @@ def associate_and_update(x, P, polar, cidx, lm, N, pose_first, noise, cfg):  # p
     if cfg.assoc == 0:
         return associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta, cfg.platform, xlin)
     if cfg.assoc == 1:
-        return batch_associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta, cfg.platform, xlin)
-    return joint_batch_associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta, cfg.platform, xlin)
+        return batch_associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta, cfg.platform, xlin,
+                                    cfg.offset_k)
+    return joint_batch_associate_scan(x, P, polar, cidx, R, gX, has, cfg.n_near, cfg.beta, cfg.platform, xlin,
+                                      cfg.offset_k)
 
 
 @compiled_only
