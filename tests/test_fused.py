@@ -131,6 +131,11 @@ OVERLAYS = {
     "turn-noise-consistent": {"filter": {"turn_noise_gain": 0.5},
                               "landmarks": {"associator": "batch-joint", "init": "cluster"},
                               "extent": {"use_in_slam": True, "pre_init_spread": "prior"}},
+    # the part in view centred anywhere on its object (c.17), with both batch associators
+    "view-offset-joint": {"landmarks": {"associator": "batch-joint", "init": "cluster"},
+                          "extent": {"use_in_slam": True, "pre_init_spread": "prior", "view_offset": "uniform"}},
+    "view-offset-batch": {"landmarks": {"associator": "batch"},
+                          "extent": {"use_in_slam": True, "view_offset": "uniform"}},
 }
 
 

@@ -26,7 +26,7 @@ import numpy as np
 
 from radarslam.core.types import Odometry, Scan
 
-__all__ = ["Road", "drive", "objects", "road_errors"]
+__all__ = ["Road", "drive", "objects", "road_config", "road_errors", "run_road"]
 
 
 @dataclass(frozen=True)
@@ -125,7 +125,30 @@ def road_errors(poses: np.ndarray, truth: np.ndarray) -> dict:
     """The pose's error along the road (x: negative, a lag), across it (y) and in heading (deg):
     mean over the drive and at its end."""
     e = poses - truth
-    head = np.degrees(e[:, 2])
+    head = np.degrees(np.angle(np.exp(1j * e[:, 2])))
     return {"along_mean_m": float(e[:, 0].mean()), "along_end_m": float(e[-1, 0]),
             "cross_mean_m": float(e[:, 1].mean()), "cross_end_m": float(e[-1, 1]),
             "heading_mean_deg": float(head.mean()), "heading_end_deg": float(head[-1])}
+
+
+def road_config(config, view_offset: str):
+    """``config`` (a :class:`~radarslam.config.Config`, e.g. the ``automotive`` profile) for the road:
+    one radar at the platform's origin (no rig, no Doppler: the gate off), the start at the truth's
+    first pose with the anchored std of b.5.1, and ``extent.view_offset``."""
+    from dataclasses import replace
+
+    f = replace(config.filter, doppler_gate=False, initial_pose=[0.0, 0.0, 0.0], initial_pose_std=[1e-3, 1e-3, 1e-4])
+    return replace(config, filter=f, extent=replace(config.extent, view_offset=view_offset), sensors=[])
+
+
+def run_road(config, road: Road, seed: int) -> dict:
+    """One drive of ``road`` with ``seed``'s draws through EKF-SLAM under ``config``
+    (:func:`road_config`): :func:`road_errors` and the number of landmarks at the end."""
+    from radarslam.slam import EkfSlam
+
+    f = config.filter
+    events, truth, _ = drive(road, f.range_std_m, math.radians(f.azimuth_std_deg), f.speed_std_mps,
+                             math.radians(f.turn_rate_std_deg_s), f.noise_interval_s, np.random.default_rng(seed))
+    slam = EkfSlam(config)
+    poses = [slam.pose.copy() for e in events if slam.process(e) is not None]
+    return {**road_errors(np.array(poses), truth), "landmarks": slam.state.n_landmarks}
