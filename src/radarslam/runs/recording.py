@@ -15,6 +15,7 @@ from radarslam.core.angles import wrap_pi
 from radarslam.core.errors import InputError
 from radarslam.core.types import Scan
 from radarslam.egomotion.rig_odometry import with_rig_velocity
+from radarslam.egomotion.clock import clock_of, shift_stamps
 from radarslam.runs.start import (FRAMES, START_STD, filter_to_platform, platform_to_filter,  # noqa: F401
                                   sensor_lever, start_pose, start_std, truth_at)
 from radarslam.runs.dead_reckoning import dead_reckoning  # noqa: F401  (runs.recording.dead_reckoning, its former home)
@@ -217,6 +218,9 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
     m = effective_mounting(rec, config)          # the steps that take one mounting (metrics.json says which)
     config = with_mounting(config, m)
     rec = checked_doppler(rec, config, m)
+    clock = clock_of(rec, config)                # c.12.8: the radars' clock against the wheels, online
+    if clock is not None:
+        rec = shift_stamps(rec, clock)
     events, report = stream_events(rec, m)
     events = with_rig_velocity(events, rec, config)          # c.12: the rig's Doppler odometry, if asked
     times = np.array([e.t for e in events if isinstance(e, Scan)])
@@ -239,6 +243,8 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
     if truth is not None:
         metrics.update(evaluate_truth(record.poses, dead_reckoning(events, config, pose), truth, config, align,
                                       metrics["start"]))
+    if clock is not None:
+        metrics["radar_clock"] = clock.summary()
     if record.bias is not None:                                # c.11, c.11.12: the car's states
         metrics["odometry_bias"] = bias_metrics(record)
     ego, flags = _doppler_outputs(rec, m, flags, metrics, config)
