@@ -207,3 +207,27 @@ def test_with_first_estimates_and_the_other_car_states():
         idx = [slam.bias_model.time_index(j) for j in range(3)]
         est, std = 1e3 * slam.x[idx], 1e3 * np.sqrt(np.diag(slam.P)[idx])
         assert np.all(np.abs(est - OFFSETS_MS) < 3.0 * std) and nees.mean() < 6.0, (est, std, nees.mean())
+
+
+def test_recording_run_writes_the_time_offsets(tmp_path):
+    """A recording run (nuScenes scene-0103's first 6 s, five radars, ``--profile automotive``) with the
+    time states writes each radar's offset as ``time_offset_<sensor_id>`` (unit s) with its std after
+    every scan (bias.csv) and the final ones in metrics.json, each starting at its 50 ms prior."""
+    from helpers import first_seconds, shared_data
+
+    from radarslam.config import profile_config
+    from radarslam.io.recording import read_recording
+    from radarslam.runs.recording import run_recording, write_recording_outputs
+
+    rec = read_recording(first_seconds(shared_data() / "nuscenes_radar" / "scene-0103", 6.0, tmp_path / "rec"))
+    cfg = profile_config("automotive")
+    run = run_recording(rec, replace(cfg, filter=replace(cfg.filter, odometry_bias="states", radar_time_states=True,
+                                                         bias_scale_std=0.0, bias_turn_rate_std_deg_s=0.0)))
+    names = write_recording_outputs(tmp_path, run, {})
+    rows = np.genfromtxt(tmp_path / "bias.csv", delimiter=",", names=True)
+    ids = sorted(int(s) for s in rec.sensors)
+    assert "bias.csv" in names and rows.size == run.times.size and len(ids) == 5
+    assert rows.dtype.names[-2 * len(ids):] == tuple(c for s in ids for c in (f"time_offset_{s}", f"time_offset_{s}_std"))
+    assert rows[f"time_offset_{ids[0]}_std"][0] == pytest.approx(0.05, rel=1e-3)
+    got = run.metrics["odometry_bias"][f"time_offset_{ids[-1]}"]
+    assert got["unit"] == "s" and got["final"] == rows[f"time_offset_{ids[-1]}"][-1] and got["final_std"] < 0.05
