@@ -166,6 +166,12 @@ class FilterConfig:
     radar_yaw_reference: str = param("rig", "[PROP] what fixes the car's axis against the offsets: rig (their mean "
                                      "held at 0, as radarslam calibrate's rig reference, c.16) or none (each offset "
                                      "free within its prior; c.13.1)", choices=("rig", "none"))
+    radar_time_states: bool = param(False, "[PROP] under odometry_bias states, filter.odometry odometer and a rig "
+                                    "(sensors), each radar's time offset tau_j (its scans measured at stamp + tau_j) "
+                                    "as a state, learnt through the landmarks (c.13.2)")
+    radar_time_std_ms: float = param(50.0, "[PROP] prior std of each radar's time offset (ms; c.13.2)", low=0.0)
+    radar_time_drift_ms_per_rt_s: float = param(0.0, "[PROP] random-walk intensity of each time offset "
+                                                "(ms/sqrt(s); 0: a constant of the car; c.13.2)", low=0.0)
     turn_noise_gain: float = param(0.0, "[PROP] k: each odometry sample's turning-input variance grows by (k u_turn)^2 "
                                    "(steering in rad, turn rate in rad/s), heteroscedastic input noise; 0: U alone "
                                    "(c.11.8; orchestrator only)", low=0.0)

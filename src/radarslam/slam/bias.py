@@ -36,20 +36,23 @@ class BiasStates:
     ``spec``, their prior std ``(m,)``, drift ``(m,)`` (per sqrt(s)) and time constant ``tau`` (s;
     0 = random walk)."""
 
-    def __init__(self, spec, prior_std: np.ndarray, drift: np.ndarray, tau: float, yaw=None):
+    def __init__(self, spec, prior_std: np.ndarray, drift: np.ndarray, tau: float, yaw=None, time=None):
         self.spec = spec
         #: Each radar's yaw offset (a :class:`~radarslam.slam.radar_yaw.RadarYawStates`, c.13.1), after
         #: the model's states, or None.
         self.yaw = yaw
-        n_yaw = 0 if yaw is None else yaw.dim
-        self.prior_std = np.concatenate([np.asarray(prior_std, dtype=float), np.full(n_yaw, 0.0 if yaw is None
-                                                                                      else yaw.prior_std)])
-        self.drift = np.concatenate([np.asarray(drift, dtype=float), np.full(n_yaw, 0.0 if yaw is None
-                                                                               else yaw.drift)])
+        #: Each radar's time offset (a :class:`~radarslam.slam.radar_time.RadarTimeStates`, c.13.2),
+        #: after the yaw offsets, or None.
+        self.time = time
+        extra = [(s.dim, s.prior_std, s.drift) for s in (yaw, time) if s is not None]
+        self.prior_std = np.concatenate([np.asarray(prior_std, dtype=float)] + [np.full(n, sd) for n, sd, _ in extra])
+        self.drift = np.concatenate([np.asarray(drift, dtype=float)] + [np.full(n, q) for n, _, q in extra])
         self.tau = float(tau)
-        self.dim = int(spec.dim) + n_yaw
-        self.names = tuple(spec.names) + (() if yaw is None else yaw.names)
-        self.units = tuple(spec.units) + ("rad",) * n_yaw
+        n_yaw = 0 if yaw is None else yaw.dim
+        n_time = 0 if time is None else time.dim
+        self.dim = int(spec.dim) + n_yaw + n_time
+        self.names = tuple(spec.names) + (() if yaw is None else yaw.names) + (() if time is None else time.names)
+        self.units = tuple(spec.units) + ("rad",) * n_yaw + ("s",) * n_time
         #: The thrust angle's position among the states (c.11.12), -1 without it.
         self.thrust_index = int(spec.dim) - 1 if spec.thrust else -1
 
@@ -59,6 +62,13 @@ class BiasStates:
             return None
         j = self.yaw.position(sensor_id)
         return None if j is None else POSE_DIM + int(self.spec.dim) + j
+
+    def time_index(self, sensor_id: int) -> int | None:
+        """The state index (in the whole state) of radar ``sensor_id``'s time offset (c.13.2), or None."""
+        if self.time is None:
+            return None
+        j = self.time.position(sensor_id)
+        return None if j is None else POSE_DIM + int(self.spec.dim) + (0 if self.yaw is None else self.yaw.dim) + j
 
     @property
     def platform_dim(self) -> int:
@@ -182,7 +192,7 @@ def platform_prediction(pose_new, b, P, Fx, Fu, Cu, Fb, phi, qb, U, Q):
     return s, Pss, F @ np.ascontiguousarray(P[:p, p:])
 
 
-def bias_states(model, f, yaw=None) -> BiasStates | None:
+def bias_states(model, f, yaw=None, time=None) -> BiasStates | None:
     """The filter's bias states under ``filter.odometry_bias`` (``f``, the ``filter`` section) for
     ``model``: None for ``"none"``; for ``"states"`` the model's declared ones, or a one-line
     :class:`ConfigError` when the model declares none."""
@@ -200,10 +210,11 @@ def bias_states(model, f, yaw=None) -> BiasStates | None:
         raise ConfigError(f"filter.bias_thrust: expected false with filter.odometry {f.odometry!r} (the Doppler fit "
                           f"measures the lateral velocity itself; the thrust state is the odometer's, c.11.12), got true")
     spec = spec.with_thrust(bool(f.bias_thrust))            # c.11.12: the thrust angle, last
-    if (f.bias_thrust or yaw is not None) and f.bias_tau_s > 0:
-        raise ConfigError(f"filter.bias_tau_s: expected 0 with filter.bias_thrust or filter.radar_yaw_states (constants "
-                          f"of the car, which a Gauss-Markov tau would decay; c.11.12, c.13.1), got {f.bias_tau_s!r}")
-    return BiasStates(spec, spec.prior_std(f), spec.drift(f), f.bias_tau_s, yaw)
+    if (f.bias_thrust or yaw is not None or time is not None) and f.bias_tau_s > 0:
+        raise ConfigError(f"filter.bias_tau_s: expected 0 with filter.bias_thrust, filter.radar_yaw_states or "
+                          f"filter.radar_time_states (constants of the car, which a Gauss-Markov tau would decay; "
+                          f"c.11.12, c.13.1, c.13.2), got {f.bias_tau_s!r}")
+    return BiasStates(spec, spec.prior_std(f), spec.drift(f), f.bias_tau_s, yaw, time)
 
 
 def initial_state(f, bias: BiasStates | None) -> SlamState:

@@ -38,6 +38,7 @@ from radarslam.slam.bias import (bias_states, control_noise, initial_state, meas
 from radarslam.core.mounting import ORIGIN
 from radarslam.slam.doppler_gate import DopplerGate
 from radarslam.slam import sensor_frame
+from radarslam.slam.radar_time import enter_time, leave_time, pose_rate, radar_time_states
 from radarslam.slam.radar_yaw import enter_yaw, leave_yaw, radar_yaw_states
 from radarslam.slam.view_offset import view_offset_k
 from radarslam.slam.map_rows import MapSnapshot, RetiredMap, retire_radius, state_rows
@@ -120,13 +121,14 @@ class EkfSlam:
         #: The odometry-bias states (docs/method.md c.11) under filter.odometry_bias "states", else None.
         #: They belong to the model that drives the prediction: the body-velocity model under Doppler odometry.
         self.bias_model = bias_states(self.model if f.odometry == "odometer" else BodyVelocityModel(), f,
-                                      radar_yaw_states(config))      # c.13.1: each radar's yaw, if asked
+                                      radar_yaw_states(config), radar_time_states(config))   # c.13.1-2, if asked
         self.state = initial_state(f, self.bias_model)
         #: FEJ: the first estimate of the current pose (the last prediction, or the initial pose).
         self._pose_first = self.state.pose if self.fej else None
         if self.fej:
             self._check_fej(config)
         self._dt_since_scan = 0.0
+        self._last_u = None                             # c.13.2: the latest reading, for the pose's rate
         self._view_angle: dict[int, float] = {}        # a.12.5: bearing landmark -> sensor at the last scan
         self._retired = RetiredMap()                    # c.15: the landmarks retired from the state
         self._scans = 0
@@ -239,6 +241,7 @@ class EkfSlam:
         if self.fej:
             self._pose_first = pose[:3].copy()  # the first estimate of the new pose (c.2.1; pose: the platform block)
         self._dt_since_scan += dt
+        self._last_u = u
 
     def update(self, scan: Scan) -> ScanReport:
         """Process one scan (docs/method.md a.8 steps 2-10). An empty scan still ages the M/N windows.
@@ -261,16 +264,21 @@ class EkfSlam:
         f = self.config.filter
         self._view = (f.max_range_m if sen is None or sen.max_range_m is None else sen.max_range_m,
                       math.radians(f.field_of_view_deg) / 2 if sen is None or sen.fov_rad is None else sen.fov_rad / 2)
-        yaw = None if sen is None or self.bias_model is None else self.bias_model.yaw_index(sen.sensor_id)
-        if mount is None and yaw is None:
+        bm = self.bias_model
+        yaw, tau = (None, None) if sen is None or bm is None else (bm.yaw_index(sen.sensor_id), bm.time_index(sen.sensor_id))
+        if mount is None and yaw is None and tau is None:
             return self._steps(scan, polar, mount)
         mount = mount or ORIGIN
         st, first = self.state, self._pose_first          # c.13: the scan about its own radar's pose
+        rate = None if tau is None else pose_rate(bm, self.model, st.x, self._last_u)
+        if tau is not None:                               # c.13.2: the pose when the radar measured, first
+            enter_time(st.x, st.P, tau, rate)
         sensor_frame.state_to_sensor(st.x, st.P, mount)
         if yaw is not None:                               # c.13.1: turned by its yaw offset's estimate
             enter_yaw(st.x, st.P, 2, yaw)
         if self.fej:
-            self._pose_first = sensor_frame.sensor_pose(first, mount.x, mount.y, mount.yaw)
+            shifted = first if tau is None else first + st.x[tau] * rate
+            self._pose_first = sensor_frame.sensor_pose(shifted, mount.x, mount.y, mount.yaw)
             if yaw is not None:
                 self._pose_first[2] += st.x[yaw]
         try:
@@ -279,6 +287,8 @@ class EkfSlam:
             if yaw is not None:
                 leave_yaw(self.state.x, self.state.P, 2, yaw)
             sensor_frame.state_to_platform(self.state.x, self.state.P, mount)
+            if tau is not None:
+                leave_time(self.state.x, self.state.P, tau, rate)
             self._pose_first = first
 
     def _steps(self, scan: Scan, polar: np.ndarray, mount) -> ScanReport:

@@ -182,7 +182,7 @@ def plot_bias(path: str | Path, t: np.ndarray, values: np.ndarray, stds: np.ndar
               name: str = "dataset") -> None:
     """Save one panel per odometry-bias state (docs/method.md c.11): its estimate over time ``t``
     (K,) with the +-2 sigma band; ``values``, ``stds`` ``(K, m)``. Angles (unit rad or rad/s) are
-    drawn in degrees, a scale error in percent."""
+    drawn in degrees, a scale error in percent, a time offset (unit s) in milliseconds."""
     t = np.asarray(t, dtype=float).ravel()
     values, stds = np.asarray(values, dtype=float), np.asarray(stds, dtype=float)
     if values.shape != stds.shape or values.ndim != 2 or values.shape[0] != t.size or values.shape[1] != len(names):
@@ -197,7 +197,8 @@ def plot_bias(path: str | Path, t: np.ndarray, values: np.ndarray, stds: np.ndar
     fig, axes = plt.subplots(m, 1, figsize=(10, 2.6 * m + 0.6), sharex=True, squeeze=False)
     for i, ax in enumerate(axes[:, 0]):
         unit = units[i]
-        k, label = ((100.0, "%") if unit == "1" else (np.degrees(1.0), unit.replace("rad", "deg")))
+        k, label = ((100.0, "%") if unit == "1" else (1e3, "ms") if unit == "s"       # a radar's clock (c.13.2)
+                    else (np.degrees(1.0), unit.replace("rad", "deg")))
         v, s = k * values[:, i], k * stds[:, i]
         ax.fill_between(t, v - 2 * s, v + 2 * s, color="tab:blue", alpha=0.25, lw=0, label="+-2 sigma")
         ax.plot(t, v, "-", color="tab:blue", lw=0.9, label="estimate")

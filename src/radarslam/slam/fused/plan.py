@@ -165,6 +165,7 @@ def why_not(slam, events=None) -> str | None:
         (getattr(slam, "view", None) is None or f.odometry_bias == "none",
          "the partial view (docs/method.md a.12) with filter.odometry_bias 'states'"),
         (not f.radar_yaw_states, "each radar's yaw offset as a state (filter.radar_yaw_states, c.13.1)"),
+        (not f.radar_time_states, "each radar's time offset as a state (filter.radar_time_states, c.13.2)"),
         (not f.doppler_gate or type(slam._gate) is DopplerGate, f"Doppler gate {type(slam._gate).__name__}"),
         # under Doppler odometry (c.10.5) the body-velocity model drives every prediction, not slam.model
         (f.odometry != "odometer" or type(slam.model) in (UnicycleModel, AckermannModel),
