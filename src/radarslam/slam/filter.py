@@ -38,8 +38,9 @@ from radarslam.slam.bias import (bias_states, control_noise, initial_state, meas
 from radarslam.core.mounting import ORIGIN
 from radarslam.slam.doppler_gate import DopplerGate
 from radarslam.slam import sensor_frame
-from radarslam.slam.radar_time import enter_time, leave_time, pose_rate, radar_time_states
-from radarslam.slam.radar_yaw import enter_yaw, leave_yaw, radar_yaw_states
+from radarslam.slam.radar_time import pose_rate, radar_time_states
+from radarslam.slam.radar_yaw import radar_yaw_states
+from radarslam.slam.scan_frame import measured_from
 from radarslam.slam.view_offset import view_offset_k
 from radarslam.slam.map_rows import MapSnapshot, RetiredMap, retire_radius, state_rows
 from radarslam.slam.kernels import cluster_kernel as _cluster_kernel, step_kernels as _step_kernels
@@ -268,28 +269,14 @@ class EkfSlam:
         yaw, tau = (None, None) if sen is None or bm is None else (bm.yaw_index(sen.sensor_id), bm.time_index(sen.sensor_id))
         if mount is None and yaw is None and tau is None:
             return self._steps(scan, polar, mount)
-        mount = mount or ORIGIN
-        st, first = self.state, self._pose_first          # c.13: the scan about its own radar's pose
-        rate = None if tau is None else pose_rate(bm, self.model, st.x, self._last_u)
-        if tau is not None:                               # c.13.2: the pose when the radar measured, first
-            enter_time(st.x, st.P, tau, rate)
-        sensor_frame.state_to_sensor(st.x, st.P, mount)
-        if yaw is not None:                               # c.13.1: turned by its yaw offset's estimate
-            enter_yaw(st.x, st.P, 2, yaw)
-        if self.fej:
-            shifted = first if tau is None else first + st.x[tau] * rate
-            self._pose_first = sensor_frame.sensor_pose(shifted, mount.x, mount.y, mount.yaw)
-            if yaw is not None:
-                self._pose_first[2] += st.x[yaw]
-        try:
-            return self._steps(scan, polar, mount)
-        finally:
-            if yaw is not None:
-                leave_yaw(self.state.x, self.state.P, 2, yaw)
-            sensor_frame.state_to_platform(self.state.x, self.state.P, mount)
-            if tau is not None:
-                leave_time(self.state.x, self.state.P, tau, rate)
-            self._pose_first = first
+        mount, first = mount or ORIGIN, self._pose_first  # c.13-c.13.2: the scan from its radar at its time
+        rate = None if tau is None else pose_rate(bm, self.model, self.state.x, self._last_u)
+        with measured_from(self.state, mount, yaw, tau, rate, first if self.fej else None) as lin:
+            self._pose_first = lin if self.fej else first
+            try:
+                return self._steps(scan, polar, mount)
+            finally:
+                self._pose_first = first
 
     def _steps(self, scan: Scan, polar: np.ndarray, mount) -> ScanReport:
         """a.8 steps 2-10 on one checked scan, the state's pose being the scan's sensor's (c.13)."""
