@@ -138,7 +138,7 @@ def family_evidence_path(tmp_path_factory) -> Path:
 #: The families of the fused engine (slam/fused/engine.py ``Family``) that the session's cold warm-up
 #: also compiles, in its second process, on the core the default family's compile leaves idle (the
 #: tests of the odometry-bias states compile it inside their call otherwise): the bias states'. One
-#: only: measured, JCBB's and both then made the warm-up 143 s instead of 92. Not the partial view's:
+#: only: measured, JCBB's too made the warm-up 117 s instead of 92, with both 143. Not the partial view's:
 #: the record of tests/family_evidence.py must find it cold.
 EXTRA_FAMILIES = ({"filter": {"odometry_bias": "states"}},)
 
