@@ -8,8 +8,9 @@ tiny stream) and then how many signatures numba holds for the default engine, it
 every other family's code. It holds only for a compile from nothing: a function loaded from the
 cache is not gone through, so what it calls gets no signature (measured: with the callees cached,
 the nearest-neighbour associator showed none). The session's record is therefore taken only when
-the cache held nothing of the package before (:func:`cache_empty`) and no other process wrote to
-it meanwhile (tests/conftest.py compiles the simulation after the engine then). Loads within the
+the cache held nothing of the package before (:func:`cache_empty`), and the warm-up then loads
+nothing from the cache while it compiles (tests/conftest.py ``_compiling_without_loads``: its second
+process writes the cache meanwhile). Loads within the
 process (a second compiled object of a function this process compiled and cached) are harmless:
 the first compile went through the callees, as in the empty-cache process of the test."""
 
