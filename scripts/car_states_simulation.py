@@ -9,8 +9,8 @@ gyro offset of 0, estimated too), on drives with accelerations and turns. The fi
 state at 0 with its prior (scale 2%, gyro 0.5 deg/s, thrust 1 deg, yaws 2 deg with their mean held at
 0 by the rig, clocks 50 ms) and runs them all online. Per state: the truth, the mean estimate at the
 end over the drives, the largest error, the mean std, and whether every drive is within issue 42's
-0.1 deg / 5 ms / 0.1%; and the 12 states' NEES at the end, averaged over the drives, against its 95%
-band (chi-square of 12 x drives degrees of freedom). Seeds ``--first-seed`` .. + drives - 1.
+0.1 deg / 5 ms / 0.1%; and the 13 states' NEES at the end, averaged over the drives, against its 95%
+band (chi-square of 12 x drives degrees of freedom: the yaws' mean is held at 0). Seeds ``--first-seed`` .. + drives - 1.
 """
 
 from __future__ import annotations
@@ -53,7 +53,7 @@ def main(argv=None) -> int:
     d = len(names) - 1                       # the rig's zero mean removes one degree of freedom
     lo, hi = stats.chi2.ppf([0.025, 0.975], d * len(nees)) / len(nees)
     print(f"\nNEES of the car's states at the end (mean over {len(nees)} drives): {np.mean(nees):.2f}; "
-          f"95% band [{lo:.2f}, {hi:.2f}] ({d} dof: 12 states, their yaws' mean held at 0)")
+          f"95% band [{lo:.2f}, {hi:.2f}] ({d} dof: {len(names)} states, their yaws' mean held at 0)")
     return 0
 
 

@@ -44,7 +44,7 @@ def test_every_car_error_is_learnt_online_within_the_issues_tolerance(drives):
                                        "and 50.2 on seeds 2-4 (band [7.1, 18.1]); on seed 3 the front-left radar's "
                                        "yaw is 7.3 of its stds off (0.035 deg), docs/method.md c.13.3")
 def test_the_car_states_nees_is_in_its_95_band(drives):
-    """The mean NEES of the car states at the end (12 states, 11 dof: the yaws' mean is held at 0)
+    """The mean NEES of the car states at the end (13 states, 12 dof: the yaws' mean is held at 0)
     inside its 95% chi-square band over the drives."""
     truth, _ = truth_vector(CarErrors())
     nees = [_nees(x, P, truth) for x, P in drives]
