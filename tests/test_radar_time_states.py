@@ -12,6 +12,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 from test_odometry_bias import INPUT_STD, _point_config
+from test_radar_yaw_states import _track
 
 from radarslam.config import RigSensorConfig
 from radarslam.core.angles import wrap_pi
@@ -161,19 +162,6 @@ def _rig_run(seed: int, offsets_ms=OFFSETS_MS):
         pose = model.step(pose, u, DT)
     return events, np.array(poses)
 
-
-def _track(cfg, events, poses):
-    slam = EkfSlam(cfg)
-    err, nees, k = [], [], 0
-    for ev in events:
-        if slam.process(ev) is None:
-            continue
-        e = slam.pose - poses[k]
-        e[2] = math.remainder(e[2], 2.0 * math.pi)
-        err.append(math.hypot(e[0], e[1]))
-        nees.append(float(e @ np.linalg.solve(slam.pose_cov, e)))
-        k += 1
-    return np.array(err), np.array(nees), slam
 
 
 @pytest.mark.parametrize("seed", [2, 3, 4, 5])

@@ -41,6 +41,7 @@ import math
 import numpy as np
 
 from radarslam.core.errors import ConfigError
+from radarslam.slam.rig_states import PerRadarStates
 
 __all__ = ["RATE_STEP_S", "RadarTimeStates", "enter_time", "leave_time", "pose_rate", "radar_time_states"]
 
@@ -81,28 +82,10 @@ def pose_rate(bias, model, x: np.ndarray, u: np.ndarray | None) -> np.ndarray:
     return d / h
 
 
-class RadarTimeStates:
+class RadarTimeStates(PerRadarStates):
     """The rig's time-offset states: their sensor ids (in state order), prior std (s) and drift (s/sqrt(s))."""
 
-    def __init__(self, sensor_ids, prior_std: float, drift: float):
-        self.sensor_ids = tuple(int(s) for s in sensor_ids)
-        self.prior_std = float(prior_std)
-        self.drift = float(drift)
-
-    @property
-    def dim(self) -> int:
-        return len(self.sensor_ids)
-
-    @property
-    def names(self) -> tuple[str, ...]:
-        return tuple(f"time_offset_{s}" for s in self.sensor_ids)
-
-    def position(self, sensor_id: int) -> int | None:
-        """The offset's position among these states, or None for a radar not in the rig."""
-        try:
-            return self.sensor_ids.index(int(sensor_id))
-        except ValueError:
-            return None
+    prefix = "time_offset"
 
 
 def radar_time_states(config) -> RadarTimeStates | None:

@@ -33,6 +33,7 @@ import math
 import numpy as np
 
 from radarslam.core.errors import ConfigError
+from radarslam.slam.rig_states import PerRadarStates
 
 __all__ = ["ZERO_MEAN_STD", "RadarYawStates", "enter_yaw", "leave_yaw", "radar_yaw_states", "zero_mean_update"]
 
@@ -71,30 +72,15 @@ def zero_mean_update(x: np.ndarray, P: np.ndarray, idx: np.ndarray, std: float) 
     P[:] = 0.5 * (P + P.T)
 
 
-class RadarYawStates:
+class RadarYawStates(PerRadarStates):
     """The rig's yaw-offset states: their sensor ids (in state order), prior std and drift (rad,
     rad/sqrt(s)) and whether the rig's mean is held at zero."""
 
+    prefix = "yaw_offset"
+
     def __init__(self, sensor_ids, prior_std: float, drift: float, zero_mean: bool):
-        self.sensor_ids = tuple(int(s) for s in sensor_ids)
-        self.prior_std = float(prior_std)
-        self.drift = float(drift)
+        super().__init__(sensor_ids, prior_std, drift)
         self.zero_mean = bool(zero_mean)
-
-    @property
-    def dim(self) -> int:
-        return len(self.sensor_ids)
-
-    @property
-    def names(self) -> tuple[str, ...]:
-        return tuple(f"yaw_offset_{s}" for s in self.sensor_ids)
-
-    def position(self, sensor_id: int) -> int | None:
-        """The offset's position among these states, or None for a radar not in the rig."""
-        try:
-            return self.sensor_ids.index(int(sensor_id))
-        except ValueError:
-            return None
 
 
 def radar_yaw_states(config) -> RadarYawStates | None:
