@@ -23,6 +23,7 @@ from radarslam.core.angles import wrap_pi
 from radarslam.core.mounting import Mounting
 from radarslam.core.types import Odometry, Scan
 from radarslam.models.motion import UnicycleModel
+from radarslam.slam.bias import turned_step
 
 __all__ = ["DT", "INPUT_STD", "RIG", "SCAN_EVERY", "TOLERANCE", "CarErrors", "car_config", "car_controls", "car_world",
            "one_drive", "simulate_car_rig", "truth_vector"]
@@ -68,11 +69,7 @@ def car_world(rng: np.random.Generator, n: int = 160) -> np.ndarray:
 
 
 def _step(model, pose, u, dt, thrust):
-    nxt = model.step(pose, u, dt)
-    c, s = math.cos(thrust), math.sin(thrust)
-    dx, dy = nxt[0] - pose[0], nxt[1] - pose[1]
-    nxt[0], nxt[1] = pose[0] + c * dx - s * dy, pose[1] + s * dx + c * dy
-    return nxt
+    return turned_step(pose, model.step(pose, u, dt), thrust)
 
 
 def simulate_car_rig(errors: CarErrors, landmarks: np.ndarray, controls: np.ndarray, rng: np.random.Generator,

@@ -27,6 +27,7 @@ import numpy as np
 from radarslam.core.angles import wrap_pi
 from radarslam.core.errors import InputError
 from radarslam.core.types import Odometry, Scan
+from radarslam.slam.bias import turned_step
 
 __all__ = ["PointRun", "simulate_point_run", "uncorrect"]
 
@@ -77,9 +78,7 @@ def simulate_point_run(model, controls: np.ndarray, dt: float, landmarks: np.nda
         events.append(Odometry(t=(k + 1) * dt, dt=dt, control=reading))
         nxt = model.step(pose, u, dt)
         if spec.thrust:                                     # c.11.12: the increment at beta from the step's
-            c, s = math.cos(b[-1]), math.sin(b[-1])
-            dx, dy = nxt[0] - pose[0], nxt[1] - pose[1]
-            nxt[0], nxt[1] = pose[0] + c * dx - s * dy, pose[1] + s * dx + c * dy
+            nxt = turned_step(pose, nxt, b[-1])
         pose = nxt
     return PointRun(events, np.array(scan_poses), np.asarray(landmarks, dtype=float), b)
 

@@ -133,6 +133,17 @@ def bias_transition(dt, drift, tau):
     return phi, q2 * (0.5 * tau) * (1.0 - phi * phi)
 
 
+def turned_step(pose: np.ndarray, new_pose: np.ndarray, beta: float) -> np.ndarray:
+    """``new_pose`` with the position increment from ``pose`` turned by the thrust angle ``beta``
+    (c.11.12; the heading's step unchanged): the mean of :func:`thrust_turn`, for the simulators and
+    the pose's rate of c.13.2."""
+    c, s = math.cos(beta), math.sin(beta)
+    dx, dy = new_pose[0] - pose[0], new_pose[1] - pose[1]
+    out = np.array(new_pose, dtype=float, copy=True)
+    out[0], out[1] = pose[0] + c * dx - s * dy, pose[1] + s * dx + c * dy
+    return out
+
+
 def thrust_turn(pose, new_pose, Fx, Fu, Cb, b, j):
     """The step with the thrust angle ``beta = b[j]`` (c.11.12): the model's position increment
     ``d = new_pose[:2] - pose[:2]`` turned by ``beta``, ``x' = x + R(beta) d`` (the heading's step

@@ -41,6 +41,7 @@ import math
 import numpy as np
 
 from radarslam.core.errors import ConfigError
+from radarslam.slam.bias import turned_step
 from radarslam.slam.rig_states import PerRadarStates
 
 __all__ = ["RATE_STEP_S", "RadarTimeStates", "enter_time", "leave_time", "pose_rate", "radar_time_states"]
@@ -74,10 +75,8 @@ def pose_rate(bias, model, x: np.ndarray, u: np.ndarray | None) -> np.ndarray:
         return np.zeros(3)
     pose, b = x[:3], x[3:3 + bias.dim]
     h = RATE_STEP_S
-    d = model.step(pose, bias.spec.correct(u, b), h) - pose
-    if bias.thrust_index >= 0:
-        c, s = math.cos(b[bias.thrust_index]), math.sin(b[bias.thrust_index])
-        d[0], d[1] = c * d[0] - s * d[1], s * d[0] + c * d[1]
+    nxt = model.step(pose, bias.spec.correct(u, b), h)
+    d = (nxt if bias.thrust_index < 0 else turned_step(pose, nxt, b[bias.thrust_index])) - pose
     d[2] = math.remainder(d[2], 2.0 * math.pi)
     return d / h
 
