@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from radarslam.egomotion.clock import restamped
 from radarslam.core.errors import InputError
 from radarslam.egomotion.calibrate import check_calibration_drive
 from radarslam.egomotion.rig import Rig
@@ -408,25 +409,17 @@ def apply_calibration(rec, cal: CarCalibration, *, gyro_bias: bool = False):
     if mounting is not None:
         mounting = dataclasses.replace(mounting, x=c * mounting.x - s * mounting.y, y=s * mounting.x + c * mounting.y,
                                        yaw=mounting.yaw - d)
-    det_t = rec.det_t
-    order = None
-    if any(cal.time_offset_s) and "sensor_id" in rec.channels:
-        sid = rec.channels["sensor_id"].astype(np.int64)
-        shift = np.zeros(det_t.size)
-        for j, s_id in enumerate(cal.sensor_ids):
-            shift[sid == s_id] = cal.time_offset_s[j]
-        det_t = det_t + shift
-        order = np.argsort(det_t, kind="stable")
     truth = rec.truth
     if truth is not None:
         truth = truth.copy()
         truth[:, 2] = truth[:, 2] + d
     out = dataclasses.replace(rec, odo=odo, sensors=sensors, mounting=mounting, truth=truth)
-    if order is not None:
-        pick = lambda a: None if a is None else a[order]
-        out = dataclasses.replace(out, det_t=det_t[order], det_polar=rec.det_polar[order],
-                                  channels={k: v[order] for k, v in rec.channels.items()},
-                                  labels=pick(rec.labels), det_scan=pick(rec.det_scan), scan_t=None)
+    if any(cal.time_offset_s) and "sensor_id" in rec.channels:      # each radar's stamps by its offset
+        sid = rec.channels["sensor_id"].astype(np.int64)
+        shift = np.zeros(rec.det_t.size)
+        for j, s_id in enumerate(cal.sensor_ids):
+            shift[sid == s_id] = cal.time_offset_s[j]
+        out = restamped(out, rec.det_t + shift)
     return out
 
 

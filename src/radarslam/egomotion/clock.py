@@ -30,7 +30,7 @@ import numpy as np
 from radarslam.core.errors import ConfigError
 
 __all__ = ["ACCEL_HALF_S", "ClockTrack", "GATE_SIGMA", "MIN_SPEED_MPS", "SCALE_PRIOR_STD", "online_clock",
-           "shift_stamps"]
+           "restamped", "shift_stamps"]
 
 #: Half the span of the wheel speed's central difference (s).
 ACCEL_HALF_S = 0.1
@@ -100,17 +100,24 @@ def online_clock(series, odometry: np.ndarray, prior_std_s: float, speed_std_mps
     return ClockTrack(t, off, std, scale, used)
 
 
-def shift_stamps(rec, track: ClockTrack):
-    """``rec`` with every detection's stamp moved to its time by the offset known then
-    (:meth:`ClockTrack.at`), re-sorted (stably) when that changes their order."""
+def restamped(rec, det_t: np.ndarray):
+    """``rec`` with its detections stamped ``det_t`` (one per detection), every per-detection array
+    re-sorted stably by the new stamps and the scans' own times dropped (they are the stamps'). The
+    one re-stamping of a recording: the online clock's (:func:`shift_stamps`) and a calibration's
+    per-radar offsets (``car_calibration.apply_calibration``)."""
     import dataclasses
 
-    det_t = rec.det_t + track.at(rec.det_t)
     order = np.argsort(det_t, kind="stable")
     pick = lambda a: None if a is None else a[order]
     return dataclasses.replace(rec, det_t=det_t[order], det_polar=rec.det_polar[order],
                                channels={k: v[order] for k, v in rec.channels.items()},
                                labels=pick(rec.labels), det_scan=pick(rec.det_scan), scan_t=None)
+
+
+def shift_stamps(rec, track: ClockTrack):
+    """``rec`` with every detection's stamp moved to its time by the offset known then
+    (:meth:`ClockTrack.at`), re-sorted (stably) when that changes their order."""
+    return restamped(rec, rec.det_t + track.at(rec.det_t))
 
 
 def clock_of(rec, config):
