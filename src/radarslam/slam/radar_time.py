@@ -42,7 +42,7 @@ import numpy as np
 
 from radarslam.core.errors import ConfigError
 from radarslam.slam.bias import turned_step
-from radarslam.slam.rig_states import PerRadarStates
+from radarslam.slam.rig_states import PerRadarStates, rig_ids
 
 __all__ = ["RATE_STEP_S", "RadarTimeStates", "enter_time", "leave_time", "pose_rate", "radar_time_states"]
 
@@ -94,16 +94,9 @@ def radar_time_states(config) -> RadarTimeStates | None:
     f = config.filter
     if not f.radar_time_states:
         return None
-    if f.odometry_bias != "states":
-        raise ConfigError("filter.radar_time_states: expected filter.odometry_bias 'states' (the offsets join the "
-                          f"odometry-bias block, c.13.2; set its priors to 0 to hold the odometry's), got "
-                          f"{f.odometry_bias!r}")
-    if not config.rig:
-        raise ConfigError("filter.radar_time_states: expected a rig of radars (a recording's sensors.csv or "
-                          "[[sensors]] in the config), got none")
+    ids = rig_ids(config, "radar_time_states", "c.13.2")
     if f.odometry != "odometer":
         raise ConfigError("filter.radar_time_states: expected filter.odometry 'odometer' (the offsets are against "
                           f"the odometer's clock; the Doppler input comes from the radars' own scans, c.13.2), got "
                           f"{f.odometry!r}")
-    ids = sorted(int(m.sensor_id) for m in config.rig)
     return RadarTimeStates(ids, 1e-3 * f.radar_time_std_ms, 1e-3 * f.radar_time_drift_ms_per_rt_s)

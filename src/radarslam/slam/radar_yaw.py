@@ -32,8 +32,7 @@ import math
 
 import numpy as np
 
-from radarslam.core.errors import ConfigError
-from radarslam.slam.rig_states import PerRadarStates
+from radarslam.slam.rig_states import PerRadarStates, rig_ids
 
 __all__ = ["ZERO_MEAN_STD", "RadarYawStates", "enter_yaw", "leave_yaw", "radar_yaw_states", "zero_mean_update"]
 
@@ -89,13 +88,6 @@ def radar_yaw_states(config) -> RadarYawStates | None:
     f = config.filter
     if not f.radar_yaw_states:
         return None
-    if f.odometry_bias != "states":
-        raise ConfigError("filter.radar_yaw_states: expected filter.odometry_bias 'states' (the offsets join the "
-                          f"odometry-bias block, c.13.1; set its priors to 0 to hold the odometry's), got "
-                          f"{f.odometry_bias!r}")
-    if not config.rig:
-        raise ConfigError("filter.radar_yaw_states: expected a rig of radars (a recording's sensors.csv or "
-                          "[[sensors]] in the config), got none")
-    ids = sorted(int(m.sensor_id) for m in config.rig)
+    ids = rig_ids(config, "radar_yaw_states", "c.13.1")
     return RadarYawStates(ids, math.radians(f.radar_yaw_std_deg), math.radians(f.radar_yaw_drift_deg_per_rt_s),
                           f.radar_yaw_reference == "rig")

@@ -3,7 +3,24 @@ time-offset states share, their sensor ids in state order, prior std and drift, 
 
 from __future__ import annotations
 
-__all__ = ["PerRadarStates"]
+from radarslam.core.errors import ConfigError
+
+__all__ = ["PerRadarStates", "rig_ids"]
+
+
+def rig_ids(config, key: str, section: str) -> list[int]:
+    """The rig's sensor ids (sorted: the states' order) for the per-radar states of ``filter.<key>``
+    (docs/method.md ``section``); one-line :class:`ConfigError` without the odometry-bias states'
+    block, which they join, or without a rig."""
+    f = config.filter
+    if f.odometry_bias != "states":
+        raise ConfigError(f"filter.{key}: expected filter.odometry_bias 'states' (the offsets join the "
+                          f"odometry-bias block, {section}; set its priors to 0 to hold the odometry's), got "
+                          f"{f.odometry_bias!r}")
+    if not config.rig:
+        raise ConfigError(f"filter.{key}: expected a rig of radars (a recording's sensors.csv or "
+                          "[[sensors]] in the config), got none")
+    return sorted(int(m.sensor_id) for m in config.rig)
 
 
 class PerRadarStates:
