@@ -27,7 +27,8 @@ from radarslam.io.recording import read_recording
 from radarslam.runs.recording import run_recording
 
 PAIRS = {"scene-0061": "scene-0916", "scene-0916": "scene-0061", "scene-0103": "scene-0655", "scene-0655": "scene-0103"}
-MODES = {"wheels+gyro+radar": {}, "doppler+gyro": {"filter": {"odometry": "doppler", "yaw_rate": "gyro"}},
+# the profile's filter.odometry "auto" is "wheels+doppler+gyro+radar" on these scenes (c.10.5.2)
+MODES = {"wheels+gyro+radar": {"filter": {"odometry": "odometer"}}, "doppler+gyro": {"filter": {"odometry": "doppler", "yaw_rate": "gyro"}},
          # the wheel speed fused with the rig's Doppler velocity in the prediction (c.10.5 "both")
          "wheels+doppler+gyro+radar": {"filter": {"odometry": "both", "yaw_rate": "gyro"}}}
 

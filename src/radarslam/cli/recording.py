@@ -121,7 +121,9 @@ def run_recording_cmd(args: argparse.Namespace) -> int:
     from radarslam.runs.recording import with_rig
 
     # the one compile policy (compiling/policy.py) for the filter this recording drives: its rig, its mounting
-    first = stream_first_run(with_rig(rec, config), n, rec.det_t.size)
+    from radarslam.runs.odometry_choice import resolved_odometry
+
+    first = stream_first_run(with_rig(rec, resolved_odometry(rec, config)[0]), n, rec.det_t.size)
     # a run expected to take over 10 s shows its rate and ETA, on a terminal or not (issue 43)
     bar = Progress(n, 0, unit="scans", enabled=sys.stderr.isatty() or first.expected_s > 10.0,
                    warm_up_unit=True)      # the first scan carries the reading and the setup: no rate from it
@@ -186,7 +188,9 @@ def run_notes(run) -> list[str]:
     start = (f"the run starts at {where}: ({x:.3f} m, {y:.3f} m, {math.degrees(yaw):.3f} deg) with std "
              f"({sx:.3g} m, {sy:.3g} m, {math.degrees(syaw):.3g} deg) from {st['std_from']}; map and trajectory "
              f"are in {st['frame']}")
-    return [*notes, start]
+    odometry = run.metrics.get("odometry")
+    chosen = [f"the prediction: filter.odometry {odometry['chosen']!r} ({odometry['from']})"] if odometry else []
+    return [*notes, start, *chosen]
 
 
 def ego_motion_cmd(args: argparse.Namespace, config) -> int:

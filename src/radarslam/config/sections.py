@@ -120,8 +120,9 @@ class FilterConfig:
                                              low=0.0, low_open=True, high=0.999999)
     odometry: str = param("odometer", "[PROP] what drives the prediction (c.10.5): odometer (the readings, the "
                           "paper), doppler (each scan's Doppler ego-velocity fit and the gyro; the odometer is "
-                          "ignored) or both (the odometer's speed fused with the Doppler fit; orchestrator only)",
-                          choices=("odometer", "doppler", "both"))
+                          "ignored), both (the odometer's speed fused with the Doppler fit) or auto (a recording: both when its "
+                          "detections carry Doppler and its odometry a speed and a yaw rate, else odometer; c.10.5.2)",
+                          choices=("odometer", "doppler", "both", "auto"))
     yaw_rate: str = param("gyro", "[PROP] under filter.odometry doppler: where the yaw rate comes from: gyro (the "
                           "odometry events' gyro_rad_s, c.10.5) or doppler (the radar alone: the no-sideslip model "
                           "turns the sensor's fitted velocity into forward speed and yaw rate, needs sensor.mount_x_m "

@@ -18,6 +18,7 @@ from radarslam.egomotion.rig_odometry import with_rig_velocity
 from radarslam.egomotion.clock import clock_of, shift_stamps
 from radarslam.runs.start import (FRAMES, START_STD, filter_to_platform, platform_to_filter,  # noqa: F401
                                   sensor_lever, start_pose, start_std, truth_at)
+from radarslam.runs.odometry_choice import resolved_odometry
 from radarslam.runs.dead_reckoning import dead_reckoning  # noqa: F401  (runs.recording.dead_reckoning, its former home)
 from radarslam.runs.recording_outputs import bias_metrics, mounting_metrics
 from radarslam.runs.stream_run import RecordViews, refuse_drawn_start, run_stream
@@ -213,6 +214,7 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
                             start=start, align=align)
         return _in_car_frame(run, rec, calibration, align)
     config = validate(config)
+    config, odometry = resolved_odometry(rec, config)        # c.10.5.2: "auto" by what the recording carries
     check_motion_model(rec, config.filter.motion_model)
     refuse_drawn_start(config)                  # b.5: a draw needs the true first pose of a simulation
     m = effective_mounting(rec, config)          # the steps that take one mounting (metrics.json says which)
@@ -243,6 +245,8 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
     if truth is not None:
         metrics.update(evaluate_truth(record.poses, dead_reckoning(events, config, pose), truth, config, align,
                                       metrics["start"]))
+    if odometry is not None:
+        metrics["odometry"] = odometry
     if clock is not None:
         metrics["radar_clock"] = clock.summary()
     if record.bias is not None:                                # c.11, c.11.12: the car's states

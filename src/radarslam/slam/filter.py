@@ -15,6 +15,8 @@ arithmetic lives in the modules that own it (:mod:`.ekf`, :mod:`radarslam.landma
 
 from __future__ import annotations
 
+import dataclasses
+
 import math
 from dataclasses import dataclass, field
 
@@ -91,6 +93,8 @@ class EkfSlam:
             config = config.estimator
         if not isinstance(config, EstimatorConfig):
             raise InputError(f"config: expected an EstimatorConfig or Config, got {type(config).__name__}")
+        if config.filter.odometry == "auto":          # c.10.5.2: decided by a recording; without one, the odometer
+            config = dataclasses.replace(config, filter=dataclasses.replace(config.filter, odometry="odometer"))
         self.config = config
         f = config.filter
         self.model = motion_model or motion_model_from_config(f)
