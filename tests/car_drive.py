@@ -44,7 +44,8 @@ def drive(seed: int = 1, seconds: float = 90.0, points: int = 40, moving_share: 
             a = yaw + true["yaw_offset_rad"][j]
             wx, wy = math.cos(a) * ux + math.sin(a) * uy, -math.sin(a) * ux + math.cos(a) * uy
             az = rng.uniform(-1.05, 1.05, points)
-            dop = -(np.cos(az) * wx + np.sin(az) * wy) + doppler_std * rng.standard_normal(points)
+            dop = (-(np.cos(az) * wx + np.sin(az) * wy) * true.get("doppler_scale", 1.0)
+                   + doppler_std * rng.standard_normal(points))
             mov = rng.random(points) < moving_share
             dop[mov] += rng.uniform(-8.0, 8.0, mov.sum())
             rows.append(np.column_stack([np.full(points, ts), rng.uniform(3, 60, points), az, dop,
@@ -54,3 +55,16 @@ def drive(seed: int = 1, seconds: float = 90.0, points: int = 40, moving_share: 
     return Rig(a[:, 0], a[:, 1], a[:, 2], a[:, 3], a[:, 4].astype(np.int64), np.arange(5), ["front", "fl", "fr", "bl",
                                                                                             "br"],
                MOUNT.copy(), odometry)
+
+
+def truth(seconds: float = 90.0, thrust_angle_rad: float = TRUE["thrust_angle_rad"], dt: float = 0.01):
+    """The drive's reference trajectory ``(t, poses (n, 3))``: the rear axle moving at
+    ``v (1, tan delta)`` in the car's frame, turning at the true yaw rate (a survey of the calibration
+    drive, c.16.2)."""
+    t = np.arange(0.0, seconds, dt)
+    v, om = true_motion(t)
+    vx, vy = v, v * math.tan(thrust_angle_rad)
+    head = np.concatenate([[0.0], np.cumsum(om[:-1] * dt)])
+    x = np.concatenate([[0.0], np.cumsum((vx * np.cos(head) - vy * np.sin(head))[:-1] * dt)])
+    y = np.concatenate([[0.0], np.cumsum((vx * np.sin(head) + vy * np.cos(head))[:-1] * dt)])
+    return t, np.column_stack([x, y, head])

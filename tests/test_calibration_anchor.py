@@ -37,7 +37,7 @@ def test_the_loss_is_soft_l1_on_the_sweeps_and_squares_on_the_rest():
 
 def test_the_truths_turn_fixes_the_gyros_bias_on_scene_0916():
     pytest.importorskip("numba")
-    from radarslam.egomotion.car_calibration import calibrate_car, truth_motion
+    from radarslam.egomotion.car_calibration import calibrate_car, truth_doppler_scale, truth_motion
     from radarslam.egomotion.rig import read_rig
     from radarslam.io.recording import read_recording
 
@@ -48,6 +48,39 @@ def test_the_truths_turn_fixes_the_gyros_bias_on_scene_0916():
     cal = calibrate_car(rig, np.random.default_rng(0), truth=(rec.truth_t, rec.truth))
     tol = 3.0 * math.hypot(anchor[5], cal.gyro_bias_std)
     assert abs(cal.gyro_bias_rad_s - anchor[4]) < tol                     # before: -1.01 deg/s, 6 tol away
-    assert abs(cal.wheel_scale - anchor[2]) < 0.015                       # before: 0.026 off (now 0.012)
+    assert abs(cal.wheel_scale - anchor[2]) < 3 * math.hypot(anchor[3], cal.wheel_scale_std)   # before: 0.026 off
+    g_truth = truth_doppler_scale(rig, np.random.default_rng(0), rec.truth_t, rec.truth)
+    assert abs(cal.doppler_scale - g_truth[0]) < 3 * g_truth[1]           # before: 0.9692, 0.9938 by the truth
     rig_ref = calibrate_car(rig, np.random.default_rng(0))                 # negative control: no truth, no anchor
     assert abs(rig_ref.gyro_bias_rad_s - anchor[4]) > 5 * tol       # -1.09 deg/s
+
+
+def test_the_truths_reference_recovers_a_doppler_scale_and_a_run_divides_it_out():
+    """A synthetic drive whose radars read the speed 0.5% low (a 2-D radar's cos(el)): with the truth's
+    reference the calibration finds it and the wheel scale together (they are 0.99 correlated through
+    the sweeps alone), and a run with the calibration divides the Doppler column by it."""
+    pytest.importorskip("numba")
+    import dataclasses
+
+    from car_drive import TRUE, drive, truth
+
+    from radarslam.egomotion.car_calibration import apply_calibration, calibrate_car
+    from radarslam.io.recording.stream import Recording
+
+    true = {**TRUE, "doppler_scale": 0.995}
+    rig = drive(seed=2, true=true)
+    cal = calibrate_car(rig, np.random.default_rng(0), truth=truth())
+    assert cal.reference == "truth"
+    assert abs(cal.doppler_scale - 0.995) < 1e-3 and abs(cal.wheel_scale - TRUE["wheel_scale"]) < 1e-3
+    assert abs(cal.thrust_angle_rad - TRUE["thrust_angle_rad"]) < math.radians(0.1)
+    np.testing.assert_allclose(cal.yaw_offset_rad, TRUE["yaw_offset_rad"], rtol=0, atol=math.radians(0.1))
+    rot = cal.parameter_values[cal.parameters.index("rotation_scale_minus_1")]
+    assert abs(rot) < 3 * math.sqrt(np.array(cal.covariance)[cal.parameters.index("rotation_scale_minus_1")][
+        cal.parameters.index("rotation_scale_minus_1")]) + 1e-3          # nothing to absorb here
+    plain = calibrate_car(drive(seed=2), np.random.default_rng(0), truth=truth())   # negative control: no scale
+    assert abs(plain.doppler_scale - 1.0) < 1e-3
+    rec = Recording(rig.t, np.column_stack([rig.range_m, rig.azimuth]),
+                    {"doppler_mps": rig.doppler.copy(), "sensor_id": rig.sensor.astype(float)},
+                    rig.odometry[:, 0], rig.odometry[:, 1:], "unicycle")
+    out = apply_calibration(rec, dataclasses.replace(cal, time_offset_s=(0.0,) * 5))
+    np.testing.assert_allclose(out.channels["doppler_mps"], rec.channels["doppler_mps"] / cal.doppler_scale)

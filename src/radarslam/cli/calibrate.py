@@ -77,7 +77,8 @@ def run(args: argparse.Namespace) -> int:
     deg = math.degrees
     print(f"thrust angle {deg(car.thrust_angle_rad):+.3f} +- {deg(car.thrust_angle_std):.3f} deg, wheel scale "
           f"{car.wheel_scale:.4f} +- {car.wheel_scale_std:.4f}, gyro bias {deg(car.gyro_bias_rad_s):+.3f} +- "
-          f"{deg(car.gyro_bias_std):.3f} deg/s ({car.n_sweeps} sweeps; reference: the {car.reference})")
+          f"{deg(car.gyro_bias_std):.3f} deg/s ({car.n_sweeps} sweeps; reference: the {car.reference})"
+          + (f", Doppler scale {car.doppler_scale:.4f}" if car.reference == "truth" else ""))
     print("sensor  name          yaw offset (deg)   time offset (ms)   velocity residual RMS (m/s) before -> after")
     for j, sid in enumerate(car.sensor_ids):
         print(f"{int(sid):>6}  {cal.names[j]:<12}  {deg(car.yaw_offset_rad[j]):+7.3f} +- {deg(car.yaw_offset_std[j]):.3f}"

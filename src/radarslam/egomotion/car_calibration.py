@@ -72,7 +72,8 @@ class CarCalibration:
     #: What fixes the car's axis: "rig" (the radars' yaw offsets sum to zero) or "truth" (the
     #: calibration drive's reference trajectory, :func:`truth_motion`).
     reference: str = "rig"
-    #: Under the truth's reference: the radars' own Doppler scale against the truth's speed (not applied).
+    #: Under the truth's reference: the radars' own Doppler scale against the truth's speed; a run with
+    #: the calibration divides the Doppler column by it (c.16.3).
     doppler_scale: float = 1.0
     #: The free parameters' names and their covariance (the last radar's yaw offset is minus the sum
     #: of the others'; the wheel scale enters as ``k - 1``).
@@ -83,6 +84,9 @@ class CarCalibration:
     sensor_sweeps: tuple[int, ...] = ()
     sensor_rms_before: tuple[float, ...] = ()
     sensor_rms_after: tuple[float, ...] = ()
+    #: The free parameters' values at the solution, in the order of ``parameters`` (the nuisance
+    #: ``rotation_scale_minus_1`` of the truth's reference among them: not carried, c.16.2).
+    parameter_values: tuple[float, ...] = ()
 
     def per_sensor(self, sensor_id: int) -> tuple[float, float]:
         """``(yaw offset rad, time offset s)`` of ``sensor_id`` (zeros for a radar not calibrated)."""
@@ -126,7 +130,7 @@ def predicted(params: np.ndarray, sv: SweepVelocities, mount: np.ndarray, odo: n
     ts = sv.t + tau[sv.sensor]
     s = np.interp(ts, odo[:, 0], odo[:, 1])
     g = np.interp(ts, odo[:, 0], odo[:, 2])
-    om = g - b
+    om = (g - b) * ((1.0 + params[-2]) if layout.get("anchored") else 1.0)   # the turn's own scale, a nuisance
     x, y, yaw = mount[sv.sensor, 0], mount[sv.sensor, 1], mount[sv.sensor, 2] + eps[sv.sensor]
     ux = k * s - om * y
     uy = k * s * math.tan(delta) + om * x
@@ -155,7 +159,8 @@ def unpack(params: np.ndarray, layout: dict, S: int):
 #: any drive (a thrust angle within a degree or so, a wheel scale within 2%, a MEMS gyro's bias, a
 #: radar's yaw within 2 deg of its drawing, its clock within 50 ms).
 PRIOR_STD = {"thrust_angle": math.radians(1.0), "wheel_scale": 0.02, "gyro_bias": math.radians(0.5),
-             "yaw_offsets": math.radians(2.0), "time_offsets": 0.05, "doppler_scale": 0.01}
+             "yaw_offsets": math.radians(2.0), "time_offsets": 0.05, "doppler_scale": 0.01,
+             "rotation_scale": 0.05}
 
 
 def prior_stds(layout: dict, S: int) -> np.ndarray:
@@ -168,7 +173,7 @@ def prior_stds(layout: dict, S: int) -> np.ndarray:
     if layout["time_offsets"]:
         out += [PRIOR_STD["time_offsets"]] * S
     if layout.get("anchored"):
-        out.append(PRIOR_STD["doppler_scale"])
+        out += [PRIOR_STD["rotation_scale"], PRIOR_STD["doppler_scale"]]
     return np.array(out)
 
 
@@ -205,9 +210,11 @@ def calibrate_car(rig: Rig, rng: np.random.Generator, *, estimate: tuple[str, ..
     if truth is not None:
         anchor = truth_motion(*truth, odo, min_speed_mps)
         layout["anchored"] = layout["yaw_offsets"] and layout["thrust_angle"] and layout["wheel_scale"]
+        if layout["anchored"]:
+            anchor = anchor + truth_doppler_scale(rig, rng, *truth, min_speed_mps)
     n_yaw = (S if layout.get("anchored") else S - 1) * layout["yaw_offsets"]
     n_free = (layout["thrust_angle"] + layout["wheel_scale"] + layout["gyro_bias"] + n_yaw + S * layout["time_offsets"]
-              + bool(layout.get("anchored")))
+              + 2 * bool(layout.get("anchored")))
     prior = prior_stds(layout, S)
     # Each radar's sweeps weighted by that radar's own robust spread, found in two passes: a sweep
     # fit's claimed covariance is not honest (overlapping windows, unmodelled multipath; issue 42
@@ -222,6 +229,8 @@ def calibrate_car(rig: Rig, rng: np.random.Generator, *, estimate: tuple[str, ..
             out.append(np.array([(p[0] - anchor[0]) / anchor[1], (p[1] - (anchor[2] - 1.0)) / anchor[3]]))
             if layout["gyro_bias"]:     # and the truth's turn against the gyro's (p[2], the gyro's bias)
                 out.append(np.array([(p[2] - anchor[4]) / anchor[5]]))
+            # and the rig's Doppler speed against the truth's (p[-1], the Doppler scale less 1)
+            out.append(np.array([(p[-1] - (anchor[6] - 1.0)) / anchor[7]]))
         return np.concatenate(out)
 
     x0 = np.zeros(n_free)
@@ -255,7 +264,7 @@ def calibrate_car(rig: Rig, rng: np.random.Generator, *, estimate: tuple[str, ..
                           1.0 + float(sol.x[-1]) if layout.get("anchored") else 1.0,
                           parameter_names(layout, rig.sensor_ids), tuple(tuple(float(v) for v in row) for row in cov),
                           tuple(int(m.sum()) for m in per), tuple(rms(raw0[m]) for m in per),
-                          tuple(rms(raw1[m]) for m in per))
+                          tuple(rms(raw1[m]) for m in per), parameter_values=tuple(float(v) for v in sol.x))
 
 
 def robust_sweeps_loss(n_sweep_residuals: int):
@@ -292,8 +301,38 @@ def parameter_names(layout: dict, sensor_ids) -> tuple[str, ...]:
     if layout["time_offsets"]:
         out += [f"time_offset_s[{int(s)}]" for s in sensor_ids]
     if layout.get("anchored"):
-        out.append("doppler_scale_minus_1")
+        out += ["rotation_scale_minus_1", "doppler_scale_minus_1"]
     return tuple(out)
+
+
+def truth_doppler_scale(rig: Rig, rng: np.random.Generator, t: np.ndarray, poses: np.ndarray,
+                        min_speed_mps: float = MIN_SPEED_MPS, window_s: float = 0.2) -> tuple[float, float]:
+    """The radars' own Doppler scale a reference trajectory shows (c.16.2): the rig's joint fit's speed
+    at the rear axle (c.12.4) against the truth's speed over ``window_s`` about each fit, the median of
+    their ratio over the fits of a moving car, with the standard error of a median over the
+    independent windows. ``(g, sd)``; what a 2-D radar's Doppler reads of the car's speed (the
+    detections' elevation, cos(el) < 1, makes it read low: 0.9938-0.9976 on the four nuScenes scenes)."""
+    from radarslam.egomotion.rig import rig_ego_velocity
+
+    t = np.asarray(t, dtype=float)
+    poses = np.asarray(poses, dtype=float)
+    ok = np.all(np.isfinite(poses), axis=1)
+    t, poses = t[ok], poses[ok]
+    series = rig_ego_velocity(rig, rng)
+    tc = series.t
+    fit = (series.status == 0) & np.all(np.isfinite(series.theta[:, :2]), axis=1)
+    inside = (tc - window_s / 2 >= t[0]) & (tc + window_s / 2 <= t[-1])
+    dx = np.interp(tc + window_s / 2, t, poses[:, 0]) - np.interp(tc - window_s / 2, t, poses[:, 0])
+    dy = np.interp(tc + window_s / 2, t, poses[:, 1]) - np.interp(tc - window_s / 2, t, poses[:, 1])
+    truth_speed = np.hypot(dx, dy) / window_s
+    use = fit & inside & (truth_speed >= min_speed_mps)
+    if np.count_nonzero(use) < 20:
+        raise InputError(f"truth: expected at least 20 Doppler fits of a moving car (>= {min_speed_mps} m/s) to "
+                         f"measure the Doppler's scale, got {int(np.count_nonzero(use))}")
+    g = np.hypot(series.theta[use, 0], series.theta[use, 1]) / truth_speed[use]
+    n_ind = max(1.0, (tc[use][-1] - tc[use][0]) / window_s)
+    sd = 1.2533 * 1.4826 * float(np.median(np.abs(g - np.median(g)))) / math.sqrt(n_ind)
+    return float(np.median(g)), max(sd, 1e-5)
 
 
 def truth_motion(t: np.ndarray, poses: np.ndarray, odo: np.ndarray, min_speed_mps: float = MIN_SPEED_MPS,
@@ -390,12 +429,15 @@ def read_car_calibration(path: str | Path, key: str = "--calibration") -> CarCal
         if len(getattr(cal, name)) != S:
             raise InputError(f"{key}: {path}: {name}: expected {S} values (one per sensor_id), got "
                              f"{len(getattr(cal, name))}")
-    for name in ("thrust_angle_rad", "wheel_scale", "gyro_bias_rad_s", "yaw_offset_rad", "time_offset_s"):
+    for name in ("thrust_angle_rad", "wheel_scale", "gyro_bias_rad_s", "yaw_offset_rad", "time_offset_s",
+                 "doppler_scale"):
         v = np.atleast_1d(np.asarray(getattr(cal, name), dtype=float))
         if not np.all(np.isfinite(v)):
             raise InputError(f"{key}: {path}: {name}: expected finite values, got {v.tolist()}")
     if not 0.5 < cal.wheel_scale < 1.5:
         raise InputError(f"{key}: {path}: wheel_scale: expected a scale near 1, got {cal.wheel_scale}")
+    if not 0.9 < cal.doppler_scale < 1.1:
+        raise InputError(f"{key}: {path}: doppler_scale: expected a scale near 1, got {cal.doppler_scale}")
     return cal
 
 
@@ -404,7 +446,7 @@ def read_car_calibration(path: str | Path, key: str = "--calibration") -> CarCal
 #: between drives: -0.10 / -0.04 deg/s against the truth on the Singapore car's two scenes, -0.02 /
 #: -0.004 on the Boston car's), so it is estimated with the others (it would bias them otherwise)
 #: and applied only with ``gyro_bias=True`` (the same drive).
-CARRIED = ("thrust_angle", "wheel_scale", "yaw_offsets", "time_offsets")
+CARRIED = ("thrust_angle", "wheel_scale", "yaw_offsets", "time_offsets", "doppler_scale")
 
 
 def apply_calibration(rec, cal: CarCalibration, *, gyro_bias: bool = False):
@@ -447,7 +489,10 @@ def apply_calibration(rec, cal: CarCalibration, *, gyro_bias: bool = False):
     if truth is not None:
         truth = truth.copy()
         truth[:, 2] = truth[:, 2] + d
-    out = dataclasses.replace(rec, odo=odo, sensors=sensors, mounting=mounting, truth=truth)
+    channels = rec.channels
+    if cal.doppler_scale != 1.0 and "doppler_mps" in channels:      # the radars' own scale (c.16.2), a 2-D radar's cos(el)
+        channels = {**channels, "doppler_mps": channels["doppler_mps"] / cal.doppler_scale}
+    out = dataclasses.replace(rec, odo=odo, sensors=sensors, mounting=mounting, truth=truth, channels=channels)
     if any(cal.time_offset_s) and "sensor_id" in rec.channels:      # each radar's stamps by its offset
         sid = rec.channels["sensor_id"].astype(np.int64)
         shift = np.zeros(rec.det_t.size)

@@ -269,6 +269,7 @@ def _in_car_frame(run: RecordingRun, rec: Recording, calibration, align: str) ->
     metrics = {**run.metrics, "start": start, "calibration": {
         "source": calibration.source, "thrust_angle_deg": deg(calibration.thrust_angle_rad),
         "wheel_scale": calibration.wheel_scale, "gyro_bias_deg_s": deg(calibration.gyro_bias_rad_s),
+        "doppler_scale": calibration.doppler_scale,
         "yaw_offset_deg": {str(s): deg(e) for s, e in zip(calibration.sensor_ids, calibration.yaw_offset_rad)},
         "time_offset_ms": {str(s): 1e3 * e for s, e in zip(calibration.sensor_ids, calibration.time_offset_s)},
         "frame": "the car's (the run went in the track frame, turned by the thrust angle; c.16.3)"}}
