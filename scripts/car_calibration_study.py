@@ -30,7 +30,9 @@ PAIRS = {"scene-0061": "scene-0916", "scene-0916": "scene-0061", "scene-0103": "
 # the profile's filter.odometry "auto" is "wheels+doppler+gyro+radar" on these scenes (c.10.5.2)
 MODES = {"wheels+gyro+radar": {"filter": {"odometry": "odometer"}}, "doppler+gyro": {"filter": {"odometry": "doppler", "yaw_rate": "gyro"}},
          # the wheel speed fused with the rig's Doppler velocity in the prediction (c.10.5 "both")
-         "wheels+doppler+gyro+radar": {"filter": {"odometry": "both", "yaw_rate": "gyro"}}}
+         "wheels+doppler+gyro+radar": {"filter": {"odometry": "both", "yaw_rate": "gyro"}},
+         # the radar alone: the rig's (v_x, v_y, omega) from its Doppler, no wheels, no gyro (c.10.5.1, c.12.2)
+         "radar-alone": {"filter": {"odometry": "doppler", "yaw_rate": "doppler"}}}
 
 
 def mode_config(name: str):
