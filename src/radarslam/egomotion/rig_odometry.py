@@ -39,15 +39,18 @@ def rig_of(rec) -> Rig | None:
                [rec.sensors[i].name for i in ids.tolist()], mount, odo)
 
 
-def with_rig_velocity(events: list, rec, config) -> list:
+def with_rig_velocity(events: list, rec, config, fit=None) -> list:
     """``events`` with every scan's ``ego`` the rig's fit at its time (module docstring) under
     ``filter.odometry`` "doppler" or "both" (the wheel speed fused with it, c.10.5) and
     ``filter.yaw_rate`` "gyro" on a rig with Doppler: ``(v_x, v_y)``; under the radar alone
     (``yaw_rate`` "doppler") on a rig with two distinct lever arms, the whole ``(v_x, v_y, omega)``
-    (c.12.2, issue 42 defect 1); else ``events``."""
+    (c.12.2, issue 42 defect 1); else ``events``. ``fit`` ``(rig, series)``: the recording's rig and its
+    :func:`~radarslam.egomotion.rig.checked_rig_velocity` when the caller has them already (the run's
+    ``ego_velocity.csv`` is the same fit: one fit of 1 M detections, not two)."""
     f = config.filter
     alone = f.odometry == "doppler" and f.yaw_rate == "doppler"     # c.10.5.1: the rig's omega, not the gyro's
-    rig = rig_of(rec) if f.odometry in ("doppler", "both") and f.yaw_rate == "gyro" or alone else None
+    wanted = f.odometry in ("doppler", "both") and f.yaw_rate == "gyro" or alone
+    rig = None if not wanted else fit[0] if fit is not None else rig_of(rec)
     if rig is None:
         return events
     from radarslam.slam.odometry_source import distinct_lever_arms
@@ -55,7 +58,7 @@ def with_rig_velocity(events: list, rec, config) -> list:
     if alone and not distinct_lever_arms(rec.sensors.values()):
         return events                         # one lever arm: each scan's own no-sideslip fit (c.10.5.1)
     n = 3 if alone else 2
-    series = checked_rig_velocity(rig, f)
+    series = fit[1] if fit is not None else checked_rig_velocity(rig, f)
     gyro_var = math.radians(f.gyro_std_deg_s) ** 2
     cov = series.white_cov()               # c.12.7: neighbouring fits share detections, the filter's readings not
     out = []

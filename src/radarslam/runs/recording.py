@@ -224,7 +224,9 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
     if clock is not None:
         rec = shift_stamps(rec, clock)
     events, report = stream_events(rec, m)
-    events = with_rig_velocity(events, rec, config)          # c.12: the rig's Doppler odometry, if asked
+    fit = rig_fit(rec, m, config)                            # c.12.4: once, for the prediction and ego_velocity.csv
+    rig_of_many = fit if fit is not None and fit[0].sensor_ids.size >= 2 and rec.sensors else None
+    events = with_rig_velocity(events, rec, config, rig_of_many)  # c.12: the rig's Doppler odometry, if asked
     times = np.array([e.t for e in events if isinstance(e, Scan)])
     pose, origin = start_pose(rec, config, float(times[0]), start)
     std = start_std(config, origin)             # the written config.toml reruns the same start
@@ -251,7 +253,7 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
         metrics["radar_clock"] = clock.summary()
     if record.bias is not None:                                # c.11, c.11.12: the car's states
         metrics["odometry_bias"] = bias_metrics(record)
-    ego, flags = _doppler_outputs(rec, m, flags, metrics, config)
+    ego, flags = _doppler_outputs(rec, m, flags, metrics, config, fit)
     return RecordingRun(config, rec, m, events, times, record, truth, metrics, report, ego, flags)
 
 
@@ -296,14 +298,23 @@ def _run_filter(config: Config, events: list, on_scan, first_run):
     return record, None if flags is None else flags.result()
 
 
-def _doppler_outputs(rec: Recording, m: Mounting, flags, metrics: dict, config: Config):
-    """The rig's ego-motion (None without Doppler) and, with ``flags``, each input detection's in
-    input order; ``metrics`` gains ``ego_velocity`` and, with the annotation, ``moving_scores``."""
-    from radarslam.runs.detection_flags import detection_flags, moving_scores, stream_rows
-    from radarslam.runs.recording_outputs import ego_metrics, recording_rig, rig_velocity_of
+def rig_fit(rec: Recording, m: Mounting, config: Config):
+    """``(rig, series)``: the recording's rig (:func:`~radarslam.runs.recording_outputs.recording_rig`)
+    and its ego-motion fit as the run writes it (``rig_velocity_of``), or None without Doppler."""
+    from radarslam.runs.recording_outputs import recording_rig, rig_velocity_of
 
     rig = recording_rig(rec, m)
-    ego = None if rig is None else rig_velocity_of(rig, config.filter)
+    return None if rig is None else (rig, rig_velocity_of(rig, config.filter))
+
+
+def _doppler_outputs(rec: Recording, m: Mounting, flags, metrics: dict, config: Config, fit=None):
+    """The rig's ego-motion ``fit`` (:func:`rig_fit`; None without Doppler) and, with ``flags``, each
+    input detection's in input order; ``metrics`` gains ``ego_velocity`` and, with the annotation,
+    ``moving_scores``."""
+    from radarslam.runs.detection_flags import detection_flags, moving_scores, stream_rows
+    from radarslam.runs.recording_outputs import ego_metrics
+
+    rig, ego = fit if fit is not None else (None, None)
     if ego is not None:
         metrics["ego_velocity"] = ego_metrics(ego, rig)
     if flags is None:
