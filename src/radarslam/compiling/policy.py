@@ -169,6 +169,17 @@ def _orchestrator_ready() -> bool:
     return (ready(compiled_rule12) and ready(rma_efa_rows)) and (ready(batch_associate_scan) or ready(associate_scan))
 
 
+def _gate_ready(config: Config) -> bool:
+    """True when the run event by event has nothing more to compile for ``config``'s Doppler gate
+    (``filter.doppler_gate``: its per-scan classification, c.10.4; 28 s of compile on its own, which
+    a run thought ready would spend without a word); True without the gate."""
+    if not config.filter.doppler_gate:
+        return True
+    from radarslam.models._doppler_compiled import classify_scan
+
+    return ready(classify_scan)
+
+
 def _fused_ready(*families) -> bool:
     """True when the machine code of the fused engine of ``families`` (none given: the default
     family's) is ready."""
@@ -206,7 +217,7 @@ def _stream(config: Config, w: Workload) -> Plan:
         return Plan("fused", announce=_one_call_note(n), expected_s=n * FUSED_SCAN_S)
     if w.fused and first_run_engine_scans(n) == "auto":
         return Plan("fused", compiles=True, announce=COMPILING, expected_s=FUSED_COMPILE_S + n * FUSED_SCAN_S)
-    if _orchestrator_ready():
+    if _orchestrator_ready() and _gate_ready(config):
         return Plan("orchestrator", background=w.fused, expected_s=n * ORCHESTRATOR_SCAN_S, announce=(
             f"the fused engine is not compiled on this machine yet and {n} scans end sooner without it: this run goes "
             "event by event (the same results)") if w.fused else "")

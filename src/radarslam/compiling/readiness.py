@@ -22,7 +22,8 @@ from radarslam.config.variants import Variant, apply_variant
 #: families: ``(module, name)``.
 WATCHED = (("radarslam.simulation._compiled", "simulate_scans"), ("radarslam.metrics._compiled", "match_scans"),
            ("radarslam.slam._numba", "associate_scan"), ("radarslam.slam._numba", "batch_associate_scan"),
-           ("radarslam.landmarks._compiled", "compiled_rule12"), ("radarslam.extent._compiled", "rma_efa_rows"))
+           ("radarslam.landmarks._compiled", "compiled_rule12"), ("radarslam.extent._compiled", "rma_efa_rows"),
+           ("radarslam.models._doppler_compiled", "classify_scan"))
 
 
 def has_fresh_code(dispatcher) -> bool | None:

@@ -224,7 +224,10 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
     if clock is not None:
         rec = shift_stamps(rec, clock)
     events, report = stream_events(rec, m)
-    fit = rig_fit(rec, m, config)                            # c.12.4: once, for the prediction and ego_velocity.csv
+    from radarslam.compiling.heartbeat import stage
+
+    with stage("fitting the rig's ego-motion to its Doppler", enabled=first_run is not None):
+        fit = rig_fit(rec, m, config)                        # c.12.4: once, for the prediction and ego_velocity.csv
     rig_of_many = fit if fit is not None and fit[0].sensor_ids.size >= 2 and rec.sensors else None
     events = with_rig_velocity(events, rec, config, rig_of_many)  # c.12: the rig's Doppler odometry, if asked
     times = np.array([e.t for e in events if isinstance(e, Scan)])
