@@ -37,7 +37,8 @@ def test_the_loss_is_soft_l1_on_the_sweeps_and_squares_on_the_rest():
 
 def test_the_truths_turn_fixes_the_gyros_bias_on_scene_0916():
     pytest.importorskip("numba")
-    from radarslam.egomotion.car_calibration import calibrate_car, truth_doppler_scale, truth_motion
+    from radarslam.egomotion.car_calibration import calibrate_car
+    from radarslam.egomotion.calibration_truth import truth_doppler_scale, truth_motion
     from radarslam.egomotion.rig import read_rig
     from radarslam.io.recording import read_recording
 
