@@ -157,7 +157,7 @@ def test_long_range_tends_to_the_half_outline_mean():
     """r -> infinity: the visible arc is the half outline facing the sensor (b -> pi/2)."""
     o, l1, l2, a = 0.3, 3.0, 1.0, 2.0
     X = ellipse_to_matrix([l1, l2], o)
-    x, w = np.polynomial.legendre.leggauss(4000)
+    x, w = np.polynomial.legendre.leggauss(1000)     # converged: 200, 500 and 1000 nodes agree to 2e-14 (4000: 1.4e-13 off, 4 s)
     phi = math.atan2(math.sin(a - o) / l2, math.cos(a - o) / l1)        # principal-frame direction of q
     t = phi + 0.5 * math.pi * x
     ww = w * np.hypot(l1 * np.sin(t), l2 * np.cos(t))
