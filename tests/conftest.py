@@ -204,6 +204,71 @@ def _cold_warm_up(family_evidence_path: Path, workers: int) -> None:
     family_evidence.record(family_evidence_path, cold)
 
 
+def _compile_key(dispatcher) -> str | None:
+    """What names one compiled function in numba's cache: its index file, and for a closure (the fused
+    engine's families, slam/fused/engine.py ``engine``) the flags it closes over; None for a function
+    numba does not cache."""
+    cache = getattr(dispatcher, "_cache", None)
+    index = getattr(getattr(cache, "_cache_file", None), "_index_path", None)
+    if index is None:
+        return None
+    cells = []
+    for cell in dispatcher.py_func.__closure__ or ():
+        try:
+            value = cell.cell_contents
+        except ValueError:              # an empty cell
+            value = None
+        cells.append(repr(value) if isinstance(value, (bool, int, float, str, type(None))) else type(value).__name__)
+    return f"{index}|{','.join(cells)}"
+
+
+@contextlib.contextmanager
+def _compiling_one_process_at_a_time(lock_dir: Path):
+    """Under pytest-xdist, a function's compile on a cold cache holds a file lock named after it
+    (:func:`_compile_key`): a worker that meets a function the other is compiling waits for it and
+    then loads its code from numba's cache instead of compiling the same code on the other core
+    (seen: both workers compiling the Doppler classifier, 13 s each, or JCBB's kernel, 11 s each,
+    when their tests ran at the same time). Taken inside numba's compiler lock, so that one thread
+    of a process compiles at a time, and in call order (a caller's lock, then its callees'), so
+    that no two processes wait for each other; a process holds a lock once (a compile re-entered)."""
+    import fcntl
+    import hashlib
+
+    from numba.core import dispatcher, sigutils
+    from numba.core.compiler_lock import global_compiler_lock
+
+    lock_dir.mkdir(parents=True, exist_ok=True)
+    compile_ = dispatcher.Dispatcher.compile
+    held: set[str] = set()
+
+    def compile(self, sig):
+        try:
+            args, _ = sigutils.normalize_signature(sig)
+        except Exception:               # numba's own compile says what is wrong with it
+            return compile_(self, sig)
+        key = None if self.overloads.get(tuple(args)) is not None else _compile_key(self)
+        if key is None:
+            return compile_(self, sig)
+        with global_compiler_lock:
+            if key in held:
+                return compile_(self, sig)
+            path = lock_dir / (hashlib.sha1(key.encode()).hexdigest()[:20] + ".lock")
+            with open(path, "a+") as fh:
+                fcntl.flock(fh, fcntl.LOCK_EX)
+                held.add(key)
+                try:
+                    return compile_(self, sig)
+                finally:
+                    held.discard(key)
+                    fcntl.flock(fh, fcntl.LOCK_UN)
+
+    dispatcher.Dispatcher.compile = compile
+    try:
+        yield
+    finally:
+        dispatcher.Dispatcher.compile = compile_
+
+
 @pytest.fixture(scope="session", autouse=True)
 def _fused_engine_compiled(family_evidence_path):
     """Compile the fused engine once before the first test when numba's cache is cold, so that
@@ -236,4 +301,8 @@ def _fused_engine_compiled(family_evidence_path):
             _cold_warm_up(family_evidence_path, workers)     # a compile from nothing: its evidence, once
         else:
             warm_up(profile_config("apsipa"), DEFAULT_VARIANTS, lambda s: None, parallel=workers > 1)
-    yield
+    if workers > 1 and os.name == "posix":
+        with _compiling_one_process_at_a_time(family_evidence_path.parent / "numba-compile-locks"):
+            yield
+    else:
+        yield
