@@ -24,19 +24,25 @@ from radarslam.models.rig_gates import velocity_given_yaw_rate
 OK = 0
 
 
-def rig_of(rec) -> Rig | None:
-    """The :class:`Rig` of a recording with ``sensors.csv`` and a Doppler channel, else None."""
-    d, sid = rec.channels.get("doppler_mps"), rec.channels.get("sensor_id")
-    if not rec.sensors or d is None or sid is None or not rec.det_t.size:
+def rig_of(rec, mounting: Mounting | None = None) -> Rig | None:
+    """The recording as a :class:`Rig` (time order; zero-range detections, a driver's invalid
+    returns, left out as the stream leaves them), or None without ``doppler_mps`` or detections: its
+    sensors (``rec.sensors``), else ``mounting`` as sensor 0, else None (no rig). The one
+    conversion, for the Doppler odometry, the online clock and the run's ``ego_velocity.csv``."""
+    d = rec.channels.get("doppler_mps")
+    sensors = rec.sensors or ({0: mounting} if mounting is not None else None)
+    if d is None or not sensors or rec.det_t.size == 0:
         return None
-    ids = np.array(sorted(rec.sensors), dtype=np.int64)
-    order = np.argsort(rec.det_t, kind="stable")
-    keep = order[rec.det_polar[order, 0] > 0]                       # zero ranges: a driver's invalid returns
-    row = np.searchsorted(ids, sid[keep].astype(np.int64))
-    mount = Mounting.stack(rec.sensors[i] for i in ids.tolist())
+    ids = np.array(sorted(sensors), dtype=np.int64)
+    sid = rec.channels.get("sensor_id")
+    sid = np.full(rec.det_t.size, ids[0]) if sid is None else sid.astype(np.int64)
+    keep = rec.det_polar[:, 0] > 0.0
+    order = np.flatnonzero(keep)[np.argsort(rec.det_t[keep], kind="stable")]
+    mount = Mounting.stack(sensors[k] for k in ids.tolist())
     odo = np.column_stack([rec.odo_t, rec.odo]) if rec.odo_kind == "unicycle" and rec.odo_t.size >= 2 else None
-    return Rig(rec.det_t[keep], rec.det_polar[keep, 0], rec.det_polar[keep, 1], d[keep], row, ids,
-               [rec.sensors[i].name for i in ids.tolist()], mount, odo)
+    return Rig(rec.det_t[order], rec.det_polar[order, 0], rec.det_polar[order, 1], d[order],
+               np.searchsorted(ids, sid[order]), ids, [sensors[k].name or str(k) for k in ids.tolist()], mount, odo,
+               None if rec.labels is None else rec.labels[order])
 
 
 def with_rig_velocity(events: list, rec, config, fit=None) -> list:

@@ -43,23 +43,11 @@ def with_sensors_file(rec: Recording, path: str | Path) -> Recording:
 
 
 def recording_rig(rec: Recording, mounting: Mounting) -> Rig | None:
-    """The recording as a :class:`~radarslam.egomotion.rig.Rig` (time order; zero-range
-    detections left out, as the stream leaves them), or None without ``doppler_mps``: its sensors
-    (``rec.sensors``), else ``mounting`` as sensor 0."""
-    d = rec.channels.get("doppler_mps")
-    if d is None or rec.det_t.size == 0:
-        return None
-    sensors = rec.sensors or {0: mounting}
-    ids = np.array(sorted(sensors), dtype=np.int64)
-    sid = rec.channels.get("sensor_id")
-    sid = np.full(rec.det_t.size, ids[0]) if sid is None else sid.astype(np.int64)
-    keep = rec.det_polar[:, 0] > 0.0
-    order = np.flatnonzero(keep)[np.argsort(rec.det_t[keep], kind="stable")]
-    mount = Mounting.stack(sensors[k] for k in ids.tolist())
-    odo = np.column_stack([rec.odo_t, rec.odo]) if rec.odo_kind == "unicycle" and rec.odo_t.size else None
-    return Rig(rec.det_t[order], rec.det_polar[order, 0], rec.det_polar[order, 1], d[order],
-               np.searchsorted(ids, sid[order]), ids, [sensors[k].name or str(k) for k in ids.tolist()], mount, odo,
-               None if rec.labels is None else rec.labels[order])
+    """The recording as a :class:`~radarslam.egomotion.rig.Rig`, ``mounting`` as its sensor 0 without
+    a rig of its own (:func:`~radarslam.egomotion.rig_odometry.rig_of`), or None without ``doppler_mps``."""
+    from radarslam.egomotion.rig_odometry import rig_of
+
+    return rig_of(rec, mounting)
 
 
 def rig_velocity_of(rig: Rig, filter_config):
