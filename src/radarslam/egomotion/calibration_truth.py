@@ -26,10 +26,7 @@ def truth_doppler_scale(rig: Rig, rng: np.random.Generator, t: np.ndarray, poses
     detections' elevation, cos(el) < 1, makes it read low: 0.9938-0.9976 on the four nuScenes scenes)."""
     from radarslam.egomotion.rig import rig_ego_velocity
 
-    t = np.asarray(t, dtype=float)
-    poses = np.asarray(poses, dtype=float)
-    ok = np.all(np.isfinite(poses), axis=1)
-    t, poses = t[ok], poses[ok]
+    t, poses = _finite(t, poses)
     series = rig_ego_velocity(rig, rng)
     tc = series.t
     fit = (series.status == 0) & np.all(np.isfinite(series.theta[:, :2]), axis=1)
@@ -42,9 +39,7 @@ def truth_doppler_scale(rig: Rig, rng: np.random.Generator, t: np.ndarray, poses
         raise InputError(f"truth: expected at least 20 Doppler fits of a moving car (>= {min_speed_mps} m/s) to "
                          f"measure the Doppler's scale, got {int(np.count_nonzero(use))}")
     g = np.hypot(series.theta[use, 0], series.theta[use, 1]) / truth_speed[use]
-    n_ind = max(1.0, (tc[use][-1] - tc[use][0]) / window_s)
-    sd = 1.2533 * 1.4826 * float(np.median(np.abs(g - np.median(g)))) / math.sqrt(n_ind)
-    return float(np.median(g)), max(sd, 1e-5)
+    return float(np.median(g)), max(_median_se(g, tc[use], window_s), 1e-5)
 
 
 def truth_motion(t: np.ndarray, poses: np.ndarray, odo: np.ndarray, min_speed_mps: float = MIN_SPEED_MPS,
@@ -54,10 +49,7 @@ def truth_motion(t: np.ndarray, poses: np.ndarray, odo: np.ndarray, min_speed_mp
     speed against the wheels'; their medians, each with the standard error of a median from the
     samples' robust spread over the independent windows; and the gyro's bias, the median over every
     window of the gyro's mean less the truth's turn rate. ``(delta, sd, k, sd, b, sd)``."""
-    t = np.asarray(t, dtype=float)
-    poses = np.asarray(poses, dtype=float)
-    ok = np.all(np.isfinite(poses), axis=1)
-    t, poses = t[ok], poses[ok]
+    t, poses = _finite(t, poses)
     lo = np.searchsorted(t, t - window_s / 2)
     hi = np.clip(np.searchsorted(t, t + window_s / 2) - 1, 0, t.size - 1)
     dt = t[hi] - t[lo]
@@ -70,15 +62,25 @@ def truth_motion(t: np.ndarray, poses: np.ndarray, odo: np.ndarray, min_speed_mp
                          f"car's axis, got {int(np.count_nonzero(use))}")
     delta = np.angle(np.exp(1j * (np.arctan2(dy[use], dx[use]) - head[use])))
     k = np.hypot(dx[use], dy[use]) / dt[use] / wheel[use]
-    n_ind = max(1.0, (t[use][-1] - t[use][0]) / window_s)          # independent windows
-    se = lambda v: 1.2533 * 1.4826 * float(np.median(np.abs(v - np.median(v)))) / math.sqrt(n_ind)
     # the gyro's bias: its mean over each window against the truth's turn over it, every window (a
     # car at rest measures it best)
     rate = np.angle(np.exp(1j * (poses[hi, 2] - poses[lo, 2]))) / np.where(dt > 0, dt, np.inf)
     gyro = np.interp(0.5 * (t[lo] + t[hi]), odo[:, 0], odo[:, 2])
     turn = dt > 0.5 * window_s
-    n_all = max(1.0, (t[-1] - t[0]) / window_s)
     b = gyro[turn] - rate[turn]
-    se_b = 1.2533 * 1.4826 * float(np.median(np.abs(b - np.median(b)))) / math.sqrt(n_all)
-    return (float(np.median(delta)), max(se(delta), 1e-5), float(np.median(k)), max(se(k), 1e-5),
-            float(np.median(b)), max(se_b, 1e-6))
+    return (float(np.median(delta)), max(_median_se(delta, t[use], window_s), 1e-5), float(np.median(k)),
+            max(_median_se(k, t[use], window_s), 1e-5), float(np.median(b)), max(_median_se(b, t, window_s), 1e-6))
+
+
+def _finite(t, poses) -> tuple[np.ndarray, np.ndarray]:
+    """The reference's samples with a finite pose, as float arrays."""
+    t, poses = np.asarray(t, dtype=float), np.asarray(poses, dtype=float)
+    ok = np.all(np.isfinite(poses), axis=1)
+    return t[ok], poses[ok]
+
+
+def _median_se(v: np.ndarray, times: np.ndarray, window_s: float) -> float:
+    """The standard error of ``v``'s median (1.2533 times the robust std, 1.4826 MAD) over the
+    independent windows of ``window_s`` its samples' ``times`` span."""
+    n_ind = max(1.0, (times[-1] - times[0]) / window_s)
+    return 1.2533 * 1.4826 * float(np.median(np.abs(v - np.median(v)))) / math.sqrt(n_ind)
