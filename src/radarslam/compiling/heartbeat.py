@@ -11,30 +11,38 @@ from radarslam.compiling.costs import HEARTBEAT_S
 
 
 @contextmanager
-def _heartbeat(expected_s: float, what: str = "run: still compiling the per-event engine's kernels"):
-    """An event to set when the compile is over; until then, with ``expected_s`` > 0, a line on
-    stderr every :data:`HEARTBEAT_S` seconds, ``what`` and the seconds so far, saying that numba still
-    compiles (no silence longer than that while a first run compiles in the foreground)."""
+def _beating(line, name: str):
+    """An event to set when the work is over; until then ``line(seconds so far)`` on stderr every
+    :data:`HEARTBEAT_S` seconds from a thread of its own. The one heartbeat of :func:`_heartbeat` and
+    :func:`stage`."""
     done = threading.Event()
-    if expected_s <= 0:
-        yield done
-        return
     t0 = time.perf_counter()
 
     def beat() -> None:
         while not done.wait(HEARTBEAT_S):
-            el = time.perf_counter() - t0
-            lead = "\r" if sys.stderr.isatty() else ""
-            print(f"{lead}{what} ({el:.0f} s of about {expected_s:.0f} s; once per machine)", file=sys.stderr,
-                  flush=True)
+            print(line(time.perf_counter() - t0), file=sys.stderr, flush=True)
 
-    th = threading.Thread(target=beat, name="radarslam-compile-heartbeat", daemon=True)
+    th = threading.Thread(target=beat, name=name, daemon=True)
     th.start()
     try:
         yield done
     finally:
         done.set()
         th.join()
+
+
+@contextmanager
+def _heartbeat(expected_s: float, what: str = "run: still compiling the per-event engine's kernels"):
+    """An event to set when the compile is over; until then, with ``expected_s`` > 0, a line on
+    stderr every :data:`HEARTBEAT_S` seconds, ``what`` and the seconds so far, saying that numba still
+    compiles (no silence longer than that while a first run compiles in the foreground)."""
+    if expected_s <= 0:
+        yield threading.Event()
+        return
+    lead = "\r" if sys.stderr.isatty() else ""
+    with _beating(lambda el: f"{lead}{what} ({el:.0f} s of about {expected_s:.0f} s; once per machine)",
+                  "radarslam-compile-heartbeat") as done:
+        yield done
 
 
 @contextmanager
@@ -46,20 +54,9 @@ def stage(what: str, enabled: bool = True):
     if not enabled:
         yield
         return
-    done = threading.Event()
     t0 = time.perf_counter()
-
-    def beat() -> None:
-        while not done.wait(HEARTBEAT_S):
-            print(f"run: still {what} ({time.perf_counter() - t0:.0f} s)", file=sys.stderr, flush=True)
-
-    th = threading.Thread(target=beat, name="radarslam-stage-heartbeat", daemon=True)
-    th.start()
-    try:
+    with _beating(lambda el: f"run: still {what} ({el:.0f} s)", "radarslam-stage-heartbeat"):
         yield
-    finally:
-        done.set()
-        th.join()
-        el = time.perf_counter() - t0
-        if el > HEARTBEAT_S / 2:
-            print(f"run: {what}: done in {el:.0f} s", file=sys.stderr, flush=True)
+    el = time.perf_counter() - t0
+    if el > HEARTBEAT_S / 2:
+        print(f"run: {what}: done in {el:.0f} s", file=sys.stderr, flush=True)

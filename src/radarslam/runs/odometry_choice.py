@@ -8,7 +8,7 @@ driven by ``"odometer"`` (the readings, the paper's prediction). The choice is m
 compile policy and the filter see the config, and the run says which and why (``metrics.json``
 ``odometry``, its notes); the written ``config.toml`` holds the value chosen. A filter built from a
 config still saying ``"auto"`` (a simulation, whose scans carry no Doppler fit) takes the odometer
-(:func:`odometry_of`).
+(``EkfSlam.__init__``).
 """
 
 from __future__ import annotations
@@ -17,12 +17,7 @@ import dataclasses
 
 import numpy as np
 
-__all__ = ["odometry_of", "resolved_odometry"]
-
-
-def odometry_of(f) -> str:
-    """``filter.odometry`` as a filter without a recording takes it: ``"auto"`` is the odometer."""
-    return "odometer" if f.odometry == "auto" else f.odometry
+__all__ = ["resolved_odometry"]
 
 
 def resolved_odometry(rec, config):
