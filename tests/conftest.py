@@ -157,8 +157,9 @@ def _side_and_families(cfg_dict: dict, overlay: dict) -> None:
     from radarslam.config.variants import Variant
 
     _side(cfg_dict, overlay)
-    _standalone_kernels(from_dict(cfg_dict))
-    compile_fused(from_dict(cfg_dict), tuple(Variant(f"family{i}", f"family {i}", o)
+    cfg = from_dict(cfg_dict)
+    _standalone_kernels(cfg)
+    compile_fused(cfg, tuple(Variant(f"family{i}", f"family {i}", o)
                                              for i, o in enumerate(EXTRA_FAMILIES)))
 
 

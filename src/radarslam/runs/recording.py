@@ -302,11 +302,13 @@ def _run_filter(config: Config, events: list, on_scan, first_run):
 
 
 def rig_fit(rec: Recording, m: Mounting, config: Config):
-    """``(rig, series)``: the recording's rig (:func:`~radarslam.runs.recording_outputs.recording_rig`)
-    and its ego-motion fit as the run writes it (``rig_velocity_of``), or None without Doppler."""
-    from radarslam.runs.recording_outputs import recording_rig, rig_velocity_of
+    """``(rig, series)``: the recording's rig (:func:`~radarslam.egomotion.rig_odometry.rig_of`, ``m`` as
+    its sensor 0 without a rig of its own) and its ego-motion fit as the run writes it
+    (``rig_velocity_of``), or None without Doppler."""
+    from radarslam.egomotion.rig_odometry import rig_of
+    from radarslam.runs.recording_outputs import rig_velocity_of
 
-    rig = recording_rig(rec, m)
+    rig = rig_of(rec, m)
     return None if rig is None else (rig, rig_velocity_of(rig, config.filter))
 
 

@@ -18,7 +18,7 @@ from radarslam.egomotion.rig import Rig, checked_rig_velocity, compare_with_odom
 from radarslam.core.mounting import Mounting
 from radarslam.io.recording.stream import Recording
 
-__all__ = ["landmark_sensors", "mounting_metrics", "recording_rig", "rig_velocity_of", "with_sensors_file",
+__all__ = ["landmark_sensors", "mounting_metrics", "rig_velocity_of", "with_sensors_file",
            "write_run_figures", "write_run_tables"]
 
 #: The seed of the rig fit's RANSAC draws (a run is reproducible).
@@ -40,14 +40,6 @@ def with_sensors_file(rec: Recording, path: str | Path) -> Recording:
     sensors = S.sensors_from_columns(cols, str(path))
     S.check_detection_sensors(rec.channels.get("sensor_id"), sensors, f"{rec.source} (detections)", "detection", 1)
     return dataclasses.replace(rec, sensors=sensors, mounting=None)
-
-
-def recording_rig(rec: Recording, mounting: Mounting) -> Rig | None:
-    """The recording as a :class:`~radarslam.egomotion.rig.Rig`, ``mounting`` as its sensor 0 without
-    a rig of its own (:func:`~radarslam.egomotion.rig_odometry.rig_of`), or None without ``doppler_mps``."""
-    from radarslam.egomotion.rig_odometry import rig_of
-
-    return rig_of(rec, mounting)
 
 
 def rig_velocity_of(rig: Rig, filter_config):
