@@ -22,7 +22,7 @@ COMPILED_SOURCES = (
     "core/angles.py", "core/arrays.py", "core/jit.py", "core/small_matrices.py", "slam/ekf.py", "slam/layout.py",
     "slam/_numba.py", "slam/_jcbb_numba.py", "slam/jcbb.py",
     "slam/fused/storage.py", "slam/fused/tracking.py", "slam/fused/mapping.py", "slam/fused/engine.py",
-    "slam/fused/plan.py", "slam/fused/extent.py", "slam/fused/gate.py",
+    "slam/fused/plan.py", "slam/fused/stream.py", "slam/fused/extent.py", "slam/fused/gate.py",
     "landmarks/confirmation.py", "landmarks/merging.py", "landmarks/sifting.py", "landmarks/grouping.py",
     "landmarks/records.py", "extent/sifting.py", "slam/bias.py",
     "extent/_compiled.py", "extent/_sym2.py", "extent/buffering.py", "extent/measurement.py", "extent/random_matrix.py",
@@ -32,7 +32,8 @@ COMPILED_SOURCES = (
     "extent/ellipse.py", "extent/view_kernels.py", "extent/arc_kernels.py", "models/body_velocity.py", "models/_ransac.py", "models/doppler_kernels.py",
     "models/_doppler_compiled.py", "slam/fused/doppler.py", "models/input_bias.py", "slam/fused/bias.py",
     "slam/view_kernels.py", "slam/_view_compiled.py", "slam/fused/view.py", "extent/partial_view_jac.py",
-    "extent/rows.py", "slam/sensor_frame.py", "slam/fused/sensor.py",
+    "extent/rows.py", "slam/sensor_frame.py", "slam/fused/sensor.py", "slam/scan_frame.py", "slam/radar_time.py",
+    "slam/radar_yaw.py",
 )
 ROOT = Path(__file__).resolve().parents[1]
 #: The ending of radarslam's own markers of what numba's cache holds (:mod:`radarslam.compiling.markers`),

@@ -136,10 +136,10 @@ def bias_transition(dt, drift, tau):
 def turned_step(pose: np.ndarray, new_pose: np.ndarray, beta: float) -> np.ndarray:
     """``new_pose`` with the position increment from ``pose`` turned by the thrust angle ``beta``
     (c.11.12; the heading's step unchanged): the mean of :func:`thrust_turn`, for the simulators and
-    the pose's rate of c.13.2."""
+    the pose's rate of c.13.2. A kernel (``new_pose`` a float array)."""
     c, s = math.cos(beta), math.sin(beta)
     dx, dy = new_pose[0] - pose[0], new_pose[1] - pose[1]
-    out = np.array(new_pose, dtype=float, copy=True)
+    out = new_pose.copy()
     out[0], out[1] = pose[0] + c * dx - s * dy, pose[1] + s * dx + c * dy
     return out
 

@@ -44,7 +44,9 @@ from radarslam.core.errors import ConfigError
 from radarslam.slam.bias import turned_step
 from radarslam.slam.rig_states import PerRadarStates, rig_ids
 
-__all__ = ["RATE_STEP_S", "RadarTimeStates", "enter_time", "leave_time", "pose_rate", "radar_time_states"]
+__all__ = ["RATE_STEP_S", "RadarTimeStates", "enter_time", "leave_time", "pose_rate", "radar_time_states", "rate_of_step"]
+
+_TWO_PI = 2.0 * math.pi
 
 #: The step (s) over which :func:`pose_rate` differences the motion model (its error O(h omega v)).
 RATE_STEP_S = 1e-4
@@ -74,10 +76,17 @@ def pose_rate(bias, model, x: np.ndarray, u: np.ndarray | None) -> np.ndarray:
     if u is None:
         return np.zeros(3)
     pose, b = x[:3], x[3:3 + bias.dim]
-    h = RATE_STEP_S
-    nxt = model.step(pose, bias.spec.correct(u, b), h)
-    d = (nxt if bias.thrust_index < 0 else turned_step(pose, nxt, b[bias.thrust_index])) - pose
-    d[2] = math.remainder(d[2], 2.0 * math.pi)
+    nxt = model.step(pose, bias.spec.correct(u, b), RATE_STEP_S)
+    thrust = bias.thrust_index
+    return rate_of_step(pose, nxt, b[thrust] if thrust >= 0 else 0.0, thrust >= 0, RATE_STEP_S)
+
+
+def rate_of_step(pose, nxt, beta, turned, h):
+    """``(nxt - pose) / h`` (3,), the heading's step wrapped to ``[-pi, pi]``: the pose's rate of
+    c.13.2 from the motion model's step ``nxt`` over ``h`` from ``pose``, its position increment turned
+    by the thrust angle ``beta`` when ``turned`` (c.11.12). A kernel."""
+    d = (turned_step(pose, nxt, beta) if turned else nxt.copy()) - pose
+    d[2] = d[2] - _TWO_PI * round(d[2] / _TWO_PI)
     return d / h
 
 

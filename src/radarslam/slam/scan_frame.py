@@ -5,17 +5,55 @@ left exactly (each change is linear with an exact inverse).
 The order is the physical one: the platform's pose at the measurement's time first (c.13.2's time
 offset, along the pose's rate ``rate``), then the rigid mounting (c.13's lever arm), then the radar's
 yaw offset about its own position (c.13.1); leaving undoes them in reverse.
+
+:func:`enter_frame`, :func:`leave_frame`, :func:`frame_first` (and c.13.2's pose rate, :func:`~radarslam.slam.radar_time.rate_of_step`) are kernels:
+the orchestrator (:func:`measured_from`) calls them as Python, the fused engine
+(``slam/fused/sensor.py``) the same functions compiled; a state index of -1 means "not a state".
 """
 
 from __future__ import annotations
 
 from contextlib import contextmanager
 
-from radarslam.slam import sensor_frame
+import numpy as np
+
 from radarslam.slam.radar_time import enter_time, leave_time
 from radarslam.slam.radar_yaw import enter_yaw, leave_yaw
+from radarslam.slam.sensor_frame import sensor_pose, state_to_platform_kernel, state_to_sensor_kernel
 
-__all__ = ["measured_from"]
+__all__ = ["enter_frame", "frame_first", "leave_frame", "measured_from"]
+
+def enter_frame(x, P, mx, my, myaw, yaw, tau, rate):
+    """The pose block of ``(x, P)`` (in place) becomes the radar's pose at its measurement: moved along
+    ``rate`` (3,) by the time offset at index ``tau`` (c.13.2), by the mounting ``(mx, my, myaw)``
+    (c.13), turned by the yaw offset at index ``yaw`` (c.13.1). A kernel."""
+    if tau >= 0:
+        enter_time(x, P, tau, rate)
+    state_to_sensor_kernel(x, P, mx, my, myaw)
+    if yaw >= 0:
+        enter_yaw(x, P, 2, yaw)
+
+
+def leave_frame(x, P, mx, my, myaw, yaw, tau, rate):
+    """The inverse of :func:`enter_frame` with the same arguments (in place). A kernel."""
+    if yaw >= 0:
+        leave_yaw(x, P, 2, yaw)
+    state_to_platform_kernel(x, P, mx, my, myaw)
+    if tau >= 0:
+        leave_time(x, P, tau, rate)
+
+
+def frame_first(first, x, mx, my, myaw, yaw, tau, rate):
+    """The first estimate (c.2.1) of the radar's pose at its measurement, from the platform's first
+    estimate ``first`` (3,) and the offsets' estimates in ``x``, as :func:`enter_frame` moves the
+    estimate. A kernel; returns a new array."""
+    shifted = first.copy()
+    if tau >= 0:
+        shifted = shifted + x[tau] * rate
+    lin = sensor_pose(shifted, mx, my, myaw)
+    if yaw >= 0:
+        lin[2] += x[yaw]
+    return lin
 
 
 @contextmanager
@@ -25,22 +63,11 @@ def measured_from(state, mount, yaw: int | None, tau: int | None, rate, first):
     offset's ``tau`` (None: not states) with the pose's rate ``rate`` (3,). Yields the first estimate
     of that pose from the platform's first estimate ``first`` (first-estimates Jacobians, c.2.1), or
     None when ``first`` is None."""
-    if tau is not None:                               # c.13.2: the pose when the radar measured
-        enter_time(state.x, state.P, tau, rate)
-    sensor_frame.state_to_sensor(state.x, state.P, mount)
-    if yaw is not None:                               # c.13.1: turned by its yaw offset's estimate
-        enter_yaw(state.x, state.P, 2, yaw)
-    lin = None
-    if first is not None:
-        shifted = first if tau is None else first + state.x[tau] * rate
-        lin = sensor_frame.sensor_pose(shifted, mount.x, mount.y, mount.yaw)
-        if yaw is not None:
-            lin[2] += state.x[yaw]
+    args = (float(mount.x), float(mount.y), float(mount.yaw), -1 if yaw is None else int(yaw),
+            -1 if tau is None else int(tau), np.zeros(3) if rate is None else np.asarray(rate, dtype=float))
+    enter_frame(state.x, state.P, *args)
+    lin = None if first is None else frame_first(np.asarray(first, dtype=float), state.x, *args)
     try:
         yield lin
     finally:
-        if yaw is not None:
-            leave_yaw(state.x, state.P, 2, yaw)
-        sensor_frame.state_to_platform(state.x, state.P, mount)
-        if tau is not None:
-            leave_time(state.x, state.P, tau, rate)
+        leave_frame(state.x, state.P, *args)

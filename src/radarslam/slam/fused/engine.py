@@ -26,7 +26,7 @@ from radarslam.slam.fused.bias import predict_step
 from radarslam.slam.fused.extent import extent_step
 from radarslam.slam.fused.gate import moving_young, remember, veto
 from radarslam.slam.fused.mapping import alpha_test, augment, cluster, confirm, merge
-from radarslam.slam.fused.sensor import enter_sensor, leave_sensor
+from radarslam.slam.fused.sensor import enter_sensor, leave_sensor, scan_rate
 from radarslam.slam.fused.storage import (
     _all_finite,
     _blocks,
@@ -109,14 +109,8 @@ def engine(family: Family):
     def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
         """Run the event stream through the filter.
 
-        ``stream`` is a :class:`~radarslam.slam.fused.plan.Stream`: the events ``kinds`` (ODOMETRY,
-        SCAN, VELOCITY, in order); odometry ``e`` is ``odo[e] = [v, psi]`` over ``odo_dt[e]`` (the
-        model ``cfg.motion``); a body-velocity input ``e`` (Doppler odometry, c.10.5) is ``vel[e] =
-        [v_x, v_y, omega]`` over ``vel_dt[e]`` with its ``vel_U[e]`` and ``vel_Q[e]``; scan ``s`` has
-        the detections ``polar[scan_off[s]:scan_off[s + 1]]`` and the index ``scan_k[s]`` (under the
-        Doppler gate, ``cfg.doppler_gate``, its static ones, ``moving[s]`` dropped, and its moving
-        objects' detections ``seen[seen_off[s]:seen_off[s + 1]]`` when ``remember[s]``, c.10.4). ``noise`` is
-        a :class:`~radarslam.slam.fused.plan.Noise`, ``cfg`` the parameters
+        ``stream`` is a :class:`~radarslam.slam.fused.stream.Stream` (its fields say what each event
+        and scan holds), ``noise`` a :class:`~radarslam.slam.fused.plan.Noise`, ``cfg`` the parameters
         (:class:`~radarslam.slam.fused.plan.FusedParams`). Returns a tuple: status ``(code, event)``;
         the number of scans run; the per-scan :class:`~radarslam.slam.fused.storage.ScanRecord` (pose,
         covariance, detections, associated detections, landmarks, NIS sum and count and every NIS, map
@@ -146,8 +140,11 @@ def engine(family: Family):
         t_last = _clock() if cfg.timing else 0.0
         dt_since = 0.0
         e_odo, s, e_vel = zero, zero, zero
+        u_last, has_u, no_rate = np.zeros(2), False, np.zeros(3)   # the odometer's latest reading (c.13.2)
         for ev in range(stream.kinds.shape[0]):
             if stream.kinds[ev] != SCAN:                                               # 1
+                if stream.kinds[ev] == ODOMETRY:
+                    u_last, has_u = stream.odo[e_odo], True
                 u, dt, U, Q, model, e_odo, e_vel = _prediction_input(stream, noise, cfg, ev, e_odo, e_vel)
                 if not predict_step(x, P, u, dt, U, Q, pose_first, model, cfg, bias):      # c.2, c.11.2
                     status[0], status[1] = BAD_PREDICTION, ev
@@ -158,7 +155,8 @@ def engine(family: Family):
             polar = stream.polar[stream.scan_off[s]:stream.scan_off[s + 1]]
             k = stream.scan_k[s]
             first_platform = pose_first
-            pose_first = enter_sensor(x, P, stream, s, pose_first)                    # c.13: about its own radar
+            rate = scan_rate(x, u_last, cfg) if bias and has_u and stream.tau_i[s] >= 0 else no_rate  # c.13.2
+            pose_first = enter_sensor(x, P, stream, s, pose_first, rate)              # c.13: its radar, its time
             if cfg.doppler_gate and stream.remember[s]:                                # c.10.4.3
                 seen = stream.seen[stream.seen_off[s]:stream.seen_off[s + 1]]
                 mem, n_mem, n_now = remember(mem, n_mem, seen, x, k, cfg)
@@ -183,7 +181,7 @@ def engine(family: Family):
             confirmed, tent = confirm(tent, fresh, clusters, xy, cfg)                  # 8
             x, P, lm, N, next_id = augment(x, P, lm, N, next_id, confirmed, clusters, polar, k, noise, cfg)  # 9
             x, P, lm, N = merge(x, P, lm, N, arcs, cfg)                                # 10
-            leave_sensor(x, P, stream, s)                                              # c.13
+            leave_sensor(x, P, stream, s, rate)                                        # c.13
             pose_first = first_platform
             if not _all_finite(x, P):
                 status[0], status[1] = BAD_SCAN, ev
