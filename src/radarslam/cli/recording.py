@@ -68,12 +68,18 @@ def chosen_rig(args, config=None):
 
 
 def _read(args, rig=None):
-    """The recording; ``rig`` (:func:`chosen_rig`'s) gives a bag rig the mountings its /tf_static lacks."""
+    """The recording; ``rig`` (:func:`chosen_rig`'s) gives a bag rig the mountings its /tf_static lacks;
+    a dataset in its official layout (``--dataset nuscenes|radarscenes``) is read by its reader."""
     from radarslam.io.recording import read_recording
 
-    rec = read_recording(args.recording, radar_topic=topic_arg(args), odom_topic=args.odom_topic,
-                         truth_topic=args.truth_topic, doppler_field=args.doppler_field,
-                         sensors=rig if len(radar_topics(args)) > 1 else None)
+    if getattr(args, "official", None):
+        from radarslam.cli.official import read_official
+
+        rec = read_official(args)
+    else:
+        rec = read_recording(args.recording, radar_topic=topic_arg(args), odom_topic=args.odom_topic,
+                             truth_topic=args.truth_topic, doppler_field=args.doppler_field,
+                             sensors=rig if len(radar_topics(args)) > 1 else None)
     for note in rec.notes:
         print(f"radarslam: warning: {note}", file=sys.stderr)
     return rec

@@ -30,7 +30,9 @@ def add_parser(sub) -> None:
                    help="output directory (created with its parents); one that holds a run is refused")
     p.add_argument("--overwrite", action="store_true", help="replace the run already in --out")
     p.add_argument("--dataset", nargs=2, metavar=("NAME", "PATH"),
-                   help="run on a recorded dataset instead of the simulation (e.g. victoria-park DIR)")
+                   help="run on a recorded dataset instead of the simulation (victoria-park DIR; nuscenes DATAROOT "
+                        "--scene NAME or radarscenes DATAROOT --sequence N in their official layouts, run as "
+                        "--recording runs a recording)")
     p.add_argument("--protocol", choices=("aligned", "published"), default="aligned",
                    help="--dataset victoria-park: 'aligned' (map frame of the first scan, GPS-aligned RMSE) or "
                         "'published' (start at the first GPS fix in the GPS frame, no alignment, error within "
@@ -44,6 +46,9 @@ def add_parser(sub) -> None:
     from radarslam.cli.recording import add_recording_args
 
     add_recording_args(p, run=True)
+    from radarslam.cli.official import add_official_args
+
+    add_official_args(p)
     add_backend_arg(p)
     p.set_defaults(func=run)
 
@@ -53,12 +58,15 @@ LONG_RUN_SCANS = 2000
 
 
 def run(args: argparse.Namespace) -> int:
+    from radarslam.cli.official import OFFICIAL, check_official_args, official_run_args
     from radarslam.simulation.trial import check_simulation_config, run_trial
 
-    if args.recording:
+    check_official_args(args)
+    official = bool(args.dataset) and args.dataset[0] in OFFICIAL   # nuScenes, RadarScenes: run as recordings
+    if args.recording or official:
         from radarslam.cli.recording import run_recording_cmd
 
-        return run_recording_cmd(args)
+        return run_recording_cmd(official_run_args(args) if official else args)
     if args.dataset:
         return run_dataset_cmd(args)
     if args.seed < 0:
@@ -172,7 +180,9 @@ def run_dataset_cmd(args: argparse.Namespace) -> int:
 
     name, path = args.dataset
     if name not in list_datasets():
-        raise InputError(f"--dataset: expected one of {list_datasets()}, got {name!r}")
+        from radarslam.cli.official import OFFICIAL
+
+        raise InputError(f"--dataset: expected one of {sorted([*list_datasets(), *OFFICIAL])}, got {name!r}")
     if args.input != "laser" and name != "victoria-park":
         raise InputError(f"--input: 'trees' is defined for --dataset victoria-park, got --dataset {name}")
     if args.profile is None and not args.config:

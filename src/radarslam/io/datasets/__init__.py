@@ -4,7 +4,9 @@ A loader is a callable ``loader(path, **options)`` returning an object whose ``e
 the time-ordered list of :class:`~radarslam.core.types.Odometry` and
 :class:`~radarslam.core.types.Scan` events. Built-in loaders are registered by a ``"module:attr"``
 reference and imported on first use, so importing this package stays cheap (no scipy, no
-matplotlib).
+matplotlib). :mod:`.nuscenes` and :mod:`.radarscenes` read those datasets in their official layouts
+into the :class:`~radarslam.io.recording.stream.Recording` of a recording run instead (``radarslam run
+--dataset nuscenes|radarscenes``, docs/datasets.md); they are not loaders of this registry.
 
 >>> from radarslam.io.datasets import get_dataset, list_datasets
 >>> "victoria-park" in list_datasets()
