@@ -3,7 +3,8 @@ the orchestrator it stands in for: the same associations, landmark ids, poses, m
 (the partial-view estimator's in the map's ``rma`` slot, the RMA beneath it in ``efa``) to 1e-9 on
 simulated car-park trials under the visible-faces spread model, with each associator the partial
 view has, with and without the view-init correction and the shape's uncertainty, with the view
-walk, with the ablation shapes, and with the shape's Jacobians by central differences (a.12.9)."""
+walk, with the ablation shapes, with the shape's Jacobians by central differences (a.12.9), and with
+the odometry-bias states between the pose and the landmarks (c.11)."""
 
 from __future__ import annotations
 
@@ -41,6 +42,13 @@ CASES = {
     "prior-shape-radius-sifting": {"extent": {"view_shape": "prior", "contour_sifting": False}},
     "point-init": {"landmarks": {"init": "nearest"}, "extent": {"pre_init_spread": "none"}},
     "central-difference-jacobians": {"extent": {"view_jacobian": "central-difference"}},
+    # the landmarks after a platform block of 5 (c.11): every row the partial view indexes moves by 2
+    "bias-states": {"filter": {"odometry_bias": "states"}},
+    "bias-states-batch": {"landmarks": {"associator": "batch"}, "filter": {"odometry_bias": "states"},
+                          "extent": {"view_walk_m2_per_rad": 0.02}},
+    "bias-states-nn-central-difference": {"landmarks": {"associator": "nearest-neighbour"},
+                                          "filter": {"odometry_bias": "states"},
+                                          "extent": {"view_jacobian": "central-difference"}},
 }
 
 

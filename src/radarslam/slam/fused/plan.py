@@ -135,9 +135,6 @@ def why_not(slam, events=None) -> str | None:
         (f.backend == "numba", f"filter.backend is {f.backend!r}"),
         ((getattr(slam, "view", None) is None) == (type(slam.extent) is not PartialViewEstimator),
          "the partial-view estimator with the full view, or the partial view with another estimator"),
-        # the compiled partial view indexes landmarks after a 3-state platform block
-        (getattr(slam, "view", None) is None or f.odometry_bias == "none",
-         "the partial view (docs/method.md a.12) with filter.odometry_bias 'states'"),
         (not f.doppler_gate or type(slam._gate) is DopplerGate, f"Doppler gate {type(slam._gate).__name__}"),
         # under Doppler odometry (c.10.5) the body-velocity model drives every prediction, not slam.model
         (f.odometry != "odometer" or type(slam.model) in (UnicycleModel, AckermannModel),

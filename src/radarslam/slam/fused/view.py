@@ -83,7 +83,7 @@ def view_walk(x, P, lm, N, cfg):  # pragma: no cover - compiled
     """a.12.5's walk of the centroids with the viewing angle, in place on ``P``, and each
     landmark's bearing kept for the next scan (none under a zero walk, as the orchestrator)."""
     if cfg.pv.walk > 0.0 and N > 0:
-        lm.vangle[:N] = view_walk_rows(x, P, lm.vangle[:N].copy(), cfg.pv.walk, POSE_DIM)
+        lm.vangle[:N] = view_walk_rows(x, P, lm.vangle[:N].copy(), cfg.pv.walk, cfg.platform)
 
 
 @compiled_only
@@ -115,8 +115,8 @@ def view_terms(x, shapes, N, cfg):  # pragma: no cover - compiled
     """``(mu, B, S, J)`` of every landmark at the state ``x`` (a.12.4), with the model error's
     ``J = dg/dxi (N, 2, 3)`` from the same pass under :func:`_analytic_cov` (else ``(0, 2, 3)``)."""
     if _analytic_cov(cfg.pv):
-        return view_xi_rows(x, shapes, np.arange(N), POSE_DIM)
-    mu, B, S = view_rows(x, shapes, np.arange(N), POSE_DIM)
+        return view_xi_rows(x, shapes, np.arange(N), cfg.platform)
+    mu, B, S = view_rows(x, shapes, np.arange(N), cfg.platform)
     return mu, B, S, np.empty((0, 2, 3))
 
 
@@ -192,22 +192,23 @@ def _scores(x, terms, N, R, cfg):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def _block_row(j, r):  # pragma: no cover - compiled
-    """The state row of entry ``r`` of landmark ``j``'s block ``(x, y, theta, p_j)``."""
-    return r if r < 3 else POSE_DIM + 2 * j + r - 3
+def _block_row(j, r, platform):  # pragma: no cover - compiled
+    """The state row of entry ``r`` of landmark ``j``'s block ``(x, y, theta, p_j)``, the landmarks
+    after a platform block of ``platform`` entries (the pose, then any bias states: slam/layout.py)."""
+    return r if r < POSE_DIM else platform + 2 * j + r - POSE_DIM
 
 
 @compiled_only
-def _block_index(j):  # pragma: no cover - compiled
-    """The rows ``(x, y, theta, p_j)`` of landmark ``j`` in the state."""
+def _block_index(j, platform):  # pragma: no cover - compiled
+    """The rows ``(x, y, theta, p_j)`` of landmark ``j`` in the state (:func:`_block_row`)."""
     idx = np.empty(5, dtype=np.int64)
     for r in range(5):
-        idx[r] = _block_row(j, r)
+        idx[r] = _block_row(j, r, platform)
     return idx
 
 
 @compiled_only
-def _complete(x, P, xi, Pxi, js, terms, R, sc, pv):  # pragma: no cover - compiled
+def _complete(x, P, xi, Pxi, js, terms, R, sc, pv, platform):  # pragma: no cover - compiled
     """The model error (with the shape's uncertainty ``Pxi`` of the shapes ``xi``, ``pv.with_cov``),
     ``Rj`` and ``Sn`` of the landmarks ``js`` not yet done, in ``sc`` (the orchestrator's
     ``model_errors``, ``polar_terms`` and ``log_distances`` of them: the same kernels on the same
@@ -226,7 +227,7 @@ def _complete(x, P, xi, Pxi, js, terms, R, sc, pv):  # pragma: no cover - compil
     mu, B, S, J = terms
     Qcd = np.empty((0, 2, 2))                            # the central-difference model errors, when asked
     if pv.with_cov and not _analytic_cov(pv):
-        Qcd = shape_error_rows(x, xi, Pxi, todo[:n], pv.Qv, pv.shape_step, POSE_DIM)
+        Qcd = shape_error_rows(x, xi, Pxi, todo[:n], pv.Qv, pv.shape_step, platform)
     h1 = np.empty(2)                                     # polar_row's h and Hs: sc has them already
     Hs1 = np.empty((2, 5))
     Pb = np.empty((5, 5))
@@ -240,19 +241,19 @@ def _complete(x, P, xi, Pxi, js, terms, R, sc, pv):  # pragma: no cover - compil
             polar_row(x, mu[j, 0], mu[j, 1], B[j], S[j], sc.Q[j], R, h1, Hs1, sc.Rj[j])
         for r in range(5):                               # P on the block (_block_index), gathered
             for c in range(5):
-                Pb[r, c] = P[_block_row(j, r), _block_row(j, c)]
+                Pb[r, c] = P[_block_row(j, r, platform), _block_row(j, c, platform)]
         sc.Sn[j] = innovation_cov(sc.Hs[j], Pb, sc.Rj[j])
 
 
 @compiled_only
-def _nearest_best(x, P, xi, Pxi, z0, z1, d2, N, count, terms, R, sc, pv):  # pragma: no cover - compiled
+def _nearest_best(x, P, xi, Pxi, z0, z1, d2, N, count, terms, R, sc, pv, platform):  # pragma: no cover - compiled
     """The landmark of smallest log distance among the ``count`` nearest by ``d2`` (ties by
     position, the first minimum; ``inf`` where ``d2`` or ``Sn`` rule it out): ``(j, D)``."""
     near = _smallest(d2, N, count)
     have, ok, h, Sn = sc.have, sc.ok, sc.h, sc.Sn     # once: each record access counts a reference
     for k in range(count):
         if not have[near[k]]:
-            _complete(x, P, xi, Pxi, near, terms, R, sc, pv)
+            _complete(x, P, xi, Pxi, near, terms, R, sc, pv, platform)
             break
     best_j = near[0]
     best_D = math.inf
@@ -285,10 +286,10 @@ def _view_nn(x, P, polar, cidx, lm, N, shapes, terms, R, cfg):  # pragma: no cov
         for j in range(N):
             d2[j] = (mu[j, 0] - zw0) ** 2 + (mu[j, 1] - zw1) ** 2
         j, D = _nearest_best(x, P, lm.xi, lm.Pxi, polar[i, 0], polar[i, 1], d2.copy(), N, count, terms, R, sc,
-                             cfg.pv)
+                             cfg.pv, cfg.platform)
         if D < cfg.beta:
             e = np.array([polar[i, 0] - sc.h[j, 0], _wrap_pi(polar[i, 1] - sc.h[j, 1])])
-            nis[n_up] = _joseph_update_inplace(x, P, e, sc.Hs[j].copy(), _block_index(j), sc.Rj[j].copy())
+            nis[n_up] = _joseph_update_inplace(x, P, e, sc.Hs[j].copy(), _block_index(j, cfg.platform), sc.Rj[j].copy())
             n_up += 1
             out[c] = j
             terms = view_terms(x, shapes, N, cfg)
@@ -313,7 +314,7 @@ def _view_scores(x, P, polar, cidx, lm, N, terms, R, sc, cfg):  # pragma: no cov
         zw1 = x[1] + polar[i, 0] * math.sin(th)
         for j in range(N):
             d2[j] = (zw0 - mu[j, 0]) ** 2 + (zw1 - mu[j, 1]) ** 2 if ok[j] else math.inf
-        j, D = _nearest_best(x, P, xi, Pxi, polar[i, 0], polar[i, 1], d2, N, count, terms, R, sc, pv)
+        j, D = _nearest_best(x, P, xi, Pxi, polar[i, 0], polar[i, 1], d2, N, count, terms, R, sc, pv, cfg.platform)
         if D < cfg.beta:
             out[c] = j
     return out
@@ -337,11 +338,11 @@ def _one_landmark(x, shapes, lm, j, cfg):  # pragma: no cover - compiled
     (``view_model_terms`` of one landmark)."""
     js = np.array([j])
     if _analytic_cov(cfg.pv):
-        mu, B, S, J = view_xi_rows(x, shapes, js, POSE_DIM)
+        mu, B, S, J = view_xi_rows(x, shapes, js, cfg.platform)
         return mu, B, S, model_error_rows(J, lm.Pxi, js, cfg.pv.Qv)[0]
-    mu, B, S = view_rows(x, shapes, js, POSE_DIM)
+    mu, B, S = view_rows(x, shapes, js, cfg.platform)
     if cfg.pv.with_cov:
-        return mu, B, S, shape_error_rows(x, lm.xi, lm.Pxi, js, cfg.pv.Qv, cfg.pv.shape_step, POSE_DIM)[0]
+        return mu, B, S, shape_error_rows(x, lm.xi, lm.Pxi, js, cfg.pv.Qv, cfg.pv.shape_step, cfg.platform)[0]
     return mu, B, S, cfg.pv.Qv.copy()
 
 
@@ -368,7 +369,7 @@ def view_associate(x, P, polar, cidx, lm, N, shapes, terms, noise, cfg):  # prag
             j = js[a]
             mu, B, S, Q = _one_landmark(x, shapes, lm, j, cfg)
             e, Hs, Rb = _batch_rows(x, polar, cidx[out == j], R, mu, B, S, Q)
-            nis[a] = _joseph_update_inplace(x, P, e, Hs, _block_index(j), Rb)
+            nis[a] = _joseph_update_inplace(x, P, e, Hs, _block_index(j, cfg.platform), Rb)
         return x, P, out, nis
     mu_all, B_all, S_all, _ = terms
     e, Hs_all, idx_all, Rb = stacked_rows(L)
@@ -377,7 +378,7 @@ def view_associate(x, P, polar, cidx, lm, N, shapes, terms, noise, cfg):  # prag
         ea, Hs_all[a], Rb[a] = _batch_rows(x, polar, cidx[out == j], R, mu_all[j:j + 1], B_all[j:j + 1],
                                            S_all[j:j + 1], sc.Q[j].copy())
         e[2 * a], e[2 * a + 1] = ea[0], ea[1]
-        idx_all[a] = _block_index(j)
+        idx_all[a] = _block_index(j, cfg.platform)
     return x, P, out, joint_update_loops(x, P, e, Hs_all, idx_all, Rb)
 
 
