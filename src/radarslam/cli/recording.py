@@ -146,7 +146,7 @@ def run_recording_cmd(args: argparse.Namespace) -> int:
     names = write_recording_outputs(out, run, {"recording": str(args.recording), "version": __version__,
                                                 "argv": sys.argv, "wall_seconds": time.perf_counter() - t0,
                                                 "engine": run.record.engine, "sensors_file": sensors_file,
-                                                "rig_from": rig_from})
+                                                "rig_from": rig_from}, plots=not getattr(args, "no_plot", False))
     if args.animate:
         from radarslam.runs.recording import animation_frames
         from radarslam.viz.animation import animate_run

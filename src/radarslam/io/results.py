@@ -102,14 +102,29 @@ def refuse_finished(marker: Path, what: str, overwrite: bool) -> None:
                          "to replace it, or choose another directory")
 
 
-def write_trajectory_csv(path: str | Path, t: np.ndarray, estimated: np.ndarray, true: np.ndarray | None = None) -> None:
-    """CSV with columns ``k,t,x,y,theta`` (+ ``x_true,y_true,theta_true``)."""
+#: ``trajectory.csv``'s pose covariance columns: the upper triangle of the 3 x 3 covariance of
+#: ``x, y, theta`` row by row (docs/recordings.md "Commands", the table of trajectory.csv).
+POSE_COV_COLUMNS = ("var_x_m2", "cov_xy_m2", "cov_x_theta_m_rad", "var_y_m2", "cov_y_theta_m_rad", "var_theta_rad2")
+
+
+def write_trajectory_csv(path: str | Path, t: np.ndarray, estimated: np.ndarray, true: np.ndarray | None = None,
+                         covs: np.ndarray | None = None) -> None:
+    """CSV with columns ``k,t,x,y,theta`` (+ ``x_true,y_true,theta_true``) (+ :data:`POSE_COV_COLUMNS`
+    of ``covs`` (K, 3, 3), the estimate's covariance)."""
     cols = ["k", "t", "x", "y", "theta"] + (["x_true", "y_true", "theta_true"] if true is not None else [])
+    if covs is not None:
+        covs = np.asarray(covs, dtype=float)
+        if covs.shape != (estimated.shape[0], 3, 3):
+            raise InputError(f"covs: expected shape ({estimated.shape[0]}, 3, 3), one per pose, got {covs.shape}")
+        cols += list(POSE_COV_COLUMNS)
+        upper = covs[:, [0, 0, 0, 1, 1, 2], [0, 1, 2, 1, 2, 2]]
     rows = [",".join(cols)]
     for i in range(estimated.shape[0]):
         vals = [str(i + 1), repr(float(t[i]))] + [repr(float(v)) for v in estimated[i]]
         if true is not None:
             vals += [repr(float(v)) for v in true[i]]
+        if covs is not None:
+            vals += [repr(float(v)) for v in upper[i]]
         rows.append(",".join(vals))
     atomic_write_text(path, "\n".join(rows) + "\n")
 

@@ -20,7 +20,7 @@ from radarslam.runs.start import (FRAMES, START_STD, filter_to_platform, platfor
                                   sensor_lever, start_pose, start_std, truth_at)
 from radarslam.runs.odometry_choice import resolved_odometry
 from radarslam.runs.dead_reckoning import dead_reckoning  # noqa: F401  (runs.recording.dead_reckoning, its former home)
-from radarslam.runs.recording_outputs import bias_metrics, mounting_metrics
+from radarslam.runs.recording_outputs import bias_metrics, mounting_metrics, pose_nees_metrics
 from radarslam.runs.stream_run import RecordViews, refuse_drawn_start, run_stream
 from radarslam.models.radar import polar_to_xy
 from radarslam.slam.driver import FilterRecord, Observer, drive, fused_maps
@@ -250,6 +250,10 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
     if truth is not None:
         metrics.update(evaluate_truth(record.poses, dead_reckoning(events, config, pose), truth, config, align,
                                       metrics["start"]))
+    if metrics.get("truth_scans"):                    # the NEES against the same truth (docs/recordings.md)
+        metrics["pose_nees"] = pose_nees_metrics(record.poses, record.pose_covs, truth, config, align)
+        if "error" in metrics["pose_nees"]:
+            metrics.setdefault("warnings", []).append(f"no pose NEES: {metrics['pose_nees']['error']}")
     if odometry is not None:
         metrics["odometry"] = odometry
     if clock is not None:
@@ -386,14 +390,15 @@ def map_rows(run: RecordingRun) -> list[dict]:
     return rows
 
 
-def write_recording_outputs(out: Path, run: RecordingRun, extra: dict) -> list[str]:
-    """Every result file of a recording run in ``out``; returns their names (``run.json`` last, the marker)."""
+def write_recording_outputs(out: Path, run: RecordingRun, extra: dict, *, plots: bool = True) -> list[str]:
+    """Every result file of a recording run in ``out`` (its figures with ``plots``, ``--no-plot`` none);
+    returns their names (``run.json`` last, the marker)."""
     from radarslam.runs.recording_outputs import write_run_figures, write_run_tables
     from radarslam.io.results import atomic_write_text, write_json, write_trajectory_csv, write_tum
 
     t, poses = run.times, run.record.poses
     write_tum(out / "trajectory_tum.txt", t, poses)
-    write_trajectory_csv(out / "trajectory.csv", t, poses, run.truth)
+    write_trajectory_csv(out / "trajectory.csv", t, poses, run.truth, run.record.pose_covs)
     names = ["trajectory_tum.txt", "trajectory.csv"]
     if run.recording.truth is not None:
         write_tum(out / "groundtruth_tum.txt", run.recording.truth_t, run.recording.truth)
@@ -408,7 +413,7 @@ def write_recording_outputs(out: Path, run: RecordingRun, extra: dict) -> list[s
                 ext[0, 0], ext[0, 1], ext[1, 1]]
         lines.append(",".join([str(r["id"])] + [repr(float(v)) for v in vals]))
     atomic_write_text(out / "map.csv", "\n".join(lines) + "\n")
-    names += ["map.json", "map.csv"] + write_run_tables(out, run) + write_run_figures(out, run)
+    names += ["map.json", "map.csv"] + write_run_tables(out, run) + (write_run_figures(out, run) if plots else [])
     chosen = run.metrics.get("mounting", {}).get("chosen")       # which radar [sensor] holds, and why
     note = {"sensor": f"mount_*: {chosen}, the mounting of the steps that take one (metrics.json mounting)"}
     atomic_write_text(out / "config.toml", to_toml(run.config, notes=note if chosen else None))

@@ -2,7 +2,8 @@
 "Outputs"): another ``sensors.csv`` for the run (``--sensors``, e.g. ``radarslam calibrate``'s
 ``sensors_calibrated.csv``), the rig's ego-motion from every radar's Doppler (``ego_velocity.csv``,
 ``ego_velocity.png``), each input detection's fate under the Doppler gate (``moving.csv``, scored
-against the annotation when the recording has one) and the map figure (``map.png``).
+against the annotation when the recording has one), the map figure (``map.png``) and, with a truth,
+the pose NEES (``metrics.json["pose_nees"]``, ``nees.png``; docs/recordings.md "What metrics.json holds").
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from radarslam.egomotion.rig import Rig, checked_rig_velocity, compare_with_odom
 from radarslam.core.mounting import Mounting
 from radarslam.io.recording.stream import Recording
 
-__all__ = ["landmark_sensors", "mounting_metrics", "rig_velocity_of", "with_sensors_file",
+__all__ = ["landmark_sensors", "mounting_metrics", "pose_nees_metrics", "rig_velocity_of", "with_sensors_file",
            "write_run_figures", "write_run_tables"]
 
 #: The seed of the rig fit's RANSAC draws (a run is reproducible).
@@ -98,6 +99,27 @@ def bias_metrics(record) -> dict | None:
             for i, (n, u) in enumerate(zip(record.bias_names, record.bias_units))}
 
 
+def pose_nees_metrics(poses: np.ndarray, covs: np.ndarray, truth: np.ndarray, config, align: str) -> dict:
+    """``metrics.json["pose_nees"]``: the platform's pose NEES at every scan against ``truth`` (K, 3) after
+    ``align``, as :func:`~radarslam.runs.recording.evaluate_truth` compares the pose (under ``ackermann``
+    the filter's sensor pose and its covariance moved back to the axle), with the truth's own accuracy
+    ``filter.truth_pose_std`` added to the covariance (:func:`~radarslam.metrics.trajectory.trajectory_nees`).
+    A covariance it refuses gives ``{"error": its one line}`` instead."""
+    from radarslam.metrics.trajectory import NEES_DEFINITIONS, trajectory_nees
+    from radarslam.runs.start import filter_cov_to_platform, filter_to_platform
+
+    std = [float(v) for v in config.filter.truth_pose_std]
+    try:
+        out = trajectory_nees(filter_to_platform(poses, config), filter_cov_to_platform(poses, covs, config), truth,
+                              align, std)
+    except InputError as exc:
+        return {"error": str(exc)}
+    return {**out, "alignment": align, "definitions": NEES_DEFINITIONS,
+            "truth_std_added": {"from": "filter.truth_pose_std", "std": std, "units": ["m", "m", "rad"],
+                                "what": "diag(std^2) added to the filter's pose covariance at every scan: the "
+                                        "truth's own accuracy"}}
+
+
 def write_run_tables(out: Path, run) -> list[str]:
     """``bias.csv`` (with the odometry-bias states), ``ego_velocity.csv`` (with a rig fit) and
     ``moving.csv`` (under the Doppler gate) of ``run`` (a
@@ -123,8 +145,8 @@ def write_run_tables(out: Path, run) -> list[str]:
 
 
 def write_run_figures(out: Path, run) -> list[str]:
-    """``map.png`` and (with a rig fit) ``ego_velocity.png``; nothing without matplotlib (the ``viz``
-    extra). Returns the names written."""
+    """``map.png``, (with a rig fit) ``ego_velocity.png`` and (with a truth) ``nees.png``; nothing
+    without matplotlib (the ``viz`` extra). Returns the names written."""
     from radarslam.viz import have_matplotlib
 
     if not have_matplotlib():
@@ -154,6 +176,14 @@ def write_run_figures(out: Path, run) -> list[str]:
         odo = np.column_stack([rec.odo_t, rec.odo]) if rec.odo_kind == "unicycle" else None
         plot_ego_velocity(out / "ego_velocity.png", run.ego.t, run.ego.theta, run.ego.cov, run.ego.valid, odo)
         names.append("ego_velocity.png")
+    nees = run.metrics.get("pose_nees") or {}
+    if nees.get("scans"):                                  # a truth to compare with
+        from radarslam.viz.recording import plot_pose_nees
+
+        plot_pose_nees(out / "nees.png", run.times, nees["per_scan"], nees["band_per_scan"], nees["time_average"],
+                       share_inside=nees["share_inside_band"], prob=nees["probability"],
+                       title=f"{Path(rec.source).name}: pose NEES against the truth (alignment {nees['alignment']})")
+        names.append("nees.png")
     return names
 
 

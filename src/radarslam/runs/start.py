@@ -37,6 +37,21 @@ def filter_to_platform(poses: np.ndarray, config: Config) -> np.ndarray:
     return _shift(poses, sensor_lever(config), -1.0)
 
 
+def filter_cov_to_platform(poses: np.ndarray, covs: np.ndarray, config: Config) -> np.ndarray:
+    """The filter's pose covariances ``(K, 3, 3)`` at its poses ``(K, 3)`` as the platform's: moved
+    with the pose by :func:`filter_to_platform`'s Jacobian (``d p / d theta = R'(theta) lever``
+    under ``ackermann``), unchanged for the other models."""
+    covs = np.array(covs, dtype=float)
+    lever = sensor_lever(config)
+    if lever is None:
+        return covs
+    c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
+    J = np.tile(np.eye(3), (poses.shape[0], 1, 1))
+    J[:, 0, 2] = s * lever[0] + c * lever[1]
+    J[:, 1, 2] = -c * lever[0] + s * lever[1]
+    return J @ covs @ np.swapaxes(J, 1, 2)
+
+
 def _shift(poses: np.ndarray, lever, sign: float) -> np.ndarray:
     poses = np.array(poses, dtype=float)
     if lever is None:

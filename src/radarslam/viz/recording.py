@@ -1,6 +1,7 @@
 """The figures of a recording run (issue 36 item 7): ``map.png``, the landmarks with their extents
-coloured by the radar that made them over the truth (or dead reckoning's path), and
-``ego_velocity.png``, the speed and yaw rate from every radar's Doppler against the odometry's.
+coloured by the radar that made them over the truth (or dead reckoning's path),
+``ego_velocity.png``, the speed and yaw rate from every radar's Doppler against the odometry's, and
+``nees.png``, the pose NEES against the truth (docs/recordings.md "What metrics.json holds").
 
 Everything drawn is given as arrays; nothing here estimates or evaluates anything.
 """
@@ -139,4 +140,52 @@ def plot_ego_velocity(path: str | Path, t: np.ndarray, theta: np.ndarray, cov: n
     axes[0].set_title(f"{title}: {int(ok.sum())} of {t.size} windows valid")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def plot_pose_nees(path: str | Path, t: np.ndarray, nees: np.ndarray, band: tuple[float, float], time_average: float,
+                   *, share_inside: float | None = None, prob: float = 0.95,
+                   title: str = "pose NEES against the truth") -> None:
+    """Save the pose NEES (3 dof) of every scan against time on a log axis, the one-scan ``prob`` band
+    ``band`` as two horizontal lines and the time average ``time_average`` as a third.
+
+    Parameters
+    ----------
+    t : ndarray (K,)
+        Scan times (s).
+    nees : ndarray (K,)
+        The NEES per scan (NaN: none; values <= 0 are not drawn on the log axis).
+    band : (low, high)
+    share_inside : float or None
+        The share of the scans inside ``band``, for the legend.
+    """
+    t = np.asarray(t, dtype=float).reshape(-1)
+    nees = np.asarray(nees, dtype=float).reshape(-1)
+    if nees.shape != t.shape:
+        raise InputError(f"nees: expected {t.size} values (one per scan time), got {nees.size}")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ok = np.isfinite(nees) & (nees > 0)
+    fig, ax = plt.subplots(figsize=(11, 4.5))
+    inside = "" if share_inside is None else f", {100 * share_inside:.0f}% inside the band"
+    ax.plot(t[ok], nees[ok], "-", color="tab:blue", lw=0.8,
+            label=f"NEES per scan ({int(np.isfinite(nees).sum())} scans{inside})")
+    lo, hi = band
+    for v, name in ((lo, "low"), (hi, "high")):
+        ax.axhline(v, color="tab:green", lw=1.0, ls="--", label=f"{100 * prob:.0f}% band of one scan, {name} "
+                                                                 f"({v:.3g})")
+    if np.isfinite(time_average):
+        ax.axhline(time_average, color="tab:red", lw=1.2, label=f"time average ({time_average:.3g}; 3 = consistent)")
+    ax.set_yscale("log")
+    ax.set_xlabel("t (s)")
+    ax.set_ylabel("pose NEES (3 dof)")
+    ax.set_title(title)
+    ax.grid(alpha=0.3)
+    ax.grid(alpha=0.1, which="minor")
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.15), ncol=2, fontsize=8)   # below: never over the curve
+    fig.tight_layout()
+    fig.savefig(path, dpi=120, bbox_inches="tight")
     plt.close(fig)
