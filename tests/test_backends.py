@@ -33,6 +33,35 @@ def test_numba_backend_agrees_with_python_backend():
 
 
 # ------------------------------------------------------------------ the compiled per-scan steps, one by one
+def test_compiled_dbscan_of_large_scans_equals_sklearn_dbscan():
+    """Above PAIRWISE_MAX points the neighbourhoods come from a grid of cells: the same labels as
+    scikit-learn's DBSCAN on clustered clutter, on a 0.5 m lattice whose neighbours sit exactly at
+    eps, on a wall of points along one axis, on a scan wider than MAX_CELLS cells (larger cells) and
+    on duplicates; and the grid's neighbourhoods equal every pair's on the same points, at eps 0 too."""
+    require("numba")
+    from sklearn.cluster import DBSCAN
+
+    from radarslam.landmarks._compiled import MAX_CELLS, PAIRWISE_MAX, _pairwise, dbscan_labels, neighbourhoods
+
+    r = np.random.default_rng(5)
+    m = 4 * PAIRWISE_MAX
+    blobs = r.uniform(-40, 40, (6, 2))[r.integers(0, 6, m)] + r.normal(0, 1.5, (m, 2))
+    lattice = np.column_stack([np.repeat(np.arange(32.0), 32), np.tile(np.arange(32.0), 32)]) * 0.5
+    wall = np.column_stack([np.full(m, 3.0) + r.normal(0, 0.05, m), np.linspace(0, 200, m)])
+    wide = np.concatenate([blobs, [[1e7, 0.0], [1e7 + 0.3, 0.0]]])
+    dup = np.repeat(r.uniform(0, 10, (m // 4, 2)), 4, axis=0)
+    cases = [(blobs, 1.0, 4), (lattice, 0.5, 5), (wall, 0.8, 3), (wide, 1.0, 2), (dup, 1e-12, 3)]
+    assert np.ptp(wide, axis=0).max() / 1.0 > MAX_CELLS
+    for pts, eps, min_samples in cases:
+        assert pts.shape[0] > PAIRWISE_MAX
+        want = DBSCAN(eps=eps, min_samples=min_samples).fit(pts).labels_
+        assert np.array_equal(dbscan_labels(pts, eps, min_samples), want)
+        assert want.max() >= 0                              # clusters, not all noise
+        for e in (eps, 0.0):                                # eps 0 (scikit-learn refuses it): duplicates only
+            grid, pair = neighbourhoods(pts, e), _pairwise(pts, e)
+            assert np.array_equal(grid[0], pair[0]) and np.array_equal(grid[1], pair[1])
+
+
 def test_compiled_dbscan_equals_sklearn_dbscan():
     """Labels and cluster centres of the compiled clustering equal scikit-learn's DBSCAN and the
     reference's centres (smallest range, first on ties), on random scans and on a 0.2 m grid

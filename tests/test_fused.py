@@ -313,19 +313,18 @@ def test_timing_reports_each_scan_and_changes_nothing():
         assert np.array_equal(value, timed[key], equal_nan=True), key
 
 
-def test_a_scan_too_large_for_the_compiled_dbscan_runs_the_orchestrator(monkeypatch):
-    """A scan beyond DENSE_MAX detections goes to the orchestrator (scikit-learn's DBSCAN) instead
-    of an m x m neighbourhood in the fused engine."""
-    from radarslam.landmarks.clustering import DENSE_MAX
-
+def test_a_scan_of_thousands_of_detections_runs_compiled():
+    """A scan of 3,000 detections (the compiled DBSCAN's grid of cells, landmarks/_compiled.py
+    neighbourhoods, instead of an m x m neighbourhood) runs in the fused engine, with the same
+    associations, landmarks and poses as the orchestrator scan by scan (the labels against
+    scikit-learn's: tests/test_backends.py)."""
     cfg = profile_config("apsipa")
-    events = list(_scenario(cfg, 1).events[:5])
+    events = list(_scenario(cfg, 1).events[:40])
     rng = np.random.default_rng(0)
-    big = np.column_stack([rng.uniform(1, 20, DENSE_MAX + 1), rng.uniform(-np.pi, np.pi, DENSE_MAX + 1)])
-    events[2] = replace(events[2], polar=big)
-    assert "clusters up to" in _fused.why_not(EkfSlam(cfg), events)
-    assert _fused.why_not(EkfSlam(cfg), events[:2]) is None
-    calls = []
-    monkeypatch.setattr(_fused, "run", lambda *a, **k: calls.append(1))
-    rec = run_filter(cfg, events)
-    assert calls == [] and rec.n_detections.max() == DENSE_MAX + 1
+    scans = [i for i, e in enumerate(events) if hasattr(e, "polar")]
+    for i in scans[3:5]:                    # a blob of clutter in two scans: clusters and landmarks of it
+        n = 3000
+        big = np.column_stack([rng.uniform(1, 30, n), rng.uniform(-np.pi / 3, np.pi / 3, n)])
+        events[i] = replace(events[i], polar=np.concatenate([events[i].polar, big]))
+    assert _fused.why_not(EkfSlam(cfg), events) is None
+    assert _assert_same_run(cfg, events) > 0

@@ -1,8 +1,9 @@
 """Clustering, Rule 1 / Rule 2, the M/N windows and the merge pair compiled with numba (``filter.backend = "numba"``; docs/architecture.md "Backends").
 
 The reference is scikit-learn's DBSCAN (:func:`.clustering.dbscan_labels`); these loops give the
-same labels for one scan's few dozen detections in a few microseconds instead of ~90 us of
-neighbour search and object arrays (tests/test_backends.py compares them with scikit-learn).
+same labels, for one scan's few dozen detections in a few microseconds instead of ~90 us of
+neighbour search and object arrays, and for a scan of thousands through a grid of cells
+(tests/test_backends.py compares them with scikit-learn).
 """
 
 from __future__ import annotations
@@ -42,42 +43,138 @@ compiled_rule12 = _K["rule12"]
 compiled_closest_pair = _K["closest_pair"]
 
 
+#: A grid cell's side over ``eps``: just above 1, so that two points within ``eps`` of each other lie
+#: in neighbouring cells whatever the rounding of ``(x - x0) / side`` (its relative error, ~1e-16
+#: times the number of cells across the scan, stays far below the margin).
+CELL_MARGIN = 1.0 + 1e-6
+#: The most cells along one axis; a scan wider than this many ``eps`` gets larger cells (still exact).
+MAX_CELLS = 1 << 20
+#: Up to this many points the neighbourhoods come from every pair (a few dozen detections: 5 us
+#: against 19 us through the grid for 40); above it from the grid (memory and time with the
+#: neighbours, not ``m^2``). Both give the same ``(off, idx)``.
+PAIRWISE_MAX = 256
+
+
 @njit(cache=True)
-def dbscan_labels(points, eps, min_samples):  # pragma: no cover - compiled
-    """:func:`radarslam.landmarks.clustering.dbscan_labels` compiled for one scan: the exact pairwise
-    eps-neighbourhoods (``sqrt(dx^2 + dy^2) <= eps``, the reference's arithmetic) and scikit-learn's
-    expansion order (core points in index order start clusters; a depth-first search labels every
-    point it reaches and expands only core points, so a border point joins the first cluster that
-    reaches it). Equal to ``sklearn.cluster.DBSCAN(eps, min_samples).fit(points).labels_``
-    (tests/test_backends.py)."""
+def _cells(points, eps):  # pragma: no cover - compiled
+    """Each point's grid cell ``(cx, cy)`` (int64) for cells of side :data:`CELL_MARGIN` ``eps`` (at
+    least the scan's span over :data:`MAX_CELLS`), and the rows of the grid ``ny`` (with room for a
+    cell's neighbours, so that ``cx * ny + cy`` names one cell)."""
     m = points.shape[0]
-    labels = np.full(m, -1, dtype=np.int64)
-    if m < min_samples or m == 0:
-        return labels
-    near = np.zeros((m, m), dtype=np.bool_)
-    core = np.zeros(m, dtype=np.bool_)
+    x0, y0, x1, y1 = points[0, 0], points[0, 1], points[0, 0], points[0, 1]
     for i in range(m):
-        c = 0
+        x0, x1 = min(x0, points[i, 0]), max(x1, points[i, 0])
+        y0, y1 = min(y0, points[i, 1]), max(y1, points[i, 1])
+    side = max(eps * CELL_MARGIN, max(x1 - x0, y1 - y0) / MAX_CELLS)
+    if not side > 0.0:
+        side = 1.0                                     # eps = 0 and one point: any cell
+    cx = np.empty(m, dtype=np.int64)
+    cy = np.empty(m, dtype=np.int64)
+    for i in range(m):
+        cx[i] = np.int64(math.floor((points[i, 0] - x0) / side))
+        cy[i] = np.int64(math.floor((points[i, 1] - y0) / side))
+    return cx, cy, cy.max() + 3
+
+
+@njit(cache=True)
+def _neighbour_pass(points, eps, cx, cy, ny, order, keys, off, idx, fill):  # pragma: no cover - compiled
+    """One pass over every point's 3 x 3 cells: its neighbours within ``eps`` (the exact test
+    ``sqrt(dx^2 + dy^2) <= eps``, itself included) counted into ``off[i + 1]``, or with ``fill``
+    written to ``idx`` from ``off[i]``."""
+    for i in range(points.shape[0]):
+        n = 0
+        for ddx in range(-1, 2):
+            for ddy in range(-1, 2):
+                key = (cx[i] + ddx) * ny + (cy[i] + ddy)
+                for t in range(np.searchsorted(keys, key), np.searchsorted(keys, key, side="right")):
+                    j = order[t]
+                    dx = points[i, 0] - points[j, 0]
+                    dy = points[i, 1] - points[j, 1]
+                    if math.sqrt(dx * dx + dy * dy) <= eps:
+                        if fill:
+                            idx[off[i] + n] = j
+                        n += 1
+        if not fill:
+            off[i + 1] = n
+
+
+@njit(cache=True)
+def _pairwise(points, eps):  # pragma: no cover - compiled
+    """:func:`neighbourhoods` by testing every pair (:data:`PAIRWISE_MAX`)."""
+    m = points.shape[0]
+    near = np.zeros((m, m), dtype=np.bool_)
+    off = np.zeros(m + 1, dtype=np.int64)
+    for i in range(m):
+        n = 0
         for j in range(m):
             dx = points[i, 0] - points[j, 0]
             dy = points[i, 1] - points[j, 1]
             if math.sqrt(dx * dx + dy * dy) <= eps:
                 near[i, j] = True
-                c += 1
-        core[i] = c >= min_samples
-    stack = np.empty(m * m + 1, dtype=np.int64)
+                n += 1
+        off[i + 1] = off[i] + n
+    idx = np.empty(off[m], dtype=np.int64)
+    t = 0
+    for i in range(m):
+        for j in range(m):
+            if near[i, j]:
+                idx[t] = j
+                t += 1
+    return off, idx
+
+
+@njit(cache=True)
+def neighbourhoods(points, eps):  # pragma: no cover - compiled
+    """Every point's eps-neighbourhood ``(off, idx)``: point ``i``'s neighbours (itself included) are
+    ``idx[off[i]:off[i + 1]]``, ascending, as scikit-learn's radius search sorts them. Up to
+    :data:`PAIRWISE_MAX` points from every pair; above, through a grid of cells just wider than
+    ``eps``, so that memory and time grow with the neighbours, not with ``m^2``, and a scan of any
+    size clusters."""
+    m = points.shape[0]
+    if m <= PAIRWISE_MAX:
+        return _pairwise(points, eps)
+    cx, cy, ny = _cells(points, eps)
+    key = cx * ny + cy
+    order = np.argsort(key, kind="mergesort")
+    keys = key[order]
+    off = np.zeros(m + 1, dtype=np.int64)
+    _neighbour_pass(points, eps, cx, cy, ny, order, keys, off, off, False)
+    for i in range(m):
+        off[i + 1] += off[i]
+    idx = np.empty(off[m], dtype=np.int64)
+    _neighbour_pass(points, eps, cx, cy, ny, order, keys, off, idx, True)
+    for i in range(m):
+        idx[off[i]:off[i + 1]] = np.sort(idx[off[i]:off[i + 1]])
+    return off, idx
+
+
+@njit(cache=True)
+def dbscan_labels(points, eps, min_samples):  # pragma: no cover - compiled
+    """:func:`radarslam.landmarks.clustering.dbscan_labels` compiled for one scan of any size: the
+    exact eps-neighbourhoods (``sqrt(dx^2 + dy^2) <= eps``, the reference's arithmetic, by
+    :func:`neighbourhoods`) and scikit-learn's expansion order (core points in index order start
+    clusters; a depth-first search labels every point it reaches and expands only core points, so a
+    border point joins the first cluster that reaches it). Equal to
+    ``sklearn.cluster.DBSCAN(eps, min_samples).fit(points).labels_`` (tests/test_backends.py)."""
+    m = points.shape[0]
+    labels = np.full(m, -1, dtype=np.int64)
+    if m < min_samples or m == 0:
+        return labels
+    off, idx = neighbourhoods(points, eps)
+    stack = np.empty(idx.shape[0] + 1, dtype=np.int64)   # each neighbour is pushed at most once
     label = 0
     for start in range(m):
-        if labels[start] != -1 or not core[start]:
+        if labels[start] != -1 or off[start + 1] - off[start] < min_samples:
             continue
         top = 0
         i = start
         while True:
             if labels[i] == -1:
                 labels[i] = label
-                if core[i]:
-                    for j in range(m):
-                        if near[i, j] and labels[j] == -1:
+                if off[i + 1] - off[i] >= min_samples:
+                    for t in range(off[i], off[i + 1]):
+                        j = idx[t]
+                        if labels[j] == -1:
                             stack[top] = j
                             top += 1
             if top == 0:

@@ -359,8 +359,7 @@ def jcbb_associate_scan(x, P, polar, cand, R, gX, has_gX, platform, eps, min_sam
 
 
 class CompiledJcbbAssociator(JcbbAssociator):
-    """:class:`~radarslam.slam.jcbb.JcbbAssociator`, compiled (:func:`jcbb_associate_scan`); a scan
-    of more candidates than the compiled DBSCAN takes (``DENSE_MAX``) goes to the reference."""
+    """:class:`~radarslam.slam.jcbb.JcbbAssociator`, compiled (:func:`jcbb_associate_scan`)."""
 
     backend = "numba"
 
@@ -375,9 +374,7 @@ class CompiledJcbbAssociator(JcbbAssociator):
         return self._gates
 
     def associate(self, state, polar, candidates, R, spreads):
-        from radarslam.landmarks.clustering import DENSE_MAX
-
-        if not state.n_landmarks or candidates.size == 0 or candidates.size > DENSE_MAX:
+        if not state.n_landmarks or candidates.size == 0:
             return super().associate(state, polar, candidates, R, spreads)
         x, P, out, nis, (rows, obs, lm, d2, nodes, exhausted) = jcbb_associate_scan(
             state.x, state.P, polar, candidates.astype(np.int64), R, spreads.gX, spreads.has, state.platform_dim,

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from radarslam.landmarks.clustering import DENSE_MAX, Cluster, clusters_of, dbscan_labels
+from radarslam.landmarks.clustering import Cluster, clusters_of, dbscan_labels
 from radarslam.landmarks.confirmation import in_view
 from radarslam.landmarks.grouping import by_landmark
 from radarslam.landmarks.sifting import candidates
@@ -31,15 +31,12 @@ def step_kernels(backend: str):
 
 def cluster_kernel(backend: str):
     """Step 7's clustering in ``backend``: the reference (scikit-learn's DBSCAN), or the same labels
-    and centres from compiled loops (:mod:`radarslam.landmarks._compiled`) for scans of up to
-    ``DENSE_MAX`` points."""
+    and centres from compiled loops (:mod:`radarslam.landmarks._compiled`), for a scan of any size."""
     if backend != "numba":
         return reference_clusters
     from radarslam.landmarks._compiled import dbscan_centres, dbscan_labels as compiled_labels
 
     def clusters(polar, xy, index, eps, min_samples):
-        if xy.shape[0] > DENSE_MAX:
-            return reference_clusters(polar, xy, index, eps, min_samples)
         labels = compiled_labels(xy, eps, min_samples)
         return [Cluster(polar[c].copy(), xy[c].copy(), int(rows.size), index[rows])
                 for c, rows in ((c, np.flatnonzero(labels == lab))

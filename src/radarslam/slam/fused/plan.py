@@ -111,10 +111,9 @@ class Noise(NamedTuple):
 
 def why_not(slam, events=None) -> str | None:
     """Why :func:`run` cannot stand in for ``slam`` (an :class:`~radarslam.slam.filter.EkfSlam`
-    that has processed nothing yet) on ``events``, or None when it can: the configuration's
-    components must be the built-in ones this engine reproduces, and no scan may hold more than
-    ``landmarks.clustering.DENSE_MAX`` detections (the compiled DBSCAN builds an m x m
-    neighbourhood; the orchestrator hands such scans to scikit-learn's)."""
+    that has processed nothing yet), or None when it can: the configuration's components must be
+    the built-in ones this engine reproduces. ``events`` is taken for the callers' sake: no stream
+    is refused (a scan of any size clusters compiled, ``landmarks/_compiled.py: neighbourhoods``)."""
     from radarslam.extent.estimator import RmaEfaEstimator
     from radarslam.extent.mem_ekf import MemEkfEstimator
     from radarslam.extent.view_estimator import PartialViewEstimator
@@ -155,13 +154,6 @@ def why_not(slam, events=None) -> str | None:
     for ok, reason in checks:
         if not ok:
             return reason
-    if events is not None:
-        from radarslam.core.types import Scan
-        from radarslam.landmarks.clustering import DENSE_MAX
-
-        big = max((np.shape(e.polar)[0] for e in events if isinstance(e, Scan) and np.ndim(e.polar) == 2), default=0)
-        if big > DENSE_MAX:
-            return f"a scan of {big} detections (the fused engine clusters up to {DENSE_MAX})"
     return None
 
 
