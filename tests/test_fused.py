@@ -103,6 +103,16 @@ OVERLAYS = {
                     "extent": {"use_in_slam": True, "pre_init_spread": "prior"}},
     "early-extents": {"extent": {"use_in_slam": True, "n_init": 3}, "landmarks": {"merge_distance_m": 4.0}},
     "no-tracking": {"extent": {"track": False}},
+    # the scan's W other than the largest trace's (h.3), with the RMA and MEM-EKF*
+    "w-mean": {"extent": {"w_mode": "mean"}},
+    "w-max-det-in-slam": {"extent": {"w_mode": "max_det", "use_in_slam": True}},
+    "w-mean-mem-ekf": {"extent": {"estimator": "mem-ekf", "w_mode": "mean", "efa_noise_correct": True}},
+    # the buffered detections' scatter as the spread before the extent (a.7.2), with three associators
+    "scatter-spread": {"extent": {"use_in_slam": True, "pre_init_spread": "scatter"}},
+    "scatter-spread-joint": {"landmarks": {"associator": "batch-joint", "init": "cluster"},
+                             "extent": {"use_in_slam": True, "pre_init_spread": "scatter"}},
+    "scatter-spread-jcbb": {"landmarks": {"associator": "jcbb"},
+                            "extent": {"use_in_slam": True, "pre_init_spread": "scatter", "n_init": 6}},
     "rule1-only": {"landmarks": {"confirm_points": 2, "alpha": 50.0}},
     # first-estimates Jacobians (c.2.1) with each associator that evaluates them
     "fej-nearest": {"filter": {"jacobians": "fej"}},
@@ -144,6 +154,24 @@ def test_covered_options_same_as_orchestrator(name):
     """Each option the engine claims to cover, on a whole run (trial 3)."""
     cfg = _overlay(profile_config("apsipa"), OVERLAYS[name])
     _assert_same_run(cfg, _scenario(profile_config("apsipa"), 3).events)
+
+
+@pytest.mark.parametrize("option,base,other", [
+    ({"use_in_slam": True}, {"pre_init_spread": "prior"}, {"pre_init_spread": "scatter"}),
+    ({}, {"w_mode": "max_trace"}, {"w_mode": "mean"}),
+    ({"use_in_slam": True}, {"w_mode": "max_trace"}, {"w_mode": "max_det"}),
+])
+def test_the_compiled_options_change_the_run(option, base, other):
+    """The scatter spread before the extent (a.7.2) and the scan's W by its mean or largest determinant
+    (h.3) change the run they are compared on above (trial 3): the poses or the extents move, so the
+    parity cases compare branches that run."""
+    events = _scenario(profile_config("apsipa"), 3).events
+    runs = [_fused.run(EkfSlam(_overlay(profile_config("apsipa"), {"extent": {**option, **o}})), events)[0]
+            for o in (base, other)]
+    moved = max(np.abs(runs[0]["poses"] - runs[1]["poses"]).max(),
+                np.abs(runs[0]["rma"][-5:] - runs[1]["rma"][-5:]).max() if runs[0]["rma"].shape == runs[1]["rma"].shape
+                else 1.0)
+    assert moved > 1e-3, moved
 
 
 @pytest.mark.parametrize("base", ["noext", "consistent"])
@@ -233,8 +261,6 @@ def test_golden_runs_reproduced():
     ({"filter": {"fused": False}}, "filter.fused"),
     ({"filter": {"backend": "python"}}, "filter.backend"),
     ({"extent": {"efa_mode": "sliding"}}, "extent.efa_mode"),
-    ({"extent": {"w_mode": "mean"}}, "extent.w_mode"),
-    ({"extent": {"pre_init_spread": "scatter"}}, "extent.pre_init_spread"),
 ])
 def test_uncovered_configurations_are_refused(overlay, reason):
     assert reason in _fused.why_not(EkfSlam(_overlay(profile_config("apsipa"), overlay)))

@@ -19,16 +19,19 @@ from radarslam.core.jit import compile_kernels
 from radarslam.extent import (_sym2, buffering, ellipse, ellipse_fit, measurement, mem_ekf_kernels, partial_view,
                               partial_view_jac, random_matrix, rows, sifting, view_kernels, arc_kernels)
 
-_K = compile_kernels(measurement._w_entries, measurement.max_trace_w_entries, random_matrix.rm_update_entries,
+_K = compile_kernels(measurement._w_entries, measurement.max_trace_w_entries, measurement.scan_w_entries, random_matrix.rm_update_entries,
                      random_matrix.rm_predict_alpha, ellipse_fit.fit_entries, _sym2.spectral, _sym2.from_spectral,
                      _sym2.sqrt2, _sym2.inv_sqrt2, _sym2.floor2, _sym2.mean_and_scatter, *buffering.KERNELS,
                      *mem_ekf_kernels.KERNELS, ellipse._ellipse_to_matrix, *rows.KERNELS)
 _w_entries = _K["_w_entries"]
 _max_trace_w_entries = _K["max_trace_w_entries"]
+scan_w_entries = _K["scan_w_entries"]
+detections = _K["detections"]
 _fit_entries = _K["fit_entries"]
 #: The extent's buffering and initialisation (a.3) and the merge's outcome (c.9), for the fused engine.
 buffer_and_fit = _K["buffer_and_fit"]
 merge_outcome = _K["merge_outcome"]
+buffered_scatter = _K["buffered_scatter"]
 #: The extent step over array-held states (extent.rows), for the fused engine and the orchestrator's numba backend.
 buffer_need = _K["buffer_need"]
 initialise_rows = _K["initialise_rows"]

@@ -9,6 +9,8 @@ A landmark without an extent holds its associated detections (world frame) in a 
 
 from __future__ import annotations
 
+import numpy as np
+
 from radarslam.extent.ellipse_fit import fit_entries
 
 #: Outcomes of :func:`buffer_and_fit`: still waiting; fitted (initialise with the entries);
@@ -53,4 +55,25 @@ def merge_outcome(survivor_ready, gone_ready):
     return TAKE if gone_ready else POOL
 
 
-KERNELS = (buffer_and_fit, merge_outcome)
+def buffered_scatter(buf, n):
+    """The sample covariance (2, 2) of the ``n >= 2`` buffered detections ``buf[:n]`` (divisor ``n - 1``,
+    as ``np.cov``): the spread of a landmark not yet initialised under ``extent.pre_init_spread =
+    "scatter"`` (docs/method.md a.7.2). A kernel."""
+    m0, m1 = 0.0, 0.0
+    for i in range(n):
+        m0 += buf[i, 0]
+        m1 += buf[i, 1]
+    m0 /= n
+    m1 /= n
+    s00, s01, s11 = 0.0, 0.0, 0.0
+    for i in range(n):
+        d0, d1 = buf[i, 0] - m0, buf[i, 1] - m1
+        s00 += d0 * d0
+        s01 += d0 * d1
+        s11 += d1 * d1
+    out = np.empty((2, 2))
+    out[0, 0], out[0, 1], out[1, 0], out[1, 1] = s00 / (n - 1), s01 / (n - 1), s01 / (n - 1), s11 / (n - 1)
+    return out
+
+
+KERNELS = (buffer_and_fit, merge_outcome, buffered_scatter)

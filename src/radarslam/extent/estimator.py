@@ -21,7 +21,7 @@ from typing import Any, NamedTuple, Protocol
 import numpy as np
 
 from radarslam.core.arrays import grown_inner
-from radarslam.extent.buffering import TAKE
+from radarslam.extent.buffering import TAKE, buffered_scatter
 from radarslam.extent.ellipse_fit import _fit_ellipse
 from radarslam.extent.measurement import _scan_W
 from radarslam.extent.measurement import _converted_measurement_covs
@@ -174,7 +174,7 @@ class RmaEfaEstimator:
             return self.prior_spread
         if mode == "scatter":
             if st.n_buffered >= 3:
-                return np.cov(st.buffer[:st.n_buffered].T)
+                return buffered_scatter(st.buffer, st.n_buffered)
             return self.prior_spread
         return None
 

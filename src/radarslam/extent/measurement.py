@@ -21,6 +21,8 @@ from radarslam.core.validation import as_array, as_scalar, as_spd
 
 #: Ways of reducing the per-detection ``W(i)`` of a scan to one ``W`` (docs/method.md h.3).
 W_MODES = ("max_trace", "max_det", "mean")
+#: :data:`W_MODES` as the kernels take them (:func:`scan_w_entries`).
+W_MAX_TRACE, W_MAX_DET, W_MEAN = 0, 1, 2
 
 #: Detection count above which :func:`_converted_measurement_covs` switches from a plain-float
 #: loop to numpy arrays (the measured break-even point).
@@ -222,11 +224,46 @@ def _scan_W(pose: np.ndarray, pose_cov: np.ndarray, polar: np.ndarray, R: np.nda
     for one landmark's detections in one scan (a handful).
     """
     if mode != "max_trace":
-        return _select_scan_W(_converted_measurement_covs(pose, pose_cov, polar, R), mode)
+        w00, w01, w11 = scan_w_entries(np.asarray(pose, dtype=float), np.asarray(pose_cov, dtype=float),
+                                       np.asarray(polar, dtype=float).reshape(-1, 2), np.asarray(R, dtype=float),
+                                       W_MODES.index(mode))
+        return np.array(((w00, w01), (w01, w11)))
     (p00, p01, p02), (_, p11, p12), (_, _, p22) = pose_cov.tolist()
     (r00, r01), (_, r11) = R.tolist()
     w00, w01, w11 = max_trace_w_entries(float(pose[2]), p00, p01, p02, p11, p12, p22, r00, r01, r11, polar.tolist())
     return np.array(((w00, w01), (w01, w11)))
+
+
+def scan_w_entries(pose, pose_cov, pol, R, mode):
+    """Entries ``(W11, W12, W22)`` of the scan's one ``W`` (seed eq. 12, h.3) from the ``W(i)`` of the
+    detections ``pol`` (m, 2), ``m >= 1``: ``mode`` :data:`W_MAX_TRACE` the one of largest trace
+    (:func:`max_trace_w_entries`), :data:`W_MAX_DET` of largest determinant, :data:`W_MEAN` their
+    mean; first on ties. A kernel: the orchestrator's estimators (:func:`_scan_W`) and the fused
+    engine's extent step call it."""
+    p00, p01, p02 = pose_cov[0, 0], pose_cov[0, 1], pose_cov[0, 2]
+    p11, p12, p22 = pose_cov[1, 1], pose_cov[1, 2], pose_cov[2, 2]
+    r00, r01, r11 = R[0, 0], R[0, 1], R[1, 1]
+    if mode == W_MAX_TRACE:
+        return max_trace_w_entries(pose[2], p00, p01, p02, p11, p12, p22, r00, r01, r11, pol)
+    q22 = p22 + r11
+    best = -math.inf
+    a00, a01, a11 = 0.0, 0.0, 0.0
+    for i in range(pol.shape[0]):
+        ang = pose[2] + pol[i, 1]
+        w00, w01, w11 = _w_entries(math.cos(ang), math.sin(ang), pol[i, 0], p00, p01, p02, p11, p12, q22, r00, r01)
+        if mode == W_MAX_DET:
+            d = w00 * w11 - w01 * w01
+            if d > best:
+                best = d
+                a00, a01, a11 = w00, w01, w11
+        else:
+            a00 += w00
+            a01 += w01
+            a11 += w11
+    if mode == W_MEAN:
+        m = pol.shape[0]
+        a00, a01, a11 = a00 / m, a01 / m, a11 / m
+    return a00, a01, a11
 
 
 def max_trace_w_entries(theta: float, p00: float, p01: float, p02: float, p11: float, p12: float, p22: float,

@@ -15,7 +15,7 @@ from numba import njit
 
 from radarslam.core.jit import compiled_only
 from radarslam.extent._compiled import (arc_widths_rows, buffer_need, initialise_rows, mem_ekf_initialise_rows,
-                                        mem_ekf_rows, rma_efa_rows, view_rows)
+                                        detections, mem_ekf_rows, rma_efa_rows, scan_w_entries, view_rows)
 from radarslam.slam.fused.storage import _blocks, add_arc, with_buffer
 
 
@@ -32,6 +32,18 @@ def _arc_widths(polar, lm, N, old, aoff, arow, arcs, n_arcs, cfg):  # pragma: no
             arcs = add_arc(arcs, n_arcs, lm, j, d[j], beam[j])
             n_arcs += 1
     return arcs, n_arcs
+
+
+@compiled_only
+def _scan_ws(polar, N, old, aoff, arow, pose, pose_cov, R, mode):  # pragma: no cover - compiled
+    """Each landmark's scan ``W`` (N, 2, 2) under ``extent.w_mode`` other than the largest trace (h.3;
+    :func:`radarslam.extent.measurement.scan_w_entries` of its associated detections; zeros for none)."""
+    W = np.zeros((N, 2, 2))
+    for j in range(N):
+        if aoff[old[j] + 1] > aoff[old[j]]:
+            w00, w01, w11 = scan_w_entries(pose, pose_cov, detections(polar, aoff, arow, old[j]), R, mode)
+            W[j, 0, 0], W[j, 0, 1], W[j, 1, 0], W[j, 1, 1] = w00, w01, w01, w11
+    return W
 
 
 @njit(cache=True, inline="always")
@@ -53,7 +65,9 @@ def extent_step(x, P, polar, xy, lm, N, old, aoff, arow, prior, dt, arcs, n_arcs
         for j in range(N):
             cents[j] = pos_prior[old[j]]
             ccovs[j] = cov_prior[old[j]]
-    pose, pose_cov, no_w = x[:3].copy(), P[:3, :3].copy(), np.zeros((0, 2, 2))
+    pose, pose_cov = x[:3].copy(), P[:3, :3].copy()
+    w_given = cfg.w_mode != 0                                   # h.3: another W than the largest trace's
+    W = _scan_ws(polar, N, old, aoff, arow, pose, pose_cov, noise.R_ext, cfg.w_mode) if w_given else np.zeros((0, 2, 2))
     ready = np.empty(N, dtype=np.bool_)
     for j in range(N):
         ready[j] = lm.einit[j]
@@ -62,10 +76,10 @@ def extent_step(x, P, polar, xy, lm, N, old, aoff, arow, prior, dt, arcs, n_arcs
     initialise_rows(lm, ready, born, N, old, aoff, arow, xy, cfg.n_init, cfg.gamma, cfg.alpha0)        # a.3
     if cfg.mem:                                                                                        # a.10
         mem_ekf_initialise_rows(lm, born, N, noise.Cp0)
-        mem_ekf_rows(lm, ready, N, old, aoff, arow, polar, xy, cents, ccovs, pose, pose_cov, noise.R_ext, no_w, False,
+        mem_ekf_rows(lm, ready, N, old, aoff, arow, polar, xy, cents, ccovs, pose, pose_cov, noise.R_ext, W, w_given,
                      dt, cfg.mem_q_theta, cfg.mem_q_axis, cfg.mem_noise, cfg.gamma, cfg.upper, True)
     else:                                                                                              # a.4-a.5
-        rma_efa_rows(lm, ready, N, old, aoff, arow, polar, xy, cents, ccovs, pose, pose_cov, noise.R_ext, no_w, False,
+        rma_efa_rows(lm, ready, N, old, aoff, arow, polar, xy, cents, ccovs, pose, pose_cov, noise.R_ext, W, w_given,
                      dt, cfg.tau, cfg.gamma, cfg.eig_floor, cfg.upper, True)
     if cfg.arc:                                                                                        # a.9
         arcs, n_arcs = _arc_widths(polar, lm, N, old, aoff, arow, arcs, n_arcs, cfg)

@@ -37,7 +37,9 @@ class FusedParams(NamedTuple):
     track: bool            #: extent.track
     contour: bool          #: extent.use_in_slam and extent.contour_sifting
     inflate: bool          #: extent.use_in_slam and extent.inflate_noise
-    pre_prior: bool        #: extent.pre_init_spread == "prior"
+    pre_prior: bool        #: extent.pre_init_spread "prior" or "scatter": a spread before the extent (a.7.2)
+    pre_scatter: bool      #: extent.pre_init_spread == "scatter": the buffered detections' once 3 are held
+    w_mode: int            #: extent.w_mode: the scan's W (h.3; extent.measurement.W_MAX_TRACE, W_MAX_DET, W_MEAN)
     n_init: int            #: extent.n_init
     posterior: bool        #: extent.use_posterior_landmark
     upper: bool            #: not extent.efa_noise_correct
@@ -147,8 +149,6 @@ def why_not(slam, events=None) -> str | None:
         (type(slam.extent) in (RmaEfaEstimator, VisibleArcEstimator, MemEkfEstimator, PartialViewEstimator),
          f"extent estimator {type(slam.extent).__name__}"),
         (ec.efa_mode == "per_scan", f"extent.efa_mode {ec.efa_mode!r}"),
-        (ec.w_mode == "max_trace", f"extent.w_mode {ec.w_mode!r}"),
-        (ec.pre_init_spread in ("none", "prior"), f"extent.pre_init_spread {ec.pre_init_spread!r}"),
         (slam.state.n_landmarks == 0 and slam._scans == 0, "the filter has already processed a scan"),
     )
     for ok, reason in checks:
@@ -172,6 +172,7 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
     from radarslam.extent.visible_arc import VisibleArcEstimator
     from radarslam.models.ackermann import AckermannModel
     from radarslam.slam._jcbb_numba import CompiledJcbbAssociator
+    from radarslam.extent.measurement import W_MODES
     from radarslam.extent.rows import MEM_NOISE
     from radarslam.slam.compiled_associators import CompiledBatchAssociator, CompiledJointBatchAssociator
     from radarslam.slam.fused.tracking import ACKERMANN, UNICYCLE
@@ -196,7 +197,8 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
         track=bool(ec.track),
         contour=in_slam and bool(ec.contour_sifting),
         inflate=in_slam and bool(ec.inflate_noise),
-        pre_prior=ec.pre_init_spread == "prior",
+        pre_prior=ec.pre_init_spread in ("prior", "scatter"), pre_scatter=ec.pre_init_spread == "scatter",
+        w_mode=W_MODES.index(ec.w_mode),
         n_init=int(ec.n_init),
         posterior=bool(ec.use_posterior_landmark),
         upper=not ec.efa_noise_correct,

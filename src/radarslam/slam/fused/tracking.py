@@ -15,6 +15,7 @@ from numba import njit
 from radarslam.core.angles import wrap_2pi_scalar
 from radarslam.core.jit import compile_kernels, compiled_only
 from radarslam.extent._compiled import abt_plus_cdt, literal_inside, measurement_contour, small_matmul
+from radarslam.extent._compiled import buffered_scatter as _buffered_scatter
 from radarslam.landmarks._compiled import compiled_by_landmark, compiled_candidates, compiled_in_view as _in_view
 from radarslam.landmarks._compiled import compiled_mn_windows as _mn_windows
 from radarslam.models.ackermann import ackermann_jacobians, ackermann_step, centre_speed
@@ -161,7 +162,8 @@ def _linearisation(x, lm, N, pose_first, platform):  # pragma: no cover - compil
 @njit(cache=True, inline="always")
 def _inflation(lm, N, noise, cfg):  # pragma: no cover - compiled
     """Step 4's noise inflation: ``(gX, has)``, the spread of initialised extents (``cfg.inflate``)
-    and, before, the prior spread (``cfg.pre_prior``)."""
+    and, before, the prior spread (``cfg.pre_prior``) or, with ``cfg.pre_scatter`` once 3 are held,
+    the scatter of the buffered detections (``extent.pre_init_spread``, a.7.2)."""
     gX = np.zeros((N, 2, 2))
     has = np.zeros(N, dtype=np.bool_)
     if cfg.inflate:
@@ -170,7 +172,8 @@ def _inflation(lm, N, noise, cfg):  # pragma: no cover - compiled
                 gX[j] = cfg.gamma * lm.X[j]
                 has[j] = True
             elif cfg.pre_prior:
-                gX[j] = noise.prior_spread
+                gX[j] = _buffered_scatter(lm.buf[j], lm.nbuf[j]) if cfg.pre_scatter and lm.nbuf[j] >= 3 \
+                    else noise.prior_spread
                 has[j] = True
     return gX, has
 
