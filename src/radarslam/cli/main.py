@@ -15,12 +15,12 @@ from radarslam.core.errors import RadarSlamError
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from radarslam.cli import calibrate, dump_config, montecarlo, recording, report, run
+    from radarslam.cli import calibrate, dump_config, evaluate, montecarlo, recording, report, run
 
     p = argparse.ArgumentParser(prog="radarslam", description="Radar EKF-SLAM with extended landmarks.")
     p.add_argument("--version", action="version", version=f"radarslam {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
-    for mod in (run, montecarlo, report, dump_config, calibrate):
+    for mod in (run, evaluate, montecarlo, report, dump_config, calibrate):
         mod.add_parser(sub)
     recording.add_parsers(sub)
     return p
@@ -30,6 +30,7 @@ def main(argv: list[str] | None = None) -> int:
     """Run the CLI with ``argv`` (default ``sys.argv[1:]``); return the exit code."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    args.argv = list(sys.argv[1:] if argv is None else argv)      # what was asked, for the records
     try:
         return int(args.func(args) or 0)
     except RadarSlamError as exc:

@@ -1,7 +1,8 @@
-"""Writing results: atomic JSON / text / ``.npz`` files, trajectories, maps."""
+"""Writing results: atomic JSON / text / ``.npz`` files, trajectories, maps; the lock of a result directory."""
 
 from __future__ import annotations
 
+import fcntl
 import json
 import math
 import os
@@ -100,6 +101,32 @@ def refuse_finished(marker: Path, what: str, overwrite: bool) -> None:
     if marker.exists() and not overwrite:
         raise InputError(f"{what}: {marker.parent} already holds a finished result ({marker.name}); pass --overwrite "
                          "to replace it, or choose another directory")
+
+
+class DirectoryLock:
+    """``with DirectoryLock(root):`` holds an exclusive ``flock`` on ``root/.lock`` (released on exit,
+    and by the kernel if the process dies)."""
+
+    def __init__(self, root: Path):
+        self.path = Path(root) / ".lock"
+        self.fd: int | None = None
+
+    def __enter__(self) -> "DirectoryLock":
+        self.fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(self.fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            os.close(self.fd)
+            self.fd = None
+            raise InputError(f"--out: {self.path.parent} is in use by another run (lock {self.path}); wait for it "
+                             "to finish or use another directory") from None
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.fd is not None:
+            fcntl.flock(self.fd, fcntl.LOCK_UN)
+            os.close(self.fd)
+            self.fd = None
 
 
 #: ``trajectory.csv``'s pose covariance columns: the upper triangle of the 3 x 3 covariance of

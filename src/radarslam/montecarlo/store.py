@@ -15,11 +15,9 @@ not hold every variant of the manifest is *corrupt*: it is reported and recomput
 
 from __future__ import annotations
 
-import fcntl
 import hashlib
 import io
 import json
-import os
 import re
 import struct
 import tomllib
@@ -34,7 +32,8 @@ from radarslam import __version__
 from radarslam.config import Config, SensorConfig, from_dict, to_dict, to_toml
 from radarslam.core.errors import InputError, RadarSlamError
 from radarslam.config.variants import (DEFAULT_VARIANTS, PAPER_VARIANTS, Variant, check_variants, variant_hash_data, variants_from_json, variants_to_json)
-from radarslam.io.results import atomic_write_bytes, atomic_write_text, make_dir, to_jsonable, write_json
+from radarslam.io.results import (DirectoryLock, atomic_write_bytes, atomic_write_text, make_dir,  # noqa: F401
+                                  to_jsonable, write_json)
 
 FORMAT = 1
 
@@ -200,32 +199,6 @@ def check_identity(path: Path, meta: dict, seed: int, chash: str) -> None:
     if "config_hash" in meta and chash and meta["config_hash"] != chash:
         raise ForeignTrial(f"{path}: a trial of another configuration (hash {str(meta['config_hash'])[:12]}..., this "
                            f"run {chash[:12]}...); refusing to use it (move it away, or use another directory)")
-
-
-class DirectoryLock:
-    """``with DirectoryLock(root):`` holds an exclusive ``flock`` on ``root/.lock`` (released on exit,
-    and by the kernel if the process dies)."""
-
-    def __init__(self, root: Path):
-        self.path = Path(root) / ".lock"
-        self.fd: int | None = None
-
-    def __enter__(self) -> "DirectoryLock":
-        self.fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
-        try:
-            fcntl.flock(self.fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            os.close(self.fd)
-            self.fd = None
-            raise InputError(f"--out: {self.path.parent} is in use by another run (lock {self.path}); wait for it "
-                             "to finish or use another directory") from None
-        return self
-
-    def __exit__(self, *exc) -> None:
-        if self.fd is not None:
-            fcntl.flock(self.fd, fcntl.LOCK_UN)
-            os.close(self.fd)
-            self.fd = None
 
 
 @dataclass

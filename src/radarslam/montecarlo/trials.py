@@ -10,10 +10,7 @@ pool, or a Dask cluster. Each finished trial is stored at once (:mod:`.store`); 
 
 from __future__ import annotations
 
-import contextlib
-import signal
 import sys
-import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -22,10 +19,13 @@ from pathlib import Path
 import numpy as np
 
 from radarslam.config import Config, from_dict, to_dict, validate
-from radarslam.core.errors import InputError, RadarSlamError
+from radarslam.core.errors import InputError
 from radarslam.simulation.trial import check_simulation_config, evaluate, with_initial_estimate
 from radarslam.slam.driver import run_filter
 from radarslam.runs.progress import Progress
+from radarslam.runs.workers import (init_pool_worker as _init_pool_worker,  # noqa: F401
+                                    interrupts_as_flag as _interrupts_as_flag, limit_threads as _limit_threads,
+                                    run_dask, run_pool, sigterm_as_interrupt as _sigterm_as_interrupt)
 from radarslam.montecarlo.store import (CorruptTrial, TrialStore, check_identity, config_hash, decode_trial, encode_trial)
 from radarslam.config.variants import DEFAULT_VARIANTS, Variant, apply_variant, check_variants
 from radarslam.compiling.warmup import warm_up
@@ -114,27 +114,6 @@ def compute_trial(config: Config | dict, seed: int, trial: int,
             "filter_seconds": seconds, "engines": engines, "scalar_names": list(SCALARS), "variants": [v.name for v in variants],
             "config_hash": chash or config_hash(cfg, variants)}
     return encode_trial(arrays, meta)
-
-
-def _limit_threads() -> None:
-    """One BLAS thread per worker process (the matrices are tiny; oversubscription only hurts)."""
-    try:
-        from threadpoolctl import threadpool_limits
-
-        threadpool_limits(1)
-    except ImportError:  # pragma: no cover
-        pass
-
-
-def _init_pool_worker() -> None:
-    """A pool worker: one BLAS thread; SIGTERM back to its default (end the process) and Ctrl-C
-    ignored, the parent deciding (:func:`_run_pool` ends its workers when interrupted). A forked
-    worker inherits the parent's handlers; when one raised KeyboardInterrupt, the parent's
-    ``terminate`` made the worker block for ever sending that exception back on a queue nobody
-    read, holding the parent's output pipes."""
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    _limit_threads()
 
 
 @dataclass
@@ -227,128 +206,18 @@ def _run_locked(store, config, seed, n_trials, variants, jobs, scheduler, dask_l
     return MonteCarloSummary(Path(out), n_trials, len(todo), len(good), len(bad), time.perf_counter() - t0)
 
 
-@contextlib.contextmanager
-def _sigterm_as_interrupt():
-    """Within the block SIGTERM is handled like Ctrl-C (KeyboardInterrupt): finished trials stay
-    stored, workers are ended, the command exits with 130. Only in the main thread."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-
-    def handler(signum, frame):
-        raise KeyboardInterrupt
-
-    old = signal.signal(signal.SIGTERM, handler)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, old)
-
-
-@contextlib.contextmanager
-def _interrupts_as_flag():
-    """Within the block Ctrl-C and SIGTERM only set the yielded event; the pool loop raises
-    KeyboardInterrupt itself, between two waits. An exception raised by the signal handler at an
-    arbitrary point could land inside ``concurrent.futures.wait`` while it holds some futures'
-    locks (they are taken one by one, outside any ``try``); the pool's manager thread then blocked
-    for ever on them, and the command on that thread at exit, after it had printed that it was
-    interrupted (seen once in CI). Outside the main thread: no handler, an event never set."""
-    stop = threading.Event()
-    if threading.current_thread() is not threading.main_thread():
-        yield stop
-        return
-    old = {s: signal.signal(s, lambda signum, frame: stop.set()) for s in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        yield stop
-    finally:
-        for s, h in old.items():
-            signal.signal(s, h)
-
-
-def _spooled_trial(spool: str, cfg_dict: dict, seed: int, trial: int, variants, chash: str, engine: str) -> str:
-    """A pool worker's task: compute one trial, write its bytes to a file of ``spool`` and return
-    only that file's name. A trial's bytes (about 90 kB) sent back over the pool's result pipe take
-    several writes; a worker ended by an interrupt in the middle of them left the parent's manager
-    thread waiting for the rest for ever (its own copy of the pipe's write end keeps it open), and
-    the command hung at exit after saying it was interrupted (seen in CI). A name of a few dozen
-    bytes goes in one write, which a pipe makes atomic (POSIX ``PIPE_BUF``)."""
-    data = compute_trial(cfg_dict, seed, trial, variants, chash, engine)
-    part = Path(spool) / f"trial_{trial}.part"
-    part.write_bytes(data)
-    done = part.with_suffix(".npz")
-    part.replace(done)         # a worker ended while writing leaves only a .part, removed with the spool
-    return done.name
-
-
 def _run_pool(cfg_dict: dict, seed: int, variants: tuple[Variant, ...], todo: list[int], finish,
               jobs: int, chash: str, engine: str = "auto", poll_s: float = 0.2) -> None:
-    import tempfile
-    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-    from concurrent.futures.process import BrokenProcessPool
-
-    with _interrupts_as_flag() as stop, tempfile.TemporaryDirectory(prefix="radarslam-pool-") as spool:
-        ex = ProcessPoolExecutor(max_workers=jobs, initializer=_init_pool_worker)
-        try:
-            pending = {ex.submit(_spooled_trial, spool, cfg_dict, seed, t, variants, chash, engine): t for t in todo}
-            while pending:
-                done, _ = wait(pending, timeout=poll_s, return_when=FIRST_COMPLETED)
-                for f in done:
-                    t = pending.pop(f)
-                    try:
-                        name = f.result()
-                    except BrokenProcessPool:
-                        raise RadarSlamError("a worker process died; every finished trial is stored, "
-                                             "rerun the same command to resume") from None
-                    spooled = Path(spool) / name
-                    data = spooled.read_bytes()
-                    spooled.unlink()
-                    finish(t, data)
-                if stop.is_set():
-                    raise KeyboardInterrupt
-        except BaseException:
-            # Interrupted (Ctrl-C, SIGTERM) or failed: cancel what has not started and end the
-            # workers now, so that none is left running a trial after this process is gone.
-            procs = list(getattr(ex, "_processes", {}).values())
-            for proc in procs:
-                proc.terminate()
-            for proc in procs:       # one forked before its initializer ran still has the parent's handler
-                proc.join(2.0)
-                if proc.is_alive():
-                    proc.kill()
-            ex.shutdown(wait=False, cancel_futures=True)
-            raise
-        ex.shutdown(wait=True)
+    """Trials ``todo`` on ``jobs`` local worker processes (:func:`~radarslam.runs.workers.run_pool`)."""
+    run_pool({t: (compute_trial, (cfg_dict, seed, t, variants, chash, engine)) for t in todo}, finish, jobs,
+             unit="trial", poll_s=poll_s)
 
 
 def _run_dask(cfg_dict: dict, seed: int, variants: tuple[Variant, ...], todo: list[int], finish,
               scheduler: str | None, dask_local: int | None, chash: str) -> None:
-    try:
-        from dask.distributed import Client, LocalCluster, as_completed
-    except ImportError:
-        raise InputError("--scheduler/--dask-local: Dask is not installed; pip install 'radarslam[dask]'") from None
-    cluster = None
-    if dask_local is not None:
-        if dask_local < 1:
-            raise InputError(f"--dask-local: expected an integer >= 1, got {dask_local}")
-        cluster = LocalCluster(n_workers=dask_local, threads_per_worker=1, processes=True, host="127.0.0.1",
-                               dashboard_address=None)
-    try:
-        try:
-            client = Client(cluster if cluster is not None else scheduler, timeout=f"{CONNECT_TIMEOUT_S:g}s")
-        except OSError as exc:
-            raise InputError(f"--scheduler: cannot reach {scheduler} ({exc})") from None
-        try:
-            client.run(_limit_threads)
-            futures = [client.submit(compute_trial, cfg_dict, seed, t, variants, chash, key=f"radarslam-trial-{seed}-{t}",
-                                     pure=False) for t in todo]
-            index = {f.key: t for f, t in zip(futures, todo)}
-            for f in as_completed(futures):
-                finish(index[f.key], f.result())
-        finally:
-            client.close()
-    finally:
-        if cluster is not None:
-            cluster.close()
+    """Trials ``todo`` on a Dask cluster (:func:`~radarslam.runs.workers.run_dask`)."""
+    run_dask({t: (compute_trial, (cfg_dict, seed, t, variants, chash), f"radarslam-trial-{seed}-{t}") for t in todo},
+             finish, scheduler, dask_local, timeout_s=CONNECT_TIMEOUT_S)
 
 
 def load_results(out: str | Path, n_trials: int | None = None) -> dict:
