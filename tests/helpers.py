@@ -73,3 +73,13 @@ def first_seconds(src: Path, seconds: float, out: Path) -> Path:
     out.mkdir(parents=True)
     write_plain(cut, out)
     return out
+
+
+def one_line_message(exc, *parts: str) -> str:
+    """The message of a raised error (``pytest.raises``' ``ExceptionInfo``), asserted to be one line
+    holding each of ``parts``."""
+    msg = str(exc.value)
+    assert "\n" not in msg, msg
+    for p in parts:
+        assert p in msg, msg
+    return msg

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from helpers import shared_data
+from helpers import one_line_message, shared_data
 from radarslam.core.errors import DataError, InputError, RadarSlamError
 from radarslam.core.mounting import Mounting
 from radarslam.core.types import Odometry, Scan
@@ -41,14 +41,6 @@ CHANNEL_OF = {sid: ch for ch, (sid, _) in RADAR_CHANNELS.items()}
 
 def _official() -> Path:
     return shared_data() / "nuscenes_official"
-
-
-def _one_line(exc: pytest.ExceptionInfo, *parts: str) -> str:
-    msg = str(exc.value)
-    assert "\n" not in msg, msg
-    for p in parts:
-        assert p in msg, msg
-    return msg
 
 
 def _header(n: int, fields=RADAR_FIELDS) -> bytes:
@@ -100,17 +92,17 @@ def test_a_pcd_of_another_layout_is_refused_naming_the_file(tmp_path):
     lidar.write_bytes(_header(2, (("x", "F", 4), ("y", "F", 4), ("z", "F", 4), ("intensity", "F", 4))) + bytes(32))
     with pytest.raises(DataError) as e:
         read_radar_pcd(lidar)
-    _one_line(e, str(lidar), "expected the nuScenes radar PCD layout", "got FIELDS x y z intensity")
+    one_line_message(e, str(lidar), "expected the nuScenes radar PCD layout", "got FIELDS x y z intensity")
     renamed = tmp_path / "renamed.pcd"                                      # one field's name changed
     renamed.write_bytes(real.replace(b" vx_comp ", b" vz "))
     with pytest.raises(DataError) as e:
         read_radar_pcd(renamed)
-    _one_line(e, str(renamed), "vy vz vy_comp")
+    one_line_message(e, str(renamed), "vy vz vy_comp")
     resized = tmp_path / "resized.pcd"                                      # one field's SIZE changed
     resized.write_bytes(real.replace(b"SIZE 4 4 4 1 2", b"SIZE 4 4 4 1 4"))
     with pytest.raises(DataError) as e:
         read_radar_pcd(resized)
-    _one_line(e, str(resized), "SIZE 4 4 4 1 4")
+    one_line_message(e, str(resized), "SIZE 4 4 4 1 4")
 
 
 def test_a_truncated_or_ascii_sweep_is_refused_naming_the_file(tmp_path):
@@ -119,15 +111,15 @@ def test_a_truncated_or_ascii_sweep_is_refused_naming_the_file(tmp_path):
     cut.write_bytes(real[:370 + 100 * 43])
     with pytest.raises(DataError) as e:
         read_radar_pcd(cut)
-    _one_line(e, str(cut), "125 points of 43 bytes (5375 bytes)", "got 4300 bytes")
+    one_line_message(e, str(cut), "125 points of 43 bytes (5375 bytes)", "got 4300 bytes")
     ascii_ = tmp_path / "ascii.pcd"
     ascii_.write_bytes(real.replace(b"DATA binary", b"DATA ascii"))
     with pytest.raises(DataError) as e:
         read_radar_pcd(ascii_)
-    _one_line(e, str(ascii_), "DATA ascii")
+    one_line_message(e, str(ascii_), "DATA ascii")
     with pytest.raises(DataError) as e:
         read_radar_pcd(tmp_path / "absent.pcd")
-    _one_line(e, "absent.pcd")
+    one_line_message(e, "absent.pcd")
 
 
 def test_a_sweep_of_fewer_points_than_its_padding_reads_those_points(tmp_path):
@@ -157,7 +149,7 @@ def test_the_real_tables_hold_scene_0061_with_its_39_samples():
     assert (log["logfile"], log["location"]) == (LOG, "singapore-onenorth")
     with pytest.raises(InputError) as e:
         T.find_scene(scenes, "scene-9999", folder)
-    msg = _one_line(e, "--scene", "'scene-9999'", "scene-0061", "scene-1100")
+    msg = one_line_message(e, "--scene", "'scene-9999'", "scene-0061", "scene-1100")
     assert all(s["name"] in msg for s in scenes)
 
 
@@ -375,7 +367,7 @@ def test_odometry_interpolates_the_rear_wheels_at_the_imu_and_keeps_its_span(tmp
     (tmp_path / "s_ms_imu.json").write_text(json.dumps(imu))
     with pytest.raises(DataError) as e:
         can_bus.odometry(tmp_path, "s", 0)
-    _one_line(e, "s_ms_imu.json message 2", "increasing utime")
+    one_line_message(e, "s_ms_imu.json message 2", "increasing utime")
 
 
 # --- (d) refusals -------------------------------------------------------------------------------------------
@@ -395,13 +387,13 @@ def test_a_dataroot_without_can_bus_is_refused_naming_it(tmp_path):
     root = _tables_only(tmp_path, can=False)
     with pytest.raises(DataError) as e:
         read_nuscenes(root, SCENE)
-    _one_line(e, str(root / "can_bus"), "CAN bus expansion", "no such folder")
+    one_line_message(e, str(root / "can_bus"), "CAN bus expansion", "no such folder")
 
 
 def test_an_unknown_scene_is_refused_listing_the_scenes(tmp_path):
     with pytest.raises(InputError) as e:
         read_nuscenes(_tables_only(tmp_path), "scene-0062")
-    _one_line(e, "--scene", "'scene-0062'", "scene-0061, scene-0103, scene-0553")
+    one_line_message(e, "--scene", "'scene-0062'", "scene-0061, scene-0103, scene-0553")
 
 
 def test_a_scene_without_radar_sweeps_is_refused_naming_the_file(tmp_path):
@@ -409,10 +401,10 @@ def test_a_scene_without_radar_sweeps_is_refused_naming_the_file(tmp_path):
     (root / "v1.0-mini" / "sample_data.json").write_text("[]")
     with pytest.raises(DataError) as e:
         read_nuscenes(root, SCENE)
-    _one_line(e, str(root / "v1.0-mini" / "sample_data.json"), "radar sweeps", "got none")
+    one_line_message(e, str(root / "v1.0-mini" / "sample_data.json"), "radar sweeps", "got none")
     with pytest.raises(DataError) as e:
         read_nuscenes(root, SCENE, version="v1.0-trainval")
-    _one_line(e, "--version v1.0-trainval", "no such folder")
+    one_line_message(e, "--version v1.0-trainval", "no such folder")
 
 
 def test_a_missing_sweep_file_is_refused_naming_it(scene, tmp_path):
@@ -423,7 +415,7 @@ def test_a_missing_sweep_file_is_refused_naming_it(scene, tmp_path):
     victim.unlink()
     with pytest.raises(DataError) as e:
         read_nuscenes(copy, SCENE)
-    _one_line(e, str(victim))
+    one_line_message(e, str(victim))
 
 
 # --- (f) the command line ---------------------------------------------------------------------------------
@@ -436,7 +428,7 @@ def _run(argv, capsys):
     return code, capsys.readouterr().err.strip()
 
 
-def test_the_cli_refuses_a_bad_dataroot_in_one_line(tmp_path, capsys):
+def test_the_cli_refuses_a_bad_dataroot_inone_line_message(tmp_path, capsys):
     out = tmp_path / "out"
     code, err = _run(["run", "--dataset", "nuscenes", str(tmp_path / "nope"), "--scene", SCENE, "--out", str(out)],
                      capsys)

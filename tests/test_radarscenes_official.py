@@ -16,7 +16,7 @@ import sys
 import numpy as np
 import pytest
 
-from helpers import shared_data
+from helpers import one_line_message, shared_data
 from radarslam.core.errors import DataError, InputError
 from radarslam.core.mounting import Mounting
 from radarslam.core.types import Odometry
@@ -34,14 +34,6 @@ RADAR_DTYPE = np.dtype([("timestamp", "<u8"), ("sensor_id", "u1"), ("range_sc", 
                         ("x_seq", "<f4"), ("y_seq", "<f4"), ("uuid", "S32"), ("track_id", "S32"), ("label_id", "u1")])
 ODOMETRY_DTYPE = np.dtype([("timestamp", "<u8"), ("x_seq", "<f8"), ("y_seq", "<f8"), ("yaw_seq", "<f8"),
                            ("vx", "<f8"), ("yaw_rate", "<f8")])
-
-
-def _one_line(exc: pytest.ExceptionInfo, *parts: str) -> str:
-    msg = str(exc.value)
-    assert "\n" not in msg, msg
-    for p in parts:
-        assert p in msg, msg
-    return msg
 
 
 def write_sequence(root, plain, name: str = "sequence_105", radar_fields=None) -> None:
@@ -142,7 +134,7 @@ def test_every_odometry_row_is_read_on_request(plain, dataset):
     np.testing.assert_array_equal(rec.odo[1::2, 1], -1.0)                 # the unpaired rows between them
     with pytest.raises(InputError) as e:
         read_radarscenes(dataset, 105, odometry="nearest")
-    _one_line(e, "odometry", "scenes, all", "'nearest'")
+    one_line_message(e, "odometry", "scenes, all", "'nearest'")
 
 
 # --- refusals, on the first seconds ---------------------------------------------------------------------
@@ -158,26 +150,26 @@ def short(plain):
                                odo_t=plain.odo_t[odo], odo=plain.odo[odo])
 
 
-def test_an_unknown_sequence_or_a_missing_file_is_refused_in_one_line(short, tmp_path):
+def test_an_unknown_sequence_or_a_missing_file_is_refused_inone_line_message(short, tmp_path):
     write_sequence(tmp_path, short)
     with pytest.raises(InputError) as e:
         read_radarscenes(tmp_path, 104)
-    _one_line(e, "--sequence", str(tmp_path / "data" / "sequence_104"), "holds sequence_105")
+    one_line_message(e, "--sequence", str(tmp_path / "data" / "sequence_104"), "holds sequence_105")
     with pytest.raises(InputError) as e:
         read_radarscenes(tmp_path, "one-hundred-five")
-    _one_line(e, "--sequence", "'one-hundred-five'")
+    one_line_message(e, "--sequence", "'one-hundred-five'")
     with pytest.raises(InputError) as e:
         read_radarscenes(tmp_path / "nope", 105)
-    _one_line(e, str(tmp_path / "nope"), "no such directory")
+    one_line_message(e, str(tmp_path / "nope"), "no such directory")
     (tmp_path / "data" / "sequence_105" / "scenes.json").unlink()
     with pytest.raises(DataError) as e:
         read_radarscenes(tmp_path, 105)
-    _one_line(e, str(tmp_path / "data" / "sequence_105" / "scenes.json"), "no such file")
+    one_line_message(e, str(tmp_path / "data" / "sequence_105" / "scenes.json"), "no such file")
     assert read_radarscenes(tmp_path, 105, odometry="all").det_t.size == short.det_t.size   # scenes.json unused then
     (tmp_path / "data" / "sensors.json").unlink()
     with pytest.raises(DataError) as e:
         read_radarscenes(tmp_path, 105, odometry="all")
-    _one_line(e, str(tmp_path / "data" / "sensors.json"), "no such file")
+    one_line_message(e, str(tmp_path / "data" / "sensors.json"), "no such file")
 
 
 def test_a_table_without_its_fields_or_a_radar_without_mounting_is_refused(short, tmp_path):
@@ -185,7 +177,7 @@ def test_a_table_without_its_fields_or_a_radar_without_mounting_is_refused(short
     write_sequence(tmp_path, short, radar_fields=names)
     with pytest.raises(DataError) as e:
         read_radarscenes(tmp_path, 105)
-    _one_line(e, str(tmp_path / "data" / "sequence_105" / "radar_data.h5"), "dataset radar_data",
+    one_line_message(e, str(tmp_path / "data" / "sequence_105" / "radar_data.h5"), "dataset radar_data",
               "expected a table with fields timestamp, sensor_id, range_sc, azimuth_sc, rcs, vr, label_id",
               "vr_compensated")
     other = tmp_path / "other"
@@ -195,7 +187,7 @@ def test_a_table_without_its_fields_or_a_radar_without_mounting_is_refused(short
     (other / "data" / "sensors.json").write_text(json.dumps(sensors))
     with pytest.raises(DataError) as e:
         read_radarscenes(other, 105)
-    _one_line(e, "sensor_id 3 has no mounting", str(other / "data" / "sensors.json"), "holds radars 1, 2, 4")
+    one_line_message(e, "sensor_id 3 has no mounting", str(other / "data" / "sensors.json"), "holds radars 1, 2, 4")
 
 
 def test_without_h5py_the_data_extra_is_named(short, tmp_path, monkeypatch):
@@ -203,10 +195,10 @@ def test_without_h5py_the_data_extra_is_named(short, tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, "h5py", None)
     with pytest.raises(InputError) as e:
         read_radarscenes(tmp_path, 105)
-    _one_line(e, "needs h5py", "radarslam[data]")
+    one_line_message(e, "needs h5py", "radarslam[data]")
 
 
-def test_the_cli_refuses_a_bad_dataroot_in_one_line(tmp_path, capsys):
+def test_the_cli_refuses_a_bad_dataroot_inone_line_message(tmp_path, capsys):
     from radarslam.cli.main import main
 
     out = tmp_path / "out"

@@ -19,13 +19,13 @@ CAN bus tutorial), the yaw rate the IMU's z rotation rate (a gyro); the truth is
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
 import numpy as np
 
 from radarslam.core.errors import DataError
+from radarslam.io.datasets.nuscenes.tables import json_list
 
 #: Wheel radius (m) of the nuScenes CAN bus tutorial: speed = rpm * 2 pi r / 60.
 WHEEL_RADIUS_M = 0.305
@@ -39,17 +39,10 @@ def can_file(can_dir: Path, scene: str, message: str) -> Path:
 def _messages(path: Path, fields: dict[str, int]) -> dict[str, np.ndarray]:
     """``utime`` (int64) and each of ``fields`` (name -> length, 1 a scalar) of every message, as
     arrays; times must increase."""
-    try:
-        with path.open("rb") as fh:
-            msgs = json.load(fh)
-    except FileNotFoundError:
-        raise DataError(f"{path}: expected this CAN bus message file (the nuScenes CAN bus expansion, devkit "
-                        "can_bus/README.md), got no such file") from None
-    except (OSError, ValueError) as exc:
-        raise DataError(f"{path}: expected a JSON list of CAN bus messages, got unreadable content ({exc})") from None
-    if not isinstance(msgs, list) or not msgs:
-        raise DataError(f"{path}: expected a non-empty JSON list of CAN bus messages, got "
-                        f"{'an empty list' if isinstance(msgs, list) else type(msgs).__name__}")
+    msgs = json_list(path, "this CAN bus message file (the nuScenes CAN bus expansion, devkit can_bus/README.md)",
+                     "CAN bus messages")
+    if not msgs:
+        raise DataError(f"{path}: expected a non-empty JSON list of CAN bus messages, got an empty list")
     out: dict[str, np.ndarray] = {}
     for name, n in {"utime": 1, **fields}.items():
         try:

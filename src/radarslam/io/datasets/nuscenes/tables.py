@@ -40,19 +40,27 @@ def version_folder(dataroot: Path, version: str | None) -> Path:
     return dataroot / found[0]
 
 
-def load_table(folder: Path, name: str) -> list[dict]:
-    """The records of ``folder/<name>.json`` (a JSON list of objects)."""
-    path = folder / f"{name}.json"
+def json_list(path: Path, missing: str, what: str) -> list:
+    """The JSON list in ``path``; one-line :class:`DataError` naming the file, with ``missing`` (what the
+    file is) when it is absent and ``what`` (its records) when it is unreadable or not a list."""
     try:
         with path.open("rb") as fh:
             records = json.load(fh)
     except FileNotFoundError:
-        raise DataError(f"{path}: expected the nuScenes table {name} (devkit docs/schema_nuscenes.md), got no such "
-                        "file") from None
+        raise DataError(f"{path}: expected {missing}, got no such file") from None
     except (OSError, ValueError) as exc:
-        raise DataError(f"{path}: expected a JSON list of {name} records, got unreadable content ({exc})") from None
-    if not isinstance(records, list) or not all(isinstance(r, dict) for r in records[:1]):
-        raise DataError(f"{path}: expected a JSON list of {name} records, got {type(records).__name__}")
+        raise DataError(f"{path}: expected a JSON list of {what}, got unreadable content ({exc})") from None
+    if not isinstance(records, list):
+        raise DataError(f"{path}: expected a JSON list of {what}, got {type(records).__name__}")
+    return records
+
+
+def load_table(folder: Path, name: str) -> list[dict]:
+    """The records of ``folder/<name>.json`` (a JSON list of objects)."""
+    path = folder / f"{name}.json"
+    records = json_list(path, f"the nuScenes table {name} (devkit docs/schema_nuscenes.md)", f"{name} records")
+    if not all(isinstance(r, dict) for r in records[:1]):
+        raise DataError(f"{path}: expected a JSON list of {name} records, got a list of {type(records[0]).__name__}")
     return records
 
 
