@@ -77,22 +77,82 @@ def _cells(points, eps):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _neighbour_pass(points, eps, cx, cy, ny, order, keys, off, idx, fill):  # pragma: no cover - compiled
+def _slot(key, size):  # pragma: no cover - compiled
+    """The first slot of ``key`` in a table of ``size`` (a power of two) slots (multiplicative hash)."""
+    return (key * 2654435761) & (size - 1)
+
+
+@njit(cache=True)
+def _cell_table(key):  # pragma: no cover - compiled
+    """The occupied cells of the points' cell keys ``key`` (m,) (each >= 0): an open-addressing table
+    ``(slot_key, slot_cell)`` from a key to its cell's number, and each cell's points, ascending,
+    ``members[start[c]:start[c + 1]]`` (a counting sort)."""
+    m = key.shape[0]
+    size = 1
+    while size < 2 * m:
+        size *= 2
+    slot_key = np.full(size, -1, dtype=np.int64)
+    slot_cell = np.empty(size, dtype=np.int64)
+    cell_of = np.empty(m, dtype=np.int64)
+    n_cells = 0
+    for i in range(m):
+        h = _slot(key[i], size)
+        while slot_key[h] != -1 and slot_key[h] != key[i]:
+            h = (h + 1) & (size - 1)
+        if slot_key[h] == -1:
+            slot_key[h] = key[i]
+            slot_cell[h] = n_cells
+            n_cells += 1
+        cell_of[i] = slot_cell[h]
+    start = np.zeros(n_cells + 1, dtype=np.int64)
+    for i in range(m):
+        start[cell_of[i] + 1] += 1
+    for c in range(n_cells):
+        start[c + 1] += start[c]
+    fill = start[:n_cells].copy()
+    members = np.empty(m, dtype=np.int64)
+    for i in range(m):
+        members[fill[cell_of[i]]] = i
+        fill[cell_of[i]] += 1
+    return slot_key, slot_cell, start, members
+
+
+@njit(cache=True)
+def _cell_of(slot_key, slot_cell, key):  # pragma: no cover - compiled
+    """The number of the cell of ``key`` in :func:`_cell_table`'s table, -1 when no point is in it."""
+    size = slot_key.shape[0]
+    h = _slot(key, size)
+    while slot_key[h] != -1:
+        if slot_key[h] == key:
+            return slot_cell[h]
+        h = (h + 1) & (size - 1)
+    return -1
+
+
+@njit(cache=True)
+def _neighbour_pass(points, eps, cx, cy, ny, table, off, idx, fill):  # pragma: no cover - compiled
     """One pass over every point's 3 x 3 cells: its neighbours within ``eps`` (the exact test
     ``sqrt(dx^2 + dy^2) <= eps``, itself included) counted into ``off[i + 1]``, or with ``fill``
-    written to ``idx`` from ``off[i]``."""
+    written to ``idx`` from ``off[i]`` in ascending order (an insertion sort: a few dozen each)."""
+    slot_key, slot_cell, start, members = table
     for i in range(points.shape[0]):
         n = 0
         for ddx in range(-1, 2):
             for ddy in range(-1, 2):
-                key = (cx[i] + ddx) * ny + (cy[i] + ddy)
-                for t in range(np.searchsorted(keys, key), np.searchsorted(keys, key, side="right")):
-                    j = order[t]
+                c = _cell_of(slot_key, slot_cell, (cx[i] + ddx) * ny + (cy[i] + ddy))
+                if c < 0:
+                    continue
+                for t in range(start[c], start[c + 1]):
+                    j = members[t]
                     dx = points[i, 0] - points[j, 0]
                     dy = points[i, 1] - points[j, 1]
                     if math.sqrt(dx * dx + dy * dy) <= eps:
                         if fill:
-                            idx[off[i] + n] = j
+                            a = off[i] + n
+                            while a > off[i] and idx[a - 1] > j:
+                                idx[a] = idx[a - 1]
+                                a -= 1
+                            idx[a] = j
                         n += 1
         if not fill:
             off[i + 1] = n
@@ -134,17 +194,13 @@ def neighbourhoods(points, eps):  # pragma: no cover - compiled
     if m <= PAIRWISE_MAX:
         return _pairwise(points, eps)
     cx, cy, ny = _cells(points, eps)
-    key = cx * ny + cy
-    order = np.argsort(key, kind="mergesort")
-    keys = key[order]
+    table = _cell_table(cx * ny + cy)
     off = np.zeros(m + 1, dtype=np.int64)
-    _neighbour_pass(points, eps, cx, cy, ny, order, keys, off, off, False)
+    _neighbour_pass(points, eps, cx, cy, ny, table, off, off, False)
     for i in range(m):
         off[i + 1] += off[i]
     idx = np.empty(off[m], dtype=np.int64)
-    _neighbour_pass(points, eps, cx, cy, ny, order, keys, off, idx, True)
-    for i in range(m):
-        idx[off[i]:off[i + 1]] = np.sort(idx[off[i]:off[i + 1]])
+    _neighbour_pass(points, eps, cx, cy, ny, table, off, idx, True)
     return off, idx
 
 
