@@ -196,11 +196,12 @@ def neighbourhoods(points, eps):  # pragma: no cover - compiled
     cx, cy, ny = _cells(points, eps)
     table = _cell_table(cx * ny + cy)
     off = np.zeros(m + 1, dtype=np.int64)
-    _neighbour_pass(points, eps, cx, cy, ny, table, off, off, False)
+    fill = m < 0                     # a bool, not a literal: one compiled pass for both calls
+    _neighbour_pass(points, eps, cx, cy, ny, table, off, off, fill)
     for i in range(m):
         off[i + 1] += off[i]
     idx = np.empty(off[m], dtype=np.int64)
-    _neighbour_pass(points, eps, cx, cy, ny, table, off, idx, True)
+    _neighbour_pass(points, eps, cx, cy, ny, table, off, idx, not fill)
     return off, idx
 
 
