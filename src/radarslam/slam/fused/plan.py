@@ -20,6 +20,11 @@ from radarslam.slam.fused.stream import Stream, _stream_arrays
 from radarslam.slam.fused.view import ViewParams, view_parameters
 
 
+#: ``FusedParams.pre_spread``: none (R alone), the prior spread, the buffered detections' scatter (once 3
+#: are held, the prior before); slam/fused/tracking.py ``_inflation``.
+PRE_SPREADS = ("none", "prior", "scatter")
+
+
 class FusedParams(NamedTuple):
     """The configuration of :func:`~radarslam.slam.fused.engine.run_stream`, by name."""
 
@@ -37,8 +42,7 @@ class FusedParams(NamedTuple):
     track: bool            #: extent.track
     contour: bool          #: extent.use_in_slam and extent.contour_sifting
     inflate: bool          #: extent.use_in_slam and extent.inflate_noise
-    pre_prior: bool        #: extent.pre_init_spread "prior" or "scatter": a spread before the extent (a.7.2)
-    pre_scatter: bool      #: extent.pre_init_spread == "scatter": the buffered detections' once 3 are held
+    pre_spread: int        #: extent.pre_init_spread, the spread before the extent (a.7.2): its index in PRE_SPREADS
     w_mode: int            #: extent.w_mode: the scan's W (h.3; extent.measurement.W_MAX_TRACE, W_MAX_DET, W_MEAN)
     n_init: int            #: extent.n_init
     posterior: bool        #: extent.use_posterior_landmark
@@ -197,7 +201,7 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
         track=bool(ec.track),
         contour=in_slam and bool(ec.contour_sifting),
         inflate=in_slam and bool(ec.inflate_noise),
-        pre_prior=ec.pre_init_spread in ("prior", "scatter"), pre_scatter=ec.pre_init_spread == "scatter",
+        pre_spread=PRE_SPREADS.index(ec.pre_init_spread),
         w_mode=W_MODES.index(ec.w_mode),
         n_init=int(ec.n_init),
         posterior=bool(ec.use_posterior_landmark),
@@ -277,7 +281,7 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None):
     cfg = _parameters(slam, timing, all_maps)
     st = slam.state
     ext = slam.extent
-    prior_spread = ext.prior_spread if ext.initial_spread() is not None or cfg.pre_prior else np.zeros((2, 2))
+    prior_spread = ext.prior_spread if ext.initial_spread() is not None or cfg.pre_spread else np.zeros((2, 2))
     gates = np.zeros(2)
     if cfg.assoc == 3:                         # JCBB: a gate for every depth a scan's candidates allow
         off = stream.scan_off

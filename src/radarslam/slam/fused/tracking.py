@@ -162,8 +162,8 @@ def _linearisation(x, lm, N, pose_first, platform):  # pragma: no cover - compil
 @njit(cache=True, inline="always")
 def _inflation(lm, N, noise, cfg):  # pragma: no cover - compiled
     """Step 4's noise inflation: ``(gX, has)``, the spread of initialised extents (``cfg.inflate``)
-    and, before, the prior spread (``cfg.pre_prior``) or, with ``cfg.pre_scatter`` once 3 are held,
-    the scatter of the buffered detections (``extent.pre_init_spread``, a.7.2)."""
+    and, before, by ``cfg.pre_spread`` (``extent.pre_init_spread``, a.7.2; 0 none) the prior spread
+    (1) or, once 3 are held, the scatter of the buffered detections (2)."""
     gX = np.zeros((N, 2, 2))
     has = np.zeros(N, dtype=np.bool_)
     if cfg.inflate:
@@ -171,8 +171,8 @@ def _inflation(lm, N, noise, cfg):  # pragma: no cover - compiled
             if lm.einit[j]:
                 gX[j] = cfg.gamma * lm.X[j]
                 has[j] = True
-            elif cfg.pre_prior:
-                gX[j] = _buffered_scatter(lm.buf[j], lm.nbuf[j]) if cfg.pre_scatter and lm.nbuf[j] >= 3 \
+            elif cfg.pre_spread:
+                gX[j] = _buffered_scatter(lm.buf[j], lm.nbuf[j]) if cfg.pre_spread == 2 and lm.nbuf[j] >= 3 \
                     else noise.prior_spread
                 has[j] = True
     return gX, has
