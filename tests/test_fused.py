@@ -114,6 +114,11 @@ OVERLAYS = {
     "scatter-spread-jcbb": {"landmarks": {"associator": "jcbb"},
                             "extent": {"use_in_slam": True, "pre_init_spread": "scatter", "n_init": 6}},
     "rule1-only": {"landmarks": {"confirm_points": 2, "alpha": 50.0}},
+    # the EFA baseline of the last efa_window detections (Decision 5), upper bound and noise-corrected, RMA and MEM-EKF*
+    "sliding-efa": {"extent": {"efa_mode": "sliding", "efa_window": 12}},
+    "sliding-efa-corrected-merge": {"extent": {"efa_mode": "sliding", "efa_noise_correct": True, "w_mode": "mean",
+                                               "n_init": 3}, "landmarks": {"merge_distance_m": 4.0}},
+    "sliding-efa-mem-ekf": {"extent": {"estimator": "mem-ekf", "efa_mode": "sliding", "efa_noise_correct": True}},
     # first-estimates Jacobians (c.2.1) with each associator that evaluates them
     "fej-nearest": {"filter": {"jacobians": "fej"}},
     "fej-batch": {"filter": {"jacobians": "fej"}, "landmarks": {"associator": "batch"},
@@ -160,17 +165,19 @@ def test_covered_options_same_as_orchestrator(name):
     ({"use_in_slam": True}, {"pre_init_spread": "prior"}, {"pre_init_spread": "scatter"}),
     ({}, {"w_mode": "max_trace"}, {"w_mode": "mean"}),
     ({"use_in_slam": True}, {"w_mode": "max_trace"}, {"w_mode": "max_det"}),
+    ({}, {"efa_mode": "per_scan"}, {"efa_mode": "sliding"}),
 ])
 def test_the_compiled_options_change_the_run(option, base, other):
-    """The scatter spread before the extent (a.7.2) and the scan's W by its mean or largest determinant
-    (h.3) change the run they are compared on above (trial 3): the poses or the extents move, so the
-    parity cases compare branches that run."""
+    """The scatter spread before the extent (a.7.2), the scan's W by its mean or largest determinant
+    (h.3) and the sliding EFA (Decision 5) change the run they are compared on above (trial 3): the
+    poses, the extents or the EFA baselines move, so the parity cases compare branches that run."""
     events = _scenario(profile_config("apsipa"), 3).events
     runs = [_fused.run(EkfSlam(_overlay(profile_config("apsipa"), {"extent": {**option, **o}})), events)[0]
             for o in (base, other)]
+    same_map = runs[0]["rma"].shape == runs[1]["rma"].shape
     moved = max(np.abs(runs[0]["poses"] - runs[1]["poses"]).max(),
-                np.abs(runs[0]["rma"][-5:] - runs[1]["rma"][-5:]).max() if runs[0]["rma"].shape == runs[1]["rma"].shape
-                else 1.0)
+                np.abs(runs[0]["rma"][-5:] - runs[1]["rma"][-5:]).max() if same_map else 1.0,
+                np.nanmax(np.abs(runs[0]["efa"][-5:] - runs[1]["efa"][-5:])) if same_map else 1.0)
     assert moved > 1e-3, moved
 
 
@@ -260,7 +267,6 @@ def test_golden_runs_reproduced():
 @pytest.mark.parametrize("overlay,reason", [
     ({"filter": {"fused": False}}, "filter.fused"),
     ({"filter": {"backend": "python"}}, "filter.backend"),
-    ({"extent": {"efa_mode": "sliding"}}, "extent.efa_mode"),
 ])
 def test_uncovered_configurations_are_refused(overlay, reason):
     assert reason in _fused.why_not(EkfSlam(_overlay(profile_config("apsipa"), overlay)))

@@ -22,7 +22,6 @@ import numpy as np
 
 from radarslam.core.arrays import grown_inner
 from radarslam.extent.buffering import TAKE, buffered_scatter
-from radarslam.extent.ellipse_fit import _fit_ellipse
 from radarslam.extent.measurement import _scan_W
 from radarslam.extent.measurement import _converted_measurement_covs
 from radarslam.extent.rows import ExtentRows, empty_rows
@@ -82,13 +81,13 @@ class RmaEfaState:
     """Extent of one landmark: the buffer before initialisation; afterwards ``X``/``alpha`` (RMA)
     and ``X_efa`` (the EFA baseline)."""
 
-    #: The detections held before the extent is initialised (a.3): rows ``0 .. n_buffered - 1``.
+    #: The detections held before the extent is initialised (a.3), and after it under
+    #: ``efa_mode = "sliding"`` the sliding EFA's window: rows ``0 .. n_buffered - 1``.
     buffer: np.ndarray = field(default_factory=lambda: np.empty((0, 2)))
     n_buffered: int = 0
     X: np.ndarray | None = None
     alpha: float = 0.0
     X_efa: np.ndarray | None = None
-    efa_buffer: list[np.ndarray] = field(default_factory=list)
     initialized_at: int | None = None
 
     @property
@@ -237,9 +236,9 @@ class RmaEfaEstimator:
         """The objects ``states`` gathered into an :class:`~radarslam.extent.rows.ExtentRows`
         (:meth:`_gather`), the extent step over array-held states that the fused engine runs too
         (a.3 by :func:`~radarslam.extent.rows.initialise_rows`, then :meth:`_born`, :meth:`_scan`
-        and :meth:`_after`, a subclass's), and the rows written back (:meth:`_scatter`). The
-        options the fused engine has not (``w_mode`` other than ``max_trace``: the scan's ``W``
-        given; ``efa_mode = "sliding"``: the EFA of :meth:`_efa_baseline` after) are handled here."""
+        and :meth:`_after`, a subclass's; under ``efa_mode = "sliding"`` the EFA baseline by
+        :func:`~radarslam.extent.rows.sliding_efa_rows` after), and the rows written back
+        (:meth:`_scatter`). The fused engine's extent step calls the same kernels."""
         ec, N = self.c, len(states)
         if not ec.track or N == 0:
             return
@@ -269,12 +268,12 @@ class RmaEfaEstimator:
         sliding = ec.efa_mode == "sliding"
         self._scan(E, ready, s, not sliding)
         self._after(E, states, s)
+        if sliding:                                      # Decision 5's EFA of the last efa_window detections
+            E = E._replace(buf=grown_inner(E.buf, ec.efa_window))
+            kern.sliding_efa_rows(E, ready, born, N, s.old, s.aoff, s.arow, s.polar, s.xy, pose, pose_cov,
+                                  self.R_extent, s.W, s.w_given, ec.efa_window, ec.spread_factor,
+                                  not ec.efa_noise_correct)
         self._scatter(E, states, born, k)
-        for j in np.flatnonzero(ready).tolist() if sliding else ():
-            a = assoc[j]
-            if a:
-                Wj = _scan_W(pose, pose_cov, polar[a], self.R_extent, ec.w_mode) if ec.efa_noise_correct else None
-                self._efa_baseline(states[j], s.xy[a], Wj)
 
     # The hooks of the extent step over array-held states (:meth:`_rows_step`), for the subclasses.
     def _born(self, E: ExtentRows, born: np.ndarray) -> None:
@@ -309,29 +308,17 @@ class RmaEfaEstimator:
     def _scatter(self, E: ExtentRows, states: list[RmaEfaState], born: np.ndarray, k: int) -> None:
         """The rows written back into ``states`` (as views of the record's rows: a record is made
         for one step and not changed after); a landmark initialised now (``born[j]`` detections
-        fitted) records the scan ``k`` and starts the sliding EFA's buffer with them."""
+        fitted) records the scan ``k``. Under ``efa_mode = "sliding"`` an initialised landmark's
+        buffer holds the sliding EFA's window (:func:`~radarslam.extent.rows.sliding_efa_rows`)."""
         nbuf, alpha, einit, fitted = E.nbuf.tolist(), E.alpha.tolist(), E.einit.tolist(), born.tolist()
         for j, st in enumerate(states):
             n = nbuf[j]
             if fitted[j]:
                 st.initialized_at = k
-                st.efa_buffer = [E.buf[j, :fitted[j]][-self.c.efa_window:].copy()]
             if n or st.n_buffered:
                 st.n_buffered, st.buffer = n, E.buf[j, :n]
             if einit[j]:
                 st.X, st.alpha, st.X_efa = E.X[j], alpha[j], E.Xefa[j]
-
-    def _efa_baseline(self, st: RmaEfaState, pts: np.ndarray, W: np.ndarray | None) -> None:
-        """The EFA baseline of the scan (Decision 5, d.3) under ``efa_mode = "sliding"``: the fit of
-        the sliding buffer with this scan's detections, with the spread factor of a.11; ``W`` (the
-        scan's, seed eq. 5) is used only by the noise-corrected fit. Kept when the fit fails."""
-        ec = self.c
-        data = np.concatenate(st.efa_buffer + [pts])[-ec.efa_window:]
-        st.efa_buffer = [data]
-        if data.shape[0] >= 3:
-            fit = _fit_ellipse(data, not ec.efa_noise_correct, W if ec.efa_noise_correct else None, ec.spread_factor)
-            if fit:
-                st.X_efa = fit[1]
 
     #: The partial view's shapes take part in a merge (:func:`~radarslam.extent.rows.merge_rows`).
     _merges_view = False
@@ -343,7 +330,7 @@ class RmaEfaEstimator:
         E = self._gather([survivor, gone])
         E = E._replace(buf=grown_inner(E.buf, survivor.n_buffered + gone.n_buffered))
         if self._kernels.merge_rows(E, 0, 1, self._merges_view) == TAKE:
-            survivor.initialized_at, survivor.efa_buffer = gone.initialized_at, gone.efa_buffer
+            survivor.initialized_at = gone.initialized_at
         self._scatter(E, [survivor], np.zeros(1, dtype=np.int64), -1)
         return survivor
 
@@ -363,11 +350,13 @@ def _row_kernels(backend: str) -> SimpleNamespace:
     if backend == "numba":
         from radarslam.extent import _compiled as scan
     else:
-        scan = SimpleNamespace(rma_efa_rows=rows.rma_efa_rows, mem_ekf_rows=rows.mem_ekf_rows,
+        scan = SimpleNamespace(rma_efa_rows=rows.rma_efa_rows, sliding_efa_rows=rows.sliding_efa_rows,
+                               mem_ekf_rows=rows.mem_ekf_rows,
                                arc_widths_rows=arc_kernels.arc_widths_rows, view_rows=view_kernels.view_rows)
     return SimpleNamespace(buffer_need=rows.buffer_need, initialise_rows=rows.initialise_rows,
                            mem_ekf_initialise_rows=rows.mem_ekf_initialise_rows, merge_rows=rows.merge_rows,
-                           rma_efa_rows=scan.rma_efa_rows, mem_ekf_rows=scan.mem_ekf_rows,
+                           rma_efa_rows=scan.rma_efa_rows, sliding_efa_rows=scan.sliding_efa_rows,
+                           mem_ekf_rows=scan.mem_ekf_rows,
                            arc_widths_rows=scan.arc_widths_rows, view_rows=scan.view_rows)
 
 

@@ -134,6 +134,43 @@ def rma_efa_rows(E, ready, N, old, aoff, arow, polar, xy, cents, ccovs, pose, po
                 E.Xefa[j, 0, 0], E.Xefa[j, 0, 1], E.Xefa[j, 1, 0], E.Xefa[j, 1, 1] = e11, e12, e12, e22
 
 
+def sliding_efa_rows(E, ready, born, N, old, aoff, arow, polar, xy, pose, pose_cov, R, W, w_given, window, gamma,
+                     upper):
+    """The EFA baseline of ``extent.efa_mode = "sliding"`` (Decision 5, d.3): once a landmark's
+    extent is initialised its buffer rows hold the last ``window`` detections it was given (for one
+    initialised now, ``born[j] > 0``, the newest of those fitted); each landmark ``ready`` with
+    detections appends them, keeps the newest ``window`` and, from three on, ``Xefa`` is their fit
+    (the upper bound when ``upper``, else corrected by the scan's ``W``), kept when the fit fails.
+    ``E.buf`` must have room for ``window``. In place. A kernel."""
+    for j in range(N):
+        if born[j] > 0:
+            k = min(born[j], window)
+            for q in range(k):                           # forward: the source is never overwritten first
+                E.buf[j, q, 0] = E.buf[j, born[j] - k + q, 0]
+                E.buf[j, q, 1] = E.buf[j, born[j] - k + q, 1]
+            E.nbuf[j] = k
+        if not ready[j] or aoff[old[j] + 1] == aoff[old[j]]:
+            continue
+        pts = detections(xy, aoff, arow, old[j])
+        n, m = E.nbuf[j], pts.shape[0]
+        k = min(n + m, window)
+        data = np.empty((k, 2))
+        for q in range(k):                               # the newest k of the held rows, then the scan's
+            s = n + m - k + q
+            if s < n:
+                data[q, 0], data[q, 1] = E.buf[j, s, 0], E.buf[j, s, 1]
+            else:
+                data[q, 0], data[q, 1] = pts[s - n, 0], pts[s - n, 1]
+        E.buf[j, :k] = data
+        E.nbuf[j] = k
+        w00, w01, w11 = 0.0, 0.0, 0.0
+        if not upper:
+            w00, w01, w11 = scan_w(j, detections(polar, aoff, arow, old[j]), pose, pose_cov, R, W, w_given)
+        ok, _, _, e11, e12, e22 = fit_entries(data, upper, w00, w01, w11, gamma)
+        if ok:
+            E.Xefa[j, 0, 0], E.Xefa[j, 0, 1], E.Xefa[j, 1, 0], E.Xefa[j, 1, 1] = e11, e12, e12, e22
+
+
 def scan_w(j, pol, pose, pose_cov, R, W, w_given):
     """The entries ``(W11, W12, W22)`` of the scan's ``W`` for landmark ``j`` with detections
     ``pol``: the ``W(i)`` of largest trace (seed eq. 5, h.3), or ``W[j]`` when ``w_given``. A kernel."""
@@ -219,5 +256,5 @@ def merge_rows(E, keep, drop, view):
     return outcome
 
 
-KERNELS = (detections, buffer_need, initialise_rows, scan_w, rma_efa_rows, mem_ekf_initialise_rows, mem_ekf_rows,
-           merge_rows)
+KERNELS = (detections, buffer_need, initialise_rows, scan_w, rma_efa_rows, sliding_efa_rows, mem_ekf_initialise_rows,
+           mem_ekf_rows, merge_rows)

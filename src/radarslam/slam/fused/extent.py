@@ -15,7 +15,8 @@ from numba import njit
 
 from radarslam.core.jit import compiled_only
 from radarslam.extent._compiled import (arc_widths_rows, buffer_need, initialise_rows, mem_ekf_initialise_rows,
-                                        detections, mem_ekf_rows, rma_efa_rows, scan_w_entries, view_rows)
+                                        detections, mem_ekf_rows, rma_efa_rows, scan_w_entries, sliding_efa_rows,
+                                        view_rows)
 from radarslam.slam.fused.storage import _blocks, add_arc, with_buffer
 
 
@@ -74,13 +75,18 @@ def extent_step(x, P, polar, xy, lm, N, old, aoff, arow, prior, dt, arcs, n_arcs
     born = np.zeros(N, dtype=np.int64)
     lm = with_buffer(lm, buffer_need(lm, ready, N, old, aoff))
     initialise_rows(lm, ready, born, N, old, aoff, arow, xy, cfg.n_init, cfg.gamma, cfg.alpha0)        # a.3
+    per_scan = cfg.efa_window == 0                                                                     # Decision 5
     if cfg.mem:                                                                                        # a.10
         mem_ekf_initialise_rows(lm, born, N, noise.Cp0)
         mem_ekf_rows(lm, ready, N, old, aoff, arow, polar, xy, cents, ccovs, pose, pose_cov, noise.R_ext, W, w_given,
-                     dt, cfg.mem_q_theta, cfg.mem_q_axis, cfg.mem_noise, cfg.gamma, cfg.upper, True)
+                     dt, cfg.mem_q_theta, cfg.mem_q_axis, cfg.mem_noise, cfg.gamma, cfg.upper, per_scan)
     else:                                                                                              # a.4-a.5
         rma_efa_rows(lm, ready, N, old, aoff, arow, polar, xy, cents, ccovs, pose, pose_cov, noise.R_ext, W, w_given,
-                     dt, cfg.tau, cfg.gamma, cfg.eig_floor, cfg.upper, True)
+                     dt, cfg.tau, cfg.gamma, cfg.eig_floor, cfg.upper, per_scan)
+    if not per_scan:                                                     # the EFA of the last efa_window detections
+        lm = with_buffer(lm, cfg.efa_window)
+        sliding_efa_rows(lm, ready, born, N, old, aoff, arow, polar, xy, pose, pose_cov, noise.R_ext, W, w_given,
+                         cfg.efa_window, cfg.gamma, cfg.upper)
     if cfg.arc:                                                                                        # a.9
         arcs, n_arcs = _arc_widths(polar, lm, N, old, aoff, arow, arcs, n_arcs, cfg)
     if view:                                                                                           # a.12.7

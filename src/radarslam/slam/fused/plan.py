@@ -47,6 +47,7 @@ class FusedParams(NamedTuple):
     n_init: int            #: extent.n_init
     posterior: bool        #: extent.use_posterior_landmark
     upper: bool            #: not extent.efa_noise_correct
+    efa_window: int        #: extent.efa_window under efa_mode "sliding" (Decision 5); 0: the EFA of each scan
     spread_at_birth: bool  #: the estimator has an initial spread
     literal: bool          #: extent.sifting_mode == "literal"
     timing: bool           #: record each scan's wall time
@@ -152,7 +153,6 @@ def why_not(slam, events=None) -> str | None:
          f"associator {type(slam.associator).__name__}"),
         (type(slam.extent) in (RmaEfaEstimator, VisibleArcEstimator, MemEkfEstimator, PartialViewEstimator),
          f"extent estimator {type(slam.extent).__name__}"),
-        (ec.efa_mode == "per_scan", f"extent.efa_mode {ec.efa_mode!r}"),
         (slam.state.n_landmarks == 0 and slam._scans == 0, "the filter has already processed a scan"),
     )
     for ok, reason in checks:
@@ -206,6 +206,7 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
         n_init=int(ec.n_init),
         posterior=bool(ec.use_posterior_landmark),
         upper=not ec.efa_noise_correct,
+        efa_window=int(ec.efa_window) if ec.efa_mode == "sliding" else 0,
         spread_at_birth=slam.extent.initial_spread() is not None,
         literal=ec.sifting_mode == "literal",
         timing=bool(timing), all_maps=bool(all_maps),
