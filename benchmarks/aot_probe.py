@@ -1,4 +1,4 @@
-"""Ahead-of-time compilation of the fused engine, measured (issue 34 item 2: the alternative to numba's
+"""Ahead-of-time compilation of the fused engine, measured (the alternative to numba's
 compile at first use; docs/architecture.md "Where the compile time goes").
 
 Builds the default family's engine (slam/fused/engine.py ``engine(DEFAULT)``) into a Python extension

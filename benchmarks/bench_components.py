@@ -1,5 +1,5 @@
 """The filter's time per car-park trial of every shipped variant and built-in component, and per
-Victoria Park scan of both input modes, with the engine each runs in (issue 20 item 4).
+Victoria Park scan of both input modes, with the engine each runs in.
 
 Car park (profile ``apsipa``, seed 1, ``--trials`` trials, one core, warm cache): the default
 variants (No extent, With extent, Consistent), then the consistent variant with one component

@@ -1,4 +1,4 @@
-"""How honest the rig's ego-motion is (issue 42 item 5; docs/method.md c.12.3 step 5b, c.12.7): from a
+"""How honest the rig's ego-motion is (docs/method.md c.12.3 step 5b, c.12.7): from a
 run's ``ego_velocity.csv`` and the recording's ``odometry.csv``, per sweep the error of ``(v_x, omega)``
 against the odometry (interpolated at the sweep's time) and its Mahalanobis distance under the fit's
 covariance. Prints the share within the 95% ellipse (chi2_2(0.95) = 5.99), speed and yaw-rate RMSE,

@@ -1,5 +1,5 @@
 """Time of one ego-velocity fit (docs/method.md c.10): a scan of 100 detections, 30% outliers, 2-D
-and 3-D, the default 50 / 80 RANSAC iterations; target <= 0.1 ms per scan (issue 26).
+and 3-D, the default 50 / 80 RANSAC iterations; target <= 0.1 ms per scan.
 
     PYTHONPATH=src python benchmarks/bench_ego_motion.py
 """

@@ -1,4 +1,4 @@
-"""What a new user waits for: the first commands, cold and warm (issue 34, item 1).
+"""What a new user waits for: the first commands, cold and warm.
 
 Each command runs as a new user runs it, ``python -m radarslam ...`` in a fresh output directory:
 

@@ -1,4 +1,4 @@
-"""Wall time of a whole RadarScenes sequence through ``radarslam run`` (issue 36 item 6: sequence 105, 1.07 M
+"""Wall time of a whole RadarScenes sequence through ``radarslam run`` (sequence 105, 1.07 M
 detections of 4 radars over 121.8 s, target <= 12 s warm on one core, reading <= 3 s), by phase: reading
 the CSV, the rig's ego-motion fit (docs/method.md c.12.4), the stream's preparation (the Doppler gate's
 per-scan classification, c.10.4), the compiled filter, the output files (tables, figures) and the whole

@@ -10,8 +10,7 @@ landmarks (cost ~ N^b), and writes a figure of the curve (``--out``).
 The variants: ``noext`` (sequential nearest-neighbour updates, one per detection: O(m N^2) per
 scan), ``consistent`` (the default consistent filter: all landmarks of the scan in one stacked
 update, ``batch-joint``, one pass over the N x N covariance) and ``per-landmark`` (the consistent
-filter with one batch update per landmark seen, ``batch``: L passes; the consistent variant's update
-until issue 22 item 5).
+filter with one batch update per landmark seen, ``batch``: L passes).
 """
 
 import argparse
@@ -30,7 +29,7 @@ from radarslam.simulation.scenario import generate_scenario
 from radarslam.slam import _fused
 from radarslam.slam.filter import EkfSlam
 
-#: The consistent filter with one batch update per landmark (its update before issue 22 item 5).
+#: The consistent filter with one batch update per landmark (``batch``).
 PER_LANDMARK = Variant("per-landmark", "Consistent, one batch update per landmark",
                        merge_tables(CONSISTENT.overlay, {"landmarks": {"associator": "batch"}}))
 VARIANTS = {v.name: v for v in PAPER_VARIANTS + (CONSISTENT, PER_LANDMARK)}

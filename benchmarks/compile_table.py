@@ -1,4 +1,4 @@
-"""Where numba's compile time goes (issue 34 item 2; docs/architecture.md "Where the compile time
+"""Where numba's compile time goes (docs/architecture.md "Where the compile time
 goes"): compile what the README's commands run, case by case, in this process with a listener on
 numba's compiler events; print each case's CPU seconds and compilations (what it adds to the cases
 before it: callees compiled once are not compiled again), the families of the fused engine it

@@ -1,4 +1,4 @@
-"""A synthetic drive of a car with a five-radar rig and known fixed errors (issue 42 item 7): the
+"""A synthetic drive of a car with a five-radar rig and known fixed errors: the
 thrust angle, each radar's yaw and time offset, the wheel-speed scale and the gyro's bias, with
 accelerations and turns; static scatterers seen by every radar, and a share of moving returns."""
 

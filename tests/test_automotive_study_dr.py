@@ -1,4 +1,4 @@
-"""scripts/automotive_study.py's Doppler dead reckoning (the radar alone's reference, issue 42 defect 7):
+"""scripts/automotive_study.py's Doppler dead reckoning (the radar alone's reference):
 it starts from the truth interpolated at its first sweep, not at the next truth sample.
 
 Oracle: io/recording/synthetic.py's car on an exact arc (8 m/s, 0.1 rad/s), a rig of a front, a rear

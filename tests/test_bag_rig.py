@@ -1,4 +1,4 @@
-"""A multi-radar rig in a bag (issue 36 item 1): several radar topics, topic i sensor_id i, each
+"""A multi-radar rig in a bag: several radar topics, topic i sensor_id i, each
 frame's mounting from /tf_static (or a sensors table), each message one scan; the round trip
 plain rig -> bag -> read back, the same SLAM run as from the plain format, every refusal in one
 line naming the topic, and ``radarslam run`` with ``--radar-topic`` given several times."""

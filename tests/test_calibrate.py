@@ -75,7 +75,7 @@ def test_command_writes_the_tables_and_refuses_bad_input(tmp_path, capsys):
     assert main(["calibrate", "--recording", str(rec), "--out", str(tmp_path / "out")]) == 0
     cal = np.genfromtxt(tmp_path / "out" / "calibration.csv", delimiter=",", names=True, dtype=None,
                         encoding="utf-8")
-    # referenced to the rig (c.16.1; issue 42): the offsets less their mean, the mean read as the thrust
+    # referenced to the rig (c.16.1): the offsets less their mean, the mean read as the thrust
     # angle (a common turn of every radar by e reads as a car crabbing at -e); the wheels' direction as
     # the reference would have read [0, 1, 1, 0, 0] and no thrust angle
     inj = np.array([0.0, 1.0, 1.0, 0.0, 0.0])

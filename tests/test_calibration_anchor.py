@@ -2,7 +2,7 @@
 Gaussian terms, not robust ones, and the truth's turn against the gyro fixes the gyro's bias. On
 scene-0916 the sweeps pulled the gyro's bias to -1.01 deg/s (the truth says -0.04) and the wheel scale
 to 1.0346 (the truth 1.0088 +- 0.0022), and the Singapore car's calibration carried that scale to
-scene-0061 (issue 42)."""
+scene-0061."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Every fixed error of the car at once, learnt online (docs/method.md c.13.3; issue 42 item 7's
+"""Every fixed error of the car at once, learnt online (docs/method.md c.13.3's
 simulation): a five-radar car with a thrust angle of 0.5 deg, mountings +-1.5 deg, clocks 0-60 ms and a
 1% wheel scale, every state started at 0, each recovered within 0.1 deg / 5 ms / 0.1%, with the car
 states' NEES in its 95% band; the negative control runs without the clock states."""
@@ -40,7 +40,7 @@ def test_every_car_error_is_learnt_online_within_the_issues_tolerance(drives):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="issue 42 item 7's consistency is missed: the car states' NEES is 10.5, 94.6 "
+@pytest.mark.xfail(strict=True, reason="the car states' consistency is missed: the car states' NEES is 10.5, 94.6 "
                                        "and 50.2 on seeds 2-4 (band [7.1, 18.1]); on seed 3 the front-left radar's "
                                        "yaw is 7.3 of its stds off (0.035 deg), docs/method.md c.13.3")
 def test_the_car_states_nees_is_in_its_95_band(drives):
@@ -68,7 +68,7 @@ def test_negative_control_without_the_clock_states():
 
 
 def test_the_car_simulation_is_what_it_says():
-    """The injected values are issue 42's; the rig's yaw offsets have a zero mean (the rig reference)."""
+    """The injected values are docs/method.md c.13.3's; the rig's yaw offsets have a zero mean (the rig reference)."""
     e = CarErrors()
     assert e.thrust == pytest.approx(math.radians(0.5)) and e.scale == 0.01
     assert max(abs(math.degrees(a)) for a in e.yaw_offsets) == pytest.approx(1.5)

@@ -1,4 +1,4 @@
-"""A multi-radar rig in the config (issue 36 item 1): ``[[sensors]]`` tables, the same as a recording's
+"""A multi-radar rig in the config: ``[[sensors]]`` tables, the same as a recording's
 ``sensors.csv`` with the yaw in degrees; their round trip through ``dump-config`` and a run's saved
 ``config.toml``, their one-line refusals, the precedence ``--sensors FILE`` > ``[[sensors]]`` > the
 recording's ``sensors.csv``, and a run from the config's rig equal bit for bit to the run from

@@ -1,4 +1,4 @@
-"""Issue 26: ego-motion from Doppler (docs/method.md c.10), the simulator's Doppler and moving cars
+"""Ego-motion from Doppler (docs/method.md c.10), the simulator's Doppler and moving cars
 (b.4.3), the per-detection moving test, and the real TI bag end to end (the moving-object gate and
 its negative control: tests/test_moving_objects.py)."""
 

@@ -1,5 +1,4 @@
-"""A recording's Doppler column checked against its odometry (issue 42 item 6;
-egomotion/doppler_column.py, docs/recordings.md "Doppler").
+"""A recording's Doppler column checked against its odometry (egomotion/doppler_column.py, docs/recordings.md "Doppler").
 
 Oracle: io/recording/synthetic.py's rig of three radars (front, rear, side) driving at 8 m/s and
 0.1 rad/s with exact odometry, each detection given the exact static Doppler ``d = -u . w``,

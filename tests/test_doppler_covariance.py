@@ -1,4 +1,4 @@
-"""The Doppler ego-velocity's covariance from the residuals' own scale (issue 35 item 7): velocity
+"""The Doppler ego-velocity's covariance from the residuals' own scale: velocity
 NEES near 2 whatever the RANSAC threshold, and a scan too small or too exact for a fit is a scan
 without a fit, never a division by zero. The negative controls compute the old covariance (the
 consensus inliers' RSS, docs/method.md c.10.3 before this change) from the same draws."""

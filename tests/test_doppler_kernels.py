@@ -1,4 +1,4 @@
-"""Issue 20 item 4: the Doppler kernels (models/doppler_kernels.py, docs/method.md c.10.2-c.10.4) run
+"""The Doppler kernels (models/doppler_kernels.py, docs/method.md c.10.2-c.10.4) run
 as Python and compiled give the same inliers, the same moving detections and the same values (to
 1e-12), drawing the same numbers from the same generator; the stream loop equals the per-scan
 calls; negative controls: a 1e-6 m/s change of one Doppler moves the fit by more than the

@@ -1,4 +1,4 @@
-"""Issue 26 item 4: Doppler and gyro odometry (docs/method.md c.10.5): the body-velocity model's
+"""Doppler and gyro odometry (docs/method.md c.10.5): the body-velocity model's
 Jacobians, the simulated gyro's draws, the fusion with the odometer, the fused engine declining,
 and the filter driven by the Doppler fit end to end with its negative control."""
 

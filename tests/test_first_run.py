@@ -232,7 +232,7 @@ def test_run_dataset_warm_says_first_what_its_one_compiled_call_will_take(victor
 
 
 def test_a_recording_plans_by_its_size_the_reference_or_a_compile(monkeypatch):
-    """The one compile policy for a recording (issue 43): from an empty cache a nuScenes-sized
+    """The one compile policy for a recording: from an empty cache a nuScenes-sized
     recording (1,263 scans, 126,749 detections) goes through the reference at once, a RadarScenes-sized
     one (6,478 scans, 1,071,716 detections: minutes through the reference) compiles the
     orchestrator's kernels first; the old rule took the reference for both (409 s measured)."""

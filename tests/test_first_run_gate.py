@@ -1,4 +1,4 @@
-"""The first-run policy and a recording's Doppler gate (issue 43 item 1): a run event by event is
+"""The first-run policy and a recording's Doppler gate: a run event by event is
 "ready" only when the gate's compiled classification is too (it compiled 28 s without a word on a
 machine that had run the car park and Victoria Park before), and a step before the filter that takes
 a while says so (``compiling.heartbeat.stage``)."""

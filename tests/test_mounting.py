@@ -1,4 +1,4 @@
-"""One mounting type from the readers to the filter (issue 41 item 5; core/mounting.py): the readers'
+"""One mounting type from the readers to the filter (core/mounting.py): the readers'
 mountings are the scans' ``Scan.sensor``, the config's ``[sensor]`` and ``[[sensors]]`` are converted by
 its constructors, the former names still import with a DeprecationWarning and give the same numbers,
 and a recording run says which radar its one mounting is (metrics.json, config.toml)."""

@@ -1,4 +1,4 @@
-"""Issue 26 item 3: moving objects kept out of the map (docs/method.md c.10.4): the object test's
+"""Moving objects kept out of the map (docs/method.md c.10.4): the object test's
 false-alarm rate under the static world (with and without clutter, and its negative control without
 the clipping), its power against a car crossing the line of sight, the memory's veto, the young
 landmarks' removal, the Clopper-Pearson interval, and the gate study with its negative control."""

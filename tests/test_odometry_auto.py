@@ -1,4 +1,4 @@
-"""``filter.odometry = "auto"`` (docs/method.md c.10.5.2, issue 42): the automotive profile's
+"""``filter.odometry = "auto"`` (docs/method.md c.10.5.2): the automotive profile's
 prediction is decided by what the recording carries -- the wheel speed fused with the radar's Doppler
 velocity ("both") when its detections carry Doppler and its odometry a speed and a yaw rate, the
 odometer otherwise -- and the run says which, bit for bit the run of the value it chose."""

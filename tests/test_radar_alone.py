@@ -1,4 +1,4 @@
-"""Issue 26 items 5-7: SLAM from a 3-D radar and a gyro alone (docs/method.md c.10.6) -- the
+"""SLAM from a 3-D radar and a gyro alone (docs/method.md c.10.6) -- the
 attitude, the levelling and gating against a synthetic tilted platform with an upside-down radar,
 ROS 2 radar_msgs/RadarScan, the Doppler field names, and the real TI bag end to end with its checks."""
 

@@ -1,5 +1,6 @@
-"""The radar alone on a rig and the Doppler modes' gyro noise (issue 42: the CLI refusal for rigs,
-defects 1 and 2; docs/method.md c.10.5, c.10.5.1, c.12.2, c.2.2).
+"""The radar alone on a rig and the Doppler modes' gyro noise: the command line runs the radar alone on
+a rig, the radar alone carries the rig's whole velocity, the gyro modes take the gyro's noise as a
+density (docs/method.md c.10.5, c.10.5.1, c.12.2, c.2.2).
 
 Oracles:
 - what a rig observes (c.12.2): two radars at different positions give ``(v_x, v_y, omega)``,
@@ -79,8 +80,8 @@ def test_the_filter_reads_the_rig_not_the_sensor_section():
 
 
 def test_the_cli_runs_the_radar_alone_on_a_rig(tmp_path, capsys, monkeypatch):
-    """The compiled backend (the default), whose first-run rule built the filter from the config's
-    ``[sensor]`` before the recording's rig was read (the refusal of issue 42)."""
+    """The compiled backend (the default) runs the radar alone on a recording's rig: its first-run
+    rule builds the filter with the recording's rig, not from the config's ``[sensor]`` alone."""
     from radarslam.cli.main import main
     from radarslam.io.recording.plain import write_plain
 

@@ -99,7 +99,7 @@ def test_online_without_a_rig_is_refused_in_one_line():
 @pytest.mark.parametrize("scene, review_ms", [("scene-0103", 40.0), ("scene-0655", 30.0)])
 def test_the_boston_car_reads_as_the_independent_review(scene, review_ms):
     """On the Boston car's two drives the online offset ends within 3 std of the review's
-    cross-correlation of the rig's Doppler speed with the wheel speed (40 and 30 ms early; issue 42),
+    cross-correlation of the rig's Doppler speed with the wheel speed (40 and 30 ms early),
     computed without the project's code."""
     from radarslam.io.recording import read_recording
 

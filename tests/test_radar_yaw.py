@@ -1,4 +1,4 @@
-"""Issue 26 item 4, second bullet: the yaw rate from the radar alone (docs/method.md c.10.5.1).
+"""The yaw rate from the radar alone (docs/method.md c.10.5.1).
 
 A radar off the rear axle (lever arm ``l``) measures ``w' = [v - omega l_y, omega l_x]`` (platform
 axes) under no sideslip: ``omega = w'_y / l_x``. Tested: the map and its covariance against an

@@ -1,5 +1,4 @@
-"""The README and the docs' commands run as written (issue "First run works", item 1), and the
-README stays a front door (issue 34, item 5): its tour's lines and the quick-start lines of
+"""The README and the docs' commands run as written, and the README stays a front door: its tour's lines and the quick-start lines of
 docs/usage.md in a fresh directory, the Monte Carlo forms of docs/usage.md at a reduced trial
 count, and every relative link of README.md and docs/*.md resolving to a file and a heading. The
 two fresh-machine commands at the README's top are run by .ci/run on a fresh clone."""
@@ -14,7 +13,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
-# The quick start and the Monte Carlo forms moved from the README to docs/usage.md (issue 34 item 5).
+# The quick start and the Monte Carlo forms are in docs/usage.md.
 USAGE = ROOT / "docs" / "usage.md"
 MAIN_COMMAND = ('python3 -m venv .venv && . .venv/bin/activate && pip install ".[viz]" && '
                 "radarslam reproduce --trials 200 --out out/reproduce")
@@ -62,14 +61,14 @@ def test_the_readme_is_a_front_door():
 
 
 #: The README's first block is read before anything else: each command's comment is at most this
-#: many lines of at most this many characters (issue 43 item 3); the detail is in the prose below it.
+#: many lines of at most this many characters; the detail is in the prose below it.
 FIRST_BLOCK_COMMENT_LINES = 2
 FIRST_BLOCK_COMMENT_CHARS = 100
 
 
 def test_the_first_block_comments_each_command_in_two_short_lines():
     """Above each of the first block's two commands: one or two comment lines of at most 100
-    characters (its first comment was one line of ~560 characters)."""
+    characters."""
     block = re.search(r"```bash\n(.*?)```", README.read_text(), flags=re.S).group(1).splitlines()
     commands = [i for i, line in enumerate(block) if line and not line.startswith("#")]
     assert len(commands) == 2, block
@@ -175,8 +174,8 @@ def test_the_link_check_finds_a_broken_file_and_a_broken_anchor(tmp_path):
 
 
 def test_the_first_run_benchmark_takes_every_command_the_docs_show():
-    """benchmarks/bench_first_run.py --from-docs times what README.md and docs/usage.md show (issue 43
-    item 2): every ``radarslam`` command of their bash blocks, so a new one cannot be missed; a
+    """benchmarks/bench_first_run.py --from-docs times what README.md and docs/usage.md show:
+    every ``radarslam`` command of their bash blocks, so a new one cannot be missed; a
     template (a placeholder to fill in) is listed but not timed."""
     import importlib.util
     import re

@@ -1,4 +1,4 @@
-"""Your own recording (issue 24): the plain format, ROS bags written here and read back, the
+"""Your own recording: the plain format, ROS bags written here and read back, the
 PointCloud2 decoder, the mounting, every malformed input refused in one line, and the round trip
 of a simulated trial through a bag and the plain files to the same trajectory and map."""
 

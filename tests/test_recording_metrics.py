@@ -1,4 +1,4 @@
-"""metrics.json says what it holds (issue 35 item 6): the position and heading RMSE over the scans as
+"""metrics.json says what it holds: the position and heading RMSE over the scans as
 evo's APE computes them, the paper's avg. RMSE beside it under its own name, the alignment used,
 dead reckoning from the same inputs, the platform's pose under ``ackermann``, and a warning when the
 truth looks like another frame."""
@@ -49,7 +49,7 @@ def test_umeyama_recovers_a_rigid_motion_and_alignments_are_what_they_say():
 
 
 def test_rmse_and_the_papers_avg_rmse_are_different_figures_under_their_own_names():
-    """Issue 35 item 6: the single-run "position_avg_rmse_m" is the MEAN error (0.763 m where the RMSE
+    """The single-run "position_avg_rmse_m" is the MEAN error (0.763 m where the RMSE
     is 0.899 m in the issue); metrics.json now gives both, each named for what it is."""
     rng = np.random.default_rng(1)
     true = np.zeros((50, 3))

@@ -1,4 +1,4 @@
-"""What a recording run of a car's radars writes (issue 36 items 2, 3, 4, 7): ``--sensors``,
+"""What a recording run of a car's radars writes: ``--sensors``,
 ``ego_velocity.csv`` and its figure, ``moving.csv`` (equal from both engines, its landmark column
 the filter's own associations) with its scores against an annotation, and ``map.png``."""
 

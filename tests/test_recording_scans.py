@@ -1,4 +1,4 @@
-"""No silent degradation of a recording (issue 35 item 7): detections grouped into scans as the
+"""No silent degradation of a recording: detections grouped into scans as the
 sensor made them, zero-range returns dropped with a count, an unwrapped truth yaw accepted, and
 every shared recording run with every gate and odometry option (nothing ends in a traceback)."""
 

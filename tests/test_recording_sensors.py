@@ -1,4 +1,4 @@
-"""A multi-radar rig in the plain format (issue 36 items 1 and 8): ``sensors.csv`` read into each
+"""A multi-radar rig in the plain format: ``sensors.csv`` read into each
 detection's own mounting, refused in one line when malformed; the ``label`` and ``scan`` columns
 read apart from what reaches the filter; all of it written back bit for bit."""
 
@@ -48,7 +48,7 @@ def _at_zero(events) -> Scan:
 
 
 def test_a_rear_radars_reflector_lands_behind_the_car(tmp_path):
-    """Issue 36 item 1: a rear radar (1 m behind the axle, looking back) sees a reflector 5 m ahead
+    """A rear radar (1 m behind the axle, looking back) sees a reflector 5 m ahead
     of it: 6 m behind the platform, not ahead. The front radar's at 3.5 + 4 m ahead."""
     rec = read_plain(_rec(tmp_path))
     assert set(rec.sensors) == {0, 1} and rec.sensors[1].name == "rear" and rec.sensors[0].x == 3.5

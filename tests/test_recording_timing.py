@@ -1,10 +1,10 @@
-"""Each scan at its own time (issue 35 item 2), and where a recording run starts (item 1).
+"""Each scan at its own time, and where a recording run starts.
 
 On recordings of io/recording/synthetic.py (a car at constant speed and turn rate past point
 reflectors, exact odometry, the truth known): odometry stamped 0, 25 or 50 ms after the scans, and
 two radars interleaved by 50 ms, give the same trajectory (the prediction reaches each scan's own
-time). The negative controls run the stream the old way (`old_to_events`, the code before this
-change, kept here): a scan inside an odometry interval got the pose of the stamp before it.
+time). The negative controls run a stream built without that (`old_to_events`, kept here): a
+scan inside an odometry interval gets the pose of the stamp before it.
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ def config():
 
 
 def old_to_events(rec, mounting):
-    """The stream as built before issue 35 item 2 (the negative control): odometry rows within
+    """The stream built without each scan at its own time (the negative control): odometry rows within
     ``(t_first_scan, t_last_scan]`` whole, each scan after the rows stamped at or before it."""
     st = rec.scan_times()
     order = np.argsort(rec.det_t, kind="stable")
@@ -137,7 +137,7 @@ def test_odometry_intervals_are_split_at_the_scans_never_to_zero_length():
 
 
 def test_scans_outside_the_odometry_are_dropped_and_reported_not_frozen():
-    """Issue 35 item 7: odometry ending 7 s before the radar froze the pose over those scans."""
+    """Odometry ending 7 s before the radar froze the pose over those scans."""
     rec = synthetic_recording(duration_s=10.0)
     keep = rec.odo_t <= 3.0
     rec.odo_t, rec.odo = rec.odo_t[keep], rec.odo[keep]
@@ -152,7 +152,7 @@ def test_scans_outside_the_odometry_are_dropped_and_reported_not_frozen():
 
 
 def test_a_recording_starts_at_the_truths_first_pose_else_at_zero(config):
-    """Issue 35 item 1: never at the simulator's offset (0.1 m, 0.1 m, 1 deg); the config's own
+    """Never at the simulator's offset (0.1 m, 0.1 m, 1 deg); the config's own
     initial_pose when the user set one. 400 m straight with exact odometry: the old start ends
     7 m off (the issue's 7.31 m), the truth's start on the truth."""
     rec = synthetic_recording(duration_s=40.0, max_range_m=0.01)       # dead reckoning: no detections

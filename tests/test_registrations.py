@@ -1,7 +1,7 @@
 """Every built-in component is registered in one place (core.registry.BUILT_INS), and what each
 shipped profile configures resolves, under the numba backend, to the compiled implementation
-where the package has one (issue 41 item 5: ``batch-joint`` was missing from the lazy table, so a
-library user's automotive profile could not even be loaded before another module registered it)."""
+where the package has one (so ``batch-joint``, say, is in the lazy table: a library user's automotive
+profile loads without another module registering it first)."""
 
 from __future__ import annotations
 
@@ -73,7 +73,7 @@ def test_a_target_without_an_attribute_is_refused_in_one_line():
 
 
 def test_the_measurement_model_is_the_one_built_in_and_said_plainly():
-    """No registry the filter would not use (issue 41 item 5): the filter holds the range-azimuth
+    """No registry the filter would not use: the filter holds the range-azimuth
     model; filter.measurement_model names it, and another name is refused in one line."""
     from radarslam.config import from_dict, to_dict
     from radarslam.core.errors import ConfigError

@@ -1,4 +1,4 @@
-"""The retirement's lever-arm margin (issue 42 defect 6, docs/method.md c.15).
+"""The retirement's lever-arm margin (docs/method.md c.15).
 
 A radar at lever arm ``l`` sees to ``d_r + |l|`` from the platform's origin, where the retirement
 measures: nuScenes' front radar sits 3.412 m ahead of the rear axle, so with the automotive

@@ -1,4 +1,4 @@
-"""The rig's Doppler ego-motion, honest (issue 42 defects 3, 4, 5 and item 5; docs/method.md c.12.3
+"""The rig's Doppler ego-motion, honest (docs/method.md c.12.3
 steps 5-5b, c.12.7): the profile's Doppler floor reaches the fit's covariance; the covariance carries
 the mounting-yaw and timing terms (their Jacobians against refits, NEES over drawn mounting errors with
 the sandwich alone as the negative control); the velocity given the gyro's yaw rate is the refit with

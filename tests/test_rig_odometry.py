@@ -62,7 +62,7 @@ def test_other_modes_leave_the_scans_alone(scene):
 
 
 def test_the_radar_alone_takes_the_whole_rig_fit(scene):
-    """Issue 42 defect 1: the radar alone carries the rig's whole (v_x, v_y, omega); the gyro modes its
+    """The radar alone carries the rig's whole (v_x, v_y, omega); the gyro modes its
     (v_x, v_y) given the gyro's omega (defect 4, c.12.7), from the same fit and covariance."""
     import math
 

@@ -1,6 +1,6 @@
 """The rig fit's compiled sums (models/_doppler_compiled.py rig_residual, rig_normal, segment_sum) against the
 numpy and scipy.sparse forms they replaced, to the bit; moving.csv's and ego_velocity.csv's writers against
-their line-by-line forms; the map figure's extent contours against viz.carpark's (issue 36 item 6)."""
+their line-by-line forms; the map figure's extent contours against viz.carpark's."""
 
 from __future__ import annotations
 

@@ -186,14 +186,13 @@ def _nis_and_rmse(rec, cfg):
 
 
 def test_a_radar_ahead_gives_the_nis_and_accuracy_of_the_same_drive_at_the_axle():
-    """Issue 35 item 4: point reflectors, exact odometry, radar noise drawn about the sensor (0.5 m,
+    """Point reflectors, exact odometry, radar noise drawn about the sensor (0.5 m,
     1 deg, the default R). A radar 3.5 m ahead and one at the axle give the same mean NIS (2 when
     consistent) and mean position RMSE within 1.3x of each other over eight seeds (measured 0.395 and
     0.388 m; single seeds scatter 0.13-0.96 m). Negative control: the same ahead-radar detections moved
-    to the platform frame with R about the axle (the old handling) raise the NIS and the error.
+    to the platform frame with R about the axle raise the NIS and the error.
 
-    Measured, as then, from the truth's first pose with the simulator's std (0.15 m, 0.15 m, 1 deg),
-    which every recording run took before issue 43 item 4. With the truth's default std (0.05 m, 0.05 m,
+    Measured from the truth's first pose with the simulator's std (0.15 m, 0.15 m, 1 deg). With the truth's default std (0.05 m, 0.05 m,
     0.1 deg, docs/method.md b.5.1) both errors fall, to 0.178 m (axle) and 0.256 m (ahead): 1.44x, an
     open question of its own, not this test's.
 

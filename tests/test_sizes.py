@@ -1,4 +1,4 @@
-"""Sizes that fit in a head (issue 20, item 6): no module in ``src/`` over 500 lines, no function
+"""Sizes that fit in a head: no module in ``src/`` over 500 lines, no function
 over 100 lines (docstring included), read from the source with ``ast``. Tables of data may be
 allowed by name below, with the reason; there are none today."""
 

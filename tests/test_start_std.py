@@ -1,4 +1,4 @@
-"""A recording run's initial std follows where its start came from (issue 43 item 4, docs/method.md b.5.1).
+"""A recording run's initial std follows where its start came from (docs/method.md b.5.1).
 
 At the truth's first pose: the truth's own accuracy (``filter.truth_pose_std``); at zero: 0, the map's
 frame is the first pose (the anchored frame); at the user's ``filter.initial_pose``: the user's

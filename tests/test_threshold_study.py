@@ -1,4 +1,4 @@
-"""scripts/threshold_study.py (the seed paper's claim on thresholds, issue 22): the settings it
+"""scripts/threshold_study.py (the seed paper's claim on thresholds): the settings it
 runs, and the whole script at a tiny size."""
 
 from __future__ import annotations

@@ -59,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
     if bad:
         raise InputError(f"--fix: expected some of {', '.join(ESTIMATES)}, got {', '.join(bad)}")
     rig = read_rig(args.recording, *_chosen_rig(args))
-    # the first line at once (issue 43: <= 3 s), before the sweeps' fits and the least squares
+    # the first line at once (<= 3 s), before the sweeps' fits and the least squares
     print(f"calibrate: {rig.t.size} detections of {rig.sensor_ids.size} radar(s) from {args.recording}; fitting "
           f"every sweep, then the car's errors (reference: the {args.reference})", file=sys.stderr, flush=True)
     rng = np.random.default_rng(args.seed)

@@ -130,7 +130,7 @@ def run_recording_cmd(args: argparse.Namespace) -> int:
     from radarslam.runs.odometry_choice import resolved_odometry
 
     first = stream_first_run(with_rig(rec, resolved_odometry(rec, config)[0]), n, rec.det_t.size)
-    # a run expected to take over 10 s shows its rate and ETA, on a terminal or not (issue 43)
+    # a run expected to take over 10 s shows its rate and ETA, on a terminal or not
     bar = Progress(n, 0, unit="scans", enabled=sys.stderr.isatty() or first.expected_s > 10.0,
                    warm_up_unit=True)      # the first scan carries the reading and the setup: no rate from it
     calibration = None
@@ -183,8 +183,8 @@ def _sensors_file(args, config=None) -> str | None:
 
 
 def run_notes(run) -> list[str]:
-    """One line each: what the stream left out (issue 35 items 2, 7), where the run started (item 1)
-    and what its evaluation found suspicious (item 6)."""
+    """One line each: what the stream left out, where the run started
+    and what its evaluation found suspicious."""
     st = run.metrics["start"]
     x, y, yaw = st["pose"]
     where = {"truth": "the truth's first pose", "zero": "zero (no truth at the first scan)",

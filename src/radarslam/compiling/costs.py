@@ -15,7 +15,7 @@ FUSED_S, ORCHESTRATOR_S = 0.0105, 0.0432
 
 
 #: FUSED_COMPILE_S: the default family's engine alone since the fused steps compile once as functions
-#: without entry points (issue 34; ``NUMBA_CACHE_DIR=$(mktemp -d) python benchmarks/compile_table.py
+#: without entry points (``NUMBA_CACHE_DIR=$(mktemp -d) python benchmarks/compile_table.py
 #: --cases carpark``: 130.4-146.5 s of CPU in four runs, mean 138; 178 s before, when one engine held
 #: every family's branches).
 FUSED_COMPILE_S, ORCHESTRATOR_COMPILE_S = 140.0, 20.0
@@ -70,14 +70,14 @@ PYTHON_SCAN_S = 0.0168
 
 
 #: While numba compiles in the foreground, a line every this many seconds: under the 10 s of silence a first
-#: run may keep (issue 43; at 10 s the line came at 10.1 s, bench_first_run --from-docs).
+#: run may keep (at 10 s the line came at 10.1 s, bench_first_run --from-docs).
 HEARTBEAT_S = 8.0
 
 
 #: A warm fused run goes through the whole stream in one compiled call, which prints nothing until
 #: it returns (Victoria Park's 7,230 scans: about 8 s quiet, 13-15 s with the other core busy): a run
 #: expected to take longer than this says so on its first line, with the expected seconds at
-#: warmup.FUSED_SCAN_S a scan (issue 34: the first line within 3 s).
+#: warmup.FUSED_SCAN_S a scan (the first line within 3 s).
 ANNOUNCE_S = 3.0
 
 

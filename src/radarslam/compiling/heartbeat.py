@@ -50,7 +50,7 @@ def stage(what: str, enabled: bool = True):
     """A step before the filter that may take a while (the rig's ego-motion over a million
     detections, numba compiling its kernels the first time): a line on stderr every
     :data:`HEARTBEAT_S` seconds while it runs and one when it ends after half of that, so that the
-    run's lines never stop for longer than a heartbeat (issue 43: no silence over 10 s)."""
+    run's lines never stop for longer than a heartbeat (no silence over 10 s)."""
     if not enabled:
         yield
         return

@@ -1,4 +1,4 @@
-"""A trajectory against its truth, as evo's APE states it (issue 35 item 6; docs/recordings.md
+"""A trajectory against its truth, as evo's APE states it (docs/recordings.md
 "What metrics.json holds").
 
 - :func:`align`: none, the first pose, or the SE(2) least-squares fit without scale (Umeyama,

@@ -1,4 +1,4 @@
-"""A car with five radars and every fixed error of issue 42 at once, for the online states of c.11,
+"""A car with five radars and every fixed error of docs/method.md c.16 at once, for the online states of c.11,
 c.11.12, c.13.1 and c.13.2 (docs/method.md c.13.3).
 
 The car drives loops about a circle of radius 30 m at 6 +- 3 m/s (accelerations up to 1.5 m/s^2)
@@ -33,7 +33,7 @@ DT = 0.02
 SCAN_EVERY = 2
 #: The odometer's white noise: speed (m/s) and turn rate (rad/s).
 INPUT_STD = (0.05, 0.005)
-#: Issue 42 item 7: the precision asked of each kind of state.
+#: The precision asked of each kind of state (docs/method.md c.13.3).
 TOLERANCE = {"scale": 1e-3, "gyro": math.radians(0.1), "thrust": math.radians(0.1), "yaw": math.radians(0.1),
              "time": 0.005}
 #: A nuScenes-like rig: front, front-left, front-right, back-left, back-right ``(x, y, yaw)`` (m, m, rad)

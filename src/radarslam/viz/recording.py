@@ -1,4 +1,4 @@
-"""The figures of a recording run (issue 36 item 7): ``map.png``, the landmarks with their extents
+"""The figures of a recording run: ``map.png``, the landmarks with their extents
 coloured by the radar that made them over the truth (or dead reckoning's path),
 ``ego_velocity.png``, the speed and yaw rate from every radar's Doppler against the odometry's, and
 ``nees.png``, the pose NEES against the truth (docs/recordings.md "What metrics.json holds").

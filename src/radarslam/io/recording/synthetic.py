@@ -1,5 +1,5 @@
 """A small recording generator: a car at constant speed and turn rate past point reflectors, seen by
-one or several mounted radars, with exact odometry and a truth (issue 35's review, docs/recordings.md
+one or several mounted radars, with exact odometry and a truth (docs/recordings.md
 "Checking a recording's handling").
 
 It writes what a real recording holds -- detections in each SENSOR's frame at each radar's own scan
