@@ -22,6 +22,7 @@ from radarslam.simulation.point_run import simulate_point_run
 from radarslam.slam import EkfSlam, _fused
 from radarslam.slam.bias import BiasStates, turn_noise
 
+from consistency_bounds import nees_band
 from test_odometry_bias import track
 
 MODELS = [(UnicycleModel(), [3.0, 0.3]), (AckermannModel(), [3.0, 0.2]), (BodyVelocityModel(), [3.0, 0.4, 0.3])]
@@ -203,20 +204,33 @@ _track = track        # position errors, pose NEES and the filter (tests/test_od
 def test_turn_scale_state_is_estimated_on_biased_odometry():
     """Three seeded runs with a 5 % turn-rate scale error (and a 3 % speed scale): with the turn-scale
     state the final kappa lies within 2 sigma of the truth in every run (a consistent filter misses
-    with probability 0.046 each) and its std is below a quarter of the prior's; the filter without
-    the states, on the same data, has a position RMSE at least 3 times larger and a pose NEES above
-    50 (the negative control)."""
+    with probability 0.046 each) and its std is below a quarter of the prior's; the pose NEES (3 dof)
+    averaged over the 3 runs and their 300 scans lies in the two-sided 95% band of the per-scan mean
+    of 3 runs, chi2(9) / 3 = [0.90, 6.34] (the scans are correlated: the per-scan band is the time
+    average's conservative band, tests/consistency_bounds.py; measured 5.4). Negative controls on
+    the same data: the filter told the odometry 10 times more precise than it is (speed and turn-rate
+    stds / 10) lies above the band (measured 186); the filter without the states has a position RMSE
+    at least 3 times larger and a pose NEES above 50."""
     model = UnicycleModel()
     spec = model.input_bias.with_turn("scale")
     truth = np.array([0.03, KAPPA])
+    on = _config("states")
+    sharp = replace(on, filter=replace(on.filter, speed_std_mps=on.filter.speed_std_mps / 10,
+                                       turn_rate_std_deg_s=on.filter.turn_rate_std_deg_s / 10))
+    nees1, nees_sharp = [], []
     for seed in range(3):
         run = simulate_point_run(model, _controls(), DT, _world(seed), truth, np.random.default_rng(seed),
                                  input_std=INPUT_STD, spec=spec)
-        err1, n1, slam = _track(_config("states"), run)
+        err1, n1, slam = _track(on, run)
         err0, n0, _ = _track(_config("none"), run)
         std = np.sqrt(np.diag(slam.state.bias_cov))
         assert slam.bias_model.names == ("speed_scale", "turn_rate_scale")
         assert abs(slam.bias[1] - KAPPA) < 2 * std[1], (seed, slam.bias, std)
         assert std[1] < 0.1 / 4
         assert np.sqrt(np.mean(err0 ** 2)) > 3 * np.sqrt(np.mean(err1 ** 2)), seed
-        assert n0.mean() > 50 and n1.mean() < 15, (n0.mean(), n1.mean())
+        assert n0.mean() > 50, (seed, n0.mean())
+        nees1.append(n1)
+        nees_sharp.append(_track(sharp, run)[1])
+    lo, hi = nees_band(3, len(nees1))
+    assert lo <= np.mean(nees1) <= hi, (np.mean(nees1), lo, hi)
+    assert np.mean(nees_sharp) > hi, (np.mean(nees_sharp), hi)

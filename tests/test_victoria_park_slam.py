@@ -24,12 +24,23 @@ import sys
 
 import numpy as np
 import pytest
+from consistency_bounds import nees_band, nees_upper_bound, share_band, share_lower_bound, share_upper_bound
 
 from radarslam.config import profile_config
-from radarslam.runs.dataset import compare_tree_diameters, dead_reckoning, evaluate_against_gps, run_dataset
+from radarslam.runs.dataset import (NIS_BAND_PROBABILITY, TWO_SIGMA_PROBABILITY, compare_tree_diameters, dead_reckoning,
+                                    evaluate_against_gps, run_dataset)
 
 N_SCANS = 500
 RMSE_BOUND_500 = 1.3
+
+
+def nis_upper_bounds(n: int) -> tuple[float, float]:
+    """One-sided bounds of a run's NIS (:func:`~radarslam.runs.dataset.nis_fraction`: one 2-dof NIS
+    per update, ``n`` of them) that a filter that is not overconfident meets: the share of updates
+    above the per-update band's top (probability 0.025 each) at most the upper 1% quantile of
+    Binomial(n, 0.025) / n, and the mean at most the upper 1% quantile of chi2(2 n) / n. A consistent
+    filter's innovations are white, so its n NIS values are independent."""
+    return share_upper_bound(n, (1.0 - NIS_BAND_PROBABILITY) / 2.0), nees_upper_bound(2, n, 0.99)
 
 
 @pytest.fixture(scope="module")
@@ -88,7 +99,11 @@ def test_cli_run_dataset_writes_every_output(victoria_park_dir, tmp_path):
     assert m["landmarks_final"] == len(json.loads((out / "map.json").read_text())["landmarks"])
     assert 'profile = "victoria-park"' in (out / "config.toml").read_text()
     assert (out / "errors.png").stat().st_size > 0 and m["input"] == "laser"
-    assert 0.0 < m["nis"]["inside"] <= 1.0 and m["nis"]["band"] == pytest.approx([0.0506, 7.3778], abs=1e-3)
+    # the NIS not overconfident (measured at 150 scans: n = 1259, 0.1% above the band, mean 0.17);
+    # its two-sided band is missed on this data (test_first_500_scans_nis_lies_in_its_chi_square_band)
+    above_max, mean_max = nis_upper_bounds(m["nis"]["n"])
+    assert m["nis"]["above"] <= above_max and m["nis"]["mean"] <= mean_max, m["nis"]
+    assert m["nis"]["band"] == pytest.approx([0.0506, 7.3778], abs=1e-3)
     assert m["duplicated_trunks"]["n_pairs"] >= 0 and m["trunk_diameters"]["estimator"] == "visible-arc"
     assert m["odometry_bias"] is None and not (out / "bias.csv").exists()       # filter.odometry_bias "none"
 
@@ -186,46 +201,141 @@ def test_first_500_scans_published_protocol_each_input_mode(published500):
     assert pub["rmse_m"] < PUBLISHED_BOUND_500, (mode, pub["rmse_m"])
     assert odo["rmse_m"] > PUBLISHED_BOUND_500, odo["rmse_m"]          # negative control
     nis = nis_fraction(run)
-    assert nis["n"] > 1000 and 0.0 <= nis["inside"] <= 1.0
+    above_max, mean_max = nis_upper_bounds(nis["n"])                # not overconfident (the sanity bound)
+    assert nis["n"] > 1000 and nis["above"] <= above_max and nis["mean"] <= mean_max, (mode, nis)
     if mode == "trees":   # one detection per trunk and scan: fewer landmarks, no extents
         assert run.final_map.ids.size < 70 and np.all(np.isnan(run.final_map.rma))
 
 
+@pytest.mark.xfail(strict=True, reason="measured over 500 scans: mean NIS 0.19 (trees, n = 2971) and 0.48 (laser, "
+                                       "n = 3915) against the band of chi2(2 n) / n [1.91, 2.10] and [1.92, 2.08]; "
+                                       "share inside the per-update 95% band 0.62 and 0.64 against [0.94, 0.96]: "
+                                       "the profiles associate and update with n_c R (measurement_corr_scans 5.9 "
+                                       "and 11, docs/method.md c.11.9), so most NIS fall below the band")
+def test_first_500_scans_nis_lies_in_its_chi_square_band(published500):
+    """A consistent filter's NIS (2 dof per update, n independent updates): the mean within the
+    two-sided 99% band of chi2(2 n) / n and the share inside the per-update 95% band within the
+    two-sided 99% band of Binomial(n, 0.95) / n."""
+    from radarslam.runs.dataset import nis_fraction
+
+    mode, run = published500
+    nis = nis_fraction(run)
+    lo, hi = nees_band(2, nis["n"], 0.99)
+    a, b = share_band(nis["n"], NIS_BAND_PROBABILITY, 0.99)
+    assert lo <= nis["mean"] <= hi and a <= nis["inside"] <= b, (mode, nis["mean"], (lo, hi), nis["inside"], (a, b))
+
+
+@pytest.mark.parametrize("mode", ["trees", "laser"])
+def test_an_overconfident_radar_model_fails_the_nis_bound(victoria_park_dir, mode):
+    """Negative control of the NIS bound above: the profile told the sensor 10 times more precise
+    than it is (range and azimuth stds / 10), on the same 500 scans, has far more updates above the
+    band's top and a mean NIS above the bound (measured: 21% and 4.5 trees, 33% and 9.9 laser)."""
+    import dataclasses
+
+    from radarslam.io.datasets.victoria_park import INPUT_PROFILES, PUBLISHED_START
+    from radarslam.runs.dataset import nis_fraction
+
+    cfg = profile_config(INPUT_PROFILES[mode])
+    f = cfg.filter
+    cfg = dataclasses.replace(cfg, filter=dataclasses.replace(f, initial_pose=list(PUBLISHED_START),
+                                                              range_std_m=f.range_std_m / 10,
+                                                              azimuth_std_deg=f.azimuth_std_deg / 10))
+    run = run_dataset("victoria-park", victoria_park_dir, cfg, n_scans=N_SCANS, progress=False,
+                      loader_options={"input": mode})
+    nis = nis_fraction(run)
+    above_max, mean_max = nis_upper_bounds(nis["n"])
+    assert nis["above"] > above_max and nis["mean"] > mean_max, (mode, nis["above"], nis["mean"])
+
+
+#: The position consistency of the published protocol at the 71 scans at a GPS fix. The errors of
+#: consecutive fixes are correlated (the GPS's slowly varying error and the map's drift: the east
+#: error's correlation is about 0.8 between fixes within 5 s and the north error keeps its sign over
+#: the 77 s), and no correlation time shorter than the 77 s can be read from these 71 fixes, so no
+#: smaller effective n is justified: the bounds below assume the 71 independent (a correlated
+#: sample spreads more, so they are narrower than the truth's).
+N_FIXES_500 = 71
+
+
 def test_first_500_scans_position_bound_contains_the_gps_error(published500):
-    """docs/method.md v.7, measured: over the first 500 scans the filter's 2-sigma bound with the
-    GPS's own 1 m (this fix and the first) contains the error at all 71 scans in both modes (mean
-    squared Mahalanobis distance 1.00 trees, 1.33 laser; 2 expected); the filter's covariance alone
-    contains it at none (negative control: the first fix's error is a translation it omits)."""
+    """docs/method.md v.7: over the first 500 scans the filter's 2-sigma bound with the GPS's own 1 m
+    (this fix and the first) contains the error: the share inside the 95.45% ellipse is at least the
+    lower 1% quantile of Binomial(n, 0.9545) / n (0.887 at n = 71), the share inside both axes'
+    2-sigma intervals at least that of Binomial(n, 0.9545^2) / n (0.831; two correlated Gaussian
+    axes are both inside with a probability at least the product, Sidak), and the mean squared
+    Mahalanobis distance (2 dof) at most the upper 1% quantile of chi2(2 n) / n (2.59). Measured: all
+    71 inside in both modes, mean 1.00 trees, 1.16 laser. Negative controls: the filter's covariance
+    alone contains the error at almost none (the first fix's error is a translation it omits); the
+    GPS's std stated 10 times too small (0.1 m) leaves both shares and the mean outside their bounds
+    (measured 0.10, 0.08 and 65 trees, 81 laser)."""
+    from radarslam.runs.dataset import evaluate_published, position_consistency
+
+    mode, run = published500
+    pub = evaluate_published(run)
+    c = position_consistency(run, pub)
+    n = c["n"]
+    assert n == N_FIXES_500 and c["gps_std_m"] == 1.0
+    ellipse_min, both_min = share_lower_bound(n, TWO_SIGMA_PROBABILITY), share_lower_bound(n, TWO_SIGMA_PROBABILITY ** 2)
+    mean_max = nees_upper_bound(2, n, 0.99)
+    assert c["inside_ellipse"] >= ellipse_min and c["inside_both"] >= both_min, (mode, c["inside_ellipse"], c["inside_both"])
+    assert 0.5 < c["mean_mahalanobis2"] <= mean_max, (mode, c["mean_mahalanobis2"])
+    assert c["inside_both_filter_only"] <= 0.2, (mode, c["inside_both_filter_only"])
+    bad = position_consistency(run, pub, gps_std_m=0.1)
+    assert bad["inside_ellipse"] < ellipse_min and bad["inside_both"] < both_min, (mode, bad["inside_ellipse"])
+    assert bad["mean_mahalanobis2"] > mean_max, (mode, bad["mean_mahalanobis2"])
+
+
+@pytest.mark.xfail(strict=True, reason="measured over 500 scans: mean squared Mahalanobis distance 1.00 (trees) and "
+                                       "1.16 (laser) against the band of chi2(142) / 71 [1.44, 2.66]: the GPS's "
+                                       "stated 1 m (not a fitted value, docs/method.md v.7) is larger than its "
+                                       "error on these fixes, and the 71 fixes are correlated (N_FIXES_500)")
+def test_first_500_scans_position_mahalanobis_lies_in_its_chi_square_band(published500):
+    """The mean squared Mahalanobis distance of the GPS error (2 dof, n fixes taken as independent)
+    within the two-sided 99% band of chi2(2 n) / n."""
     from radarslam.runs.dataset import evaluate_published, position_consistency
 
     mode, run = published500
     c = position_consistency(run, evaluate_published(run))
-    assert c["n"] == 71 and c["gps_std_m"] == 1.0
-    assert c["inside_both"] >= 0.95 and c["inside_ellipse"] >= 0.95, (mode, c["inside_both"])
-    assert c["inside_both_filter_only"] <= 0.2, (mode, c["inside_both_filter_only"])
-    assert 0.5 < c["mean_mahalanobis2"] < 2.0
+    lo, hi = nees_band(2, c["n"], 0.99)
+    assert lo <= c["mean_mahalanobis2"] <= hi, (mode, c["mean_mahalanobis2"], lo, hi)
 
 
 @pytest.mark.slow
-def test_sensitivity_script_at_reduced_size(victoria_park_dir):
+def test_sensitivity_script_at_reduced_size(victoria_park_dir, monkeypatch):
     """scripts/victoria_park_sensitivity.py at --scans 500 (its main, every row, trees): the profile
     row is the 500-scan figure above (1.426 m), each row's figures are finite and the rows differ
-    (R and U change the run). Measured: profile 1.43, R x0.5 1.51, R x2 1.26, U x0.5 1.34, U x2 1.51,
-    laser time -50 ms 1.39 m."""
+    (R and U change the run), and each row's NIS (its nis_fraction, recorded as the script calls it)
+    is not overconfident (:func:`nis_upper_bounds`; measured at most 0.3% of the updates above the
+    band's top and a mean at most 0.53, R x0.5, against about 3% and 2.1). Measured: profile 1.43,
+    R x0.5 1.51, R x2 1.26, U x0.5 1.34, U x2 1.51, laser time -50 ms 1.39 m."""
     import importlib.util
     from pathlib import Path
 
+    from radarslam.runs import dataset
+
+    nis_of = []
+    nis_fraction = dataset.nis_fraction
+
+    def recorded(run, **kw):
+        nis_of.append(nis_fraction(run, **kw))
+        return nis_of[-1]
+
+    monkeypatch.setattr(dataset, "nis_fraction", recorded)
     spec = importlib.util.spec_from_file_location(
         "vp_sens", Path(__file__).resolve().parents[1] / "scripts" / "victoria_park_sensitivity.py")
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
-    rows = {n: mod.run_variant(n, "trees", victoria_park_dir, N_SCANS, "numba") for n in mod.VARIANTS}
+    rows, nis = {}, {}
+    for n in mod.VARIANTS:
+        rows[n] = mod.run_variant(n, "trees", victoria_park_dir, N_SCANS, "numba")
+        nis[n] = nis_of[-1]
     base = rows["profile"]
     assert base["published_rmse_m"] == pytest.approx(1.426, abs=0.01)
     assert base["first_half_rmse_m"] == pytest.approx(base["published_rmse_m"])
-    for r in rows.values():
+    for name, r in rows.items():
         assert np.isfinite(r["published_rmse_m"]) and np.isnan(r["second_half_rmse_m"]), r
-        assert 0.0 <= r["inside_2sigma"] <= 1.0 and 0.0 <= r["nis_inside"] <= 1.0
+        assert 0.0 <= r["inside_2sigma"] <= 1.0 and r["nis_inside"] == nis[name]["inside"]
+        above_max, mean_max = nis_upper_bounds(nis[name]["n"])
+        assert nis[name]["above"] <= above_max and nis[name]["mean"] <= mean_max, (name, nis[name])
     assert len({round(r["published_rmse_m"], 9) for r in rows.values()}) >= 4
 
 
