@@ -88,6 +88,9 @@ class CarCalibration:
     #: The free parameters' values at the solution, in the order of ``parameters`` (the nuisance
     #: ``rotation_scale_minus_1`` of the truth's reference among them: not carried, c.16.2).
     parameter_values: tuple[float, ...] = ()
+    #: The rig the calibration was computed on: each radar's nominal ``(x m, y m, yaw rad)`` in the
+    #: order of ``sensor_ids``; a recording of another rig is refused (:func:`check_same_rig`).
+    mountings: tuple[tuple[float, float, float], ...] = ()
 
     def per_sensor(self, sensor_id: int) -> tuple[float, float]:
         """``(yaw offset rad, time offset s)`` of ``sensor_id`` (zeros for a radar not calibrated)."""
@@ -265,7 +268,8 @@ def calibrate_car(rig: Rig, rng: np.random.Generator, *, estimate: tuple[str, ..
                           1.0 + float(sol.x[-1]) if layout.get("anchored") else 1.0,
                           parameter_names(layout, rig.sensor_ids), tuple(tuple(float(v) for v in row) for row in cov),
                           tuple(int(m.sum()) for m in per), tuple(rms(raw0[m]) for m in per),
-                          tuple(rms(raw1[m]) for m in per), parameter_values=tuple(float(v) for v in sol.x))
+                          tuple(rms(raw1[m]) for m in per), parameter_values=tuple(float(v) for v in sol.x),
+                          mountings=tuple(tuple(float(v) for v in row) for row in rig.mount))
 
 
 def robust_sweeps_loss(n_sweep_residuals: int):
@@ -359,7 +363,8 @@ def read_car_calibration(path: str | Path, key: str = "--calibration") -> CarCal
           for k, v in d.items() if k in names}
     cal = CarCalibration(**kw)
     S = len(cal.sensor_ids)
-    for name in ("yaw_offset_rad", "yaw_offset_std", "time_offset_s", "time_offset_std"):
+    for name in ("yaw_offset_rad", "yaw_offset_std", "time_offset_s", "time_offset_std") + (
+            ("mountings",) if cal.mountings else ()):
         if len(getattr(cal, name)) != S:
             raise InputError(f"{key}: {path}: {name}: expected {S} values (one per sensor_id), got "
                              f"{len(getattr(cal, name))}")
@@ -383,6 +388,46 @@ def read_car_calibration(path: str | Path, key: str = "--calibration") -> CarCal
 CARRIED = ("thrust_angle", "wheel_scale", "yaw_offsets", "time_offsets", "doppler_scale")
 
 
+#: How far a radar's nominal position may differ between the calibration's rig and a recording's (m):
+#: the calibration estimates no position, so the same rig gives the same surveyed numbers.
+SAME_POSITION_M = 0.01
+#: How many of the calibration's own standard deviations of a radar's yaw offset its nominal yaw may
+#: differ by (a floor of 0.01 deg for a yaw offset held at its prior).
+SAME_YAW_SIGMAS = 3.0
+
+
+def check_same_rig(sensors, cal: CarCalibration, key: str = "--calibration") -> None:
+    """Refuses, in one line naming the sensor and the difference, a recording whose radars' nominal
+    mountings (``sensors``: ``sensor_id`` -> :class:`~radarslam.core.mounting.Mounting`) are not the
+    ones ``cal`` was computed on: a position more than :data:`SAME_POSITION_M` away, or a yaw more
+    than :data:`SAME_YAW_SIGMAS` of the calibration's standard deviation of that radar's yaw offset
+    (the radar furthest out named; the offsets are corrections to the nominal yaw, so they hold only on the same nominal rig). A
+    calibration without ``mountings`` carries no rig and is not checked."""
+    from radarslam.core.angles import wrap_pi
+
+    if not cal.mountings or not sensors:
+        return
+    worst = None                                         # (sigmas, sensor_id, degrees off, the calibration's yaw, std)
+    for j, sid in enumerate(cal.sensor_ids):
+        if sid not in sensors:
+            continue
+        m, (x, y, yaw) = sensors[sid], cal.mountings[j]
+        moved = math.hypot(m.x - x, m.y - y)
+        if moved > SAME_POSITION_M:
+            raise InputError(f"{key}: sensor {sid}: expected the calibration's rig, got a mounting {moved:.3f} m from "
+                             f"its ({x:.3f}, {y:.3f}) m (a calibration holds only on the rig it was computed on)")
+        turned = abs(float(wrap_pi(m.yaw - yaw)))
+        sd = max(cal.yaw_offset_std[j] if j < len(cal.yaw_offset_std) else 0.0, math.radians(0.01))
+        if turned > SAME_YAW_SIGMAS * sd and (worst is None or turned / sd > worst[0]):
+            worst = (turned / sd, sid, turned, yaw, sd)
+    if worst is not None:
+        _, sid, turned, yaw, sd = worst
+        raise InputError(f"{key}: sensor {sid}: expected the calibration's rig, got a nominal yaw "
+                         f"{math.degrees(turned):.2f} deg from its {math.degrees(yaw):.2f} deg, beyond "
+                         f"{SAME_YAW_SIGMAS:g} x its yaw offset's std {math.degrees(sd):.2f} deg (a calibration "
+                         f"holds only on the rig it was computed on)")
+
+
 def apply_calibration(rec, cal: CarCalibration, *, gyro_bias: bool = False):
     """``rec`` (a :class:`~radarslam.io.recording.stream.Recording` of this car, ``unicycle``
     odometry) corrected by ``cal`` (c.16.3): the wheel speed scaled (the gyro's bias removed with
@@ -392,7 +437,8 @@ def apply_calibration(rec, cal: CarCalibration, *, gyro_bias: bool = False):
     In that frame the car moves without sideslip at ``k s / cos(delta)`` and the unicycle model
     holds exactly; the mountings turn by ``-delta`` about the rear axle and the truth's heading by
     ``+delta``. A pose estimated in the track frame is the car's with its heading minus ``delta``
-    (:func:`car_heading`). Refuses a recording whose sensors the file does not name."""
+    (:func:`car_heading`). Refuses a recording whose sensors the file does not name, or whose rig
+    is not the calibration's (:func:`check_same_rig`)."""
     import dataclasses
 
     if rec.odo_kind != "unicycle":
@@ -410,6 +456,7 @@ def apply_calibration(rec, cal: CarCalibration, *, gyro_bias: bool = False):
         if missing and cal.sensor_ids:
             raise InputError(f"--calibration: expected an entry for every sensor_id of the recording, got none for "
                              f"{missing} (the file has {list(cal.sensor_ids)})")
+        check_same_rig(sensors, cal)
         new = {}
         for sid, m in sensors.items():
             eps, _ = cal.per_sensor(sid)
