@@ -1,4 +1,4 @@
-"""Moving cars kept out of the map by the Doppler gate (docs/method.md c.10.4, issue 26).
+"""Moving cars kept out of the map by the Doppler gate (docs/method.md c.10.4).
 
 :func:`moving_landmark_trial` runs one simulated trial and reports which confirmed landmarks were
 born on a moving car (by the true sources of the detections of the cluster each was confirmed

@@ -1,4 +1,4 @@
-"""A car's radar: SLAM on the shared nuScenes scenes against the car's own dead reckoning (issue 36).
+"""A car's radar: SLAM on the shared nuScenes scenes against the car's own dead reckoning.
 
 For each scene and each prediction mode -- wheel speed + gyro + radar (``filter.odometry`` odometer),
 the same with the rig's Doppler velocity fused into the prediction (``both``, c.10.5), Doppler speed + gyro (``doppler``, ``yaw_rate`` gyro) and the radar alone (``doppler``, ``yaw_rate``
@@ -50,7 +50,7 @@ def calibrated(rec, path: Path):
 def doppler_dead_reckoning(rec, path: Path) -> dict:
     """The radar alone without a map: the rig's Doppler fit (v_x, v_y, omega; c.12) at every sweep
     integrated from the truth's first pose, a window without a fit holding the last one; its errors
-    at the truth's times (what "radar alone" is compared with in issue 36)."""
+    at the truth's times (what "radar alone" is compared with)."""
     from radarslam.egomotion.rig import rig_ego_velocity
     from radarslam.egomotion.rig_odometry import rig_of
     from radarslam.runs.recording import truth_at
@@ -63,7 +63,7 @@ def doppler_dead_reckoning(rec, path: Path) -> dict:
             theta[k] = theta[k - 1]
     theta = np.nan_to_num(theta)
     tt = rec.truth_t
-    # start at the first sweep within the truth, from the truth interpolated there (issue 42 defect 7: not
+    # start at the first sweep within the truth, from the truth interpolated there (not
     # the next truth sample, which is up to one truth interval, 20 ms at 9 m/s = 0.18 m, further on)
     k0 = int(np.searchsorted(t, tt[0]))
     t, theta = t[k0:], theta[k0:]

@@ -1,4 +1,4 @@
-"""The car calibrated on one drive, run on another drive of the same car (issue 42 item 2; docs/method.md c.16).
+"""The car calibrated on one drive, run on another drive of the same car (docs/method.md c.16).
 
     python scripts/car_calibration_study.py --data ../shared/data/nuscenes_radar --out runs/car_calibration
 

@@ -1,4 +1,4 @@
-"""Every fixed error of the car at once, learnt online by the filter (issue 42 item 7's simulation;
+"""Every fixed error of the car at once, learnt online by the filter (the simulation;
 docs/method.md c.13.3).
 
     python scripts/car_states_simulation.py [--drives 10] [--duration 120] [--first-seed 1]
@@ -8,7 +8,7 @@ mountings +1.5 / -1.5 / +1.0 / -0.5 / -0.5 deg, clocks 0 / 15 / 30 / 45 / 60 ms,
 gyro offset of 0, estimated too), on drives with accelerations and turns. The filter starts every
 state at 0 with its prior (scale 2%, gyro 0.5 deg/s, thrust 1 deg, yaws 2 deg with their mean held at
 0 by the rig, clocks 50 ms) and runs them all online. Per state: the truth, the mean estimate at the
-end over the drives, the largest error, the mean std, and whether every drive is within issue 42's
+end over the drives, the largest error, the mean std, and whether every drive is within the
 0.1 deg / 5 ms / 0.1%; and the 13 states' NEES at the end, averaged over the drives, against its 95%
 band (chi-square of 12 x drives degrees of freedom: the yaws' mean is held at 0). Seeds ``--first-seed`` .. + drives - 1.
 """
@@ -43,7 +43,7 @@ def main(argv=None) -> int:
             [f"clock {j}" for j in range(len(RIG))]
     unit = {"scale": (100.0, "%"), "gyro": (180 / math.pi, "deg/s"), "thrust": (180 / math.pi, "deg"),
             "yaw": (180 / math.pi, "deg"), "time": (1e3, "ms")}
-    print("\n| state | truth | mean estimate | largest error | mean std | every drive within issue 42's tolerance |")
+    print("\n| state | truth | mean estimate | largest error | mean std | every drive within the tolerance |")
     print("|---|---|---|---|---|---|")
     for i, (n, k) in enumerate(zip(names, kinds)):
         f, u = unit[k]

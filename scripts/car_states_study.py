@@ -1,5 +1,5 @@
 """The car's errors as states online (docs/method.md c.11.12, c.13.1) on the given nuScenes scenes, with
-and without the other drive's calibration (issue 42 items 1-2).
+and without the other drive's calibration.
 
     python scripts/car_states_study.py --data ../shared/data/nuscenes_radar
 

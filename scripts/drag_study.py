@@ -1,4 +1,4 @@
-"""Do long objects seen in part drag the pose along the road? (issue 42 item 3; docs/results.md).
+"""Do long objects seen in part drag the pose along the road? (docs/results.md).
 
     python scripts/drag_study.py --data ../shared/data/nuscenes_radar
 

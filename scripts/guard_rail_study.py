@@ -1,5 +1,5 @@
 """Guard rails at speed: does a long object seen in part drag the pose along the road, and does the
-part in view's offset (docs/method.md c.17) stop it? (issue 42 item 3)
+part in view's offset (docs/method.md c.17) stop it?
 
     python scripts/guard_rail_study.py [--seeds 20] [--speeds 15 20 30]
 

@@ -23,7 +23,7 @@ from radarslam.montecarlo.report import nees_summary
 from radarslam.config.variants import CONSISTENT, Variant
 from radarslam.metrics.pose import avg_rmse
 
-#: First scan of the late stretch where the fixed-offset run sits above the band (issue 22).
+#: First scan of the late stretch where the fixed-offset run sits above the band.
 LATE_FROM = 56
 
 

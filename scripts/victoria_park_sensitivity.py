@@ -8,7 +8,7 @@ GPS-aligned RMSE (EKF-SLAM is invariant to a rigid change of the world frame, so
 change the aligned figure), the published RMSE over the scans before and from ``HALF`` (3600: the
 first half, on which parameters are chosen, and the second), the NIS inside its 95% band and the
 fraction of scans whose GPS error lies within the filter's 2-sigma bound (docs/method.md v.7). The
-robustness rule of issue 23: no variant may give more than 1.5 times the profile's published RMSE;
+robustness rule: no variant may give more than 1.5 times the profile's published RMSE;
 the last column says whether it does, and the last line gives the worst row's ratio.
 
 ``--config FILE.toml`` lays a candidate's keys over the profile before every variant scales it (the

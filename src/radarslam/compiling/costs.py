@@ -6,8 +6,7 @@ from __future__ import annotations
 
 
 #: Costs on two cores of this kind of machine (``python benchmarks/bench_compile.py``, quiet machine:
-#: 10.5 and 43.2 ms per variant and trial warm; 198.3 s (233.7 s the stop before, whose engine
-#: inlined its array growth at every use) and 34.3 s to compile on one core, the
+#: 10.5 and 43.2 ms per variant and trial warm; 198.3 s and 34.3 s to compile on one core, the
 #: simulation and the evaluation's ~20 s included, which the warm-up compiles beside on the second
 #: core): seconds per variant and trial with a warm cache, fused engine and orchestrator; wall
 #: seconds to fill a cold cache for each.
@@ -16,17 +15,14 @@ FUSED_S, ORCHESTRATOR_S = 0.0105, 0.0432
 
 #: FUSED_COMPILE_S: the default family's engine alone since the fused steps compile once as functions
 #: without entry points (``NUMBA_CACHE_DIR=$(mktemp -d) python benchmarks/compile_table.py
-#: --cases carpark``: 130.4-146.5 s of CPU in four runs, mean 138; 178 s before, when one engine held
-#: every family's branches).
+#: --cases carpark``: 130.4-146.5 s of CPU in four runs, mean 138).
 FUSED_COMPILE_S, ORCHESTRATOR_COMPILE_S = 140.0, 20.0
 
 
 #: A short Monte Carlo's warm-up (:func:`warm_up`), wall seconds on two cores: the default variants'
 #: orchestrator kernels, the simulation and the evaluation, split over two processes
 #: (:func:`_short_side`). Measured (``radarslam reproduce --trials 200`` from an empty cache, the
-#: first line to the first trial): 27.2 s, and 26.3 / 26.4 s for the two processes alone; 31.4 s
-#: before the split, when its progress line said "about 20 s" (this constant was
-#: ORCHESTRATOR_COMPILE_S, one configuration's kernels, then).
+#: first line to the first trial): 27.2 s, and 26.3 / 26.4 s for the two processes alone.
 ORCHESTRATOR_WARM_UP_S = 27.0
 
 

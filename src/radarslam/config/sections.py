@@ -394,7 +394,7 @@ class SensorConfig:
     doppler_sign: int = param(1, "sign of the recording's Doppler column: 1 when positive receding (the raw radial "
                               "velocity, docs/recordings.md \"Doppler\"), -1 for a column stored approaching-positive "
                               "(multiplied by -1 when read); a column whose static consensus disagrees with the "
-                              "odometry's speed is refused (issue 42)", choices=(1, -1))
+                              "odometry's speed is refused", choices=(1, -1))
     gyro_bias_from_rest: bool = param(True, "[PROP] 3-D recordings run as SLAM: subtract the gyro's mean over the "
                                       "scans at rest before the first motion (its bias; c.10.6)")
 

@@ -86,7 +86,7 @@ PAPER_VARIANTS: tuple[Variant, ...] = (
 #: cluster's mean with the mean's noise and that prior spread, and one batch update per landmark
 #: per scan, all of a scan's landmarks stacked into one update (``batch-joint``, docs/method.md
 #: a.7.4: equal to the per-landmark ``batch`` on training seeds 1000-1002 in accuracy, NEES and
-#: NIS, one pass over the covariance per scan instead of one per landmark; issue 22 item 5).
+#: NIS, one pass over the covariance per scan instead of one per landmark).
 #: Chosen on training seeds 1000-1002, never on the reporting seed 1.
 CONSISTENT = Variant("consistent", "Consistent (beyond the paper)", {
     "extent": {"use_in_slam": True, "pre_init_spread": "prior", "prior_extent_radius_m": 2.0},

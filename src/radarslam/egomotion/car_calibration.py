@@ -221,9 +221,9 @@ def calibrate_car(rig: Rig, rng: np.random.Generator, *, estimate: tuple[str, ..
               + 2 * bool(layout.get("anchored")))
     prior = prior_stds(layout, S)
     # Each radar's sweeps weighted by that radar's own robust spread, found in two passes: a sweep
-    # fit's claimed covariance is not honest (overlapping windows, unmodelled multipath; issue 42
-    # defect 3), a radar's scatter about the model is measured. The priors (c.16.2) keep a
-    # quantity the drive hardly excites (a time offset on a steady drive) near its prior.
+    # fit's claimed covariance is not honest (overlapping windows, unmodelled multipath), a radar's
+    # scatter about the model is measured. The priors (c.16.2) keep a quantity the drive hardly
+    # excites (a time offset on a steady drive) near its prior.
     sigma = np.full(S, 0.1)
 
     def residuals(p):

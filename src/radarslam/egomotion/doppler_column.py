@@ -1,4 +1,4 @@
-"""Is a recording's Doppler column the raw radial velocity? (issue 42 item 6; docs/recordings.md "Doppler")
+"""Is a recording's Doppler column the raw radial velocity? (docs/recordings.md "Doppler")
 
 The static world's Doppler is ``d = -u . w`` (c.10.1): ``w`` the radar's own velocity in its frame,
 ``u`` the detection's direction, positive receding. A column stored with the other sign

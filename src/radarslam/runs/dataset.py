@@ -250,7 +250,7 @@ DUPLICATE_RADII_M = (1.0, 1.5, 2.0, 3.0)
 
 
 def duplicate_landmarks(run: RecordingRun, diameter_m: float | None = None) -> dict:
-    """Pairs of final landmarks closer than a trunk diameter: one trunk mapped twice (issue 11).
+    """Pairs of final landmarks closer than a trunk diameter: one trunk mapped twice.
 
     ``diameter_m`` defaults to the median reference diameter of the run's trees (ACFR's detector),
     else 0.42 m, the median over the whole recording. Merging (c.9) removes every pair closer than

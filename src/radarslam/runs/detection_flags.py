@@ -1,4 +1,4 @@
-"""Each input detection's fate in a recording run (issue 36 item 4): whether the Doppler gate called
+"""Each input detection's fate in a recording run: whether the Doppler gate called
 it moving (docs/method.md c.10.4) and which landmark it updated, by either engine, in the order of
 the recording's rows (``moving.csv``, docs/recordings.md "Outputs"), and its scores against the
 recording's annotation (RadarScenes' ``label``).
@@ -35,7 +35,7 @@ __all__ = [
 
 #: RadarScenes' label of the static world; every other value is a road user (its SOURCE.md).
 STATIC_LABEL = 11
-#: The targets of issue 36 item 6: road users' detections updating a landmark, static ones called moving.
+#: The targets the run reports against: road users' detections updating a landmark, static ones called moving.
 TARGETS = {"road_user_updated_share": 0.01, "static_moving_share": 0.12}
 
 
@@ -177,7 +177,7 @@ def write_moving_csv(path: str | Path, t: np.ndarray, sensor_id: np.ndarray, fla
 
 
 def moving_scores(labels: np.ndarray, flags: DetectionFlags, static_label: int = STATIC_LABEL) -> dict:
-    """Road users kept out of the map, against the annotation (issue 36 item 6): the share of the road
+    """Road users kept out of the map, against the annotation: the share of the road
     users' detections (``label != static_label``) that updated a landmark and the share of the static
     world's detections the gate called moving, over every input detection (those dropped before the
     filter count as neither), with the counts."""

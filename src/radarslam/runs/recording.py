@@ -1,5 +1,5 @@
 """Your own recording: run EKF-SLAM on it, evaluate against its truth, write the results; and the
-simulated car park exported as a recording (docs/recordings.md, issue 24)."""
+simulated car park exported as a recording (docs/recordings.md)."""
 
 from __future__ import annotations
 
@@ -116,7 +116,7 @@ FAR_START_M, FAR_START_DEG, FAR_RATIO = 1.0, 5.0, 10.0
 
 def evaluate_truth(poses: np.ndarray, dr: np.ndarray, truth: np.ndarray, config: Config, align: str,
                    start: dict) -> dict:
-    """The run's and dead reckoning's errors against the truth (issue 35 item 6): the platform's pose
+    """The run's and dead reckoning's errors against the truth: the platform's pose
     (moved back from the sensor's under ``ackermann``) after ``align``, what each figure is, and a
     warning when the truth looks like another frame."""
     plat, dr_plat = filter_to_platform(poses, config), filter_to_platform(dr, config)
@@ -179,7 +179,7 @@ def with_rig(rec: Recording, config: Config) -> Config:
 def checked_doppler(rec: Recording, config: Config, mounting: Mounting) -> Recording:
     """``rec`` with its Doppler column signed by ``sensor.doppler_sign``, refused in one line when its
     static consensus says it is negated or ego-compensated against the odometry
-    (egomotion/doppler_column.py, issue 42 item 6)."""
+    (egomotion/doppler_column.py)."""
     from pathlib import Path
 
     from radarslam.egomotion.doppler_column import check_doppler_column, with_doppler_sign

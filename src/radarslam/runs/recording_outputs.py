@@ -1,4 +1,4 @@
-"""What a recording run adds for a car's radars (issue 36 items 2, 3, 4 and 7; docs/recordings.md
+"""What a recording run adds for a car's radars (docs/recordings.md
 "Outputs"): another ``sensors.csv`` for the run (``--sensors``, e.g. ``radarslam calibrate``'s
 ``sensors_calibrated.csv``), the rig's ego-motion from every radar's Doppler (``ego_velocity.csv``,
 ``ego_velocity.png``), each input detection's fate under the Doppler gate (``moving.csv``, scored
@@ -202,7 +202,7 @@ def ego_metrics(ego, rig: Rig) -> dict:
 
 
 def _start(run) -> list:
-    """The pose the run started at: its metrics' (a recording run, issue 35 item 1), else the
+    """The pose the run started at: its metrics' (a recording run), else the
     configuration's (a run of its own start, e.g. the radar alone)."""
     return (run.metrics.get("start") or {}).get("pose", list(run.config.filter.initial_pose))
 

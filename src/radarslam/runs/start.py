@@ -63,7 +63,7 @@ def _shift(poses: np.ndarray, lever, sign: float) -> np.ndarray:
 
 
 def start_pose(rec: Recording, config: Config, t_first: float, start: str = "auto") -> tuple[list[float], str]:
-    """Where a recording run starts (issue 35 item 1): ``(pose, from)``.
+    """Where a recording run starts: ``(pose, from)``.
 
     ``start`` "auto": the config's ``filter.initial_pose`` when it differs from its profile's value
     (the user set it), else the truth's pose at the first scan when the truth covers it, else zero;
@@ -100,7 +100,7 @@ START_STD = {"truth": "filter.truth_pose_std (the truth's own accuracy)",
 
 
 def start_std(config: Config, origin: str) -> list[float]:
-    """The initial pose std ``[x_m, y_m, theta_rad]`` of a run started at ``origin`` (issue 43 item 4):
+    """The initial pose std ``[x_m, y_m, theta_rad]`` of a run started at ``origin``:
     at the truth, the truth's own accuracy (``filter.truth_pose_std``); at zero, 0, for the map's
     frame is the first pose (P_1 = 0, the anchored frame); at the config's pose, the user's
     ``filter.initial_pose_std``. Never the profile's simulator std for a start that did not come from it."""
