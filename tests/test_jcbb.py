@@ -361,9 +361,10 @@ def test_the_numba_backend_runs_the_same_jcbb():
 
 
 def test_compiled_search_equals_the_reference_and_the_brute_force():
-    """The compiled branch and bound (an explicit stack) against the recursive reference on the
-    oracle problems, with and without a node budget: the same hypothesis, nodes and exhaustion; its
-    D^2 to rounding; and the brute force's best hypothesis when the search completes."""
+    """The branch and bound compiled (slam/_jcbb_numba.py) against the same kernel run as Python
+    (jcbb.jcbb) on the oracle problems, with and without a node budget: the same hypothesis, nodes
+    and exhaustion; its D^2 to rounding; and the brute force's best hypothesis when the search
+    completes."""
     from radarslam.slam._jcbb_numba import jcbb_search, joint_gates
 
     gates = joint_gates(0.99, 16)

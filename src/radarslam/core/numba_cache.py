@@ -20,7 +20,7 @@ from pathlib import Path
 #: (``core.jit.compile_kernels``); ``tests/test_layering.py`` checks that it is complete.
 COMPILED_SOURCES = (
     "core/angles.py", "core/arrays.py", "core/jit.py", "core/small_matrices.py", "slam/ekf.py", "slam/layout.py",
-    "slam/_numba.py", "slam/_jcbb_numba.py", "slam/jcbb.py",
+    "slam/_numba.py", "slam/_jcbb_numba.py", "slam/jcbb_search.py",
     "slam/fused/storage.py", "slam/fused/tracking.py", "slam/fused/mapping.py", "slam/fused/engine.py",
     "slam/fused/plan.py", "slam/fused/stream.py", "slam/fused/extent.py", "slam/fused/gate.py",
     "landmarks/confirmation.py", "landmarks/merging.py", "landmarks/sifting.py", "landmarks/grouping.py",

@@ -6,14 +6,12 @@ call per scan that the orchestrator's associator and the fused engine both make
 clusters in label order then the noise points), the individual gate against the
 ``n_prefilter`` Euclidean-nearest landmarks (candidates by ``D^2`` then landmark), the search order
 (fewest candidates first, ties by observation), the joint covariance, the branch and bound
-(:func:`jcbb_search`: the recursion of :func:`radarslam.slam.jcbb.jcbb` as a loop over an explicit
-stack, the same children in the same order, the same pruning and node budget, so the same
-hypothesis), and the batch updates (landmarks ascending). Its kernels are the reference's
-(:mod:`radarslam.slam.ekf`: the batch measurement and noise, the Joseph update) and the compiled
-DBSCAN (:mod:`radarslam.landmarks._compiled`). What is written for numba: the incremental joint
-``D^2`` (:func:`extend_loops`, scipy's triangular solve as loops) and the search's stack. The two
-agree to rounding (tests/test_jcbb.py: every hypothesis of the brute-force oracle problems, car-park
-runs).
+(:func:`radarslam.slam.jcbb_search.jcbb_search`, the reference's kernel compiled as it is: the same
+hypothesis, nodes and budget), and the batch updates (landmarks ascending). Its kernels are the
+reference's (:mod:`radarslam.slam.ekf`: the batch measurement and noise, the Joseph update) and the
+compiled DBSCAN (:mod:`radarslam.landmarks._compiled`). What is written for numba: the per-scan loops
+around them (the observations, the individual gate, the joint covariance). The two agree to rounding
+(tests/test_jcbb.py: every hypothesis of the brute-force oracle problems, car-park runs).
 
 The joint gates ``chi2.ppf(p, 2 k)`` come in as an array (:func:`joint_gates`): scipy is not
 compiled.
@@ -36,7 +34,8 @@ from radarslam.slam._numba import (
     _smallest,
     min_log_distance,
 )
-from radarslam.slam.jcbb import JcbbAssociator, JcbbResult, close_block, make_jcbb
+from radarslam.slam.jcbb import JcbbAssociator, JcbbResult, make_jcbb
+from radarslam.slam.jcbb_search import _can_beat, close_block, extend_loops, jcbb_search
 
 
 def joint_gates(probability: float, depth: int) -> np.ndarray:
@@ -49,149 +48,9 @@ def joint_gates(probability: float, depth: int) -> np.ndarray:
     return g
 
 
-#: The joint factor's new diagonal block, the reference's own kernel compiled as it is (jcbb.close_block).
-_close_block = compile_kernels(close_block)["close_block"]
-
-
-@njit(cache=True)
-def extend_loops(C, nu, L, y, rows, k, m, d2):  # pragma: no cover - compiled
-    """:func:`radarslam.slam.jcbb._extend` as loops: ``D^2`` of the hypothesis (Cholesky factor ``L``,
-    ``y = L^-1 nu_h``, ``rows`` of ``C`` over its first ``k`` pairings) plus pairing ``m``; writes row
-    block ``k`` of ``L``, ``y``, ``rows``. ``inf`` when the Schur complement is not positive definite."""
-    r = 2 * k
-    c00 = C[2 * m, 2 * m]
-    c01 = 0.5 * (C[2 * m, 2 * m + 1] + C[2 * m + 1, 2 * m])
-    c11 = C[2 * m + 1, 2 * m + 1]
-    e0, e1 = nu[m, 0], nu[m, 1]
-    if k:
-        z = np.empty((r, 2))                    # L^-1 b, b = C[rows, 2m:2m+2], by forward substitution
-        for i in range(r):
-            a0 = C[rows[i], 2 * m]
-            a1 = C[rows[i], 2 * m + 1]
-            for q in range(i):
-                a0 -= L[i, q] * z[q, 0]
-                a1 -= L[i, q] * z[q, 1]
-            z[i, 0] = a0 / L[i, i]
-            z[i, 1] = a1 / L[i, i]
-        s00 = s01 = s11 = t0 = t1 = 0.0
-        for i in range(r):
-            s00 += z[i, 0] * z[i, 0]
-            s01 += z[i, 0] * z[i, 1]
-            s11 += z[i, 1] * z[i, 1]
-            t0 += z[i, 0] * y[i]
-            t1 += z[i, 1] * y[i]
-            L[r, i] = z[i, 0]
-            L[r + 1, i] = z[i, 1]
-        c00, c01, c11 = c00 - s00, c01 - s01, c11 - s11          # Schur complement
-        e0, e1 = e0 - t0, e1 - t1
-    return _close_block(L, y, rows, r, m, c00, c01, c11, e0, e1, d2)
-
-
-@njit(cache=True, inline="always")
-def _can_beat(k_max, d2_low, best_k, best_d2):  # pragma: no cover - compiled
-    """Whether a subtree with at most ``k_max`` pairings and ``D^2 >= d2_low`` can beat the best."""
-    return k_max > best_k or (k_max == best_k and d2_low < best_d2)
-
-
-@njit(cache=True)
-def jcbb_search(obs, lm, nu, C, n_obs, gates, max_nodes):  # pragma: no cover - compiled
-    """:func:`radarslam.slam.jcbb.jcbb` on checked arrays, the recursion as a loop over a stack of
-    frames ``(observation, pairings, D^2, next candidate, phase)``: phase 0 enters a node, 1 tries
-    its pairing children in input order, 2 its unpaired child, 3 returns. ``gates[k]`` is the joint
-    gate of ``k`` pairings (:func:`joint_gates`). Returns ``(pair rows by observation, D^2, nodes,
-    exhausted)``."""
-    M = obs.shape[0]
-    cnt = np.zeros(n_obs + 1, dtype=np.int64)                  # candidates by observation (input order)
-    for a in range(M):
-        cnt[obs[a] + 1] += 1
-    off = np.cumsum(cnt)
-    by_obs = np.empty(M, dtype=np.int64)
-    fill = off[:-1].copy()
-    for a in range(M):
-        by_obs[fill[obs[a]]] = a
-        fill[obs[a]] += 1
-    rest = np.zeros(n_obs + 1, dtype=np.int64)
-    for i in range(n_obs - 1, -1, -1):
-        rest[i] = rest[i + 1] + (1 if off[i + 1] > off[i] else 0)
-    labels = np.unique(lm)
-    code = np.searchsorted(labels, lm)                         # landmark labels as 0 .. U - 1
-    used = np.zeros(labels.shape[0], dtype=np.bool_)
-    depth = min(n_obs, M)
-    L = np.zeros((2 * depth + 2, 2 * depth + 2))
-    y = np.zeros(2 * depth + 2)
-    rows = np.zeros(2 * depth + 2, dtype=np.int64)
-    chosen = np.empty(depth + 1, dtype=np.int64)
-    best = np.empty(depth + 1, dtype=np.int64)
-    n_chosen, best_k, best_d2, nodes, exhausted = 0, 0, 0.0, 1, False
-    F = n_obs + 2
-    f_i, f_k, f_p, f_phase = (np.zeros(F, dtype=np.int64), np.zeros(F, dtype=np.int64),
-                              np.zeros(F, dtype=np.int64), np.zeros(F, dtype=np.int64))
-    f_d2 = np.zeros(F)
-    f_pend = np.zeros(F, dtype=np.bool_)                       # a pairing child is on the stack above
-    top = 1
-    while top > 0 and not exhausted:
-        f = top - 1
-        i, k, d2 = f_i[f], f_k[f], f_d2[f]
-        if f_phase[f] == 0:                                    # enter: skip observations without candidates
-            while i < n_obs and off[i + 1] == off[i]:
-                i += 1
-            f_i[f] = i
-            if i == n_obs:
-                top -= 1
-                continue
-            f_phase[f] = 1 if _can_beat(k + rest[i], d2, best_k, best_d2) else 2
-            f_p[f] = 0
-            continue
-        if f_phase[f] == 1:                                    # the pairing children
-            if f_pend[f]:                                      # back from one: undo its pairing
-                n_chosen -= 1
-                used[code[chosen[n_chosen]]] = False
-                f_pend[f] = False
-            pushed = False
-            while f_p[f] < off[i + 1] - off[i]:
-                m = by_obs[off[i] + f_p[f]]
-                f_p[f] += 1
-                if used[code[m]]:
-                    continue
-                if not _can_beat(k + rest[i], d2, best_k, best_d2):
-                    break
-                if nodes >= max_nodes:
-                    exhausted = True
-                    break
-                nodes += 1
-                d2_new = extend_loops(C, nu, L, y, rows, k, m, d2)
-                if not d2_new < gates[k + 1]:
-                    continue
-                chosen[n_chosen] = m
-                n_chosen += 1
-                used[code[m]] = True
-                if _can_beat(k + 1, d2_new, best_k, best_d2):   # a better hypothesis
-                    best[:n_chosen] = chosen[:n_chosen]
-                    best_k, best_d2 = k + 1, d2_new
-                f_pend[f] = True
-                f_i[top], f_k[top], f_d2[top], f_phase[top], f_pend[top] = i + 1, k + 1, d2_new, 0, False
-                top += 1
-                pushed = True
-                break
-            if not pushed:
-                f_phase[f] = 2
-            continue
-        if f_phase[f] == 2:                                    # the unpaired child
-            f_phase[f] = 3
-            if _can_beat(k + rest[i + 1], d2, best_k, best_d2):
-                if nodes >= max_nodes:
-                    exhausted = True
-                    break
-                nodes += 1
-                f_i[top], f_k[top], f_d2[top], f_phase[top], f_pend[top] = i + 1, k, d2, 0, False
-                top += 1
-            continue
-        top -= 1                                               # phase 3: return
-    pairs = best[:best_k].copy()
-    key = np.empty(best_k, dtype=np.int64)
-    for a in range(best_k):
-        key[a] = obs[pairs[a]]
-    return pairs[np.argsort(key)], best_d2, nodes, exhausted
+#: The branch and bound of c.4.1, the reference's own kernels compiled as they are (slam/jcbb_search.py).
+_J = compile_kernels(close_block, extend_loops, _can_beat, jcbb_search)
+jcbb_search = _J["jcbb_search"]
 
 
 @njit(cache=True)
