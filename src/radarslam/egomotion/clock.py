@@ -124,7 +124,7 @@ def clock_of(rec, config):
     """The online clock of recording ``rec`` under ``config`` (``filter.radar_clock = "online"``),
     or None ("as-stamped"); one-line :class:`ConfigError` without a rig with Doppler or without wheel
     speeds."""
-    from radarslam.egomotion.rig import checked_rig_velocity
+    from radarslam.egomotion.rig import checked_rig_velocity, filter_series
     from radarslam.egomotion.rig_odometry import rig_of
 
     f = config.filter
@@ -134,5 +134,5 @@ def clock_of(rec, config):
     if rig is None or rig.odometry is None:
         raise ConfigError("filter.radar_clock: 'online' needs a rig of radars with Doppler (sensors.csv, doppler_mps) "
                           f"and wheel speeds (unicycle odometry), got {'no rig with Doppler' if rig is None else 'no wheel speeds'}")
-    series = checked_rig_velocity(rig, f)
+    series = filter_series(checked_rig_velocity(rig, f))
     return online_clock(series, rig.odometry, f.radar_clock_std_s, f.speed_std_mps, f.noise_interval_s)

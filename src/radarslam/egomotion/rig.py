@@ -6,6 +6,7 @@ with the recording's odometry, write ``ego_velocity.csv``.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -27,9 +28,12 @@ from radarslam.models.rig_velocity import (
 __all__ = [
     "EGO_VELOCITY_COLUMNS",
     "Rig",
+    "RigEgoMotion",
     "checked_rig_velocity",
     "compare_with_odometry",
+    "filter_series",
     "read_rig",
+    "rig_ego_motion",
     "rig_ego_velocity",
     "write_ego_velocity_csv",
 ]
@@ -166,20 +170,85 @@ def rig_ego_velocity(rig: Rig, rng: np.random.Generator, *, lateral: bool = True
                            half_window_s=half_window_s, **opts)
 
 
+@dataclass(frozen=True)
+class RigEgoMotion(RigVelocitySeries):
+    """The rig's ego-motion as a run writes it (``ego_velocity.csv``): the fits of the model the rig's
+    geometry observes (:func:`rig_ego_motion`), with the full-model fits the filter takes beside them.
+
+    Attributes
+    ----------
+    full : RigVelocitySeries or None
+        The full model's ``(v_x, v_y, omega)`` fits with the same statuses: what the Doppler odometry
+        takes (given the gyro, c.12.7, the lateral velocities measure the sideslip themselves).
+    model : str
+        ``"v_x, v_y, omega"`` or ``"single-track"`` (``v_y = -D v_x^2 omega``,
+        :mod:`radarslam.egomotion.single_track`).
+    compliance : (float, float) or None
+        The single-track model's ``(D, std)`` (rad of rear-axle sideslip per m/s^2 of lateral
+        acceleration), None under the full model.
+    yaw_rate_vif : float
+        The full model's median variance inflation factor of ``omega`` (:func:`~radarslam.egomotion.
+        single_track.yaw_rate_vif`), which chose the model.
+    """
+
+    full: RigVelocitySeries | None = None
+    model: str = "v_x, v_y, omega"
+    compliance: tuple[float, float] | None = None
+    yaw_rate_vif: float = math.nan
+
+
+def _fields(series: RigVelocitySeries) -> dict:
+    return {f.name: getattr(series, f.name) for f in dataclasses.fields(RigVelocitySeries)}
+
+
+def rig_ego_motion(series: RigVelocitySeries) -> RigEgoMotion:
+    """The model a rig's geometry observes, from its full-model fits ``series`` (docs/method.md c.12.2):
+    where freeing ``v_y`` inflates the variance of ``omega`` by more than
+    :data:`~radarslam.egomotion.single_track.VIF_LIMIT` (the radars share one ``x``: ``omega`` would
+    rest on the difference of their forward velocities over a lateral lever arm of 1.4-1.75 m, where a
+    0.1% disagreement between two radars' Doppler is 0.6 deg/s at 18 m/s), the single-track model with
+    the rear axle's cornering compliance fitted to the same Doppler (:func:`~radarslam.egomotion.
+    single_track.cornering_compliance`, :func:`~radarslam.egomotion.single_track.single_track_velocity`);
+    otherwise the full model as it is. Either way ``full`` keeps ``series``."""
+    from radarslam.egomotion.single_track import (
+        VIF_LIMIT,
+        cornering_compliance,
+        single_track_velocity,
+        yaw_rate_vif,
+    )
+
+    vif = yaw_rate_vif(series)
+    if not vif > VIF_LIMIT:
+        return RigEgoMotion(**_fields(series), full=series, yaw_rate_vif=vif)
+    D, D_std = cornering_compliance(series)
+    st = single_track_velocity(series, D, D_std)
+    return RigEgoMotion(**_fields(st), full=series, model="single-track", compliance=(D, D_std), yaw_rate_vif=vif)
+
+
+def filter_series(series: RigVelocitySeries) -> RigVelocitySeries:
+    """The fits the filter and the online clock take from :func:`checked_rig_velocity`'s ``series``:
+    its ``full`` model's when it has one (:class:`RigEgoMotion`), else ``series`` itself."""
+    full = getattr(series, "full", None)
+    return series if full is None else full
+
+
 def checked_rig_velocity(rig: Rig, filter_config, rng: np.random.Generator | None = None, *,
                          lateral: bool = True) -> RigVelocitySeries:
     """The rig's fit as a recording run takes it (c.12.4, c.12.7): the Doppler's floor from the
     configuration (``filter.doppler_std_floor_mps``; 0, "none stated", keeps the fit's quantisation
     floor of c.12.3), the systematic terms, and the fits that disagree with the odometry's yaw rate
     (the gyro, ``filter.gyro_std_deg_s``) or with the previous sweeps flagged (:func:`~radarslam.models.
-    rig_gates.gate_rig_velocity` at :data:`GATE_PROBABILITY`). Seed 0 unless ``rng``."""
+    rig_gates.gate_rig_velocity` at :data:`GATE_PROBABILITY`). With ``lateral`` the result is a
+    :class:`RigEgoMotion` (:func:`rig_ego_motion`: the model the rig's geometry observes, the full fits
+    beside it for the filter, :func:`filter_series`). Seed 0 unless ``rng``."""
     floor = float(filter_config.doppler_std_floor_mps)
     opts = {"sigma_floor_mps": floor} if floor > 0 else {}
     series = rig_ego_velocity(rig, np.random.default_rng(0) if rng is None else rng, lateral=lateral, **opts)
     odo = rig.odometry
     gt, g = (odo[:, 0], odo[:, 2]) if odo is not None and odo.shape[0] >= 2 else (None, None)
-    return gate_rig_velocity(series, gt, g, math.radians(filter_config.gyro_std_deg_s),
-                             probability=GATE_PROBABILITY, accel_std=ACCEL_STD, offset_rate_std=OFFSET_RATE_STD)
+    gated = gate_rig_velocity(series, gt, g, math.radians(filter_config.gyro_std_deg_s),
+                              probability=GATE_PROBABILITY, accel_std=ACCEL_STD, offset_rate_std=OFFSET_RATE_STD)
+    return rig_ego_motion(gated) if lateral else gated
 
 
 def compare_with_odometry(series: RigVelocitySeries, odometry: np.ndarray) -> dict:

@@ -16,7 +16,7 @@ import numpy as np
 
 from radarslam.core.mounting import Mounting
 from radarslam.core.types import Scan
-from radarslam.egomotion.rig import Rig, checked_rig_velocity
+from radarslam.egomotion.rig import Rig, checked_rig_velocity, filter_series
 from radarslam.models.doppler import EgoVelocity
 from radarslam.models.rig_gates import velocity_given_yaw_rate
 
@@ -64,7 +64,8 @@ def with_rig_velocity(events: list, rec, config, fit=None) -> list:
     if alone and not distinct_lever_arms(rec.sensors.values()):
         return events                         # one lever arm: each scan's own no-sideslip fit (c.10.5.1)
     n = 3 if alone else 2
-    series = fit[1] if fit is not None else checked_rig_velocity(rig, f)
+    # the full model's fits (c.12.7: given the gyro, the lateral velocities measure the sideslip themselves)
+    series = filter_series(fit[1] if fit is not None else checked_rig_velocity(rig, f))
     gyro_var = math.radians(f.gyro_std_deg_s) ** 2
     cov = series.white_cov()               # c.12.7: neighbouring fits share detections, the filter's readings not
     out = []

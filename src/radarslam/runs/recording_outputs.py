@@ -188,14 +188,18 @@ def write_run_figures(out: Path, run) -> list[str]:
 
 
 def ego_metrics(ego, rig: Rig) -> dict:
-    """``metrics.json["ego_velocity"]``: the fit's windows, and its speed and yaw rate against the
-    odometry (:func:`~radarslam.egomotion.rig.compare_with_odometry`) when there is one."""
+    """``metrics.json["ego_velocity"]``: the fit's windows and model (the single-track model's
+    compliance with it, docs/method.md c.12.4.1), and its speed and yaw rate against the odometry (:func:`~radarslam.egomotion.rig.compare_with_odometry`) when there is one."""
     from radarslam.models.rig_velocity import FLAGGED_GYRO, FLAGGED_JUMP
 
     out = {"windows": int(ego.t.size), "valid": int(ego.valid.sum()), "sensors": int(rig.sensor_ids.size),
            "flagged_gyro": int(np.sum(ego.status == FLAGGED_GYRO)),
            "flagged_jump": int(np.sum(ego.status == FLAGGED_JUMP)),
-           "model": "v_x, v_y, omega" if rig.sensor_ids.size >= 2 else "v_x, omega (no sideslip: one radar)"}
+           "model": getattr(ego, "model", "v_x, v_y, omega") if rig.sensor_ids.size >= 2
+           else "v_x, omega (no sideslip: one radar)"}
+    if getattr(ego, "compliance", None) is not None:   # the single-track model's D (docs/method.md c.12.4.1)
+        out["cornering_compliance_rad_per_mps2"] = {"value": ego.compliance[0], "std": ego.compliance[1],
+                                                    "yaw_rate_vif": ego.yaw_rate_vif}
     if rig.odometry is not None and rig.odometry.shape[0] >= 2:
         out["against_odometry"] = compare_with_odometry(ego, rig.odometry)
     return out
