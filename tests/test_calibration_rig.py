@@ -12,8 +12,9 @@ import pytest
 
 from radarslam.core.errors import InputError
 from radarslam.core.mounting import Mounting
-from radarslam.egomotion.car_calibration import (CarCalibration, SAME_POSITION_M, apply_calibration, check_same_rig,
-                                                 read_car_calibration, write_car_calibration)
+from radarslam.egomotion.car_calibration import (CarCalibration, apply_calibration, read_car_calibration,
+                                                 write_car_calibration)
+from radarslam.egomotion.same_rig import SAME_POSITION_M, check_same_rig
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "nuscenes_radar"
 

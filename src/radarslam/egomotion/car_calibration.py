@@ -33,7 +33,9 @@ from radarslam.egomotion.clock import restamped
 from radarslam.core.errors import InputError
 from radarslam.egomotion.calibrate import check_calibration_drive
 from radarslam.egomotion.calibration_truth import truth_doppler_scale, truth_motion
+from radarslam.egomotion.fit_uncertainty import block_jackknife, honest_covariance
 from radarslam.egomotion.rig import Rig
+from radarslam.egomotion.same_rig import check_same_rig
 from radarslam.models.rig_velocity import DEFAULTS, fit_rig_windows
 
 __all__ = ["CarCalibration", "ESTIMATES", "calibrate_car", "read_car_calibration", "write_car_calibration",
@@ -253,7 +255,8 @@ def calibrate_car(rig: Rig, rng: np.random.Generator, *, estimate: tuple[str, ..
     # the robust spread of the whitened residuals (1 when each radar's spread is right)
     mad = 1.4826 * float(np.median(np.abs(r - np.median(r))))
     scale = max(mad, 1e-12) ** 2
-    cov = honest_covariance(np.linalg.pinv(J.T @ J) * scale, block_jackknife(sv, sol.x, residuals))
+    jk = block_jackknife(sv.t, sol.x, residuals, lambda keep: robust_sweeps_loss(2 * int(keep.sum())))
+    cov = honest_covariance(np.linalg.pinv(J.T @ J) * scale, jk)
     std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     delta, k, b, eps, tau = unpack(sol.x, layout, S)
     sd_delta, sd_k, sd_b, sd_eps, sd_tau = _stds(std, cov, layout, S)
@@ -270,51 +273,6 @@ def calibrate_car(rig: Rig, rng: np.random.Generator, *, estimate: tuple[str, ..
                           tuple(int(m.sum()) for m in per), tuple(rms(raw0[m]) for m in per),
                           tuple(rms(raw1[m]) for m in per), parameter_values=tuple(float(v) for v in sol.x),
                           mountings=tuple(tuple(float(v) for v in row) for row in rig.mount))
-
-
-#: Blocks of consecutive sweeps of :func:`block_jackknife`: each is left out once (20 blocks, 19
-#: degrees of freedom for each variance; a 20-s nuScenes drive gives blocks of 1 s, longer than the
-#: overlap of the sweeps' windows).
-JACKKNIFE_BLOCKS = 20
-
-
-def block_jackknife(sv: SweepVelocities, x: np.ndarray, residuals) -> np.ndarray | None:
-    """The delete-a-block jackknife covariance of the free parameters (docs/method.md c.16.2): the
-    sweeps in time order cut into :data:`JACKKNIFE_BLOCKS` blocks of equal count, the least squares
-    refitted without each from the solution ``x`` (``residuals(p, keep)``: those of the sweeps
-    ``keep``), and ``(B - 1) / B sum_b (x_b - mean)(x_b - mean)^T``. Unlike the Gauss-Newton
-    covariance it does not assume the sweeps independent or the model right: an error that moves
-    along the drive (a clock, a mounting that the drive's manoeuvres load differently) moves the
-    refits. None with fewer than two sweeps a block."""
-    from scipy.optimize import least_squares
-
-    K, B = sv.t.size, JACKKNIFE_BLOCKS
-    if K < 2 * B:
-        return None
-    order = np.argsort(sv.t, kind="stable")
-    xs = []
-    for block in np.array_split(order, B):
-        keep = np.ones(K, dtype=bool)
-        keep[block] = False
-        xs.append(least_squares(lambda p: residuals(p, keep), x, loss=robust_sweeps_loss(2 * int(keep.sum())),
-                                x_scale="jac", method="trf").x)
-    d = np.array(xs) - np.mean(xs, axis=0)
-    return (B - 1) / B * d.T @ d
-
-
-def honest_covariance(fit: np.ndarray, jackknife: np.ndarray | None) -> np.ndarray:
-    """The free parameters' covariance: the Gauss-Newton one ``fit`` with each standard deviation
-    raised to the jackknife's where that is larger, the correlations the fit's. On a simulated drive
-    the two agree (tests/test_car_calibration.py); on a real one the jackknife's time offsets are 3-16
-    times the fit's (scene-0061, rig reference), the drive's own evidence that its sweeps are not
-    independent draws of one model."""
-    if jackknife is None:
-        return fit
-    sd_fit = np.sqrt(np.clip(np.diag(fit), 0.0, None))
-    sd = np.maximum(sd_fit, np.sqrt(np.clip(np.diag(jackknife), 0.0, None)))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        corr = np.where(np.outer(sd_fit, sd_fit) > 0, fit / np.outer(sd_fit, sd_fit), 0.0)
-    return corr * np.outer(sd, sd)
 
 
 def robust_sweeps_loss(n_sweep_residuals: int):
@@ -431,46 +389,6 @@ def read_car_calibration(path: str | Path, key: str = "--calibration") -> CarCal
 #: -0.004 on the Boston car's), so it is estimated with the others (it would bias them otherwise)
 #: and applied only with ``gyro_bias=True`` (the same drive).
 CARRIED = ("thrust_angle", "wheel_scale", "yaw_offsets", "time_offsets", "doppler_scale")
-
-
-#: How far a radar's nominal position may differ between the calibration's rig and a recording's (m):
-#: the calibration estimates no position, so the same rig gives the same surveyed numbers.
-SAME_POSITION_M = 0.01
-#: How many of the calibration's own standard deviations of a radar's yaw offset its nominal yaw may
-#: differ by (a floor of 0.01 deg for a yaw offset held at its prior).
-SAME_YAW_SIGMAS = 3.0
-
-
-def check_same_rig(sensors, cal: CarCalibration, key: str = "--calibration") -> None:
-    """Refuses, in one line naming the sensor and the difference, a recording whose radars' nominal
-    mountings (``sensors``: ``sensor_id`` -> :class:`~radarslam.core.mounting.Mounting`) are not the
-    ones ``cal`` was computed on: a position more than :data:`SAME_POSITION_M` away, or a yaw more
-    than :data:`SAME_YAW_SIGMAS` of the calibration's standard deviation of that radar's yaw offset
-    (the radar furthest out named; the offsets are corrections to the nominal yaw, so they hold only on the same nominal rig). A
-    calibration without ``mountings`` carries no rig and is not checked."""
-    from radarslam.core.angles import wrap_pi
-
-    if not cal.mountings or not sensors:
-        return
-    worst = None                                         # (sigmas, sensor_id, degrees off, the calibration's yaw, std)
-    for j, sid in enumerate(cal.sensor_ids):
-        if sid not in sensors:
-            continue
-        m, (x, y, yaw) = sensors[sid], cal.mountings[j]
-        moved = math.hypot(m.x - x, m.y - y)
-        if moved > SAME_POSITION_M:
-            raise InputError(f"{key}: sensor {sid}: expected the calibration's rig, got a mounting {moved:.3f} m from "
-                             f"its ({x:.3f}, {y:.3f}) m (a calibration holds only on the rig it was computed on)")
-        turned = abs(float(wrap_pi(m.yaw - yaw)))
-        sd = max(cal.yaw_offset_std[j] if j < len(cal.yaw_offset_std) else 0.0, math.radians(0.01))
-        if turned > SAME_YAW_SIGMAS * sd and (worst is None or turned / sd > worst[0]):
-            worst = (turned / sd, sid, turned, yaw, sd)
-    if worst is not None:
-        _, sid, turned, yaw, sd = worst
-        raise InputError(f"{key}: sensor {sid}: expected the calibration's rig, got a nominal yaw "
-                         f"{math.degrees(turned):.2f} deg from its {math.degrees(yaw):.2f} deg, beyond "
-                         f"{SAME_YAW_SIGMAS:g} x its yaw offset's std {math.degrees(sd):.2f} deg (a calibration "
-                         f"holds only on the rig it was computed on)")
 
 
 def apply_calibration(rec, cal: CarCalibration, *, gyro_bias: bool = False):
