@@ -90,14 +90,14 @@ def test_memory_vetoes_clusters_and_removes_young_landmarks_near_a_moving_object
     f = from_dict({"filter": {"doppler_gate": True, "doppler_object_radius_m": 2.0, "doppler_memory_scans": 5,
                               "doppler_memory_radius_m": 3.0, "doppler_probation_scans": 5}}).filter
     g = DopplerGate(f)
-    g.memory = [(10, np.array([[10.0, 0.0], [11.0, 0.5]]))]
+    g._remember(10, np.array([[10.0, 0.0], [11.0, 0.5]]), np.zeros(3))   # at the origin: world = platform
     near = Cluster(np.zeros(2), np.zeros(2), 2, np.array([0, 1]))
     far = Cluster(np.zeros(2), np.zeros(2), 1, np.array([2]))
     xy = np.array([[12.0, 2.0], [13.0, 2.0], [20.0, 0.0]])
     assert g.veto([near, far], xy) == [far]
     positions = np.array([[10.5, 1.0], [10.5, 1.0], [30.0, 0.0]])
     created = np.array([8, 2, 9])                                      # the second is old, the third far
-    g.now = g.memory[-1][1]                                            # seen moving in this scan
+    assert g.n_memory == 2 and np.array_equal(g.now, g.memory_xy[:2])   # seen moving in this scan
     assert g.moving_landmarks(positions, created, 10) == [0]
     g.now = np.empty((0, 2))
     assert g.moving_landmarks(positions, created, 11) == []            # nothing seen moving at scan 11

@@ -32,6 +32,7 @@ from radarslam.landmarks.clustering import Cluster
 from radarslam.models import doppler_kernels
 from radarslam.models._doppler_compiled import classify_scan
 from radarslam.models.doppler import EgoVelocity, chi2_quantile
+from radarslam.slam.gate_kernels import any_near, moving_young_rows, remember_rows
 
 #: The least consensus fraction of a valid fit (``fit_ego_velocity``'s default, c.10.3).
 MIN_INLIER_FRACTION = 0.3
@@ -58,8 +59,9 @@ class DopplerGate:
         self.mounting = Mounting.coerce(mounting)
         #: RANSAC's minimal sets (c.10.2): a fixed seed, so a run is reproducible.
         self.rng = np.random.default_rng(0)
-        #: (scan index, world positions (n, 2)) of the moving objects' detections, newest last.
-        self.memory: list[tuple[int, np.ndarray]] = []
+        #: The moving objects' detections remembered (c.10.4.3): world positions ``memory_xy[:n_memory]``
+        #: seen at scans ``memory_k[:n_memory]``, oldest first.
+        self.memory_xy, self.memory_k, self.n_memory = np.empty((0, 2)), np.empty(0, dtype=np.int64), 0
         #: World positions (n, 2) of this scan's moving objects' detections (c.10.4.4).
         self.now = np.empty((0, 2))
 
@@ -106,32 +108,28 @@ class DopplerGate:
                 chi2_quantile(f.doppler_object_probability, 2))
 
     def _remember(self, k: int, xy: np.ndarray, pose: np.ndarray) -> None:
-        """Keep this scan's moving objects (world frame) and forget those older than the memory."""
-        n = self.f.doppler_memory_scans
-        self.now = _to_world(xy, pose)
-        self.memory = [(j, p) for j, p in self.memory if k - j < n]
-        if n > 0 and xy.shape[0]:
-            self.memory.append((k, self.now))
+        """Keep this scan's moving objects ``xy`` (platform frame) in the world frame of ``pose`` and
+        forget those older than the memory (:func:`~radarslam.slam.gate_kernels.remember_rows`)."""
+        self.memory_xy, self.memory_k, self.n_memory, self.now = remember_rows(
+            self.memory_xy, self.memory_k, self.n_memory, np.ascontiguousarray(xy, dtype=float).reshape(-1, 2),
+            np.asarray(pose, dtype=float), int(k), int(self.f.doppler_memory_scans))
 
     def moving_landmarks(self, positions: np.ndarray, created: np.ndarray, k: int) -> list[int]:
         """The landmarks (state positions) created less than ``filter.doppler_probation_scans`` scans
         before scan ``k`` with a detection of this scan's moving objects (:meth:`apply` of scan
         ``k``) within ``filter.doppler_memory_radius_m`` (c.10.4.4)."""
-        n = self.f.doppler_probation_scans
-        if n <= 0 or self.now.shape[0] == 0 or positions.shape[0] == 0:
-            return []
-        young = np.flatnonzero(k - created < n)
-        if young.size == 0:
-            return []
-        near = _near(positions[young], [(k, self.now)], self.f.doppler_memory_radius_m)
-        return young[near].tolist()
+        r = float(self.f.doppler_memory_radius_m)
+        return np.flatnonzero(moving_young_rows(np.ascontiguousarray(positions, dtype=float).reshape(-1, 2),
+                                                np.asarray(created, dtype=np.int64), int(k), self.now,
+                                                int(self.f.doppler_probation_scans), r * r)).tolist()
 
     def veto(self, clusters: list[Cluster], xy: np.ndarray) -> list[Cluster]:
         """The clusters with no detection (world positions ``xy`` of the scan's kept detections)
         within ``filter.doppler_memory_radius_m`` of a remembered moving detection (c.10.4.3)."""
-        if not self.memory or not clusters:
+        if not self.n_memory or not clusters:
             return clusters
-        return [c for c in clusters if not _near(xy[c.members], self.memory, self.f.doppler_memory_radius_m).any()]
+        r = float(self.f.doppler_memory_radius_m)
+        return [c for c in clusters if not any_near(xy[c.members], self.memory_xy, self.n_memory, r * r)]
 
 
 def _mounting(sensor) -> tuple[float, float, float]:
@@ -141,19 +139,6 @@ def _mounting(sensor) -> tuple[float, float, float]:
 
 #: ``mounting(sensor)``, the former ``(x, y, yaw)`` of ``[sensor]``, with a DeprecationWarning.
 __getattr__ = renamed(__name__, {"mounting": (_mounting, "radarslam.core.mounting.Mounting.from_config(sensor)")})
-
-
-def _to_world(xy: np.ndarray, pose: np.ndarray) -> np.ndarray:
-    """Platform-frame points ``(n, 2)`` in the world frame of ``pose``."""
-    c, s = math.cos(pose[2]), math.sin(pose[2])
-    return np.column_stack([pose[0] + c * xy[:, 0] - s * xy[:, 1], pose[1] + s * xy[:, 0] + c * xy[:, 1]])
-
-
-def _near(points: np.ndarray, memory, radius: float) -> np.ndarray:
-    """Whether each world point ``(n, 2)`` lies within ``radius`` of a remembered detection."""
-    mem = np.concatenate([p for _, p in memory])
-    d = points[:, None, :] - mem[None, :, :]
-    return np.any(np.einsum("ijk,ijk->ij", d, d) <= radius * radius, axis=1)
 
 
 def _platform_xy(polar: np.ndarray) -> np.ndarray:
