@@ -73,3 +73,30 @@ def test_the_other_cars_calibration_is_refused_on_a_real_recording():
                                          r"2\.32 deg from its 90\.68 deg"):
         apply_calibration(read_recording(SHARED / "scene-0061"), cal)
     apply_calibration(read_recording(SHARED / "scene-0103"), cal)        # the Boston car's other drive
+
+
+@pytest.mark.skipif(not SHARED.is_dir(), reason="needs ../shared/data/nuscenes_radar")
+@pytest.mark.parametrize("key", ["bias_thrust", "radar_yaw_states", "radar_time_states"])
+def test_the_online_car_states_are_refused_under_the_automotive_profile(key, tmp_path):
+    """docs/method.md c.13.3: on the given drives the car's online states make every run worse, so a
+    recording run under --profile automotive refuses them in one line naming the key and the measured
+    reason; filter.online_car_states = "allow" runs them, and another profile is not refused."""
+    from helpers import first_seconds
+
+    from radarslam.config import profile_config
+    from radarslam.core.errors import ConfigError
+    from radarslam.io.recording import read_recording
+    from radarslam.runs.recording import run_recording
+    from radarslam.runs.stream_run import refuse_online_car_states
+
+    cfg = profile_config("automotive")
+    on = dataclasses.replace(cfg, filter=dataclasses.replace(cfg.filter, odometry_bias="states", **{key: True}))
+    rec = read_recording(first_seconds(SHARED / "scene-0103", 2.0, tmp_path / "rec"))
+    with pytest.raises(ConfigError) as exc:
+        run_recording(rec, on)
+    msg = str(exc.value)
+    assert msg.startswith(f"filter.{key}: refused under profile 'automotive'") and "\n" not in msg
+    assert "0.47 -> 2.06 m" in msg and "filter.online_car_states = 'allow'" in msg
+    refuse_online_car_states(dataclasses.replace(on, filter=dataclasses.replace(on.filter, online_car_states="allow")))
+    refuse_online_car_states(dataclasses.replace(on, profile="reference"))
+    refuse_online_car_states(cfg)                                           # the profile itself runs

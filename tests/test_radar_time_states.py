@@ -232,7 +232,8 @@ def test_recording_run_writes_the_time_offsets(tmp_path):
     rec = read_recording(first_seconds(shared_data() / "nuscenes_radar" / "scene-0103", 6.0, tmp_path / "rec"))
     cfg = profile_config("automotive")
     run = run_recording(rec, replace(cfg, filter=replace(cfg.filter, odometry_bias="states", radar_time_states=True,
-                                                         bias_scale_std=0.0, bias_turn_rate_std_deg_s=0.0)))
+                                                         bias_scale_std=0.0, bias_turn_rate_std_deg_s=0.0,
+                                                         online_car_states="allow")))
     names = write_recording_outputs(tmp_path, run, {})
     rows = np.genfromtxt(tmp_path / "bias.csv", delimiter=",", names=True)
     ids = sorted(int(s) for s in rec.sensors)

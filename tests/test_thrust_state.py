@@ -193,7 +193,7 @@ def test_recording_run_writes_the_car_states(tmp_path):
 
     rec = read_recording(first_seconds(shared_data() / "nuscenes_radar" / "scene-0103", 8.0, tmp_path / "rec"))
     cfg = profile_config("automotive")
-    on = replace(cfg, filter=replace(cfg.filter, odometry_bias="states", bias_thrust=True))
+    on = replace(cfg, filter=replace(cfg.filter, odometry_bias="states", bias_thrust=True, online_car_states="allow"))
     run = run_recording(rec, on)
     (tmp_path / "on").mkdir()
     (tmp_path / "off").mkdir()

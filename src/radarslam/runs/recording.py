@@ -21,7 +21,7 @@ from radarslam.runs.start import (FRAMES, START_STD, filter_to_platform, platfor
 from radarslam.runs.odometry_choice import resolved_odometry
 from radarslam.runs.dead_reckoning import dead_reckoning  # noqa: F401  (runs.recording.dead_reckoning, its former home)
 from radarslam.runs.recording_outputs import bias_metrics, mounting_metrics, pose_nees_metrics
-from radarslam.runs.stream_run import RecordViews, refuse_drawn_start, run_stream
+from radarslam.runs.stream_run import RecordViews, refuse_drawn_start, refuse_online_car_states, run_stream
 from radarslam.models.radar import polar_to_xy
 from radarslam.slam.driver import FilterRecord, Observer, drive, fused_maps
 from radarslam.core.mounting import Mounting, detections_to_sensor
@@ -217,6 +217,7 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
     config, odometry = resolved_odometry(rec, config)        # c.10.5.2: "auto" by what the recording carries
     check_motion_model(rec, config.filter.motion_model)
     refuse_drawn_start(config)                  # b.5: a draw needs the true first pose of a simulation
+    refuse_online_car_states(config)            # c.13.3: measured worse on every given drive
     m = effective_mounting(rec, config)          # the steps that take one mounting (metrics.json says which)
     config = with_mounting(config, m)
     rec = checked_doppler(rec, config, m)
