@@ -138,7 +138,7 @@ def read_rig(path: str | Path, sensors: dict | None = None, origin: str = "senso
 
 #: The systematic terms' priors (docs/method.md c.12.3 step 5b), stated before any measurement on the
 #: recordings they are used on: each radar's mounting yaw as a dataset gives it is off by up to about
-#: 0.5 deg (the smallest offset issue 42's review found on nuScenes' given mountings, 0.5-1.3 deg; one
+#: 0.5 deg (the smallest offset an independent review found on nuScenes' given mountings, 0.5-1.3 deg; one
 #: sigma), and the radars' clock against the vehicle's by up to 50 ms (the review's nuScenes offsets,
 #: 0-45 ms, rounded up; one sigma).
 MOUNT_YAW_STD_DEG = 0.5

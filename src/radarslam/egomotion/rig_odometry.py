@@ -50,7 +50,7 @@ def with_rig_velocity(events: list, rec, config, fit=None) -> list:
     ``filter.odometry`` "doppler" or "both" (the wheel speed fused with it, c.10.5) and
     ``filter.yaw_rate`` "gyro" on a rig with Doppler: ``(v_x, v_y)``; under the radar alone
     (``yaw_rate`` "doppler") on a rig with two distinct lever arms, the whole ``(v_x, v_y, omega)``
-    (c.12.2, issue 42 defect 1); else ``events``. ``fit`` ``(rig, series)``: the recording's rig and its
+    (c.12.2); else ``events``. ``fit`` ``(rig, series)``: the recording's rig and its
     :func:`~radarslam.egomotion.rig.checked_rig_velocity` when the caller has them already (the run's
     ``ego_velocity.csv`` is the same fit: one fit of 1 M detections, not two)."""
     f = config.filter
