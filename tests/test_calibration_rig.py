@@ -98,5 +98,7 @@ def test_the_online_car_states_are_refused_under_the_automotive_profile(key, tmp
     assert msg.startswith(f"filter.{key}: refused under profile 'automotive'") and "\n" not in msg
     assert "0.47 -> 2.06 m" in msg and "filter.online_car_states = 'allow'" in msg
     refuse_online_car_states(dataclasses.replace(on, filter=dataclasses.replace(on.filter, online_car_states="allow")))
-    refuse_online_car_states(dataclasses.replace(on, profile="reference"))
+    ref = profile_config("reference")                                      # another profile: not refused
+    refuse_online_car_states(dataclasses.replace(ref, filter=dataclasses.replace(ref.filter, odometry_bias="states",
+                                                                                 **{key: True})))
     refuse_online_car_states(cfg)                                           # the profile itself runs

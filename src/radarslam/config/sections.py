@@ -173,9 +173,10 @@ class FilterConfig:
     radar_time_std_ms: float = param(50.0, "[PROP] prior std of each radar's time offset (ms; c.13.2)", low=0.0)
     radar_time_drift_ms_per_rt_s: float = param(0.0, "[PROP] random-walk intensity of each time offset "
                                                 "(ms/sqrt(s); 0: a constant of the car; c.13.2)", low=0.0)
-    online_car_states: str = param("refuse", "[PROP] under profile automotive, a recording run with the car's online "
-                                   "states (bias_thrust, radar_yaw_states, radar_time_states) is refused, they make "
-                                   "the given drives worse (c.13.3); allow runs them anyway", choices=("refuse", "allow"))
+    online_car_states: str = param("allow", "[PROP] refuse: a recording run with the car's online states "
+                                   "(bias_thrust, radar_yaw_states, radar_time_states) is refused in one line (the "
+                                   "automotive profile's: they make the given drives worse, c.13.3); allow runs them",
+                                   choices=("refuse", "allow"))
     turn_noise_gain: float = param(0.0, "[PROP] k: each odometry sample's turning-input variance grows by (k u_turn)^2 "
                                    "(steering in rad, turn rate in rad/s), heteroscedastic input noise; 0: U alone "
                                    "(c.11.8; orchestrator only)", low=0.0)

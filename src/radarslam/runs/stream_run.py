@@ -24,13 +24,13 @@ def refuse_drawn_start(config: Config) -> None:
 
 
 def refuse_online_car_states(config: Config) -> None:
-    """Refuse in one line, under the ``automotive`` profile, a recording run with the car's online states
-    (the thrust angle, each radar's yaw and time offset, docs/method.md c.13.3) unless
-    ``filter.online_car_states = "allow"``: on every given nuScenes scene they make the run worse than
-    the profile without them, with the radars calibrated from another drive too."""
+    """Refuse in one line a recording run with the car's online states (the thrust angle, each radar's
+    yaw and time offset, docs/method.md c.13.3) under ``filter.online_car_states = "refuse"`` (the
+    ``automotive`` profile's: on every given nuScenes scene they make the run worse than the profile
+    without them, with the radars calibrated from another drive too)."""
     f = config.filter
     on = [k for k in ("bias_thrust", "radar_yaw_states", "radar_time_states") if getattr(f, k)]
-    if config.profile == "automotive" and f.odometry_bias == "states" and on and f.online_car_states != "allow":
+    if f.online_car_states == "refuse" and f.odometry_bias == "states" and on:
         raise ConfigError(f"filter.{', filter.'.join(on)}: refused under profile 'automotive': on the four given "
                           "nuScenes scenes the car's online states make every run worse than the profile without them "
                           "(scene-0061 0.47 -> 2.06 m; the landmarks teach them wrong values, docs/method.md c.13.3); "

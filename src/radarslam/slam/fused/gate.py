@@ -38,7 +38,7 @@ def remember(mem, n_mem, seen, x, k, cfg):  # pragma: no cover - compiled
 def moving_young(x, lm, N, k, mem, n_now, cfg):  # pragma: no cover - compiled
     """DopplerGate.moving_landmarks (c.10.4.4, :func:`~radarslam.slam.gate_kernels.moving_young_rows`):
     per landmark, whether it is young and near a moving detection of this scan (``mem.now[:n_now]``)."""
-    if not cfg.doppler_gate:
+    if not cfg.doppler_gate or cfg.gate_probation <= 0 or n_now == 0:   # nothing seen moving: none young
         return np.zeros(N, dtype=np.bool_)
     pos = np.empty((N, 2))
     for j in range(N):
