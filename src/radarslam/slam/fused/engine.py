@@ -105,7 +105,6 @@ def engine(family: Family):
     that dispatch on a flag are inlined, so that a branch it never takes is pruned with its callees."""
     view, jcbb, bias = bool(family.view), bool(family.jcbb), bool(family.bias)
 
-    @njit(cache=True)
     def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
         """Run the event stream through the filter.
 
@@ -196,7 +195,17 @@ def engine(family: Family):
             s += 1
         return status, s, cut_records(rec, maps, s), a_rows[:n_arows]
 
-    return run_stream
+    return njit(cache=True)(_named(run_stream, family))
+
+
+def _named(fn, family: Family):
+    """``fn`` under a name of the family's own, so that numba's disk cache keeps each family in an index
+    file of its own. In one index shared by the families (their keys differ only by the closure's
+    values), two processes saving two families at once can both take the same data file number, and
+    one family's key then loads the other family's machine code (docs/speed.md "First run")."""
+    fn.__qualname__ = (f"engine.<locals>.run_stream_view{int(bool(family.view))}_jcbb{int(bool(family.jcbb))}"
+                       f"_bias{int(bool(family.bias))}")
+    return fn
 
 
 #: The default family's engine (:data:`DEFAULT`), under its former name.
