@@ -85,6 +85,38 @@ def test_negative_control_a_covariance_100x_too_small():
     assert bad["share_inside_band"] < 0.2 and bad["share_above_band"] > 0.8 and not bad["time_average_inside_band"]
 
 
+def test_components_by_hand_along_across_and_heading():
+    """A car heading 90 deg (north) 2 m ahead of its truth and 1 m to its left, with a covariance of
+    4 m^2 east, 1 m^2 north: along the heading (north) 2^2 / 1, across (west) 1^2 / 4; the heading
+    0.1 rad off with 0.04 rad^2: 0.25. A 100x too small covariance (negative control) gives 100x each."""
+    est = np.array([[-1.0, 2.0, math.pi / 2 + 0.1]])
+    true = np.array([[0.0, 0.0, math.pi / 2]])
+    covs = np.array([np.diag([4.0, 1.0, 0.04])])
+    c = pose_nees_summary(est, covs, true)["components"]
+    assert c["along_track"]["time_average"] == pytest.approx(4.0, rel=1e-12)
+    assert c["cross_track"]["time_average"] == pytest.approx(0.25, rel=1e-12)
+    assert c["heading"]["time_average"] == pytest.approx(0.25, rel=1e-12)
+    assert c["along_track"]["rms_error"] == pytest.approx(2.0) and c["cross_track"]["rms_std"] == pytest.approx(2.0)
+    assert c["heading"]["rms_error"] == pytest.approx(math.degrees(0.1))
+    assert c["along_track"]["band_time_average"] == [pytest.approx(chi2.ppf(0.025, 1)), pytest.approx(chi2.ppf(0.975, 1))]
+    bad = pose_nees_summary(est, covs / 100.0, true)["components"]
+    for k in ("along_track", "cross_track", "heading"):
+        assert bad[k]["time_average"] == pytest.approx(100.0 * c[k]["time_average"], rel=1e-12)
+
+
+def test_components_of_a_consistent_filter_are_near_one():
+    """Errors drawn from the covariance (correlated, headings all round): each 1-dof time average
+    within its 95% band over 2000 scans, i.e. [0.94, 1.06] (chi2(2000)/2000)."""
+    rng = np.random.default_rng(11)
+    P = np.array([[0.5, 0.2, 0.01], [0.2, 2.0, -0.02], [0.01, -0.02, 0.01]])
+    true = np.column_stack([np.zeros(2000), np.zeros(2000), rng.uniform(-math.pi, math.pi, 2000)])
+    est = true + rng.multivariate_normal(np.zeros(3), P, size=2000)
+    c = pose_nees_summary(est, np.tile(P, (2000, 1, 1)), true)["components"]
+    for k, v in c.items():
+        lo, hi = v["band_time_average"]
+        assert lo <= v["time_average"] <= hi, (k, v)
+
+
 def test_a_zero_covariance_is_an_exact_pose_left_out():
     """The anchored frame's first pose (docs/method.md b.5.1): P = 0 with a truth of std 0 has no NEES."""
     covs = np.stack([np.zeros((3, 3)), np.eye(3)])

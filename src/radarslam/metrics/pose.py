@@ -114,7 +114,8 @@ def pose_nees_summary(estimated: np.ndarray, covs: np.ndarray, true: np.ndarray,
         ``dof`` 3; ``probability``; ``band_per_scan`` ``[chi2.ppf((1-prob)/2, 3), chi2.ppf((1+prob)/2, 3)]``;
         ``share_inside_band``, ``share_below_band``, ``share_above_band`` of the scans with one;
         ``band_time_average`` :func:`chi2_band` ``(3, scans)`` (``chi2(3 K) / K``: K independent scans);
-        ``time_average_inside_band``; ``exact_pose_scans``, the rows left out for a zero covariance.
+        ``time_average_inside_band``; ``exact_pose_scans``, the rows left out for a zero covariance;
+        ``components`` (:func:`nees_components`): which direction the filter misjudges.
     """
     est, true, covs = (np.asarray(a, dtype=float) for a in (estimated, true, covs))
     K = est.shape[0] if est.ndim == 2 else -1
@@ -137,7 +138,37 @@ def pose_nees_summary(estimated: np.ndarray, covs: np.ndarray, true: np.ndarray,
     nees = np.full(K, np.nan)
     if rows.size:
         nees[rows] = pose_nees(est[rows], total, true[rows])
-    return {**nees_bands(nees, prob), "exact_pose_scans": int(held.size - rows.size)}
+    return {**nees_bands(nees, prob), "exact_pose_scans": int(held.size - rows.size),
+            "components": nees_components(est[rows], total, true[rows], prob)}
+
+
+#: The pose's directions of :func:`nees_components`, in the order of their rows.
+COMPONENTS = ("along_track", "cross_track", "heading")
+
+
+def nees_components(est: np.ndarray, covs: np.ndarray, true: np.ndarray, prob: float = 0.95) -> dict:
+    """The 1-dof NEES of the position error along and across the true heading and of the heading
+    error, each against its own variance (the covariance turned into the true heading's frame:
+    ``u^T P_xy u`` with ``u = (cos theta, sin theta)`` along, ``(-sin theta, cos theta)`` across), time
+    averaged, with the chi-square band of the time average (1 dof per scan), the RMS error (m; the
+    heading's in deg) and the RMS std. A consistent filter has each near 1; the 3-dof NEES alone does
+    not say which direction the filter misjudges."""
+    if not est.shape[0]:
+        return {}
+    e = est - true
+    e[:, 2] = wrap_pi(e[:, 2])
+    c, s = np.cos(true[:, 2]), np.sin(true[:, 2])
+    dirs = (np.column_stack([c, s]), np.column_stack([-s, c]))
+    errs = [np.einsum("ki,ki->k", u, e[:, :2]) for u in dirs] + [e[:, 2]]
+    var = [np.einsum("ki,kij,kj->k", u, covs[:, :2, :2], u) for u in dirs] + [covs[:, 2, 2]]
+    band = list(chi2_band(1, int(est.shape[0]), prob))
+    out = {}
+    for name, err, v, unit in zip(COMPONENTS, errs, var, (1.0, 1.0, 180.0 / math.pi)):
+        keep = v > 0.0
+        avg = float(np.mean(err[keep] ** 2 / v[keep])) if keep.any() else float("nan")
+        out[name] = {"time_average": avg, "band_time_average": band,
+                     "rms_error": float(unit * np.sqrt(np.mean(err * err))), "rms_std": float(unit * np.sqrt(np.mean(v)))}
+    return out
 
 
 def nees_bands(nees: np.ndarray, prob: float = 0.95, dof: int = 3) -> dict:

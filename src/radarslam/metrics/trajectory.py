@@ -106,6 +106,9 @@ NEES_DEFINITIONS = {
     "band_time_average": "chi2.ppf((1 -+ p)/2, 3 K) / K over K scans: the band of the mean of K INDEPENDENT "
                          "scans; a filter's errors are correlated in time, so it is narrower than the mean's spread",
     "alignment": "an alignment fitted to this estimate (first-pose, se2) lowers its errors: its NEES is optimistic",
+    "components": "along_track, cross_track (the position error and covariance in the true heading's frame) and "
+                  "heading: the time average of each 1-dof NEES (1 for a consistent filter), its band, the RMS error "
+                  "and the RMS std (m; heading deg): which direction the filter misjudges",
 }
 
 
