@@ -98,6 +98,8 @@ def test_the_online_car_states_are_refused_under_the_automotive_profile(key, tmp
     assert msg.startswith(f"filter.{key}: refused under profile 'automotive'") and "\n" not in msg
     assert "0.47 -> 2.06 m" in msg and "filter.online_car_states = 'allow'" in msg
     refuse_online_car_states(dataclasses.replace(on, filter=dataclasses.replace(on.filter, online_car_states="allow")))
+    assert "filter.car_states = 'consider'" in msg                          # held, not learnt: not refused (c.13.4)
+    refuse_online_car_states(dataclasses.replace(on, filter=dataclasses.replace(on.filter, car_states="consider")))
     ref = profile_config("reference")                                      # another profile: not refused
     refuse_online_car_states(dataclasses.replace(ref, filter=dataclasses.replace(ref.filter, odometry_bias="states",
                                                                                  **{key: True})))

@@ -173,6 +173,10 @@ class FilterConfig:
     radar_time_std_ms: float = param(50.0, "[PROP] prior std of each radar's time offset (ms; c.13.2)", low=0.0)
     radar_time_drift_ms_per_rt_s: float = param(0.0, "[PROP] random-walk intensity of each time offset "
                                                 "(ms/sqrt(s); 0: a constant of the car; c.13.2)", low=0.0)
+    car_states: str = param("estimate", "[PROP] the platform states after the pose (odometry biases, thrust angle, "
+                            "each radar's yaw and time offset): estimate (learnt through the landmarks) or consider "
+                            "(a Schmidt-Kalman filter: held at their prior, their uncertainty carried in the "
+                            "covariance of the pose and the map; c.13.4)", choices=("estimate", "consider"))
     online_car_states: str = param("allow", "[PROP] refuse: a recording run with the car's online states "
                                    "(bias_thrust, radar_yaw_states, radar_time_states) is refused in one line (the "
                                    "automotive profile's: they make the given drives worse, c.13.3); allow runs them",

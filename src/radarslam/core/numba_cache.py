@@ -33,7 +33,7 @@ COMPILED_SOURCES = (
     "models/_doppler_compiled.py", "slam/fused/doppler.py", "models/input_bias.py", "slam/fused/bias.py",
     "slam/view_kernels.py", "slam/_view_compiled.py", "slam/fused/view.py", "extent/partial_view_jac.py",
     "extent/rows.py", "slam/sensor_frame.py", "slam/fused/sensor.py", "slam/scan_frame.py", "slam/radar_time.py",
-    "slam/radar_yaw.py",
+    "slam/radar_yaw.py", "slam/consider.py",
 )
 ROOT = Path(__file__).resolve().parents[1]
 #: The ending of radarslam's own markers of what numba's cache holds (:mod:`radarslam.compiling.markers`),

@@ -30,10 +30,11 @@ def refuse_online_car_states(config: Config) -> None:
     without them, with the radars calibrated from another drive too)."""
     f = config.filter
     on = [k for k in ("bias_thrust", "radar_yaw_states", "radar_time_states") if getattr(f, k)]
-    if f.online_car_states == "refuse" and f.odometry_bias == "states" and on:
+    if f.online_car_states == "refuse" and f.odometry_bias == "states" and on and f.car_states == "estimate":
         raise ConfigError(f"filter.{', filter.'.join(on)}: refused under profile 'automotive': on the four given "
                           "nuScenes scenes the car's online states make every run worse than the profile without them "
                           "(scene-0061 0.47 -> 2.06 m; the landmarks teach them wrong values, docs/method.md c.13.3); "
+                          "filter.car_states = 'consider' carries them in the covariance without learning them, "
                           "filter.online_car_states = 'allow' runs them anyway")
 
 

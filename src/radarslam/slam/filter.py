@@ -27,7 +27,6 @@ from radarslam.core.errors import ConfigError, InputError
 from radarslam.core.registry import ASSOCIATORS, EXTENT_ESTIMATORS
 from radarslam.models.radar import RangeAzimuthModel
 from radarslam.core.types import Odometry, Scan
-from radarslam.core.validation import as_array
 from radarslam.landmarks.clustering import Cluster
 from radarslam.landmarks.steps import next_merge, removal_step, rule2_step
 from radarslam.landmarks.sifting import sift
@@ -39,12 +38,15 @@ from radarslam.slam.bias import (bias_states, control_noise, initial_state, meas
                                  turn_noise, turn_noise_gain2, turn_noise_index)
 from radarslam.core.mounting import ORIGIN
 from radarslam.slam.doppler_gate import DopplerGate
-from radarslam.slam import sensor_frame
+from radarslam.slam import consider, sensor_frame
 from radarslam.slam.radar_time import pose_rate, radar_time_states
 from radarslam.slam.radar_yaw import radar_yaw_states
-from radarslam.slam.scan_frame import measured_from
+from radarslam.slam.scan_frame import NO_FRAME, frame_args, measured_from, rehold
 from radarslam.slam.view_offset import view_offset_k
 from radarslam.slam.map_rows import MapSnapshot, RetiredMap, retire_radius, state_rows
+from radarslam.core.validation import as_array
+from radarslam.slam.event_input import check_finite, finite_number, scan_polar
+from radarslam.slam.layout import POSE_DIM
 from radarslam.slam.kernels import cluster_kernel as _cluster_kernel, step_kernels as _step_kernels
 from radarslam.slam.odometry_source import odometry_source
 from radarslam.slam.partial_view import view_components, view_corrected_centroid, view_walk
@@ -128,6 +130,9 @@ class EkfSlam:
         self.bias_model = bias_states(self.model if f.odometry == "odometer" else BodyVelocityModel(), f,
                                       radar_yaw_states(config), radar_time_states(config))   # c.13.1-2, if asked
         self.state = initial_state(f, self.bias_model)
+        #: c.13.4: the end of the block held by the Schmidt-Kalman update (filter.car_states "consider": every
+        #: platform state after the pose), POSE_DIM when nothing is held.
+        self.held_end = self.state.platform_dim if f.car_states == "consider" else POSE_DIM
         #: FEJ: the first estimate of the current pose (the last prediction, or the initial pose).
         self._pose_first = self.state.pose if self.fej else None
         if self.fej:
@@ -229,7 +234,7 @@ class EkfSlam:
         if not (type(u) is np.ndarray and u.dtype == np.float64 and u.shape == (2,)   # the loaders' form
                 and math.isfinite(u[0]) and math.isfinite(u[1])):
             u = as_array("odometry.control", u, (2,))
-        dt = _number(odo.dt, "odometry.dt")
+        dt = finite_number(odo.dt, "odometry.dt")
         if not dt > 0:
             raise InputError(f"odometry.dt: expected a finite value > 0, got {odo.dt!r}")
         st = self.state
@@ -240,7 +245,7 @@ class EkfSlam:
                                            self._pose_first)
         # only the pose rows change (c.2): check them, then write them in place (O(N), no copy of P)
         if not (np.isfinite(pose).all() and np.isfinite(Ppp).all() and np.isfinite(Ppl).all()):
-            _check_finite(pose, np.concatenate([Ppp.ravel(), Ppl.ravel()]),
+            check_finite(pose, np.concatenate([Ppp.ravel(), Ppl.ravel()]),
                           f"odometry at t={odo.t!r} (control {u.tolist()}, dt {dt!r})")
         ekf.apply_prediction(st.x, st.P, pose, Ppp, Ppl)
         if self.fej:
@@ -258,8 +263,8 @@ class EkfSlam:
             scan time earlier than the previous scan's; after the steps, if the scan made the state
             non-finite (the filter is then not to be used further).
         """
-        polar = _scan_polar(scan)
-        t = _number(scan.t, "scan.t")
+        polar = scan_polar(scan)
+        t = finite_number(scan.t, "scan.t")
         if self._last_scan_t is not None and t < self._last_scan_t:
             raise InputError(f"scan.t: expected scan times that do not go backwards, got {t!r} after "
                              f"{self._last_scan_t!r} (scan {scan.index})")
@@ -269,12 +274,21 @@ class EkfSlam:
         f = self.config.filter
         self._view = (f.max_range_m if sen is None or sen.max_range_m is None else sen.max_range_m,
                       math.radians(f.field_of_view_deg) / 2 if sen is None or sen.fov_rad is None else sen.fov_rad / 2)
+        self._held = consider.held(self.state.x, self.state.P, POSE_DIM, self.held_end)   # c.13.4
+        self._frame = None
+        report = self._measured(scan, polar, mount, sen)
+        consider.restore(self.state.x, self.state.P, *self._held, POSE_DIM)                 # c.13.4
+        return report
+
+    def _measured(self, scan: Scan, polar: np.ndarray, mount, sen) -> ScanReport:
+        """:meth:`_steps` with the state's pose block the scan's radar's at its measurement (c.13-c.13.2)."""
         bm = self.bias_model
         yaw, tau = (None, None) if sen is None or bm is None else (bm.yaw_index(sen.sensor_id), bm.time_index(sen.sensor_id))
         if mount is None and yaw is None and tau is None:
             return self._steps(scan, polar, mount)
         mount, first = mount or ORIGIN, self._pose_first  # c.13-c.13.2: the scan from its radar at its time
         rate = None if tau is None else pose_rate(bm, self.model, self.state.x, self._last_u)
+        self._frame = frame_args(mount, yaw, tau, rate)
         with measured_from(self.state, mount, yaw, tau, rate, first if self.fej else None) as lin:
             self._pose_first = lin if self.fej else first
             try:
@@ -298,6 +312,8 @@ class EkfSlam:
             self.state.lin_pose = self._pose_first.copy()
         cand = self._sift(polar, prior)                                   # 3
         assoc, nis = self._associate_and_update(polar, cand)              # 4
+        if self.held_end > POSE_DIM:                                      # c.13.4: back to the held states
+            rehold(self.state.x, self.state.P, *self._held, POSE_DIM, self._frame is not None, *(self._frame or NO_FRAME))
         associations = {lid: (np.array(a, dtype=int) if keep is None else keep[a])
                         for lid, a in zip(self.state.ids().tolist(), assoc) if a}
         removed, assoc = self._remove_unseen(assoc, k)                    # 5
@@ -309,7 +325,7 @@ class EkfSlam:
             fresh = self._gate.veto(fresh, xy)                            # c.10.4.3
         confirmed, members = self._confirm_and_augment(fresh, polar, k)   # 8-9
         merged = self._merge()                                            # 10
-        _check_finite(self.state.x, self.state.P, f"scan {k} (t={scan.t!r}, {polar.shape[0]} detections)")
+        check_finite(self.state.x, self.state.P, f"scan {k} (t={scan.t!r}, {polar.shape[0]} detections)")
         n_assoc = sum(a.size for a in associations.values())
         created = {i: (m if keep is None else keep[m]) for i, m in zip(confirmed, members)}
         return ScanReport(k, polar.shape[0] + moving.size, int(cand.sum()), n_assoc, associations, removed,
@@ -455,35 +471,7 @@ class EkfSlam:
         return merged
 
 
-def _number(value, name: str) -> float:
-    """``value`` as a finite float, or an :class:`InputError` naming ``name``."""
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{name}: expected a finite number, got {value!r}") from None
-    if not math.isfinite(v):
-        raise InputError(f"{name}: expected a finite number, got {value!r}")
-    return v
-
-
-def _check_finite(x: np.ndarray, P: np.ndarray, what: str) -> None:
-    """Never hand back a non-finite state: name the input that produced one."""
-    if not (np.all(np.isfinite(x)) and np.all(np.isfinite(P))):
-        raise InputError(f"{what}: expected an input that keeps the state finite, got one that makes it non-finite")
-
-
 def _readonly(a: np.ndarray) -> np.ndarray:
     v = a.view()
     v.flags.writeable = False
     return v
-
-
-def _scan_polar(scan: Scan) -> np.ndarray:
-    """The scan's detections as a checked ``(m, 2)`` float array (finite numbers, ranges >= 0)."""
-    polar = scan.polar
-    if np.size(polar) == 0:
-        return np.empty((0, 2))
-    polar = as_array("scan.polar", polar, (None, 2))
-    if np.any(polar[:, 0] < 0):
-        raise InputError(f"scan.polar: expected ranges >= 0, got min {polar[:, 0].min()}")
-    return polar

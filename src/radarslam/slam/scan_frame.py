@@ -17,11 +17,23 @@ from contextlib import contextmanager
 
 import numpy as np
 
+from radarslam.slam.consider import restore
 from radarslam.slam.radar_time import enter_time, leave_time
 from radarslam.slam.radar_yaw import enter_yaw, leave_yaw
 from radarslam.slam.sensor_frame import sensor_pose, state_to_platform_kernel, state_to_sensor_kernel
 
-__all__ = ["enter_frame", "frame_first", "leave_frame", "measured_from"]
+__all__ = ["NO_FRAME", "enter_frame", "frame_args", "frame_first", "leave_frame", "measured_from", "rehold"]
+
+#: :func:`enter_frame`'s arguments after the pose block for a scan measured from the platform itself.
+NO_FRAME = (0.0, 0.0, 0.0, -1, -1, np.zeros(3))
+
+
+def frame_args(mount, yaw, tau, rate) -> tuple:
+    """:func:`enter_frame`'s arguments after the pose block: the mounting ``mount`` (a
+    :class:`~radarslam.core.mounting.Mounting`), the yaw and time offsets' state indices (None: not
+    states) and the pose's rate (None: zeros)."""
+    return (float(mount.x), float(mount.y), float(mount.yaw), -1 if yaw is None else int(yaw),
+            -1 if tau is None else int(tau), np.zeros(3) if rate is None else np.asarray(rate, dtype=float))
 
 def enter_frame(x, P, mx, my, myaw, yaw, tau, rate):
     """The pose block of ``(x, P)`` (in place) becomes the radar's pose at its measurement: moved along
@@ -41,6 +53,18 @@ def leave_frame(x, P, mx, my, myaw, yaw, tau, rate):
     state_to_platform_kernel(x, P, mx, my, myaw)
     if tau >= 0:
         leave_time(x, P, tau, rate)
+
+
+def rehold(x, P, xc, Pcc, lo, in_frame, mx, my, myaw, yaw, tau, rate):
+    """c.13.4 after the scan's update: the held states ``x[lo:lo + len(xc)]`` put back to ``(xc, Pcc)``
+    in the platform's coordinates (in place): the frame left with the offsets as the update moved
+    them, the held mean and block restored, the frame entered again (``in_frame``: the scan is in
+    its radar's frame, :func:`enter_frame`'s arguments follow). A kernel."""
+    if in_frame:
+        leave_frame(x, P, mx, my, myaw, yaw, tau, rate)
+    restore(x, P, xc, Pcc, lo)
+    if in_frame:
+        enter_frame(x, P, mx, my, myaw, yaw, tau, rate)
 
 
 def frame_first(first, x, mx, my, myaw, yaw, tau, rate):
@@ -63,8 +87,7 @@ def measured_from(state, mount, yaw: int | None, tau: int | None, rate, first):
     offset's ``tau`` (None: not states) with the pose's rate ``rate`` (3,). Yields the first estimate
     of that pose from the platform's first estimate ``first`` (first-estimates Jacobians, c.2.1), or
     None when ``first`` is None."""
-    args = (float(mount.x), float(mount.y), float(mount.yaw), -1 if yaw is None else int(yaw),
-            -1 if tau is None else int(tau), np.zeros(3) if rate is None else np.asarray(rate, dtype=float))
+    args = frame_args(mount, yaw, tau, rate)
     enter_frame(state.x, state.P, *args)
     lin = None if first is None else frame_first(np.asarray(first, dtype=float), state.x, *args)
     try:

@@ -26,7 +26,7 @@ from radarslam.slam.fused.bias import predict_step
 from radarslam.slam.fused.extent import extent_step
 from radarslam.slam.fused.gate import moving_young, remember, veto
 from radarslam.slam.fused.mapping import alpha_test, augment, cluster, confirm, merge
-from radarslam.slam.fused.sensor import enter_sensor, leave_sensor, scan_rate
+from radarslam.slam.fused.sensor import enter_sensor, held, leave_sensor, rehold, scan_rate
 from radarslam.slam.fused.storage import (
     _all_finite,
     _blocks,
@@ -155,6 +155,7 @@ def engine(family: Family):
             k = stream.scan_k[s]
             first_platform = pose_first
             rate = scan_rate(x, u_last, cfg) if bias and has_u and stream.tau_i[s] >= 0 else no_rate  # c.13.2
+            x_held, P_held = held(x, P, POSE_DIM, cfg.held_end)                         # c.13.4
             pose_first = enter_sensor(x, P, stream, s, pose_first, rate)              # c.13: its radar, its time
             if cfg.doppler_gate and stream.remember[s]:                                # c.10.4.3
                 seen = stream.seen[stream.seen_off[s]:stream.seen_off[s + 1]]
@@ -167,6 +168,7 @@ def engine(family: Family):
             cidx = np.flatnonzero(cand)
             x, P, out, nis = associate_step(x, P, polar, cidx, lm, N, pose_first, shapes, terms, noise, cfg,
                                             view, jcbb)                                # 4
+            rehold(x, P, x_held, P_held, stream, s, rate)                              # c.13.4
             n_assoc, aoff, arow, a_rows, n_arows = group_associations(out, cidx, N, lm.ids, s, a_rows, n_arows)
             young = moving_young(x, lm, N, k, mem, n_now, cfg)                        # c.10.4.4
             x, P, N, old, retired, n_retired = remove_unseen(x, P, lm, N, aoff, k, young, stream.sensor_view[s],
@@ -180,7 +182,7 @@ def engine(family: Family):
             confirmed, tent = confirm(tent, fresh, clusters, xy, cfg)                  # 8
             x, P, lm, N, next_id = augment(x, P, lm, N, next_id, confirmed, clusters, polar, k, noise, cfg)  # 9
             x, P, lm, N = merge(x, P, lm, N, arcs, cfg)                                # 10
-            leave_sensor(x, P, stream, s, rate)                                        # c.13
+            leave_sensor(x, P, stream, s, rate, x_held, P_held)                        # c.13, c.13.4
             pose_first = first_platform
             if not _all_finite(x, P):
                 status[0], status[1] = BAD_SCAN, ev

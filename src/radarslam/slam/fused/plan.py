@@ -100,6 +100,7 @@ class FusedParams(NamedTuple):
     bias_thrust: int       #: the thrust angle's index among the bias states, -1 none (BiasStates.thrust_index)
     bias_drift: np.ndarray   #: (m,) the bias states' drift per sqrt(s) (BiasStates.drift)
     bias_tau: float        #: their time constant, 0 for a random walk (filter.bias_tau_s)
+    held_end: int          #: filter.car_states "consider": the platform block's end (c.13.4), else 3 (none held)
     pv: ViewParams         #: the partial-view model's parameters (docs/method.md a.12; fused.view)
 
 
@@ -233,6 +234,7 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
         gate_probation=int(f.doppler_probation_scans), gate_radius=float(f.doppler_memory_radius_m),
         turn_index=-1 if slam._turn_k[0] is None else int(slam._turn_k[0]), turn_gain2=float(slam._turn_k[1]),
         noise_ref=float(slam._noise_ref), offset_k=float(slam._offset_k),
+        held_end=int(slam.held_end),
         **_bias_parameters(slam.bias_model),
         pv=view_parameters(slam),
     )

@@ -8,6 +8,7 @@ import numpy as np
 from numba import njit
 
 from radarslam.core.jit import compile_kernels, compiled_only
+from radarslam.slam import consider as _cs
 from radarslam.slam import radar_time as _rt
 from radarslam.slam import radar_yaw as _ry
 from radarslam.slam import scan_frame as _sc
@@ -19,9 +20,12 @@ from radarslam.slam.layout import POSE_DIM
 
 _K = compile_kernels(_sf.lever_column, _sf.sensor_pose, _sf.platform_pose, _sf.shear, _sf.state_to_sensor_kernel,
                      _sf.state_to_platform_kernel, _rt.enter_time, _rt.leave_time, _ry.enter_yaw, _ry.leave_yaw,
-                     _sc.enter_frame, _sc.leave_frame, _sc.frame_first, _turned_step, _rt.rate_of_step)
+                     _sc.enter_frame, _sc.leave_frame, _sc.frame_first, _turned_step, _rt.rate_of_step, _cs.held,
+                     _cs.restore, _sc.rehold)
 _enter_frame, _leave_frame, _frame_first, _rate_of_step = (_K["enter_frame"], _K["leave_frame"], _K["frame_first"],
                                                            _K["rate_of_step"])
+#: c.13.4's Schmidt-Kalman hold of the car's states over a scan (:mod:`radarslam.slam.consider`).
+held, restore, _rehold = _K["held"], _K["restore"], _K["rehold"]
 
 
 @njit(cache=True, inline="always")
@@ -50,8 +54,21 @@ def enter_sensor(x, P, stream, s, pose_first, rate):  # pragma: no cover - compi
 
 
 @compiled_only
-def leave_sensor(x, P, stream, s, rate):  # pragma: no cover - compiled
-    """After scan ``s``: the inverse of :func:`enter_sensor` (in place)."""
+def leave_sensor(x, P, stream, s, rate, x_held, P_held):  # pragma: no cover - compiled
+    """After scan ``s``: the inverse of :func:`enter_sensor` (in place), then the held states put back
+    (c.13.4; ``held``'s copies, empty when none are held)."""
     if stream.has_mount[s] or stream.yaw_i[s] >= 0 or stream.tau_i[s] >= 0:
         m = stream.mount[s]
         _leave_frame(x, P, m[0], m[1], m[2], stream.yaw_i[s], stream.tau_i[s], rate)
+    restore(x, P, x_held, P_held, POSE_DIM)
+
+
+@compiled_only
+def rehold(x, P, x_held, P_held, stream, s, rate):  # pragma: no cover - compiled
+    """c.13.4 after scan ``s``'s update: the held states put back in the platform's coordinates
+    (:func:`radarslam.slam.scan_frame.rehold`, in place); nothing when none are held."""
+    if x_held.shape[0] == 0:
+        return
+    m = stream.mount[s]
+    in_frame = stream.has_mount[s] or stream.yaw_i[s] >= 0 or stream.tau_i[s] >= 0
+    _rehold(x, P, x_held, P_held, POSE_DIM, in_frame, m[0], m[1], m[2], stream.yaw_i[s], stream.tau_i[s], rate)

@@ -79,7 +79,7 @@ def _stream_arrays_checked(events, defer_polar: bool, slam=None) -> Stream:
     from radarslam.core.errors import InputError
     from radarslam.core.types import Odometry, Scan
     from radarslam.core.validation import as_array
-    from radarslam.slam.filter import _number, _scan_polar
+    from radarslam.slam.event_input import finite_number as _number, scan_polar as _scan_polar
 
     src, gate = (copy.deepcopy(slam._odometry), copy.deepcopy(slam._gate)) if slam is not None else (None, None)
     # c.10.4, c.10.5: the whole stream's classification or fits in one compiled call where the scans allow it
