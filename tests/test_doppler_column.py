@@ -122,3 +122,25 @@ def test_the_cli_refuses_a_negated_column_in_one_line_and_takes_doppler_sign(tmp
     assert not (tmp_path / "a" / "run.json").exists()
     assert main(args + ["--doppler-sign", "-1", "--out", str(tmp_path / "b")]) == 0
     assert (tmp_path / "b" / "run.json").exists()
+
+
+def test_a_scaled_column_is_divided_by_its_doppler_scale(rec):
+    """``[sensor] doppler_scale`` (docs/method.md c.16.5): a column reading 0.99 of the radial speed,
+    divided by 0.99 when read, is the exact column again, and its consensus the odometry's speed;
+    left at 1 (the negative control) it reads 1% low. Out of range: refused in one line."""
+    from radarslam.config import profile_config
+    from radarslam.runs.recording import checked_doppler
+
+    exact = rec.channels["doppler_mps"]
+    low = _column(rec, 0.99 * exact)
+    cfg = profile_config()
+    fixed = checked_doppler(low, dataclasses.replace(cfg, sensor=dataclasses.replace(cfg.sensor, doppler_scale=0.99)),
+                            None)
+    np.testing.assert_allclose(fixed.channels["doppler_mps"], exact, rtol=1e-12)
+    assert doppler_consensus(fixed, None, np.random.default_rng(0)).ratio == pytest.approx(1.0, abs=1e-6)
+    assert doppler_consensus(checked_doppler(low, cfg, None), None, np.random.default_rng(0)).ratio == \
+        pytest.approx(0.99, abs=1e-6)
+    for bad in (0.0, -1.0, math.nan):
+        with pytest.raises(InputError, match=r"^sensor.doppler_scale: expected a finite number > 0, got "):
+            from radarslam.egomotion.doppler_column import with_doppler_scale
+            with_doppler_scale(low, bad)

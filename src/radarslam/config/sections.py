@@ -403,6 +403,10 @@ class SensorConfig:
                               "velocity, docs/recordings.md \"Doppler\"), -1 for a column stored approaching-positive "
                               "(multiplied by -1 when read); a column whose static consensus disagrees with the "
                               "odometry's speed is refused", choices=(1, -1))
+    doppler_scale: float = param(1.0, "[PROP] what the recording's Doppler column reads of the radial speed: the column "
+                                 "is divided by it (a 2-D radar reads v cos(elevation) of a target above or below "
+                                 "its plane, < 1; docs/method.md c.16.5); a calibration with its own (reference "
+                                 "truth) replaces it", low=0.5, high=1.5)
     gyro_bias_from_rest: bool = param(True, "[PROP] 3-D recordings run as SLAM: subtract the gyro's mean over the "
                                       "scans at rest before the first motion (its bias; c.10.6)")
 

@@ -22,7 +22,7 @@ import numpy as np
 from radarslam.core.errors import InputError
 
 __all__ = ["DopplerConsensus", "MIN_MOVING_SWEEPS", "MOVING_MPS", "check_doppler_column", "doppler_consensus",
-           "with_doppler_sign"]
+           "with_doppler_scale", "with_doppler_sign"]
 
 #: A sweep counts as moving when the odometry's speed there is above this (m/s): at 2 m/s a raw
 #: column's consensus is 2 m/s, 20 times the nuScenes fit's 0.1 m/s scatter (c.12.6).
@@ -73,6 +73,19 @@ def with_doppler_sign(rec, sign: int):
     if sign == 1 or d is None:
         return rec
     return dataclasses.replace(rec, channels={**rec.channels, "doppler_mps": -np.asarray(d, dtype=float)})
+
+
+def with_doppler_scale(rec, scale: float):
+    """``rec`` with ``channels['doppler_mps']`` divided by ``scale`` (``[sensor] doppler_scale``, what the
+    column reads of the radial speed, docs/method.md c.16.5); ``rec`` itself for 1 or without the column."""
+    import dataclasses
+
+    if not (math.isfinite(scale) and scale > 0):
+        raise InputError(f"sensor.doppler_scale: expected a finite number > 0, got {scale!r}")
+    d = rec.channels.get("doppler_mps")
+    if scale == 1.0 or d is None:
+        return rec
+    return dataclasses.replace(rec, channels={**rec.channels, "doppler_mps": np.asarray(d, dtype=float) / scale})
 
 
 def doppler_consensus(rec, mounting, rng: np.random.Generator | None = None) -> DopplerConsensus:

@@ -177,14 +177,14 @@ def with_rig(rec: Recording, config: Config) -> Config:
 
 
 def checked_doppler(rec: Recording, config: Config, mounting: Mounting) -> Recording:
-    """``rec`` with its Doppler column signed by ``sensor.doppler_sign``, refused in one line when its
-    static consensus says it is negated or ego-compensated against the odometry
-    (egomotion/doppler_column.py)."""
+    """``rec`` with its Doppler column signed by ``sensor.doppler_sign`` and divided by
+    ``sensor.doppler_scale`` (c.16.5), refused in one line when its static consensus says it is negated
+    or ego-compensated against the odometry (egomotion/doppler_column.py)."""
     from pathlib import Path
 
-    from radarslam.egomotion.doppler_column import check_doppler_column, with_doppler_sign
+    from radarslam.egomotion.doppler_column import check_doppler_column, with_doppler_scale, with_doppler_sign
 
-    rec = with_doppler_sign(rec, config.sensor.doppler_sign)
+    rec = with_doppler_scale(with_doppler_sign(rec, config.sensor.doppler_sign), config.sensor.doppler_scale)
     src = Path(str(rec.source))
     where = str(src / "detections.csv") if src.is_dir() else str(rec.source)
     check_doppler_column(rec, mounting, where)
@@ -210,6 +210,8 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
     if calibration is not None:
         from radarslam.egomotion.car_calibration import apply_calibration
 
+        if calibration.reference == "truth":             # c.16.5: its own Doppler scale replaces the config's
+            config = dataclasses.replace(config, sensor=dataclasses.replace(config.sensor, doppler_scale=1.0))
         run = run_recording(apply_calibration(rec, calibration), config, on_scan=on_scan, first_run=first_run,
                             start=start, align=align)
         return _in_car_frame(run, rec, calibration, align)
