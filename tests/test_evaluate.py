@@ -86,6 +86,8 @@ def test_each_row_is_the_metrics_json_that_run_writes_for_its_scene(evaluated, r
         assert r["ratio_heading"] == m["ratio_to_dead_reckoning"]["heading_rmse"]
         assert r["nees_time_average"] == m["pose_nees"]["time_average"]
         assert r["nees_share_inside"] == m["pose_nees"]["share_inside_band"]
+        for k in ("along_track", "cross_track", "heading"):
+            assert r[f"nees_{k}"] == m["pose_nees"]["components"][k]["time_average"] and np.isfinite(r[f"nees_{k}"])
         assert r["ego_speed_rmse_mps"] == m["ego_velocity"]["against_odometry"]["speed_mps"]["rmse"]
         assert r["ego_yaw_rate_rmse_deg_s"] == m["ego_velocity"]["against_odometry"]["yaw_rate_deg_s"]["rmse"]
         assert r["seconds"] == run["wall_seconds"] and r["road_users_in_map"] is None    # nuScenes: no labels

@@ -24,6 +24,10 @@ COLUMNS = (
     ("ratio_heading", "metrics.json ratio_to_dead_reckoning.heading_rmse", ".3f"),
     ("nees_time_average", "metrics.json pose_nees.time_average (3 for a consistent filter)", ".2f"),
     ("nees_share_inside", "metrics.json pose_nees.share_inside_band (0.95 for a consistent filter)", ".3f"),
+    ("nees_along_track", "metrics.json pose_nees.components.along_track.time_average (1 for a consistent filter)",
+     ".2f"),
+    ("nees_cross_track", "metrics.json pose_nees.components.cross_track.time_average (1)", ".2f"),
+    ("nees_heading", "metrics.json pose_nees.components.heading.time_average (1)", ".2f"),
     ("ego_speed_rmse_mps", "metrics.json ego_velocity.against_odometry.speed_mps.rmse", ".3f"),
     ("ego_yaw_rate_rmse_deg_s", "metrics.json ego_velocity.against_odometry.yaw_rate_deg_s.rmse", ".3f"),
     ("road_users_in_map", "metrics.json moving_scores.road_user_updated (labelled road users' detections that "
@@ -55,6 +59,8 @@ def row_from_outputs(name: str, metrics: dict, run: dict) -> dict:
               "ratio_heading": _get(metrics, "ratio_to_dead_reckoning", "heading_rmse"),
               "nees_time_average": _get(metrics, "pose_nees", "time_average"),
               "nees_share_inside": _get(metrics, "pose_nees", "share_inside_band"),
+              **{f"nees_{k}": _get(metrics, "pose_nees", "components", k, "time_average")
+                 for k in ("along_track", "cross_track", "heading")},
               "ego_speed_rmse_mps": _get(ego, "speed_mps", "rmse"),
               "ego_yaw_rate_rmse_deg_s": _get(ego, "yaw_rate_deg_s", "rmse"),
               "road_users_in_map": _get(metrics, "moving_scores", "road_user_updated"),
