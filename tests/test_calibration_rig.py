@@ -104,3 +104,27 @@ def test_the_online_car_states_are_refused_under_the_automotive_profile(key, tmp
     refuse_online_car_states(dataclasses.replace(ref, filter=dataclasses.replace(ref.filter, odometry_bias="states",
                                                                                  **{key: True})))
     refuse_online_car_states(cfg)                                           # the profile itself runs
+
+
+@pytest.mark.skipif(not SHARED.is_dir(), reason="needs ../shared/data/nuscenes_radar")
+def test_a_truth_calibrations_doppler_scale_replaces_the_configs():
+    """docs/method.md c.16.5: under a calibration of reference truth (which brings its own Doppler
+    scale) the run is the same whatever ``[sensor] doppler_scale`` says; under one of reference rig
+    (no scale of its own) the setting applies, and the run differs (the negative control)."""
+    import numpy as np
+
+    from radarslam.config import profile_config
+    from radarslam.io.recording import read_recording
+    from radarslam.runs.recording import run_recording
+
+    rec = read_recording(SHARED / "scene-0103")
+    rig = [(m.x, m.y, m.yaw) for _, m in sorted(rec.sensors.items())]
+    base = dataclasses.replace(_calibration(rig), sensor_ids=tuple(sorted(rec.sensors)))
+    cfg = profile_config("automotive")
+    scaled = dataclasses.replace(cfg, sensor=dataclasses.replace(cfg.sensor, doppler_scale=0.99))
+    for reference, same in (("truth", True), ("rig", False)):
+        cal = dataclasses.replace(base, reference=reference, doppler_scale=0.995 if reference == "truth" else 1.0)
+        a, b = (run_recording(rec, c, calibration=cal).poses for c in (cfg, scaled))
+        assert np.array_equal(a, b) is same, reference
+        if not same:
+            assert np.abs(a[:, :2] - b[:, :2]).max() > 0.01
