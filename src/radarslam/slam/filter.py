@@ -289,7 +289,7 @@ class EkfSlam:
         mount, first = mount or ORIGIN, self._pose_first  # c.13-c.13.2: the scan from its radar at its time
         rate = None if tau is None else pose_rate(bm, self.model, self.state.x, self._last_u)
         self._frame = frame_args(mount, yaw, tau, rate)
-        with measured_from(self.state, mount, yaw, tau, rate, first if self.fej else None) as lin:
+        with measured_from(self.state, self._frame, first if self.fej else None) as lin:
             self._pose_first = lin if self.fej else first
             try:
                 return self._steps(scan, polar, mount)

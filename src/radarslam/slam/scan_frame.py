@@ -81,13 +81,11 @@ def frame_first(first, x, mx, my, myaw, yaw, tau, rate):
 
 
 @contextmanager
-def measured_from(state, mount, yaw: int | None, tau: int | None, rate, first):
-    """Within the block, ``state``'s pose block is the radar's pose at its measurement: ``mount`` (a
-    :class:`~radarslam.core.mounting.Mounting`), the yaw offset's state index ``yaw`` and the time
-    offset's ``tau`` (None: not states) with the pose's rate ``rate`` (3,). Yields the first estimate
-    of that pose from the platform's first estimate ``first`` (first-estimates Jacobians, c.2.1), or
-    None when ``first`` is None."""
-    args = frame_args(mount, yaw, tau, rate)
+def measured_from(state, args: tuple, first):
+    """Within the block, ``state``'s pose block is the radar's pose at its measurement, ``args`` the
+    frame's (:func:`frame_args`: the mounting, the yaw and time offsets' state indices, the pose's
+    rate). Yields the first estimate of that pose from the platform's first estimate ``first``
+    (first-estimates Jacobians, c.2.1), or None when ``first`` is None."""
     enter_frame(state.x, state.P, *args)
     lin = None if first is None else frame_first(np.asarray(first, dtype=float), state.x, *args)
     try:

@@ -39,6 +39,13 @@ def scan_rate(x, u, cfg):  # pragma: no cover - compiled
     return _rate_of_step(x[:POSE_DIM].copy(), nxt, b[cfg.bias_thrust] if turned else 0.0, turned, _rt.RATE_STEP_S)
 
 
+@njit(cache=True, inline="always")
+def _in_frame(stream, s):  # pragma: no cover - compiled
+    """Whether scan ``s`` is measured in its radar's frame: a mounting of its own, or its radar's yaw or
+    time offset a state."""
+    return stream.has_mount[s] or stream.yaw_i[s] >= 0 or stream.tau_i[s] >= 0
+
+
 @compiled_only
 def enter_sensor(x, P, stream, s, pose_first, rate):  # pragma: no cover - compiled
     """Before scan ``s``: the pose block of ``(x, P)`` becomes its radar's at its measurement (in place)
@@ -46,7 +53,7 @@ def enter_sensor(x, P, stream, s, pose_first, rate):  # pragma: no cover - compi
     mounting's :meth:`~radarslam.core.mounting.Mounting.as_array`) or its radar has a yaw or time
     offset state (``stream.yaw_i[s]``, ``stream.tau_i[s]``, -1 for none; ``rate`` the pose's rate);
     returns the FEJ first estimate moved likewise."""
-    if not (stream.has_mount[s] or stream.yaw_i[s] >= 0 or stream.tau_i[s] >= 0):
+    if not _in_frame(stream, s):
         return pose_first
     m = stream.mount[s]
     _enter_frame(x, P, m[0], m[1], m[2], stream.yaw_i[s], stream.tau_i[s], rate)
@@ -57,7 +64,7 @@ def enter_sensor(x, P, stream, s, pose_first, rate):  # pragma: no cover - compi
 def leave_sensor(x, P, stream, s, rate, x_held, P_held):  # pragma: no cover - compiled
     """After scan ``s``: the inverse of :func:`enter_sensor` (in place), then the held states put back
     (c.13.4; ``held``'s copies, empty when none are held)."""
-    if stream.has_mount[s] or stream.yaw_i[s] >= 0 or stream.tau_i[s] >= 0:
+    if _in_frame(stream, s):
         m = stream.mount[s]
         _leave_frame(x, P, m[0], m[1], m[2], stream.yaw_i[s], stream.tau_i[s], rate)
     restore(x, P, x_held, P_held, POSE_DIM)
@@ -70,5 +77,4 @@ def rehold(x, P, x_held, P_held, stream, s, rate):  # pragma: no cover - compile
     if x_held.shape[0] == 0:
         return
     m = stream.mount[s]
-    in_frame = stream.has_mount[s] or stream.yaw_i[s] >= 0 or stream.tau_i[s] >= 0
-    _rehold(x, P, x_held, P_held, POSE_DIM, in_frame, m[0], m[1], m[2], stream.yaw_i[s], stream.tau_i[s], rate)
+    _rehold(x, P, x_held, P_held, POSE_DIM, _in_frame(stream, s), m[0], m[1], m[2], stream.yaw_i[s], stream.tau_i[s], rate)
