@@ -78,3 +78,45 @@ def compiled_only(func):
                         targetoptions={"nopython": True, "no_cpython_wrapper": True, "no_cfunc_wrapper": True})
     disp.enable_caching()
     return disp
+
+
+def _global_names(code) -> set[str]:
+    """The global names ``code`` and the code objects nested in it (comprehensions, inner functions) read."""
+    names = set(code.co_names)
+    for const in code.co_consts:
+        if isinstance(const, types.CodeType):
+            names |= _global_names(const)
+    return names
+
+
+def uncompiled(fn, keep=None):
+    """``fn`` (a numba dispatcher) as Python: the same code object over a copy of its globals and
+    closure in which every compiled function it calls is itself uncompiled, recursively, so that
+    the whole call graph runs in the interpreter on the same arithmetic (the reference the
+    compiled code is checked against; docs/architecture.md "Backends").
+
+    ``keep(dispatcher)`` True leaves that callee compiled (called through numba's Python entry
+    point); ``fn`` itself, and a :func:`compiled_only` function (which has none), are always
+    uncompiled. Default: nothing is kept. Each function is cloned once per call of ``uncompiled``."""
+    memo: dict[int, types.FunctionType] = {}
+
+    def python_form(disp, root=False):
+        if not root and keep is not None and not isinstance(disp, CompiledOnly) and keep(disp):
+            return disp
+        f = disp.py_func
+        if id(f) in memo:
+            return memo[id(f)]
+        g = dict(f.__globals__)
+        cells = f.__closure__
+        if cells:
+            cells = tuple(types.CellType(python_form(c.cell_contents)) if isinstance(c.cell_contents, CPUDispatcher)
+                          else c for c in cells)
+        clone = types.FunctionType(f.__code__, g, f.__name__, f.__defaults__, cells)
+        clone.__qualname__, clone.__module__, clone.__doc__ = f.__qualname__, f.__module__, f.__doc__
+        memo[id(f)] = clone
+        for name in _global_names(f.__code__) & g.keys():
+            if isinstance(g[name], CPUDispatcher):
+                g[name] = python_form(g[name])
+        return clone
+
+    return python_form(fn, root=True)

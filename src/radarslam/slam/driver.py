@@ -37,7 +37,9 @@ class FilterRecord:
     seconds : float
         Wall time of the filter alone.
     engine : str
-        Which engine ran it: ``"fused"`` (one compiled call) or ``"orchestrator"`` (per event).
+        Which engine ran it: ``"fused"`` (one compiled call), ``"orchestrator"`` (per event), or the
+        fused engine's code run by the interpreter, ``"fused-steps"`` (its steps in Python over
+        compiled kernels) or ``"fused-python"`` (all of it; :func:`radarslam.slam.fused.engine.form`).
     times : ndarray (K,)
         The scans' times (s).
     nis_rows : ndarray (u, 2)
@@ -67,8 +69,9 @@ class FilterRecord:
     bias_units: tuple[str, ...] = ()
 
 
-#: ``engine`` of :func:`run_filter`: the fused engine where it covers the configuration, or never.
-ENGINES = ("auto", "orchestrator")
+#: ``engine`` of :func:`run_filter`: the fused engine where it covers the configuration, or never; or
+#: the fused engine's own code as Python, above its compiled kernels or whole (the reference).
+ENGINES = ("auto", "orchestrator", "fused-steps", "fused-python")
 #: ``maps`` of :func:`drive`: the map after every scan, or after the last one only (a long recording).
 MAPS = ("all", "last")
 
@@ -101,7 +104,9 @@ def drive(config: Config, events: Sequence[Odometry | Scan], *, slam: EkfSlam | 
     runs a configuration the fused engine covers (:func:`radarslam.slam._fused.why_not`) in one
     compiled call, the same record (docs/architecture.md "The fused engine"), and
     ``engine="orchestrator"`` event by event whatever the configuration (the same associations,
-    values equal to 1e-9). ``maps="last"`` keeps the map after the last scan only."""
+    values equal to 1e-9). ``engine="fused-steps"`` and ``"fused-python"`` run the fused engine's own
+    code through the interpreter (its steps, or all of it; a configuration it does not cover is
+    refused). ``maps="last"`` keeps the map after the last scan only."""
     if engine not in ENGINES:
         raise ConfigError(f"engine: expected one of {', '.join(ENGINES)}, got {engine!r}")
     if maps not in MAPS:
@@ -109,8 +114,15 @@ def drive(config: Config, events: Sequence[Odometry | Scan], *, slam: EkfSlam | 
     t0 = time.perf_counter()
     if slam is None:
         slam = EkfSlam(config)
-        if engine == "auto" and _fused.why_not(slam, events) is None:
-            return _drive_fused(slam, events, observers, maps, on_scan, t0)
+        why = _fused.why_not(slam, events)
+        if engine.startswith("fused-") and why is not None:
+            raise ConfigError(f"engine: {engine!r} runs the fused engine's configurations only, got one it does not "
+                              f"cover ({why})")
+        if engine != "orchestrator" and why is None:
+            return _drive_fused(slam, events, observers, maps, on_scan, t0,
+                                engine.removeprefix("fused-") if engine.startswith("fused-") else "compiled")
+    elif engine.startswith("fused-"):
+        raise ConfigError(f"engine: {engine!r} runs a new filter, not the given slam; got slam and {engine!r}")
     return _drive_events(slam, events, observers, maps, on_scan, t0)
 
 
@@ -170,12 +182,13 @@ def fused_maps(result: dict, maps: str = "all") -> list[MapSnapshot]:
                         result["efa"][a:b], result["created"][a:b]) for a, b in bounds]
 
 
-def _drive_fused(slam: EkfSlam, events, observers, maps: str, on_scan, t0: float) -> FilterRecord:
-    """:func:`drive` by the fused engine (:mod:`radarslam.slam._fused`): the same record."""
+def _drive_fused(slam: EkfSlam, events, observers, maps: str, on_scan, t0: float,
+                 how: str = "compiled") -> FilterRecord:
+    """:func:`drive` by the fused engine (:mod:`radarslam.slam._fused`) in form ``how``: the same record."""
     scans = [ev for ev in events if isinstance(ev, Scan)]
     masks = [mk for mk in (o.scan_mask(scans) for o in observers) if mk is not None]
     trace = np.logical_or.reduce([np.asarray(mk, dtype=bool) for mk in masks]) if masks else None
-    r, arows = _fused.run(slam, events, all_maps=maps == "all", trace=trace)
+    r, arows = _fused.run(slam, events, all_maps=maps == "all", trace=trace, how=how)
     snaps = fused_maps(r, maps) if scans or maps == "all" else [slam.snapshot()]
     nis_rows = np.column_stack([np.repeat(np.arange(len(scans), dtype=float), r["nis_count"]), r["nis"]])
     bias = None
@@ -183,7 +196,7 @@ def _drive_fused(slam: EkfSlam, events, observers, maps: str, on_scan, t0: float
         bias = np.concatenate([r["bias"], np.sqrt(np.diagonal(r["bias_covs"], axis1=1, axis2=2))], axis=1)
     record = FilterRecord(r["poses"], r["pose_covs"], snaps, r["n_detections"], r["n_associated"], r["n_landmarks"],
                           time.perf_counter() - t0, nis_sum=r["nis_sum"], nis_count=r["nis_count"].astype(float),
-                          engine="fused", times=np.array([ev.t for ev in scans], dtype=float), nis_rows=nis_rows,
+                          engine="fused" if how == "compiled" else f"fused-{how}", times=np.array([ev.t for ev in scans], dtype=float), nis_rows=nis_rows,
                           bias=bias, **_bias_labels(slam))
     for o in observers:
         o.after_fused(slam, scans, r, arows)

@@ -210,5 +210,28 @@ def _named(fn, family: Family):
     return fn
 
 
+#: How :func:`form` runs a family's engine: compiled; its loop and steps as Python over the compiled
+#: kernels they call (``slam/``, ``extent/``, ``landmarks/``, ``models/``); or all of it as Python.
+FORMS = ("compiled", "steps", "python")
+
+
+@functools.lru_cache(maxsize=None)
+def form(family: Family, how: str = "compiled"):
+    """The engine of ``family`` in form ``how`` (:data:`FORMS`): the one code of :func:`engine`, run
+    compiled, or run by the interpreter (:func:`radarslam.core.jit.uncompiled`), whole (``"python"``,
+    the reference the compiled engine is checked against: no numba code runs) or above its kernels
+    (``"steps"``: the steps of this package, ``slam/fused/``, in Python, every kernel they call
+    compiled). The three give the same results to rounding (docs/speed.md "The engine's three forms")."""
+    from radarslam.core.jit import uncompiled
+
+    if how not in FORMS:
+        raise ValueError(f"how: expected one of {', '.join(FORMS)}, got {how!r}")
+    if how == "compiled":
+        return engine(family)
+    steps = __name__.rpartition(".")[0]
+    return uncompiled(engine(family), None if how == "python" else
+                      (lambda d: not d.py_func.__module__.startswith(steps)))
+
+
 #: The default family's engine (:data:`DEFAULT`), under its former name.
 run_stream = engine(DEFAULT)

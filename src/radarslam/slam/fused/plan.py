@@ -15,7 +15,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from radarslam.slam.fused.engine import BAD_PREDICTION, ODOMETRY, OK, VELOCITY, engine, family_of
+from radarslam.slam.fused.engine import BAD_PREDICTION, ODOMETRY, OK, VELOCITY, family_of, form
 from radarslam.slam.fused.stream import Stream, _stream_arrays
 from radarslam.slam.fused.view import ViewParams, view_parameters
 
@@ -252,7 +252,7 @@ def _bias_parameters(bias) -> dict:
                 bias_drift=np.ascontiguousarray(bias.drift, dtype=float), bias_tau=float(bias.tau))
 
 
-def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None):
+def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None, how: str = "compiled"):
     """Run ``events`` through the fused engine with ``slam``'s configuration and components
     (:func:`why_not` of both must be None). Returns ``(record, associations)``: the arrays of
     :func:`~radarslam.slam.fused.engine.run_stream` by name, and the ``(scan, detection, landmark
@@ -266,7 +266,8 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None):
     those of scan ``s`` at ``nis_offsets[s]:nis_offsets[s + 1]``. ``bias`` (S, m) and ``bias_covs``
     (S, m, m) are the odometry-bias states and their covariance after each scan (docs/method.md
     c.11; m = 0 without them). ``kept`` holds the rows of each scan's detections the Doppler gate
-    kept (c.10.4), those of scan ``s`` at ``kept_offsets[s]:kept_offsets[s + 1]``.
+    kept (c.10.4), those of scan ``s`` at ``kept_offsets[s]:kept_offsets[s + 1]``. ``how``: the
+    engine's form (:func:`~radarslam.slam.fused.engine.form`: compiled, or its steps or all of it as Python).
 
     Raises
     ------
@@ -292,7 +293,7 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None):
     Cp0 = np.asarray(ext.Cp0, dtype=float) if cfg.mem else np.zeros((3, 3))
     noise = Noise(slam.R, ext.R_extent, slam.U, slam.Q, np.ascontiguousarray(prior_spread, dtype=float), gates, Cp0,
                   np.ascontiguousarray(slam.R_assoc, dtype=float))
-    status, n_scans, (rec, maps), arows = engine(family_of(cfg))(stream, st.x, st.P, noise, cfg)
+    status, n_scans, (rec, maps), arows = form(family_of(cfg), how)(stream, st.x, st.P, noise, cfg)
     if status[0] != OK:
         raise InputError(_failure(events, stream, status, n_scans))
     if stream.kept.shape[0] and arows.shape[0]:           # the gate's kept rows back to the scan's detections

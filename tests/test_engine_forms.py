@@ -1,0 +1,123 @@
+"""The fused engine's one code in three forms (slam/fused/engine.py ``form``, docs/speed.md "The
+engine's three forms"): compiled, its steps run by the interpreter over the compiled kernels, and
+all of it run by the interpreter (``core/jit.py: uncompiled``). The Python forms are the same
+functions, not a second implementation, so a car-park trial of every family gives the compiled
+engine's record to rounding; a changed parameter moves it (the comparison can fail)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from conftest import require
+
+require("numba")
+
+from numba import njit  # noqa: E402
+
+from radarslam.config import profile_config  # noqa: E402
+from radarslam.config.variants import Variant, apply_variant  # noqa: E402
+from radarslam.core.errors import ConfigError  # noqa: E402
+from radarslam.core.jit import compiled_only, uncompiled  # noqa: E402
+from radarslam.simulation.scenario import generate_scenario  # noqa: E402
+from radarslam.slam import _fused  # noqa: E402
+from radarslam.slam.driver import run_filter  # noqa: E402
+from radarslam.slam.filter import EkfSlam  # noqa: E402
+
+
+@njit
+def _leaf(a):  # a module global, reached through the caller's globals
+    return 2.0 * a + 1.0
+
+
+@njit
+def _caller(a):
+    return _leaf(a) - 3.0
+
+
+def test_uncompiled_runs_the_whole_call_graph_in_python_and_compiles_nothing():
+    """Through globals and through a closure's cells: the Python form gives the compiled value and
+    leaves every dispatcher without a signature (nothing was compiled to get it)."""
+    inner = njit(lambda a: a * a)
+
+    @njit
+    def outer(a):
+        return inner(a) + _caller(a)
+
+    f = uncompiled(outer)
+    assert f(3.0) == 9.0 + 4.0
+    assert outer.signatures == [] and inner.signatures == [] and _caller.signatures == [] and _leaf.signatures == []
+    assert outer(3.0) == f(3.0)          # and compiled, the same value
+
+
+def test_a_kept_callee_stays_compiled_and_a_compiled_only_one_never_does():
+    """``keep`` leaves a callee compiled (it compiles when the Python form calls it); a function
+    without a Python entry point (``compiled_only``) refuses a Python call but runs in the Python form."""
+    kept = njit(lambda a: a + 1.0)
+    inner = compiled_only(lambda a: a * 10.0)
+
+    @njit
+    def outer(a):
+        return kept(a) + inner(a)
+
+    with pytest.raises(TypeError, match="compiled without a Python entry point"):
+        inner(1.0)
+    f = uncompiled(outer, keep=lambda d: True)
+    assert f(2.0) == 3.0 + 20.0
+    assert len(kept.signatures) == 1 and outer.signatures == [] and inner.signatures == []
+
+
+#: One configuration per family of the fused engine (view, jcbb, bias; slam/fused/engine.py Family).
+FAMILIES = {
+    "default": None,
+    "view": {"extent": {"use_in_slam": True, "spread_model": "visible-faces"}},
+    "jcbb": {"landmarks": {"associator": "jcbb"}},
+    "bias": {"filter": {"odometry_bias": "states"}},
+}
+
+
+@pytest.fixture(scope="module")
+def scenario():
+    return generate_scenario(profile_config(), np.random.default_rng(7))
+
+
+@pytest.mark.parametrize("name", list(FAMILIES))
+def test_each_form_gives_the_compiled_engines_record(name, scenario):
+    """A car-park trial through each family in each form: the same landmarks after every scan, the
+    poses and their covariances equal to 1e-9 (the interpreter's and LLVM's rounding may differ;
+    measured: bit-identical on this trial)."""
+    cfg = profile_config()
+    if FAMILIES[name] is not None:
+        cfg = apply_variant(cfg, Variant(name, name, FAMILIES[name]))
+    family = _fused.family(EkfSlam(cfg))
+    assert (family.view, family.jcbb, family.bias) == (name == "view", name == "jcbb", name == "bias")
+    ref = run_filter(cfg, scenario.events)
+    assert ref.engine == "fused"
+    for how in ("fused-steps", "fused-python"):
+        rec = run_filter(cfg, scenario.events, engine=how)
+        assert rec.engine == how
+        np.testing.assert_array_equal(rec.n_landmarks, ref.n_landmarks)
+        np.testing.assert_array_equal(rec.n_associated, ref.n_associated)
+        np.testing.assert_array_equal(rec.maps[-1].ids, ref.maps[-1].ids)
+        np.testing.assert_allclose(rec.poses, ref.poses, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(rec.pose_covs, ref.pose_covs, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(rec.nis_rows, ref.nis_rows, rtol=0, atol=1e-9)
+
+
+def test_the_comparison_sees_a_changed_parameter(scenario):
+    """Negative control: the Python form with the association gate moved (landmarks.beta) does not
+    give the compiled engine's record on the default configuration."""
+    cfg = profile_config()
+    moved = apply_variant(cfg, Variant("beta", "beta", {"landmarks": {"beta": cfg.landmarks.beta * 0.5}}))
+    ref = run_filter(cfg, scenario.events)
+    rec = run_filter(moved, scenario.events, engine="fused-python")
+    assert np.abs(rec.poses - ref.poses).max() > 1e-6
+
+
+def test_a_python_form_refuses_what_the_fused_engine_does_not_cover(scenario):
+    """``engine="fused-python"`` on a configuration the fused engine does not run (filter.fused false)
+    is refused in one line naming why, rather than run by the orchestrator under its name."""
+    cfg = profile_config()
+    off = apply_variant(cfg, Variant("off", "off", {"filter": {"fused": False}}))
+    with pytest.raises(ConfigError, match="filter.fused is false"):
+        run_filter(off, scenario.events, engine="fused-python")
