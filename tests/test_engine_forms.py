@@ -121,3 +121,41 @@ def test_a_python_form_refuses_what_the_fused_engine_does_not_cover(scenario):
     off = apply_variant(cfg, Variant("off", "off", {"filter": {"fused": False}}))
     with pytest.raises(ConfigError, match="filter.fused is false"):
         run_filter(off, scenario.events, engine="fused-python")
+
+
+def test_a_motion_model_of_the_users_own_runs_in_the_steps_form_with_every_kernel_compiled(scenario):
+    """A motion model registered through the registry, written in Python, runs where the steps call
+    the built-in one (plan.py ``user_components``): the run is the steps form's (every kernel around
+    it compiled), its model called once per odometry event, and it gives the orchestrator's record
+    with the same model; the built-in unicycle's run differs (the model was used)."""
+    from radarslam.core.registry import MOTION_MODELS
+    from radarslam.core.types import Odometry
+    from radarslam.models.motion import UnicycleModel
+
+    calls = []
+
+    class Slower(UnicycleModel):
+        name = "slower"
+
+        def step(self, pose, u, dt):
+            calls.append(dt)
+            return super().step(pose, np.array([0.9 * u[0], u[1]]), dt)
+
+    MOTION_MODELS.register("slower", lambda f: Slower())
+    try:
+        cfg = profile_config()
+        mine = apply_variant(cfg, Variant("slower", "slower", {"filter": {"motion_model": "slower"}}))
+        assert _fused.why_not(EkfSlam(mine)) is None
+        rec = run_filter(mine, scenario.events)
+        assert rec.engine == "fused-steps"
+        assert len(calls) == sum(isinstance(e, Odometry) for e in scenario.events)
+        ref = run_filter(mine, scenario.events, engine="orchestrator")
+        np.testing.assert_array_equal(rec.n_landmarks, ref.n_landmarks)
+        np.testing.assert_allclose(rec.poses, ref.poses, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(rec.pose_covs, ref.pose_covs, rtol=0, atol=1e-9)
+        builtin = run_filter(cfg, scenario.events)
+        assert np.abs(builtin.poses[:, :2] - rec.poses[:, :2]).max() > 0.1
+        with_bias = apply_variant(mine, Variant("b", "b", {"filter": {"odometry_bias": "states"}}))
+        assert "with the odometry-bias states" in _fused.why_not(EkfSlam(with_bias))
+    finally:
+        MOTION_MODELS.unregister("slower")

@@ -89,7 +89,7 @@ def _global_names(code) -> set[str]:
     return names
 
 
-def uncompiled(fn, keep=None):
+def uncompiled(fn, keep=None, replace=None):
     """``fn`` (a numba dispatcher) as Python: the same code object over a copy of its globals and
     closure in which every compiled function it calls is itself uncompiled, recursively, so that
     the whole call graph runs in the interpreter on the same arithmetic (the reference the
@@ -97,7 +97,9 @@ def uncompiled(fn, keep=None):
 
     ``keep(dispatcher)`` True leaves that callee compiled (called through numba's Python entry
     point); ``fn`` itself, and a :func:`compiled_only` function (which has none), are always
-    uncompiled. Default: nothing is kept. Each function is cloned once per call of ``uncompiled``."""
+    uncompiled. Default: nothing is kept. ``replace`` maps a global name to what every cloned function
+    that reads it calls instead (a Python function: a component of the user's own in the place of
+    a built-in kernel). Each function is cloned once per call of ``uncompiled``."""
     memo: dict[int, types.FunctionType] = {}
 
     def python_form(disp, root=False):
@@ -115,7 +117,9 @@ def uncompiled(fn, keep=None):
         clone.__qualname__, clone.__module__, clone.__doc__ = f.__qualname__, f.__module__, f.__doc__
         memo[id(f)] = clone
         for name in _global_names(f.__code__) & g.keys():
-            if isinstance(g[name], CPUDispatcher):
+            if replace is not None and name in replace:
+                g[name] = replace[name]
+            elif isinstance(g[name], CPUDispatcher):
                 g[name] = python_form(g[name])
         return clone
 

@@ -19,6 +19,7 @@ from radarslam.config import Config
 from radarslam.core.errors import ConfigError
 from radarslam.core.types import Odometry, Scan
 from radarslam.slam import _fused
+from radarslam.slam.fused import plan as _plan
 from radarslam.slam.filter import EkfSlam, MapSnapshot
 
 
@@ -189,6 +190,7 @@ def _drive_fused(slam: EkfSlam, events, observers, maps: str, on_scan, t0: float
     masks = [mk for mk in (o.scan_mask(scans) for o in observers) if mk is not None]
     trace = np.logical_or.reduce([np.asarray(mk, dtype=bool) for mk in masks]) if masks else None
     r, arows = _fused.run(slam, events, all_maps=maps == "all", trace=trace, how=how)
+    form = _plan.run_form(slam, how)
     snaps = fused_maps(r, maps) if scans or maps == "all" else [slam.snapshot()]
     nis_rows = np.column_stack([np.repeat(np.arange(len(scans), dtype=float), r["nis_count"]), r["nis"]])
     bias = None
@@ -196,7 +198,7 @@ def _drive_fused(slam: EkfSlam, events, observers, maps: str, on_scan, t0: float
         bias = np.concatenate([r["bias"], np.sqrt(np.diagonal(r["bias_covs"], axis1=1, axis2=2))], axis=1)
     record = FilterRecord(r["poses"], r["pose_covs"], snaps, r["n_detections"], r["n_associated"], r["n_landmarks"],
                           time.perf_counter() - t0, nis_sum=r["nis_sum"], nis_count=r["nis_count"].astype(float),
-                          engine="fused" if how == "compiled" else f"fused-{how}", times=np.array([ev.t for ev in scans], dtype=float), nis_rows=nis_rows,
+                          engine="fused" if form == "compiled" else f"fused-{form}", times=np.array([ev.t for ev in scans], dtype=float), nis_rows=nis_rows,
                           bias=bias, **_bias_labels(slam))
     for o in observers:
         o.after_fused(slam, scans, r, arows)

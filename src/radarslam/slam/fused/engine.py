@@ -216,21 +216,25 @@ FORMS = ("compiled", "steps", "python")
 
 
 @functools.lru_cache(maxsize=None)
-def form(family: Family, how: str = "compiled"):
+def form(family: Family, how: str = "compiled", replace: tuple = ()):
     """The engine of ``family`` in form ``how`` (:data:`FORMS`): the one code of :func:`engine`, run
     compiled, or run by the interpreter (:func:`radarslam.core.jit.uncompiled`), whole (``"python"``,
     the reference the compiled engine is checked against: no numba code runs) or above its kernels
     (``"steps"``: the steps of this package, ``slam/fused/``, in Python, every kernel they call
-    compiled). The three give the same results to rounding (docs/speed.md "The engine's three forms")."""
+    compiled). The three give the same results to rounding (docs/speed.md "The engine's three forms").
+    ``replace``: ``(name, function)`` pairs, a component of the user's own called in the Python forms
+    where the steps call ``name`` (``core.jit.uncompiled``; plan.py ``user_components``)."""
     from radarslam.core.jit import uncompiled
 
     if how not in FORMS:
         raise ValueError(f"how: expected one of {', '.join(FORMS)}, got {how!r}")
     if how == "compiled":
+        if replace:
+            raise ValueError("replace: a component of the user's own runs in a Python form, got how='compiled'")
         return engine(family)
     steps = __name__.rpartition(".")[0]
     return uncompiled(engine(family), None if how == "python" else
-                      (lambda d: not d.py_func.__module__.startswith(steps)))
+                      (lambda d: not d.py_func.__module__.startswith(steps)), dict(replace) or None)
 
 
 #: The default family's engine (:data:`DEFAULT`), under its former name.

@@ -120,7 +120,8 @@ class Noise(NamedTuple):
 def why_not(slam, events=None) -> str | None:
     """Why :func:`run` cannot stand in for ``slam`` (an :class:`~radarslam.slam.filter.EkfSlam`
     that has processed nothing yet), or None when it can: the configuration's components must be
-    the built-in ones this engine reproduces. ``events`` is taken for the callers' sake: no stream
+    the built-in ones this engine reproduces, but for a motion model of the user's own, which the
+    engine's steps form calls in Python (:func:`user_components`). ``events`` is taken for the callers' sake: no stream
     is refused (a scan of any size clusters compiled, ``landmarks/_compiled.py: neighbourhoods``)."""
     from radarslam.extent.estimator import RmaEfaEstimator
     from radarslam.extent.mem_ekf import MemEkfEstimator
@@ -144,8 +145,9 @@ def why_not(slam, events=None) -> str | None:
          "the partial-view estimator with the full view, or the partial view with another estimator"),
         (not f.doppler_gate or type(slam._gate) is DopplerGate, f"Doppler gate {type(slam._gate).__name__}"),
         # under Doppler odometry (c.10.5) the body-velocity model drives every prediction, not slam.model
-        (f.odometry != "odometer" or type(slam.model) in (UnicycleModel, AckermannModel),
-         f"motion model {type(slam.model).__name__}"),
+        # a motion model of the user's own runs in the steps form (user_components), without bias states
+        (f.odometry != "odometer" or type(slam.model) in (UnicycleModel, AckermannModel) or slam.bias_model is None,
+         f"motion model {type(slam.model).__name__} with the odometry-bias states"),
         (f.odometry == "odometer" or type(slam._odometry) is DopplerOdometry,
          f"odometry source {type(slam._odometry).__name__}"),
         (type(slam.measurement) is RangeAzimuthModel, f"measurement model {type(slam.measurement).__name__}"),
@@ -160,6 +162,46 @@ def why_not(slam, events=None) -> str | None:
         if not ok:
             return reason
     return None
+
+
+def user_components(slam) -> tuple:
+    """The components of the user's own in ``slam`` (one :func:`why_not` accepts) as the ``replace``
+    pairs of :func:`~radarslam.slam.fused.engine.form`: a motion model that is not a built-in one
+    (docs/architecture.md "Motion model") in the place of the steps' ``_motion`` (the odometer's
+    predictions; a body-velocity input, c.10.5, keeps its own). Empty when every component is built in."""
+    from radarslam.models.ackermann import AckermannModel
+    from radarslam.models.motion import UnicycleModel
+
+    if slam.config.filter.odometry != "odometer" or type(slam.model) in (UnicycleModel, AckermannModel):
+        return ()
+    return (("_motion", _user_motion(slam.model)),)
+
+
+def run_form(slam, how: str = "compiled") -> str:
+    """The form :func:`run` runs ``slam`` in when asked for ``how``: the steps form in the place of the
+    compiled one where ``slam`` has a component of the user's own (the user's component in Python,
+    every kernel around it compiled), else ``how``."""
+    return "steps" if how == "compiled" and user_components(slam) else how
+
+
+def _user_motion(model):
+    """The steps' ``_motion(x, u, dt, code, cfg) -> (pose, F_x, F_u)`` by ``model``'s own ``step`` and
+    ``jacobians`` (the MotionModel protocol), as the orchestrator's prediction calls them; a
+    body-velocity input (``code`` BODY_VELOCITY) by the built-in kernels."""
+    from radarslam.core.jit import uncompiled
+    from radarslam.slam.fused.tracking import BODY_VELOCITY, _motion
+
+    builtin = uncompiled(_motion)
+
+    def motion(x, u, dt, code, cfg):
+        if code == BODY_VELOCITY:
+            return builtin(x, u, dt, code, cfg)
+        pose = x[:3].copy()
+        Fx, Fu = model.jacobians(pose, u, dt)
+        return (np.asarray(model.step(pose, u, dt), dtype=float), np.asarray(Fx, dtype=float),
+                np.asarray(Fu, dtype=float))
+
+    return motion
 
 
 def family(slam):
@@ -267,7 +309,9 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None, h
     (S, m, m) are the odometry-bias states and their covariance after each scan (docs/method.md
     c.11; m = 0 without them). ``kept`` holds the rows of each scan's detections the Doppler gate
     kept (c.10.4), those of scan ``s`` at ``kept_offsets[s]:kept_offsets[s + 1]``. ``how``: the
-    engine's form (:func:`~radarslam.slam.fused.engine.form`: compiled, or its steps or all of it as Python).
+    engine's form (:func:`~radarslam.slam.fused.engine.form`: compiled, or its steps or all of it as Python);
+    a component of the user's own (:func:`user_components`) runs the steps form where ``how`` is compiled
+    (:func:`run_form`).
 
     Raises
     ------
@@ -293,7 +337,9 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None, h
     Cp0 = np.asarray(ext.Cp0, dtype=float) if cfg.mem else np.zeros((3, 3))
     noise = Noise(slam.R, ext.R_extent, slam.U, slam.Q, np.ascontiguousarray(prior_spread, dtype=float), gates, Cp0,
                   np.ascontiguousarray(slam.R_assoc, dtype=float))
-    status, n_scans, (rec, maps), arows = form(family_of(cfg), how)(stream, st.x, st.P, noise, cfg)
+    user = user_components(slam)
+    how = run_form(slam, how)
+    status, n_scans, (rec, maps), arows = form(family_of(cfg), how, user)(stream, st.x, st.P, noise, cfg)
     if status[0] != OK:
         raise InputError(_failure(events, stream, status, n_scans))
     if stream.kept.shape[0] and arows.shape[0]:           # the gate's kept rows back to the scan's detections
