@@ -89,6 +89,14 @@ def _global_names(code) -> set[str]:
     return names
 
 
+def _contents(cell):
+    """What a closure cell holds, None for an empty one (a name the function assigns later)."""
+    try:
+        return cell.cell_contents
+    except ValueError:
+        return None
+
+
 def uncompiled(fn, keep=None, replace=None):
     """``fn`` (a numba dispatcher) as Python: the same code object over a copy of its globals and
     closure in which every compiled function it calls is itself uncompiled, recursively, so that
@@ -111,7 +119,7 @@ def uncompiled(fn, keep=None, replace=None):
         g = dict(f.__globals__)
         cells = f.__closure__
         if cells:
-            cells = tuple(types.CellType(python_form(c.cell_contents)) if isinstance(c.cell_contents, CPUDispatcher)
+            cells = tuple(types.CellType(python_form(_contents(c))) if isinstance(_contents(c), CPUDispatcher)
                           else c for c in cells)
         clone = types.FunctionType(f.__code__, g, f.__name__, f.__defaults__, cells)
         clone.__qualname__, clone.__module__, clone.__doc__ = f.__qualname__, f.__module__, f.__doc__

@@ -198,8 +198,9 @@ def _drive_fused(slam: EkfSlam, events, observers, maps: str, on_scan, t0: float
         bias = np.concatenate([r["bias"], np.sqrt(np.diagonal(r["bias_covs"], axis1=1, axis2=2))], axis=1)
     record = FilterRecord(r["poses"], r["pose_covs"], snaps, r["n_detections"], r["n_associated"], r["n_landmarks"],
                           time.perf_counter() - t0, nis_sum=r["nis_sum"], nis_count=r["nis_count"].astype(float),
-                          engine="fused" if form == "compiled" else f"fused-{form}", times=np.array([ev.t for ev in scans], dtype=float), nis_rows=nis_rows,
-                          bias=bias, **_bias_labels(slam))
+                          engine="fused" if form == "compiled" else f"fused-{form}",
+                          times=np.array([ev.t for ev in scans], dtype=float), nis_rows=nis_rows, bias=bias,
+                          **_bias_labels(slam))
     for o in observers:
         o.after_fused(slam, scans, r, arows)
     if on_scan is not None:

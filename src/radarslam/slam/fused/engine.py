@@ -21,6 +21,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit, objmode
 
+from radarslam.core.jit import uncompiled
 from radarslam.landmarks.confirmation import Tentatives
 from radarslam.slam.fused.bias import predict_step
 from radarslam.slam.fused.extent import extent_step
@@ -215,7 +216,6 @@ def _named(fn, family: Family):
 FORMS = ("compiled", "steps", "python")
 
 
-@functools.lru_cache(maxsize=None)
 def form(family: Family, how: str = "compiled", replace: tuple = ()):
     """The engine of ``family`` in form ``how`` (:data:`FORMS`): the one code of :func:`engine`, run
     compiled, or run by the interpreter (:func:`radarslam.core.jit.uncompiled`), whole (``"python"``,
@@ -224,17 +224,28 @@ def form(family: Family, how: str = "compiled", replace: tuple = ()):
     compiled). The three give the same results to rounding (docs/speed.md "The engine's three forms").
     ``replace``: ``(name, function)`` pairs, a component of the user's own called in the Python forms
     where the steps call ``name`` (``core.jit.uncompiled``; plan.py ``user_components``)."""
-    from radarslam.core.jit import uncompiled
-
     if how not in FORMS:
         raise ValueError(f"how: expected one of {', '.join(FORMS)}, got {how!r}")
+    if how == "compiled" and replace:
+        raise ValueError("replace: a component of the user's own runs in a Python form, got how='compiled'")
     if how == "compiled":
-        if replace:
-            raise ValueError("replace: a component of the user's own runs in a Python form, got how='compiled'")
         return engine(family)
+    if not replace:
+        return _python_form(family, how)
+    return uncompiled(engine(family), _kernels_kept(how), dict(replace))
+
+
+def _kernels_kept(how: str):
+    """``uncompiled``'s ``keep`` of form ``how``: nothing (``"python"``), or every function outside
+    ``slam/fused/`` (``"steps"``)."""
     steps = __name__.rpartition(".")[0]
-    return uncompiled(engine(family), None if how == "python" else
-                      (lambda d: not d.py_func.__module__.startswith(steps)), dict(replace) or None)
+    return None if how == "python" else (lambda d: not d.py_func.__module__.startswith(steps))
+
+
+@functools.lru_cache(maxsize=None)
+def _python_form(family: Family, how: str):
+    """The engine of ``family`` in the Python form ``how``, cloned once per process."""
+    return uncompiled(engine(family), _kernels_kept(how))
 
 
 #: The default family's engine (:data:`DEFAULT`), under its former name.

@@ -121,8 +121,9 @@ def why_not(slam, events=None) -> str | None:
     """Why :func:`run` cannot stand in for ``slam`` (an :class:`~radarslam.slam.filter.EkfSlam`
     that has processed nothing yet), or None when it can: the configuration's components must be
     the built-in ones this engine reproduces, but for a motion model of the user's own, which the
-    engine's steps form calls in Python (:func:`user_components`). ``events`` is taken for the callers' sake: no stream
-    is refused (a scan of any size clusters compiled, ``landmarks/_compiled.py: neighbourhoods``)."""
+    engine's steps form calls in Python (:func:`user_components`). ``events`` is taken for the
+    callers' sake: no stream is refused (a scan of any size clusters compiled,
+    ``landmarks/_compiled.py: neighbourhoods``)."""
     from radarslam.extent.estimator import RmaEfaEstimator
     from radarslam.extent.mem_ekf import MemEkfEstimator
     from radarslam.extent.view_estimator import PartialViewEstimator
@@ -338,7 +339,7 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None, h
     noise = Noise(slam.R, ext.R_extent, slam.U, slam.Q, np.ascontiguousarray(prior_spread, dtype=float), gates, Cp0,
                   np.ascontiguousarray(slam.R_assoc, dtype=float))
     user = user_components(slam)
-    how = run_form(slam, how)
+    how = "steps" if how == "compiled" and user else how          # run_form
     status, n_scans, (rec, maps), arows = form(family_of(cfg), how, user)(stream, st.x, st.P, noise, cfg)
     if status[0] != OK:
         raise InputError(_failure(events, stream, status, n_scans))
