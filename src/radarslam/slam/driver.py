@@ -115,7 +115,7 @@ def drive(config: Config, events: Sequence[Odometry | Scan], *, slam: EkfSlam | 
     t0 = time.perf_counter()
     if slam is None:
         slam = EkfSlam(config)
-        why = _fused.why_not(slam, events)
+        why = None if engine == "orchestrator" else _fused.why_not(slam, events)
         if engine.startswith("fused-") and why is not None:
             raise ConfigError(f"engine: {engine!r} runs the fused engine's configurations only, got one it does not "
                               f"cover ({why})")
@@ -189,8 +189,8 @@ def _drive_fused(slam: EkfSlam, events, observers, maps: str, on_scan, t0: float
     scans = [ev for ev in events if isinstance(ev, Scan)]
     masks = [mk for mk in (o.scan_mask(scans) for o in observers) if mk is not None]
     trace = np.logical_or.reduce([np.asarray(mk, dtype=bool) for mk in masks]) if masks else None
-    r, arows = _fused.run(slam, events, all_maps=maps == "all", trace=trace, how=how)
     form = _plan.run_form(slam, how)
+    r, arows = _fused.run(slam, events, all_maps=maps == "all", trace=trace, how=form)
     snaps = fused_maps(r, maps) if scans or maps == "all" else [slam.snapshot()]
     nis_rows = np.column_stack([np.repeat(np.arange(len(scans), dtype=float), r["nis_count"]), r["nis"]])
     bias = None

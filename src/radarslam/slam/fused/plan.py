@@ -128,8 +128,6 @@ def why_not(slam, events=None) -> str | None:
     from radarslam.extent.mem_ekf import MemEkfEstimator
     from radarslam.extent.view_estimator import PartialViewEstimator
     from radarslam.extent.visible_arc import VisibleArcEstimator
-    from radarslam.models.ackermann import AckermannModel
-    from radarslam.models.motion import UnicycleModel
     from radarslam.slam.partial_view import PARTIAL_VIEW_ASSOCIATORS
     from radarslam.models.radar import RangeAzimuthModel
     from radarslam.slam._jcbb_numba import CompiledJcbbAssociator
@@ -147,7 +145,7 @@ def why_not(slam, events=None) -> str | None:
         (not f.doppler_gate or type(slam._gate) is DopplerGate, f"Doppler gate {type(slam._gate).__name__}"),
         # under Doppler odometry (c.10.5) the body-velocity model drives every prediction, not slam.model
         # a motion model of the user's own runs in the steps form (user_components), without bias states
-        (f.odometry != "odometer" or type(slam.model) in (UnicycleModel, AckermannModel) or slam.bias_model is None,
+        (not _own_motion(slam) or slam.bias_model is None,
          f"motion model {type(slam.model).__name__} with the odometry-bias states"),
         (f.odometry == "odometer" or type(slam._odometry) is DopplerOdometry,
          f"odometry source {type(slam._odometry).__name__}"),
@@ -165,38 +163,36 @@ def why_not(slam, events=None) -> str | None:
     return None
 
 
-def user_components(slam) -> tuple:
-    """The components of the user's own in ``slam`` (one :func:`why_not` accepts) as the ``replace``
-    pairs of :func:`~radarslam.slam.fused.engine.form`: a motion model that is not a built-in one
-    (docs/architecture.md "Motion model") in the place of the steps' ``_motion`` (the odometer's
-    predictions; a body-velocity input, c.10.5, keeps its own). Empty when every component is built in."""
+def _own_motion(slam) -> bool:
+    """Whether ``slam``'s odometer predictions run a motion model of the user's own (not the unicycle or
+    Ackermann model; under Doppler odometry, c.10.5, the body-velocity model drives every prediction)."""
     from radarslam.models.ackermann import AckermannModel
     from radarslam.models.motion import UnicycleModel
 
-    if slam.config.filter.odometry != "odometer" or type(slam.model) in (UnicycleModel, AckermannModel):
-        return ()
-    return (("_motion", _user_motion(slam.model)),)
+    return slam.config.filter.odometry == "odometer" and type(slam.model) not in (UnicycleModel, AckermannModel)
+
+
+def user_components(slam) -> tuple:
+    """The components of the user's own in ``slam`` (one :func:`why_not` accepts) as the ``replace``
+    pairs of :func:`~radarslam.slam.fused.engine.form`: a motion model that is not a built-in one
+    (docs/architecture.md "Motion model") in the place of the steps' ``_motion``. Empty when every
+    component is built in."""
+    return (("_motion", _user_motion(slam.model)),) if _own_motion(slam) else ()
 
 
 def run_form(slam, how: str = "compiled") -> str:
     """The form :func:`run` runs ``slam`` in when asked for ``how``: the steps form in the place of the
     compiled one where ``slam`` has a component of the user's own (the user's component in Python,
     every kernel around it compiled), else ``how``."""
-    return "steps" if how == "compiled" and user_components(slam) else how
+    return "steps" if how == "compiled" and _own_motion(slam) else how
 
 
 def _user_motion(model):
-    """The steps' ``_motion(x, u, dt, code, cfg) -> (pose, F_x, F_u)`` by ``model``'s own ``step`` and
-    ``jacobians`` (the MotionModel protocol), as the orchestrator's prediction calls them; a
-    body-velocity input (``code`` BODY_VELOCITY) by the built-in kernels."""
-    from radarslam.core.jit import uncompiled
-    from radarslam.slam.fused.tracking import BODY_VELOCITY, _motion
-
-    builtin = uncompiled(_motion)
+    """The steps' ``_motion(x, u, dt, code, cfg) -> (pose, F_x, F_u)`` of an odometer reading by
+    ``model``'s own ``step`` and ``jacobians`` (the MotionModel protocol), as the orchestrator's
+    prediction calls them (``code`` is the built-in model's, unused)."""
 
     def motion(x, u, dt, code, cfg):
-        if code == BODY_VELOCITY:
-            return builtin(x, u, dt, code, cfg)
         pose = x[:3].copy()
         Fx, Fu = model.jacobians(pose, u, dt)
         return (np.asarray(model.step(pose, u, dt), dtype=float), np.asarray(Fx, dtype=float),
@@ -338,8 +334,8 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None, h
     Cp0 = np.asarray(ext.Cp0, dtype=float) if cfg.mem else np.zeros((3, 3))
     noise = Noise(slam.R, ext.R_extent, slam.U, slam.Q, np.ascontiguousarray(prior_spread, dtype=float), gates, Cp0,
                   np.ascontiguousarray(slam.R_assoc, dtype=float))
-    user = user_components(slam)
-    how = "steps" if how == "compiled" and user else how          # run_form
+    how = run_form(slam, how)
+    user = user_components(slam) if how != "compiled" else ()
     status, n_scans, (rec, maps), arows = form(family_of(cfg), how, user)(stream, st.x, st.P, noise, cfg)
     if status[0] != OK:
         raise InputError(_failure(events, stream, status, n_scans))
