@@ -18,6 +18,7 @@ them too; with the cache warm it pays only for the engine's own body.
 from __future__ import annotations
 
 import argparse
+import copy
 import importlib
 import sys
 import tempfile
@@ -36,24 +37,24 @@ def _signature():
     from radarslam.compiling.warmup import _tiny_stream
     from radarslam.slam.fused import plan
 
-    captured, real = {}, plan.engine
+    captured, real = {}, plan.form
 
     class _Captured(Exception):
         pass
 
-    def spy(family):
+    def spy(family, how="compiled", replace=()):
         def call(*args):
             captured["args"] = args
             raise _Captured
         return call
 
-    plan.engine = spy
+    plan.form = spy
     try:
         run_filter(profile_config(), _tiny_stream())
     except _Captured:
         pass
     finally:
-        plan.engine = real
+        plan.form = real
     return tuple(numba.typeof(a) for a in captured["args"])
 
 
@@ -88,31 +89,32 @@ def compare(module, n_trials: int) -> tuple[int, int, float, float]:
     from radarslam.config.variants import DEFAULT_VARIANTS, apply_variant
     from radarslam.slam.fused import plan
 
-    runs, real = [], plan.engine
+    runs, real = [], plan.form
 
-    def both(family):
-        jit = real(family)
+    def both(family, how="compiled", replace=()):
+        jit = real(family, how, replace)
 
         def call(*args):
+            again = copy.deepcopy(args)            # the engine changes the filter's state it is given in place
             t0 = time.perf_counter()
             r = jit(*args)
             t1 = time.perf_counter()
-            r2 = module.run_stream(*args)
+            r2 = module.run_stream(*again)
             runs.append((t1 - t0, time.perf_counter() - t1, r, r2))
             return r
         return call
 
-    plan.engine = both
+    plan.form = both
     try:
         for seed in range(1, n_trials + 1):
             for v in DEFAULT_VARIANTS:
                 run_trial(apply_variant(profile_config(), v), seed)
     finally:
-        plan.engine = real
+        plan.form = real
     same = 0
-    for _, _, (st, n, (rec, maps), ar), (st2, n2, (rec2, maps2), ar2) in runs:
+    for _, _, (st, n, (rec, maps), ar, c), (st2, n2, (rec2, maps2), ar2, c2) in runs:
         rec, rec2 = rec._replace(seconds=rec.seconds * 0), rec2._replace(seconds=rec2.seconds * 0)
-        same += _equal((st, n, rec, maps, ar), (st2, n2, rec2, maps2, ar2))
+        same += _equal((st, n, rec, maps, ar, tuple(c)), (st2, n2, rec2, maps2, ar2, tuple(c2)))
     return len(runs), same, sum(r[0] for r in runs), sum(r[1] for r in runs)
 
 

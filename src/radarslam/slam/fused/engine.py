@@ -22,31 +22,9 @@ import numpy as np
 from numba import njit, objmode
 
 from radarslam.core.jit import uncompiled
-from radarslam.landmarks.confirmation import Tentatives
-from radarslam.slam.fused.bias import predict_step
-from radarslam.slam.fused.extent import extent_step
-from radarslam.slam.fused.gate import moving_young, remember, veto
-from radarslam.slam.fused.mapping import alpha_test, augment, cluster, confirm, merge
-from radarslam.slam.fused.sensor import enter_sensor, held, leave_sensor, rehold, scan_rate
-from radarslam.slam.fused.storage import (
-    _all_finite,
-    _blocks,
-    cut_records,
-    new_arcs,
-    new_landmarks,
-    new_memory,
-    new_records,
-    record_map,
-    record_scan,
-)
-from radarslam.slam.fused.tracking import (
-    BODY_VELOCITY,
-    _to_world,
-    group_associations,
-    remove_unseen,
-    turn_noise,
-)
-from radarslam.slam.fused.view import associate_step, sift_step, view_walk
+from radarslam.slam.fused.events import predict_event, scan_event
+from radarslam.slam.fused.storage import _all_finite, cut_records, new_records, record_map, record_scan
+from radarslam.slam.fused.tracking import BODY_VELOCITY, turn_noise
 from radarslam.slam.layout import POSE_DIM
 
 #: Status codes of :func:`run_stream`: what made the state non-finite, at which event.
@@ -106,8 +84,9 @@ def engine(family: Family):
     that dispatch on a flag are inlined, so that a branch it never takes is pruned with its callees."""
     view, jcbb, bias = bool(family.view), bool(family.jcbb), bool(family.bias)
 
-    def run_stream(stream, x0, P0, noise, cfg):  # pragma: no cover - compiled
-        """Run the event stream through the filter.
+    def run_stream(stream, c, noise, cfg):  # pragma: no cover - compiled
+        """Run the event stream through the filter from ``c`` (a :class:`~radarslam.slam.fused.events.Carry`,
+        changed in place: :func:`~radarslam.slam.fused.events.initial_carry` for a new filter).
 
         ``stream`` is a :class:`~radarslam.slam.fused.stream.Stream` (its fields say what each event
         and scan holds), ``noise`` a :class:`~radarslam.slam.fused.plan.Noise`, ``cfg`` the parameters
@@ -117,86 +96,40 @@ def engine(family: Family):
         offsets, the landmarks after the scans ``stream.trace`` marks, and with ``cfg.timing`` the wall
         time of each scan with the predictions before it, else zeros); the maps after every scan
         (``cfg.all_maps``) or after the last (:class:`~radarslam.slam.fused.storage.MapRows`); and the
-        per-scan associations as ``(scan, detection, landmark id)`` rows. All are cut to the scans run.
+        per-scan associations as ``(scan, detection, landmark id)`` rows, all cut to the scans run; and the
+        filter after the last event run (the carry to run a further stream from).
         """
         S = stream.scan_off.shape[0] - 1
-        x = x0.copy()
-        P = P0.copy()
-        pose_first = x0[:3].copy()                             # FEJ: the first estimate of the pose (c.2.1)
-        m_max = 1
-        for s in range(S):
-            m_max = max(m_max, stream.scan_off[s + 1] - stream.scan_off[s])
-        lm = new_landmarks(16, cfg.n_init + m_max + 1)        # landmark records in state order
         zero = np.int64(0)    # counters: from a literal 0 numba compiles each callee twice (Literal[int](0), int64)
-        N, next_id = zero, zero
-        tent = Tentatives(np.empty((0, 2)), np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64),
-                          np.empty(0, dtype=np.int64))      # tentatives (Rule 2)
         rec, maps = new_records(S, 64, cfg.platform - 3)     # the odometry-bias states (c.11) after the pose
-        retired, n_retired = new_records(0, 16, 0)[1], zero    # the landmarks retired from the state (c.15)
-        arcs, n_arcs = new_arcs(64), zero                      # visible-arc widths (a.9)
-        mem, n_mem, n_now = new_memory(16), zero, zero         # the Doppler gate's memory (c.10.4)
         a_rows, n_arows = np.empty((64, 3), dtype=np.int64), zero
         status = np.zeros(2, dtype=np.int64)
         t_last = _clock() if cfg.timing else 0.0
-        dt_since = 0.0
         e_odo, s, e_vel = zero, zero, zero
-        u_last, has_u, no_rate = np.zeros(2), False, np.zeros(3)   # the odometer's latest reading (c.13.2)
         for ev in range(stream.kinds.shape[0]):
             if stream.kinds[ev] != SCAN:                                               # 1
-                if stream.kinds[ev] == ODOMETRY:
-                    u_last, has_u = stream.odo[e_odo], True
+                odometer = stream.kinds[ev] == ODOMETRY
                 u, dt, U, Q, model, e_odo, e_vel = _prediction_input(stream, noise, cfg, ev, e_odo, e_vel)
-                if not predict_step(x, P, u, dt, U, Q, pose_first, model, cfg, bias):      # c.2, c.11.2
+                ok, c = predict_event(c, u, dt, U, Q, model, odometer, cfg, bias)   # c.2, c.11.2
+                if not ok:
                     status[0], status[1] = BAD_PREDICTION, ev
                     break
-                dt_since += dt
                 continue
-            # ------------------------------------------------------------ one scan (a.8 steps 2-10)
-            polar = stream.polar[stream.scan_off[s]:stream.scan_off[s + 1]]
-            k = stream.scan_k[s]
-            first_platform = pose_first
-            rate = scan_rate(x, u_last, cfg) if bias and has_u and stream.tau_i[s] >= 0 else no_rate  # c.13.2
-            x_held, P_held = held(x, P, POSE_DIM, cfg.held_end)                         # c.13.4
-            pose_first = enter_sensor(x, P, stream, s, pose_first, rate)              # c.13: its radar, its time
-            if cfg.doppler_gate and stream.remember[s]:                                # c.10.4.3
-                seen = stream.seen[stream.seen_off[s]:stream.seen_off[s + 1]]
-                mem, n_mem, n_now = remember(mem, n_mem, seen, x, k, cfg)
-            dt = dt_since if s > 0 else 0.0
-            dt_since = 0.0
-            view_walk(x, P, lm, N, cfg)                                                # a.12.5 (partial view)
-            prior = _blocks(x, P, cfg.platform)                                        # Decision 3
-            cand, shapes, terms = sift_step(x, P, polar, lm, N, prior, noise, cfg, view)  # 3
-            cidx = np.flatnonzero(cand)
-            x, P, out, nis = associate_step(x, P, polar, cidx, lm, N, pose_first, shapes, terms, noise, cfg,
-                                            view, jcbb)                                # 4
-            rehold(x, P, x_held, P_held, stream, s, rate)                              # c.13.4
-            n_assoc, aoff, arow, a_rows, n_arows = group_associations(out, cidx, N, lm.ids, s, a_rows, n_arows)
-            young = moving_young(x, lm, N, k, mem, n_now, cfg)                        # c.10.4.4
-            x, P, N, old, retired, n_retired = remove_unseen(x, P, lm, N, aoff, k, young, stream.sensor_view[s],
-                                                             retired, n_retired, arcs, cfg)  # 5, c.15
-            xy = _to_world(x, polar)                                    # seed eq. (3), updated pose
-            lm, arcs, n_arcs = extent_step(x, P, polar, xy, lm, N, old, aoff, arow, prior, dt, arcs, n_arcs,
-                                           noise, cfg, view)                           # 6
-            clusters = cluster(xy, polar, cand, cfg)                                   # 7
-            fresh = alpha_test(x, P, polar, clusters, noise, cfg)                      # 7
-            fresh = veto(fresh, clusters, xy, mem, n_mem, cfg)                         # c.10.4.3
-            confirmed, tent = confirm(tent, fresh, clusters, xy, cfg)                  # 8
-            x, P, lm, N, next_id = augment(x, P, lm, N, next_id, confirmed, clusters, polar, k, noise, cfg)  # 9
-            x, P, lm, N = merge(x, P, lm, N, arcs, cfg)                                # 10
-            leave_sensor(x, P, stream, s, rate, x_held, P_held)                        # c.13, c.13.4
-            pose_first = first_platform
-            if not _all_finite(x, P):
+            c, polar, n_assoc, nis, a_rows, n_arows = scan_event(c, stream, s, a_rows, n_arows, noise, cfg, view,
+                                                                 jcbb, bias)      # a.8 steps 2-10
+            if not _all_finite(c.x, c.P):
                 status[0], status[1] = BAD_SCAN, ev
                 break
-            rec = record_scan(rec, s, x, P, lm, N, polar.shape[0] + stream.moving[s], n_assoc, nis, stream.trace[s])
+            rec = record_scan(rec, s, c.x, c.P, c.lm, c.N, polar.shape[0] + stream.moving[s], n_assoc, nis,
+                              stream.trace[s])
             if cfg.all_maps or s == S - 1:
-                maps = record_map(rec, maps, s, x, P, lm, N, arcs, retired, n_retired, cfg)
+                maps = record_map(rec, maps, s, c.x, c.P, c.lm, c.N, c.arcs, c.retired, c.n_retired, cfg)
             if cfg.timing:
                 t1 = _clock()
                 rec.seconds[s] = t1 - t_last
                 t_last = t1
             s += 1
-        return status, s, cut_records(rec, maps, s), a_rows[:n_arows]
+        return status, s, cut_records(rec, maps, s), a_rows[:n_arows], c
 
     return njit(cache=True)(_named(run_stream, family))
 

@@ -16,6 +16,7 @@ from typing import NamedTuple
 import numpy as np
 
 from radarslam.slam.fused.engine import BAD_PREDICTION, ODOMETRY, OK, VELOCITY, family_of, form
+from radarslam.slam.fused.events import initial_carry
 from radarslam.slam.fused.stream import Stream, _stream_arrays
 from radarslam.slam.fused.view import ViewParams, view_parameters
 
@@ -336,7 +337,9 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None, h
                   np.ascontiguousarray(slam.R_assoc, dtype=float))
     how = run_form(slam, how)
     user = user_components(slam) if how != "compiled" else ()
-    status, n_scans, (rec, maps), arows = form(family_of(cfg), how, user)(stream, st.x, st.P, noise, cfg)
+    off = stream.scan_off
+    carry = initial_carry(st.x, st.P, cfg.n_init + int((off[1:] - off[:-1]).max(initial=1)) + 1)
+    status, n_scans, (rec, maps), arows, _ = form(family_of(cfg), how, user)(stream, carry, noise, cfg)
     if status[0] != OK:
         raise InputError(_failure(events, stream, status, n_scans))
     if stream.kept.shape[0] and arows.shape[0]:           # the gate's kept rows back to the scan's detections
