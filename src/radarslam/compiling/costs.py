@@ -70,13 +70,6 @@ PYTHON_SCAN_S = 0.0168
 HEARTBEAT_S = 8.0
 
 
-#: A warm fused run goes through the whole stream in one compiled call, which prints nothing until
-#: it returns (Victoria Park's 7,230 scans: about 8 s quiet, 13-15 s with the other core busy): a run
-#: expected to take longer than this says so on its first line, with the expected seconds at
-#: warmup.FUSED_SCAN_S a scan (the first line within 3 s).
-ANNOUNCE_S = 3.0
-
-
 #: A recorded stream through the Python reference, per detection and per scan of the stream (the
 #: association looks at every landmark, and the landmarks grow with the drive, so a detection late
 #: in a long drive costs more): measured from an empty cache on this 2-core machine, nuScenes

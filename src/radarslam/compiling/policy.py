@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from radarslam.compiling.costs import (ANNOUNCE_S, FUSED_COMPILE_S, FUSED_SCAN_S, ORCHESTRATOR_COMPILE_S, ORCHESTRATOR_SCAN_S,
+from radarslam.compiling.costs import (FUSED_COMPILE_S, FUSED_SCAN_S, ORCHESTRATOR_COMPILE_S, ORCHESTRATOR_SCAN_S,
                                        PYTHON_DETECTION_SCAN_S, PYTHON_SCAN_S, first_run_engine,
                                        first_run_engine_scans)
 from radarslam.compiling.readiness import (_orchestrator_is_cold, cache_is_cold, engines, fused_families,
@@ -196,16 +196,6 @@ def python_seconds(n_scans: int, n_detections: int = 0) -> float:
     return n_scans * PYTHON_SCAN_S
 
 
-def _one_call_note(n_scans: int) -> str:
-    """What the first line says of a warm fused run of ``n_scans`` scans: nothing when it is short
-    (under :data:`~.costs.ANNOUNCE_S`), else the scans, the one compiled call and its expected seconds."""
-    expected = n_scans * FUSED_SCAN_S
-    if expected < ANNOUNCE_S:
-        return ""
-    return (f"{n_scans} scans through the compiled fused engine in one call (about {expected:.0f} s at "
-            f"{1e3 * FUSED_SCAN_S:.1f} ms a scan; it prints nothing until it returns)")
-
-
 def _stream(config: Config, w: Workload) -> Plan:
     """The fused engine when it covers the configuration and its machine code is ready, or when a
     stream this long ends sooner compiling it (:func:`~.costs.first_run_engine_scans`); else event by
@@ -214,7 +204,7 @@ def _stream(config: Config, w: Workload) -> Plan:
     The fused engine then compiles in the background for later runs (``background``)."""
     n = w.n_scans
     if w.fused and _fused_ready(*fused_families(config)):
-        return Plan("fused", announce=_one_call_note(n), expected_s=n * FUSED_SCAN_S)
+        return Plan("fused", expected_s=n * FUSED_SCAN_S)     # its progress moves part by part (fused/chunks.py)
     if w.fused and first_run_engine_scans(n) == "auto":
         return Plan("fused", compiles=True, announce=COMPILING, expected_s=FUSED_COMPILE_S + n * FUSED_SCAN_S)
     if _orchestrator_ready() and _gate_ready(config):

@@ -4,7 +4,7 @@ and the orchestrator's compile split over the two cores (:func:`_compile_beside`
 
 from __future__ import annotations
 
-from radarslam.compiling.costs import ANNOUNCE_S, HEARTBEAT_S, ORCHESTRATOR_COMPILE_S, PYTHON_SCAN_S  # noqa: F401
+from radarslam.compiling.costs import HEARTBEAT_S, ORCHESTRATOR_COMPILE_S, PYTHON_SCAN_S  # noqa: F401
 from radarslam.compiling.heartbeat import _heartbeat  # noqa: F401  (runs.dataset's)
 from radarslam.compiling.policy import Plan, Workload, plan
 from radarslam.compiling.readiness import mark_compiled

@@ -68,7 +68,7 @@ def run_dataset(name: str, path, config: Config, *, first_scan: int | None = Non
     map is kept after the last scan only, and ``metrics`` holds ``load_seconds``.
 
     A configuration the fused engine covers (:func:`radarslam.slam._fused.why_not`; the Victoria
-    Park profiles of both input modes do) runs the whole stream in one compiled call and gives the
+    Park profiles of both input modes do) runs the whole stream compiled and gives the
     same run (docs/architecture.md "The fused engine"); any other runs event by event. On a machine
     whose compiled code is not built yet, :func:`first_run_plan` picks what ends sooner and says so
     on the first line of stderr."""
@@ -89,13 +89,12 @@ def run_dataset(name: str, path, config: Config, *, first_scan: int | None = Non
     if plan.announce and progress:
         print(f"run: {plan.announce}", file=sys.stderr, flush=True)
     fused = plan.engine == "fused"
-    # the fused call's bar: its clock from the call's start (the true rate); event by event, its first
-    # scan carries the imports and the compile
+    # fused: the bar moves part by part (slam/fused/chunks.py), its clock from the run's start; event by
+    # event, its first scan carries the imports and the compile
     bar = Progress(n, 0, enabled=progress, unit="scans", warm_up_unit=not fused)
     record = run_stream(config, data.events, plan, observers=[hits], maps="last",
-                        on_scan=None if fused else scan_clock(bar), heartbeat=progress)
-    if fused:
-        bar.update(n)
+                        on_scan=None if fused else scan_clock(bar), on_scans=bar.update if fused else None,
+                        heartbeat=progress)
     if plan.engine == "python":
         record.engine = "python"                # the reference, also under filter.backend "python"
     ref = (np.concatenate(hits.hits) if hits.hits else np.empty((0, 3))) if trees is not None else None

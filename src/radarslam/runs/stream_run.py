@@ -39,13 +39,14 @@ def refuse_online_car_states(config: Config) -> None:
 
 
 def run_stream(config: Config, events: list, first_run=None, *, observers: Sequence[Observer] = (),
-               maps: str = "all", on_scan=None, heartbeat: bool = True) -> FilterRecord:
+               maps: str = "all", on_scan=None, heartbeat: bool = True, on_scans=None) -> FilterRecord:
     """The filter over ``events`` (:func:`~radarslam.slam.driver.drive`, told to ``observers``) by
     the first-run plan's engine (``first_run``, a :class:`~radarslam.compiling.policy.Plan`; None:
     the configuration's). A plan that compiles the orchestrator's kernels first splits the compile
     over the two cores and, with ``heartbeat``, says every few seconds that it is still compiling;
     a plan that took the Python reference for a compiled configuration records the engine
-    ``"python"``. ``maps="last"`` keeps the map after the last scan only (a long recording)."""
+    ``"python"``. ``maps="last"`` keeps the map after the last scan only (a long recording).
+    ``on_scan()`` and ``on_scans(n)``: :func:`~radarslam.slam.driver.drive`'s."""
     from radarslam.compiling.stream_plan import _compile_beside, _heartbeat
 
     engine = "auto" if first_run is None else first_run.engine
@@ -64,7 +65,7 @@ def run_stream(config: Config, events: list, first_run=None, *, observers: Seque
             if n[0] == 2:
                 compiled.set()
         record = drive(run_config, events, engine="orchestrator" if engine in ("python", "orchestrator") else "auto",
-                       observers=observers, maps=maps, on_scan=tick)
+                       observers=observers, maps=maps, on_scan=tick, on_scans=on_scans)
     if side is not None:
         side.shutdown(wait=False, cancel_futures=True)
     if engine == "python" and config.filter.backend != "python":   # the plan chose the reference (a first run)

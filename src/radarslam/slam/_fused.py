@@ -1,5 +1,5 @@
 """The fused engine by its former module path: the names of :mod:`radarslam.slam.fused` (a whole
-event stream through EKF-SLAM in one compiled call, ``filter.fused``), re-exported.
+event stream through EKF-SLAM compiled, ``filter.fused``), re-exported.
 
 Patch :mod:`radarslam.slam.fused.plan` (not this module) to wrap the parts :func:`run` calls.
 """

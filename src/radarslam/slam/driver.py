@@ -2,7 +2,7 @@
 recorded after every scan (docs/architecture.md "The path of a recording").
 
 :func:`drive` is the only loop over the filter above the engine. The fused engine runs the whole
-stream in one compiled call where it covers the configuration; the orchestrator runs it event by
+stream in compiled calls over parts of it where it covers the configuration; the orchestrator runs it event by
 event; both give the same :class:`FilterRecord`. What a command records beyond it (a detection's
 fate, a reference's hits, an animation's frames) is an :class:`Observer`, told of every scan by
 the orchestrator or of the whole run by the fused engine."""
@@ -38,7 +38,7 @@ class FilterRecord:
     seconds : float
         Wall time of the filter alone.
     engine : str
-        Which engine ran it: ``"fused"`` (one compiled call), ``"orchestrator"`` (per event), or the
+        Which engine ran it: ``"fused"`` (compiled), ``"orchestrator"`` (per event), or the
         fused engine's code run by the interpreter, ``"fused-steps"`` (its steps in Python over
         compiled kernels) or ``"fused-python"`` (all of it; :func:`radarslam.slam.fused.engine.form`).
     times : ndarray (K,)
@@ -96,10 +96,12 @@ class Observer:
 
 def drive(config: Config, events: Sequence[Odometry | Scan], *, slam: EkfSlam | None = None, engine: str = "auto",
           observers: Sequence[Observer] = (), maps: str = "all",
-          on_scan: Callable[[], None] | None = None) -> FilterRecord:
+          on_scan: Callable[[], None] | None = None, on_scans: Callable[[int], None] | None = None) -> FilterRecord:
     """Run ``events`` through the filter and return its :class:`FilterRecord`; each of ``observers``
     is told of the run (:class:`Observer`); ``on_scan()`` is called after each scan (a progress bar;
-    with the fused engine, once per scan at the end).
+    with the fused engine, once per scan of each part of the stream as the part ends, about every half
+    second: slam/fused/chunks.py); ``on_scans(n)`` is told of the scans done ``n`` at a time (a part's,
+    or one).
 
     ``slam`` (an :class:`EkfSlam` of ``config``) runs event by event; without it, ``engine="auto"``
     runs a configuration the fused engine covers (:func:`radarslam.slam._fused.why_not`) in one
@@ -120,11 +122,26 @@ def drive(config: Config, events: Sequence[Odometry | Scan], *, slam: EkfSlam | 
             raise ConfigError(f"engine: {engine!r} runs the fused engine's configurations only, got one it does not "
                               f"cover ({why})")
         if engine != "orchestrator" and why is None:
-            return _drive_fused(slam, events, observers, maps, on_scan, t0,
+            return _drive_fused(slam, events, observers, maps, _told(on_scan, on_scans), t0,
                                 engine.removeprefix("fused-") if engine.startswith("fused-") else "compiled")
     elif engine.startswith("fused-"):
         raise ConfigError(f"engine: {engine!r} runs a new filter, not the given slam; got slam and {engine!r}")
-    return _drive_events(slam, events, observers, maps, on_scan, t0)
+    told = _told(on_scan, on_scans)
+    return _drive_events(slam, events, observers, maps, None if told is None else (lambda: told(1)), t0)
+
+
+def _told(on_scan, on_scans):
+    """One callback of a count of scans done, from ``on_scan()`` (per scan) and ``on_scans(n)``, or None."""
+    if on_scan is None and on_scans is None:
+        return None
+
+    def told(n: int) -> None:
+        if on_scan is not None:
+            for _ in range(n):
+                on_scan()
+        if on_scans is not None:
+            on_scans(n)
+    return told
 
 
 def _bias_row(slam: EkfSlam) -> np.ndarray:
@@ -183,14 +200,15 @@ def fused_maps(result: dict, maps: str = "all") -> list[MapSnapshot]:
                         result["efa"][a:b], result["created"][a:b]) for a, b in bounds]
 
 
-def _drive_fused(slam: EkfSlam, events, observers, maps: str, on_scan, t0: float,
+def _drive_fused(slam: EkfSlam, events, observers, maps: str, told, t0: float,
                  how: str = "compiled") -> FilterRecord:
-    """:func:`drive` by the fused engine (:mod:`radarslam.slam._fused`) in form ``how``: the same record."""
+    """:func:`drive` by the fused engine (:mod:`radarslam.slam._fused`) in form ``how``: the same record;
+    ``told(n)`` of each part's scans (:func:`_told`)."""
     scans = [ev for ev in events if isinstance(ev, Scan)]
     masks = [mk for mk in (o.scan_mask(scans) for o in observers) if mk is not None]
     trace = np.logical_or.reduce([np.asarray(mk, dtype=bool) for mk in masks]) if masks else None
     form = _plan.run_form(slam, how)
-    r, arows = _fused.run(slam, events, all_maps=maps == "all", trace=trace, how=form)
+    r, arows = _fused.run(slam, events, all_maps=maps == "all", trace=trace, how=form, on_scans=told)
     snaps = fused_maps(r, maps) if scans or maps == "all" else [slam.snapshot()]
     nis_rows = np.column_stack([np.repeat(np.arange(len(scans), dtype=float), r["nis_count"]), r["nis"]])
     bias = None
@@ -203,9 +221,6 @@ def _drive_fused(slam: EkfSlam, events, observers, maps: str, on_scan, t0: float
                           **_bias_labels(slam))
     for o in observers:
         o.after_fused(slam, scans, r, arows)
-    if on_scan is not None:
-        for _ in scans:
-            on_scan()
     return record
 
 

@@ -1,4 +1,5 @@
-"""The fused engine: a whole event stream through EKF-SLAM in one compiled call (``filter.fused``).
+"""The fused engine: a whole event stream through EKF-SLAM in compiled code (``filter.fused``), a few
+compiled calls over consecutive parts of it, the filter's state carried from each to the next.
 
 :class:`~radarslam.slam.filter.EkfSlam` runs docs/method.md a.8 as a dozen Python calls per scan,
 each cheap, together ~0.4 ms a scan: the orchestration, not the arithmetic, is the cost of a

@@ -1,10 +1,12 @@
-"""The fused engine's loop: a whole event stream through EKF-SLAM in one compiled call.
+"""The fused engine's loop: an event stream through EKF-SLAM in one compiled call, from the filter's
+state it is given (:class:`~radarslam.slam.fused.events.Carry`) to the state it gives back.
 
-:func:`run_stream` reads like :meth:`radarslam.slam.filter.EkfSlam.update`: per odometry event the
-prediction, per scan the steps of docs/method.md a.8 in the orchestrator's order, each a compiled
-function of :mod:`~radarslam.slam.fused.tracking` (steps 1-5), :mod:`~radarslam.slam.fused.extent` (6) or
-:mod:`~radarslam.slam.fused.mapping` (steps 7-10), under the partial view those of
-:mod:`~radarslam.slam.fused.view` (a.12), then the record after the scan
+:func:`run_stream` calls :func:`~radarslam.slam.fused.events.predict_event` per odometry event and
+:func:`~radarslam.slam.fused.events.scan_event` per scan, which read like
+:meth:`radarslam.slam.filter.EkfSlam.update`: the steps of docs/method.md a.8 in the orchestrator's
+order, each a compiled function of :mod:`~radarslam.slam.fused.tracking` (steps 1-5),
+:mod:`~radarslam.slam.fused.extent` (6) or :mod:`~radarslam.slam.fused.mapping` (steps 7-10), under
+the partial view those of :mod:`~radarslam.slam.fused.view` (a.12); then the record after the scan
 (:mod:`~radarslam.slam.fused.storage`).
 
 It is compiled once per :class:`Family` of configurations (:func:`engine`): the partial view, JCBB

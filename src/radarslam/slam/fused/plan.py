@@ -11,11 +11,13 @@ specialisation whatever the configuration.
 from __future__ import annotations
 
 import math
+import time
 from typing import NamedTuple
 
 import numpy as np
 
 from radarslam.slam.fused.engine import BAD_PREDICTION, ODOMETRY, OK, VELOCITY, family_of, form
+from radarslam.slam.fused.chunks import Pacer, joined, part
 from radarslam.slam.fused.events import initial_carry
 from radarslam.slam.fused.stream import Stream, _stream_arrays
 from radarslam.slam.fused.view import ViewParams, view_parameters
@@ -292,7 +294,8 @@ def _bias_parameters(bias) -> dict:
                 bias_drift=np.ascontiguousarray(bias.drift, dtype=float), bias_tau=float(bias.tau))
 
 
-def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None, how: str = "compiled"):
+def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None, how: str = "compiled",
+        on_scans=None):
     """Run ``events`` through the fused engine with ``slam``'s configuration and components
     (:func:`why_not` of both must be None). Returns ``(record, associations)``: the arrays of
     :func:`~radarslam.slam.fused.engine.run_stream` by name, and the ``(scan, detection, landmark
@@ -309,7 +312,9 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None, h
     kept (c.10.4), those of scan ``s`` at ``kept_offsets[s]:kept_offsets[s + 1]``. ``how``: the
     engine's form (:func:`~radarslam.slam.fused.engine.form`: compiled, or its steps or all of it as Python);
     a component of the user's own (:func:`user_components`) runs the steps form where ``how`` is compiled
-    (:func:`run_form`).
+    (:func:`run_form`). The stream runs in parts (:mod:`~radarslam.slam.fused.chunks`, each about half a
+    second of wall time; the same arithmetic as one call), and ``on_scans(n)`` is told of each part's
+    ``n`` scans as it ends.
 
     Raises
     ------
@@ -337,11 +342,7 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None, h
                   np.ascontiguousarray(slam.R_assoc, dtype=float))
     how = run_form(slam, how)
     user = user_components(slam) if how != "compiled" else ()
-    off = stream.scan_off
-    carry = initial_carry(st.x, st.P, cfg.n_init + int((off[1:] - off[:-1]).max(initial=1)) + 1)
-    status, n_scans, (rec, maps), arows, _ = form(family_of(cfg), how, user)(stream, carry, noise, cfg)
-    if status[0] != OK:
-        raise InputError(_failure(events, stream, status, n_scans))
+    rec, maps, arows = _parts(form(family_of(cfg), how, user), events, stream, st, noise, cfg, on_scans)
     if stream.kept.shape[0] and arows.shape[0]:           # the gate's kept rows back to the scan's detections
         arows[:, 1] = stream.kept[stream.scan_off[arows[:, 0]] + arows[:, 1]]
     out = {"poses": rec.poses, "pose_covs": rec.pose_covs, "n_detections": rec.n_det, "n_associated": rec.n_ass,
@@ -353,6 +354,32 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None, h
     if timing:
         out["seconds"] = rec.seconds
     return out, arows
+
+
+def _parts(engine, events, stream: Stream, st, noise, cfg, on_scans):
+    """``stream`` through ``engine`` (a form of the engine) from the state ``st`` in consecutive parts
+    (:class:`~radarslam.slam.fused.chunks.Pacer`), the filter's state carried from each to the next:
+    the run's ``(record, maps, association rows)``."""
+    from radarslam.core.errors import InputError
+
+    off = stream.scan_off
+    carry = initial_carry(st.x, st.P, cfg.n_init + int((off[1:] - off[:-1]).max(initial=1)) + 1)
+    pacer, parts, e0, n_events = Pacer(), [], 0, stream.kinds.shape[0]
+    while True:
+        e1 = pacer.end(stream, e0)
+        sub, s0 = part(stream, e0, e1)
+        t0 = time.perf_counter()
+        status, n, (rec, maps), arows, carry = engine(sub, carry, noise, cfg)
+        pacer.ran(n, time.perf_counter() - t0)
+        if status[0] != OK:
+            raise InputError(_failure(events, stream, (status[0], e0 + status[1]), s0 + n))
+        parts.append((s0, rec, maps, arows))
+        if on_scans is not None:
+            on_scans(n)
+        e0 = e1
+        if e0 >= n_events:
+            break
+    return joined(parts, bool(cfg.all_maps)) if len(parts) > 1 else (rec, maps, arows)
 
 
 def _failure(events, stream: Stream, status, n_scans: int) -> str:
