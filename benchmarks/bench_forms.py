@@ -1,8 +1,8 @@
 """Wall time of the filter alone in each way the package can run it, on the same events, warm (numba's
 cache built; run once first if it is not): the fused engine compiled, its steps as Python over the
 compiled kernels (``engine="fused-steps"``), all of it as Python (``"fused-python"``; slam/fused/engine.py
-``form``), and the orchestrator with compiled kernels and with the Python backend (docs/speed.md
-"The engine's three forms"). Workloads: one car-park trial (the apsipa profile, seed 1), the nuScenes
+``form``), the compiled engine fed one event at a time (``fused-events``: slam/fused/online.py), and the
+orchestrator with compiled kernels and with the Python backend (docs/speed.md "The engine's three forms"). Workloads: one car-park trial (the apsipa profile, seed 1), the nuScenes
 scene-0061 and RadarScenes sequence 105 under ``--profile automotive`` (their events as ``radarslam
 run --recording`` builds them). Prints the median of ``--repeat`` runs (one run for a form that takes
 over 20 s).
@@ -26,7 +26,8 @@ DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 RECORDINGS = {"nuscenes": DATA / "nuscenes_radar" / "scene-0061", "radarscenes": DATA / "radarscenes" / "sequence_105"}
 #: name: (drive's engine, filter.backend)
 FORMS = {"fused": ("auto", "numba"), "fused-steps": ("fused-steps", "numba"), "fused-python": ("fused-python", "numba"),
-         "orchestrator": ("orchestrator", "numba"), "orchestrator-python": ("orchestrator", "python")}
+         "fused-events": ("events", "numba"), "orchestrator": ("orchestrator", "numba"),
+         "orchestrator-python": ("orchestrator", "python")}
 
 
 def carpark_events():
@@ -58,6 +59,16 @@ def recording_events(path: Path):
     return got["config"], got["events"]
 
 
+def _events_one_by_one(cfg, events) -> None:
+    """The compiled fused engine fed one event at a time (slam/fused/online.py ``Online``)."""
+    from radarslam.slam.filter import EkfSlam
+    from radarslam.slam.fused.online import Online
+
+    online = Online(EkfSlam(cfg))
+    for ev in events:
+        online.process(ev)
+
+
 def seconds(config, events, engine: str, backend: str, repeat: int) -> float:
     from radarslam.slam.driver import run_filter
 
@@ -65,7 +76,10 @@ def seconds(config, events, engine: str, backend: str, repeat: int) -> float:
     times = []
     for _ in range(repeat):
         t0 = time.perf_counter()
-        run_filter(cfg, events, engine=engine)
+        if engine == "events":
+            _events_one_by_one(cfg, events)
+        else:
+            run_filter(cfg, events, engine=engine)
         times.append(time.perf_counter() - t0)
         if times[-1] > 20.0:
             break

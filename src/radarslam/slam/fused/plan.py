@@ -330,19 +330,10 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None, h
             raise InputError(f"trace: expected one flag per scan, shape {stream.trace.shape}, got {trace.shape}")
         stream = stream._replace(trace=trace)
     cfg = _parameters(slam, timing, all_maps)
-    st = slam.state
-    ext = slam.extent
-    prior_spread = ext.prior_spread if ext.initial_spread() is not None or cfg.pre_spread else np.zeros((2, 2))
-    gates = np.zeros(2)
-    if cfg.assoc == 3:                         # JCBB: a gate for every depth a scan's candidates allow
-        off = stream.scan_off
-        gates = slam.associator.gates(max(1, int((off[1:] - off[:-1]).max(initial=1))))
-    Cp0 = np.asarray(ext.Cp0, dtype=float) if cfg.mem else np.zeros((3, 3))
-    noise = Noise(slam.R, ext.R_extent, slam.U, slam.Q, np.ascontiguousarray(prior_spread, dtype=float), gates, Cp0,
-                  np.ascontiguousarray(slam.R_assoc, dtype=float))
+    noise = noises(slam, cfg, largest_scan(stream))
     how = run_form(slam, how)
     user = user_components(slam) if how != "compiled" else ()
-    rec, maps, arows = _parts(form(family_of(cfg), how, user), events, stream, st, noise, cfg, on_scans)
+    rec, maps, arows = _parts(form(family_of(cfg), how, user), events, stream, slam.state, noise, cfg, on_scans)
     if stream.kept.shape[0] and arows.shape[0]:           # the gate's kept rows back to the scan's detections
         arows[:, 1] = stream.kept[stream.scan_off[arows[:, 0]] + arows[:, 1]]
     out = {"poses": rec.poses, "pose_covs": rec.pose_covs, "n_detections": rec.n_det, "n_associated": rec.n_ass,
@@ -356,14 +347,30 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None, h
     return out, arows
 
 
+def largest_scan(stream: Stream) -> int:
+    """The most detections a scan of ``stream`` holds (at least 1)."""
+    off = stream.scan_off
+    return max(1, int((off[1:] - off[:-1]).max(initial=1)))
+
+
+def noises(slam, cfg, largest: int) -> Noise:
+    """The :class:`Noise` of ``slam`` under the parameters ``cfg``, for scans of up to ``largest``
+    detections (JCBB's gates: one for every depth a scan's candidates allow)."""
+    ext = slam.extent
+    prior_spread = ext.prior_spread if ext.initial_spread() is not None or cfg.pre_spread else np.zeros((2, 2))
+    gates = slam.associator.gates(largest) if cfg.assoc == 3 else np.zeros(2)
+    Cp0 = np.asarray(ext.Cp0, dtype=float) if cfg.mem else np.zeros((3, 3))
+    return Noise(slam.R, ext.R_extent, slam.U, slam.Q, np.ascontiguousarray(prior_spread, dtype=float), gates, Cp0,
+                 np.ascontiguousarray(slam.R_assoc, dtype=float))
+
+
 def _parts(engine, events, stream: Stream, st, noise, cfg, on_scans):
     """``stream`` through ``engine`` (a form of the engine) from the state ``st`` in consecutive parts
     (:class:`~radarslam.slam.fused.chunks.Pacer`), the filter's state carried from each to the next:
     the run's ``(record, maps, association rows)``."""
     from radarslam.core.errors import InputError
 
-    off = stream.scan_off
-    carry = initial_carry(st.x, st.P, cfg.n_init + int((off[1:] - off[:-1]).max(initial=1)) + 1)
+    carry = initial_carry(st.x, st.P, cfg.n_init + largest_scan(stream) + 1)
     pacer, parts, e0, n_events = Pacer(), [], 0, stream.kinds.shape[0]
     while True:
         e1 = pacer.end(stream, e0)

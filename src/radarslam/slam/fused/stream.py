@@ -43,7 +43,7 @@ class Stream(NamedTuple):
     tau_i: np.ndarray      #: (S,) int64, the state index of each scan's radar's time offset (c.13.2), -1 for none
 
 
-def _stream_arrays(events, fast: bool = True, slam=None) -> Stream:
+def _stream_arrays(events, fast: bool = True, slam=None, live: bool = False) -> Stream:
     """The event stream as arrays (a :class:`Stream`), each event checked as :meth:`EkfSlam.predict` and
     :meth:`EkfSlam.update` check it (the same one-line errors, the first bad event's).
 
@@ -57,22 +57,26 @@ def _stream_arrays(events, fast: bool = True, slam=None) -> Stream:
 
     ``fast``: a scan whose detections are already a float ``(m, 2)`` array is checked with all the
     others at once at the end (finite, ranges >= 0); if anything is wrong, the stream is checked
-    again event by event, so that the error is the one the orchestrator raises first."""
+    again event by event, so that the error is the one the orchestrator raises first.
+
+    ``live``: the stream is a part of a longer one that ``slam``'s own components read in order (the
+    fused engine event by event, :class:`~radarslam.slam.fused.online.Online`): they are used, not
+    copied, so that the Doppler odometry's interval and the gate's generator go on from the part before."""
     from radarslam.core.errors import InputError
 
     if not fast or (slam is not None and slam._gate is not None):     # the gate reads checked scans only
-        return _stream_arrays_checked(events, False, slam)
+        return _stream_arrays_checked(events, False, slam, live)
     try:
-        out = _stream_arrays_checked(events, True, slam)
+        out = _stream_arrays_checked(events, True, slam, live)
     except InputError:
-        return _stream_arrays_checked(events, False, slam)
+        return _stream_arrays_checked(events, False, slam, live)
     polar = out.polar
     if not (np.isfinite(polar).all() and (polar[:, 0] >= 0).all()):
-        return _stream_arrays_checked(events, False, slam)
+        return _stream_arrays_checked(events, False, slam, live)
     return out
 
 
-def _stream_arrays_checked(events, defer_polar: bool, slam=None) -> Stream:
+def _stream_arrays_checked(events, defer_polar: bool, slam=None, live: bool = False) -> Stream:
     """:func:`_stream_arrays`, the detections of a float ``(m, 2)`` array left unchecked with ``defer_polar``."""
     import copy
 
@@ -81,7 +85,9 @@ def _stream_arrays_checked(events, defer_polar: bool, slam=None) -> Stream:
     from radarslam.core.validation import as_array
     from radarslam.slam.event_input import finite_number as _number, scan_polar as _scan_polar
 
-    src, gate = (copy.deepcopy(slam._odometry), copy.deepcopy(slam._gate)) if slam is not None else (None, None)
+    src, gate = (slam._odometry, slam._gate) if slam is not None else (None, None)
+    if slam is not None and not live:
+        src, gate = copy.deepcopy(src), copy.deepcopy(gate)
     # c.10.4, c.10.5: the whole stream's classification or fits in one compiled call where the scans allow it
     gated, fits = None, None
     sensors = any(isinstance(e, Scan) and e.sensor is not None for e in events)      # c.13: per scan, below

@@ -1,0 +1,62 @@
+"""The fused engine event by event: :class:`Online` keeps the filter's state between calls
+(:class:`~radarslam.slam.fused.events.Carry`) and runs each event through the same engine a whole stream
+runs through (slam/fused/engine.py, in any of its forms), so that a stream fed to it one event at a time
+gives the one-call record bit for bit (tests/test_chunks.py).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from radarslam.core.errors import InputError
+from radarslam.slam.fused.engine import OK, family_of, form
+from radarslam.slam.fused.events import initial_carry
+from radarslam.slam.fused.plan import _failure, _parameters, largest_scan, noises, run_form, user_components, why_not
+from radarslam.slam.fused.stream import _stream_arrays
+
+__all__ = ["Online"]
+
+
+class Online:
+    """``slam``'s filter (an :class:`~radarslam.slam.filter.EkfSlam` that has processed nothing and whose
+    configuration the fused engine covers, :func:`~radarslam.slam.fused.plan.why_not`) run by the fused
+    engine one event at a time, in form ``how`` (engine.FORMS). ``slam``'s own Doppler odometry and
+    Doppler gate read the events as they come; its state is not changed (read :attr:`carry`)."""
+
+    def __init__(self, slam, how: str = "compiled"):
+        why = why_not(slam)
+        if why is not None:
+            raise InputError(f"slam: expected a filter the fused engine covers, got one it does not ({why})")
+        self.slam = slam
+        self.cfg = _parameters(slam, False, True)
+        how = run_form(slam, how)
+        self.engine = form(family_of(self.cfg), how, user_components(slam) if how != "compiled" else ())
+        self.largest = 1
+        self.noise = noises(slam, self.cfg, self.largest)
+        self.carry = initial_carry(slam.state.x, slam.state.P, self.cfg.n_init + self.largest + 1)
+
+    def process(self, event):
+        """Run one event. Returns None for an odometry reading, else the scan's record: ``(record, maps,
+        associations)`` as :func:`~radarslam.slam.fused.engine.run_stream` gives them for one scan (the map
+        after it; the ``(0, detection, landmark id)`` rows, the detections the scan's own rows).
+
+        Raises
+        ------
+        InputError
+            As :class:`~radarslam.slam.filter.EkfSlam` would, for a bad event (nothing changed) or one that
+            makes the state non-finite (the filter is then not to be used further).
+        """
+        _stream_arrays([event], fast=False)                          # its checks, before anything changes
+        stream = _stream_arrays([event], fast=False, slam=self.slam, live=True)
+        if stream.kinds.shape[0] == 0:                               # c.10.5: a reading the Doppler odometry holds
+            return None
+        largest = largest_scan(stream)
+        if largest > self.largest and self.cfg.assoc == 3:          # JCBB: gates for the deeper scan
+            self.largest = largest
+            self.noise = noises(self.slam, self.cfg, largest)
+        status, n, (rec, maps), arows, self.carry = self.engine(stream, self.carry, self.noise, self.cfg)
+        if status[0] != OK:
+            raise InputError(_failure([event], stream, status, n))
+        if stream.kept.shape[0] and arows.shape[0]:                 # the gate's kept rows back to the scan's
+            arows[:, 1] = stream.kept[arows[:, 1]]
+        return (rec, maps, arows) if n else None
