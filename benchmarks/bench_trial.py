@@ -37,7 +37,7 @@ FILTER_STEPS = ("predict", "_prior", "_sift", "_associate_and_update", "_remove_
 TRIAL_STAGES = {"generate_scenario": "simulation", "variant_config": "configuration",
                 "evaluate": "evaluation", "encode_trial": "encoding", "run_filter": "filter"}
 #: The fused engine's parts (radarslam.slam.fused.plan, where run finds them) timed in pass 2.
-FUSED_PARTS = {"_stream_arrays": "fused: events as arrays", "run_stream": "fused: compiled run (run_stream)"}
+FUSED_PARTS = {"_stream_arrays": "fused: events as arrays", "_parts": "fused: compiled run (run_stream, in parts)"}
 
 
 def _timed(fn, name, acc):

@@ -46,7 +46,8 @@ class Online:
             As :class:`~radarslam.slam.filter.EkfSlam` would, for a bad event (nothing changed) or one that
             makes the state non-finite (the filter is then not to be used further).
         """
-        _stream_arrays([event], fast=False)                          # its checks, before anything changes
+        if self.slam._odometry is not None or self.slam._gate is not None:
+            _stream_arrays([event], fast=False)                      # its checks, before the components read it
         stream = _stream_arrays([event], fast=False, slam=self.slam, live=True)
         if stream.kinds.shape[0] == 0:                               # c.10.5: a reading the Doppler odometry holds
             return None
