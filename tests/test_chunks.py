@@ -134,8 +134,8 @@ def test_the_engine_event_by_event_gives_the_one_call_record(events, how):
 
 
 def test_the_engine_event_by_event_refuses_a_bad_scan_and_goes_on(events):
-    """A scan with a negative range is refused in one line before anything changes; the next events
-    then give what they give without it (the filter's state is the one before the bad scan)."""
+    """A scan with a negative range is refused in one line before anything changes (the filter's state is
+    the one before the bad scan); so is a scan earlier than the last one run, as EkfSlam.update refuses it."""
     from radarslam.core.types import Scan
     from radarslam.slam.fused.online import Online
 
@@ -149,6 +149,10 @@ def test_the_engine_event_by_event_refuses_a_bad_scan_and_goes_on(events):
         a.process(bad)
     np.testing.assert_array_equal(a.carry.x, b.carry.x)
     np.testing.assert_array_equal(a.carry.P, b.carry.P)
+    a.process(events[k]), b.process(events[k])
+    back = dataclasses.replace(events[k], t=float(events[k].t) - 0.5)
+    with pytest.raises(InputError, match="scan.t: expected scan times that do not go backwards"):
+        a.process(back)
 
 
 def test_the_engine_event_by_event_feeds_the_doppler_odometry_and_gate_in_order():

@@ -9,6 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 from radarslam.core.errors import InputError
+from radarslam.core.types import Scan
+from radarslam.slam.event_input import finite_number
 from radarslam.slam.fused.engine import OK, family_of, form
 from radarslam.slam.fused.events import initial_carry
 from radarslam.slam.fused.plan import _failure, _parameters, largest_scan, noises, run_form, user_components, why_not
@@ -21,7 +23,8 @@ class Online:
     """``slam``'s filter (an :class:`~radarslam.slam.filter.EkfSlam` that has processed nothing and whose
     configuration the fused engine covers, :func:`~radarslam.slam.fused.plan.why_not`) run by the fused
     engine one event at a time, in form ``how`` (engine.FORMS). ``slam``'s own Doppler odometry and
-    Doppler gate read the events as they come; its state is not changed (read :attr:`carry`)."""
+    Doppler gate read the events as they come, and so change with them; ``slam.state`` does not (the
+    filter's state is :attr:`carry`)."""
 
     def __init__(self, slam, how: str = "compiled"):
         why = why_not(slam)
@@ -34,6 +37,7 @@ class Online:
         self.largest = 1
         self.noise = noises(slam, self.cfg, self.largest)
         self.carry = initial_carry(slam.state.x, slam.state.P, self.cfg.n_init + self.largest + 1)
+        self.last_t = None                          # the time of the last scan run
 
     def process(self, event):
         """Run one event. Returns None for an odometry reading, else the scan's record: ``(record, maps,
@@ -48,7 +52,12 @@ class Online:
         """
         if self.slam._odometry is not None or self.slam._gate is not None:
             _stream_arrays([event], fast=False)                      # its checks, before the components read it
-        stream = _stream_arrays([event], fast=False, slam=self.slam, live=True)
+        if isinstance(event, Scan):                                  # as EkfSlam.update: time goes forward
+            t = finite_number(event.t, "scan.t")
+            if self.last_t is not None and t < self.last_t:
+                raise InputError(f"scan.t: expected scan times that do not go backwards, got {t!r} after "
+                                 f"{self.last_t!r} (scan {event.index})")
+        stream = _stream_arrays([event], slam=self.slam, live=True)
         if stream.kinds.shape[0] == 0:                               # c.10.5: a reading the Doppler odometry holds
             return None
         largest = largest_scan(stream)
@@ -56,6 +65,8 @@ class Online:
             self.largest = largest
             self.noise = noises(self.slam, self.cfg, largest)
         status, n, (rec, maps), arows, self.carry = self.engine(stream, self.carry, self.noise, self.cfg)
+        if n:
+            self.last_t = float(event.t)
         if status[0] != OK:
             raise InputError(_failure([event], stream, status, n))
         if stream.kept.shape[0] and arows.shape[0]:                 # the gate's kept rows back to the scan's

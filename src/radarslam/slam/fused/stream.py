@@ -61,10 +61,12 @@ def _stream_arrays(events, fast: bool = True, slam=None, live: bool = False) -> 
 
     ``live``: the stream is a part of a longer one that ``slam``'s own components read in order (the
     fused engine event by event, :class:`~radarslam.slam.fused.online.Online`): they are used, not
-    copied, so that the Doppler odometry's interval and the gate's generator go on from the part before."""
+    copied, so that the Doppler odometry's interval and the gate's generator go on from the part before
+    (and every event is checked as it is read, ``fast`` or not)."""
     from radarslam.core.errors import InputError
 
-    if not fast or (slam is not None and slam._gate is not None):     # the gate reads checked scans only
+    # the gate reads checked scans only; live components are read once (no second pass after an error)
+    if live or not fast or (slam is not None and slam._gate is not None):
         return _stream_arrays_checked(events, False, slam, live)
     try:
         out = _stream_arrays_checked(events, True, slam, live)
