@@ -2,10 +2,10 @@
 cache built; run once first if it is not): the fused engine compiled, its steps as Python over the
 compiled kernels (``engine="fused-steps"``), all of it as Python (``"fused-python"``; slam/fused/engine.py
 ``form``), the compiled engine fed one event at a time (``fused-events``: slam/fused/online.py), and the
-orchestrator with compiled kernels and with the Python backend (docs/speed.md "The engine's three forms"). Workloads: one car-park trial (the apsipa profile, seed 1), the nuScenes
-scene-0061 and RadarScenes sequence 105 under ``--profile automotive`` (their events as ``radarslam
-run --recording`` builds them). Prints the median of ``--repeat`` runs (one run for a form that takes
-over 20 s).
+orchestrator with compiled kernels and with the Python backend (docs/speed.md "The engine's three forms").
+Workloads: one car-park trial (the apsipa profile, seed 1), the nuScenes scene-0061 and RadarScenes
+sequence 105 under ``--profile automotive`` (their events as ``radarslam run --recording`` builds them).
+Prints the median of ``--repeat`` runs (one run for a form that takes over 20 s).
 
     python benchmarks/bench_forms.py [--repeat 3] [--workloads carpark,nuscenes,radarscenes] [--forms ...]
 """

@@ -21,8 +21,8 @@ from pathlib import Path
 COMPILED_SOURCES = (
     "core/angles.py", "core/arrays.py", "core/jit.py", "core/small_matrices.py", "slam/ekf.py", "slam/layout.py",
     "slam/_numba.py", "slam/_jcbb_numba.py", "slam/jcbb_search.py",
-    "slam/fused/storage.py", "slam/fused/tracking.py", "slam/fused/mapping.py", "slam/fused/engine.py", "slam/fused/events.py",
-    "slam/fused/extent.py", "slam/fused/gate.py", "slam/gate_kernels.py",
+    "slam/fused/storage.py", "slam/fused/tracking.py", "slam/fused/mapping.py", "slam/fused/engine.py",
+    "slam/fused/events.py", "slam/fused/extent.py", "slam/fused/gate.py", "slam/gate_kernels.py",
     "landmarks/confirmation.py", "landmarks/merging.py", "landmarks/sifting.py", "landmarks/grouping.py",
     "landmarks/records.py", "extent/sifting.py", "slam/bias.py",
     "extent/_compiled.py", "extent/_sym2.py", "extent/buffering.py", "extent/measurement.py", "extent/random_matrix.py",
