@@ -6,14 +6,11 @@ gives the one-call record bit for bit (tests/test_chunks.py).
 
 from __future__ import annotations
 
-import numpy as np
-
 from radarslam.core.errors import InputError
 from radarslam.core.types import Scan
 from radarslam.slam.event_input import finite_number
-from radarslam.slam.fused.engine import OK, family_of, form
-from radarslam.slam.fused.events import initial_carry
-from radarslam.slam.fused.plan import _failure, _parameters, largest_scan, noises, run_form, user_components, why_not
+from radarslam.slam.fused.engine import OK
+from radarslam.slam.fused.plan import _failure, _parameters, engine_of, first_carry, largest_scan, noises, why_not
 from radarslam.slam.fused.stream import _stream_arrays
 
 __all__ = ["Online"]
@@ -32,11 +29,10 @@ class Online:
             raise InputError(f"slam: expected a filter the fused engine covers, got one it does not ({why})")
         self.slam = slam
         self.cfg = _parameters(slam, False, True)
-        how = run_form(slam, how)
-        self.engine = form(family_of(self.cfg), how, user_components(slam) if how != "compiled" else ())
+        self.engine = engine_of(slam, self.cfg, how)
         self.largest = 1
         self.noise = noises(slam, self.cfg, self.largest)
-        self.carry = initial_carry(slam.state.x, slam.state.P, self.cfg.n_init + self.largest + 1)
+        self.carry = first_carry(slam, self.cfg, self.largest)
         self.last_t = None                          # the time of the last scan run
 
     def process(self, event):

@@ -330,10 +330,9 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None, h
             raise InputError(f"trace: expected one flag per scan, shape {stream.trace.shape}, got {trace.shape}")
         stream = stream._replace(trace=trace)
     cfg = _parameters(slam, timing, all_maps)
-    noise = noises(slam, cfg, largest_scan(stream))
-    how = run_form(slam, how)
-    user = user_components(slam) if how != "compiled" else ()
-    rec, maps, arows = _parts(form(family_of(cfg), how, user), events, stream, slam.state, noise, cfg, on_scans)
+    largest = largest_scan(stream)
+    rec, maps, arows = _parts(engine_of(slam, cfg, how), events, stream, first_carry(slam, cfg, largest),
+                              noises(slam, cfg, largest), cfg, on_scans)
     if stream.kept.shape[0] and arows.shape[0]:           # the gate's kept rows back to the scan's detections
         arows[:, 1] = stream.kept[stream.scan_off[arows[:, 0]] + arows[:, 1]]
     out = {"poses": rec.poses, "pose_covs": rec.pose_covs, "n_detections": rec.n_det, "n_associated": rec.n_ass,
@@ -345,6 +344,19 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None, h
     if timing:
         out["seconds"] = rec.seconds
     return out, arows
+
+
+def engine_of(slam, cfg, how: str = "compiled"):
+    """The engine of ``slam``'s family (``cfg``: its parameters) in the form ``how`` asks for
+    (:func:`run_form`), with ``slam``'s components of the user's own (:func:`user_components`)."""
+    how = run_form(slam, how)
+    return form(family_of(cfg), how, user_components(slam) if how != "compiled" else ())
+
+
+def first_carry(slam, cfg, largest: int):
+    """The engine's state before ``slam``'s first event (:func:`~radarslam.slam.fused.events.initial_carry`),
+    room buffered for scans of ``largest`` detections."""
+    return initial_carry(slam.state.x, slam.state.P, cfg.n_init + largest + 1)
 
 
 def largest_scan(stream: Stream) -> int:
@@ -364,13 +376,12 @@ def noises(slam, cfg, largest: int) -> Noise:
                  np.ascontiguousarray(slam.R_assoc, dtype=float))
 
 
-def _parts(engine, events, stream: Stream, st, noise, cfg, on_scans):
-    """``stream`` through ``engine`` (a form of the engine) from the state ``st`` in consecutive parts
+def _parts(engine, events, stream: Stream, carry, noise, cfg, on_scans):
+    """``stream`` through ``engine`` (a form of the engine) from the state ``carry`` in consecutive parts
     (:class:`~radarslam.slam.fused.chunks.Pacer`), the filter's state carried from each to the next:
     the run's ``(record, maps, association rows)``."""
     from radarslam.core.errors import InputError
 
-    carry = initial_carry(st.x, st.P, cfg.n_init + largest_scan(stream) + 1)
     pacer, parts, e0, n_events = Pacer(), [], 0, stream.kinds.shape[0]
     while True:
         e1 = pacer.end(stream, e0)
