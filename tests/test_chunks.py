@@ -176,7 +176,8 @@ def test_the_engine_event_by_event_feeds_the_doppler_odometry_and_gate_in_order(
 
     def poses(live: bool):
         real = online_mod._stream_arrays
-        online_mod._stream_arrays = lambda ev, fast=True, slam=None, live=False: real(ev, fast, slam, live and keep)
+        online_mod._stream_arrays = lambda ev, fast=True, slam=None, live=False, **kw: real(ev, fast, slam, live and keep,
+                                                                                        **kw)
         keep = live
         try:
             on = Online(EkfSlam(cfg))

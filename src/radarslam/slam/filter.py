@@ -18,7 +18,6 @@ from __future__ import annotations
 import dataclasses
 
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -50,29 +49,10 @@ from radarslam.slam.layout import POSE_DIM
 from radarslam.slam.kernels import cluster_kernel as _cluster_kernel, step_kernels as _step_kernels
 from radarslam.slam.odometry_source import odometry_source
 from radarslam.slam.partial_view import view_components, view_corrected_centroid, view_walk
+from radarslam.slam.report import ScanReport
 from radarslam.slam.state import Landmark
 
 __all__ = ["EkfSlam", "Landmark", "MapSnapshot", "ScanReport"]
-
-
-@dataclass(frozen=True)
-class ScanReport:
-    """What one scan did (for logging and tests)."""
-
-    index: int
-    n_detections: int
-    n_candidates: int
-    n_associated: int
-    associations: dict[int, np.ndarray]  # landmark id -> detection indices
-    removed: list[int]
-    confirmed: list[int]
-    merged: list[tuple[int, int]]  # (kept id, dropped id)
-    n_clusters: int
-    n_tentative: int
-    nis: np.ndarray = field(default_factory=lambda: np.empty(0))  # NIS of each update (2 dof)
-    moving: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=int))  # detections failing c.10.4
-    ego: object = None  # the scan's EgoVelocity (c.10) under filter.doppler_gate, else None
-    created: dict[int, np.ndarray] = field(default_factory=dict)  # new landmark id -> its cluster's detections
 
 
 class EkfSlam:

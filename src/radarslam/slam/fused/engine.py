@@ -24,7 +24,7 @@ import numpy as np
 from numba import njit, objmode
 
 from radarslam.core.jit import uncompiled
-from radarslam.slam.fused.events import predict_event, scan_event
+from radarslam.slam.fused.events import no_scan_out, predict_event, scan_event
 from radarslam.slam.fused.storage import _all_finite, cut_records, new_records, record_map, record_scan
 from radarslam.slam.fused.tracking import BODY_VELOCITY, turn_noise
 from radarslam.slam.layout import POSE_DIM
@@ -98,8 +98,9 @@ def engine(family: Family):
         offsets, the landmarks after the scans ``stream.trace`` marks, and with ``cfg.timing`` the wall
         time of each scan with the predictions before it, else zeros); the maps after every scan
         (``cfg.all_maps``) or after the last (:class:`~radarslam.slam.fused.storage.MapRows`); and the
-        per-scan associations as ``(scan, detection, landmark id)`` rows, all cut to the scans run; and the
-        filter after the last event run (the carry to run a further stream from).
+        per-scan associations as ``(scan, detection, landmark id)`` rows, all cut to the scans run; the
+        filter after the last event run (the carry to run a further stream from); and what the last scan
+        run did beyond its record (:class:`~radarslam.slam.fused.events.ScanOut`: the per-event report's).
         """
         S = stream.scan_off.shape[0] - 1
         zero = np.int64(0)    # counters: from a literal 0 numba compiles each callee twice (Literal[int](0), int64)
@@ -108,6 +109,7 @@ def engine(family: Family):
         status = np.zeros(2, dtype=np.int64)
         t_last = _clock() if cfg.timing else 0.0
         e_odo, s, e_vel = zero, zero, zero
+        last = no_scan_out()
         for ev in range(stream.kinds.shape[0]):
             if stream.kinds[ev] != SCAN:                                               # 1
                 odometer = stream.kinds[ev] == ODOMETRY
@@ -117,8 +119,8 @@ def engine(family: Family):
                     status[0], status[1] = BAD_PREDICTION, ev
                     break
                 continue
-            c, polar, n_assoc, nis, a_rows, n_arows = scan_event(c, stream, s, a_rows, n_arows, noise, cfg, view,
-                                                                 jcbb, bias)      # a.8 steps 2-10
+            c, polar, n_assoc, nis, a_rows, n_arows, last = scan_event(c, stream, s, a_rows, n_arows, noise, cfg,
+                                                                       view, jcbb, bias)  # a.8 steps 2-10
             if not _all_finite(c.x, c.P):
                 status[0], status[1] = BAD_SCAN, ev
                 break
@@ -131,7 +133,7 @@ def engine(family: Family):
                 rec.seconds[s] = t1 - t_last
                 t_last = t1
             s += 1
-        return status, s, cut_records(rec, maps, s), a_rows[:n_arows], c
+        return status, s, cut_records(rec, maps, s), a_rows[:n_arows], c, last
 
     return njit(cache=True)(_named(run_stream, family))
 

@@ -28,7 +28,7 @@ from radarslam.slam.fused.tracking import _to_world, group_associations, remove_
 from radarslam.slam.fused.view import associate_step, sift_step, view_walk
 from radarslam.slam.layout import POSE_DIM
 
-__all__ = ["Carry", "initial_carry", "new_carry", "predict_event", "scan_event"]
+__all__ = ["Carry", "ScanOut", "initial_carry", "new_carry", "no_scan_out", "predict_event", "scan_event"]
 
 
 class Carry(NamedTuple):
@@ -52,6 +52,63 @@ class Carry(NamedTuple):
     u_last: np.ndarray     #: the odometer's latest reading (c.13.2's pose rate)
     has_u: bool            #: whether there has been one
     scans: np.int64        #: the scans run
+
+
+class ScanOut(NamedTuple):
+    """What a scan did to the map beyond the per-scan record: the fields of the per-event report
+    (:class:`~radarslam.slam.report.ScanReport`) that only the steps know."""
+
+    n_cand: np.int64        #: the detections sifted as candidates for association (step 3)
+    n_clusters: np.int64    #: the clusters of the unclaimed detections (step 7)
+    removed: np.ndarray     #: (r,) int64, the ids removed from the state (step 5), not those retired (c.15)
+    merged: np.ndarray      #: (m, 2) int64, ``(kept id, dropped id)`` of each merge (step 10), in order
+    first_new: np.int64     #: the id of the first landmark the scan created (the others follow in order)
+    new_off: np.ndarray     #: (n + 1,) int64, new landmark a's cluster is ``new_rows[new_off[a]:new_off[a + 1]]``
+    new_rows: np.ndarray    #: int64, those clusters' detections (rows of the scan's detections)
+
+
+@njit(cache=True, inline="always")
+def no_scan_out():  # pragma: no cover - compiled
+    """The :class:`ScanOut` before any scan (the arrays typed as :func:`scan_event` makes them)."""
+    zero = np.int64(0)
+    return ScanOut(zero, zero, np.empty(0, dtype=np.int64)[:0], np.empty((0, 2), dtype=np.int64)[:0], zero,
+                   np.zeros(1, dtype=np.int64), np.empty(0, dtype=np.int64))
+
+
+@njit(cache=True, inline="always")
+def _removed(ids0, old, retired, r0, r1):  # pragma: no cover - compiled
+    """The ids of ``ids0`` (the landmarks before step 5) whose rows are not among the survivors'
+    former rows ``old`` nor retired (``retired.ids[r0:r1]``)."""
+    gone = np.ones(ids0.shape[0], dtype=np.bool_)
+    for a in range(old.shape[0]):
+        gone[old[a]] = False
+    out = np.empty(ids0.shape[0], dtype=np.int64)
+    n = 0
+    for j in range(ids0.shape[0]):
+        if gone[j]:
+            kept = False
+            for q in range(r0, r1):
+                kept = kept or retired.ids[q] == ids0[j]
+            if not kept:
+                out[n] = ids0[j]
+                n += 1
+    return out[:n]
+
+
+@njit(cache=True, inline="always")
+def _new_members(confirmed, clusters):  # pragma: no cover - compiled
+    """The detections of each confirmed cluster, in order: ``(offsets, rows)``."""
+    off = np.zeros(confirmed.shape[0] + 1, dtype=np.int64)
+    for a in range(confirmed.shape[0]):
+        off[a + 1] = off[a] + clusters.size[confirmed[a]]
+    rows = np.empty(off[-1], dtype=np.int64)
+    for a in range(confirmed.shape[0]):
+        q = off[a]
+        for b in range(clusters.rest.shape[0]):
+            if clusters.labels[b] == confirmed[a]:
+                rows[q] = clusters.rest[b]
+                q += 1
+    return off, rows
 
 
 @njit(cache=True, inline="always")
@@ -94,8 +151,8 @@ def scan_event(c, stream, s, a_rows, n_arows, noise, cfg, view, jcbb, bias):  # 
     """Scan ``s`` of ``stream`` (a :class:`~radarslam.slam.fused.stream.Stream`) through a.8 steps 2-10 in
     the orchestrator's order, in its radar's frame at its time (c.13-c.13.4). ``a_rows[:n_arows]`` are
     the ``(scan, detection, landmark id)`` rows of the associations so far, this scan's appended.
-    Returns ``(carry, polar, n_assoc, nis, a_rows, n_arows)``: the scan's detections, the number
-    associated and the NIS of each update (2 dof)."""
+    Returns ``(carry, polar, n_assoc, nis, a_rows, n_arows, out)``: the scan's detections, the number
+    associated, the NIS of each update (2 dof) and what else the scan did (:class:`ScanOut`)."""
     x, P, lm, N = c.x, c.P, c.lm, c.N
     polar = stream.polar[stream.scan_off[s]:stream.scan_off[s + 1]]
     k = stream.scan_k[s]
@@ -118,6 +175,7 @@ def scan_event(c, stream, s, a_rows, n_arows, noise, cfg, view, jcbb, bias):  # 
     n_assoc, aoff, arow, a_rows, n_arows = group_associations(out, cidx, N, lm.ids, s, a_rows, n_arows)
     young = moving_young(x, lm, N, k, mem, n_now, cfg)                             # c.10.4.4
     retired, n_retired, arcs, n_arcs = c.retired, c.n_retired, c.arcs, c.n_arcs
+    ids0 = lm.ids[:N].copy()
     x, P, N, old, retired, n_retired = remove_unseen(x, P, lm, N, aoff, k, young, stream.sensor_view[s],
                                                      retired, n_retired, arcs, cfg)  # 5, c.15
     xy = _to_world(x, polar)                                                       # seed eq. (3), updated pose
@@ -128,8 +186,11 @@ def scan_event(c, stream, s, a_rows, n_arows, noise, cfg, view, jcbb, bias):  # 
     fresh = veto(fresh, clusters, xy, mem, n_mem, cfg)                             # c.10.4.3
     confirmed, tent = confirm(c.tent, fresh, clusters, xy, cfg)                    # 8
     x, P, lm, N, next_id = augment(x, P, lm, N, c.next_id, confirmed, clusters, polar, k, noise, cfg)  # 9
-    x, P, lm, N = merge(x, P, lm, N, arcs, cfg)                                    # 10
+    x, P, lm, N, merged = merge(x, P, lm, N, arcs, cfg)                            # 10
     leave_sensor(x, P, stream, s, rate, x_held, P_held)                            # c.13, c.13.4
     nxt = Carry(x, P, c.pose_first, lm, N, next_id, tent, retired, n_retired, arcs, n_arcs, mem, n_mem, n_now,
                 0.0, c.u_last, c.has_u, c.scans + 1)
-    return nxt, polar, n_assoc, nis, a_rows, n_arows
+    new_off, new_rows = _new_members(confirmed, clusters)
+    out = ScanOut(np.int64(cidx.shape[0]), np.int64(clusters.size.shape[0]),
+                  _removed(ids0, old, retired, c.n_retired, n_retired), merged, c.next_id, new_off, new_rows)
+    return nxt, polar, n_assoc, nis, a_rows, n_arows, out

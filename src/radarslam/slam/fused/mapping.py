@@ -149,8 +149,10 @@ def augment(x, P, lm, N, next_id, confirmed, clusters, polar, k, noise, cfg):  #
 def merge(x, P, lm, N, arcs, cfg):  # pragma: no cover - compiled
     """Step 10: merging (c.9): repeatedly drop the later-created landmark of the closest eligible
     pair (at most ``cfg.merge_max`` a scan, 0 for no limit); the survivor pools the other's
-    visible-arc widths after its own. Returns ``(x, P, lm, N)``."""
+    visible-arc widths after its own. Returns ``(x, P, lm, N, pairs)``: ``pairs`` the ``(kept id,
+    dropped id)`` of each merge, in order."""
     n_merged = 0
+    pairs = np.empty((max(N - 1, 0), 2), dtype=np.int64)
     while N >= 2 and (cfg.merge_max == 0 or n_merged < cfg.merge_max):
         if not cfg.merge_distance > 0:
             break
@@ -160,6 +162,7 @@ def merge(x, P, lm, N, arcs, cfg):  # pragma: no cover - compiled
         bi, bj = _closest_pair(pos, lm.created[:N], lm.ids[:N], cfg.merge_distance, cfg.merge_axis_tol)
         if bi < 0:
             break
+        pairs[n_merged, 0], pairs[n_merged, 1] = lm.ids[bi], lm.ids[bj]
         lm = with_buffer(lm, lm.nbuf[bi] + lm.nbuf[bj])
         merge_rows(lm, bi, bj, cfg.pv.on)                 # the extents (extent.rows.merge_rows)
         pool_arcs(arcs, lm, bi, bj)
@@ -169,4 +172,4 @@ def merge(x, P, lm, N, arcs, cfg):  # pragma: no cover - compiled
         compact_landmarks(lm, keepm)
         N -= 1
         n_merged += 1
-    return x, P, lm, N
+    return x, P, lm, N, pairs[:n_merged]

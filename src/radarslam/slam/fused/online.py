@@ -6,12 +6,15 @@ gives the one-call record bit for bit (tests/test_chunks.py).
 
 from __future__ import annotations
 
+import numpy as np
+
 from radarslam.core.errors import InputError
 from radarslam.core.types import Scan
 from radarslam.slam.event_input import finite_number
 from radarslam.slam.fused.engine import OK
 from radarslam.slam.fused.plan import _failure, _parameters, engine_of, first_carry, largest_scan, noises, why_not
 from radarslam.slam.fused.stream import _stream_arrays
+from radarslam.slam.report import ScanReport
 
 __all__ = ["Online"]
 
@@ -34,6 +37,9 @@ class Online:
         self.noise = noises(slam, self.cfg, self.largest)
         self.carry = first_carry(slam, self.cfg, self.largest)
         self.last_t = None                          # the time of the last scan run
+        self.out = None                             # what the last event did beyond its record (events.ScanOut)
+        #: The last scan's :class:`~radarslam.slam.report.ScanReport` (None before the first scan).
+        self.report = None
 
     def process(self, event):
         """Run one event. Returns None for an odometry reading, else the scan's record: ``(record, maps,
@@ -53,18 +59,43 @@ class Online:
             if self.last_t is not None and t < self.last_t:
                 raise InputError(f"scan.t: expected scan times that do not go backwards, got {t!r} after "
                                  f"{self.last_t!r} (scan {event.index})")
-        stream = _stream_arrays([event], slam=self.slam, live=True)
+        gated = []
+        stream = _stream_arrays([event], slam=self.slam, live=True, gated=gated)
         if stream.kinds.shape[0] == 0:                               # c.10.5: a reading the Doppler odometry holds
             return None
         largest = largest_scan(stream)
         if largest > self.largest and self.cfg.assoc == 3:          # JCBB: gates for the deeper scan
             self.largest = largest
             self.noise = noises(self.slam, self.cfg, largest)
-        status, n, (rec, maps), arows, self.carry = self.engine(stream, self.carry, self.noise, self.cfg)
+        status, n, (rec, maps), arows, self.carry, self.out = self.engine(stream, self.carry, self.noise, self.cfg)
         if n:
             self.last_t = float(event.t)
         if status[0] != OK:
             raise InputError(_failure([event], stream, status, n))
         if stream.kept.shape[0] and arows.shape[0]:                 # the gate's kept rows back to the scan's
             arows[:, 1] = stream.kept[arows[:, 1]]
-        return (rec, maps, arows) if n else None
+        if not n:
+            return None
+        self.report = _report(event, stream, rec, arows, self.out, self.carry, gated[0] if gated else None)
+        return rec, maps, arows
+
+
+def _report(scan, stream, rec, arows, out, carry, gated) -> ScanReport:
+    """The :class:`~radarslam.slam.report.ScanReport` of ``scan``, run alone as ``stream``: its record
+    ``rec``, associations ``arows`` (rows of the scan's detections), what else it did ``out``
+    (events.ScanOut), the filter after it ``carry`` and the Doppler gate's ``(moving rows, EgoVelocity)``."""
+    kept = stream.kept if stream.kept.shape[0] else None
+    assoc: dict[int, list[int]] = {}
+    for _, det, lid in arows.tolist():
+        assoc.setdefault(lid, []).append(det)
+    first = int(out.first_new)
+    new_off = out.new_off.tolist()
+    created = {}
+    for a in range(len(new_off) - 1):
+        rows = out.new_rows[new_off[a]:new_off[a + 1]].astype(int)
+        created[first + a] = rows if kept is None else kept[rows].astype(int)
+    moving, ego = (np.empty(0, dtype=int), None) if gated is None else gated
+    return ScanReport(int(scan.index), int(rec.n_det[0]), int(out.n_cand), int(rec.n_ass[0]),
+                      {lid: np.array(d, dtype=int) for lid, d in assoc.items()}, out.removed.tolist(), list(created),
+                      [tuple(p) for p in out.merged.tolist()], int(out.n_clusters), int(carry.tent.count.shape[0]),
+                      rec.nis.copy(), moving, ego, created)

@@ -387,7 +387,7 @@ def _parts(engine, events, stream: Stream, carry, noise, cfg, on_scans):
         e1 = pacer.end(stream, e0)
         sub, s0 = part(stream, e0, e1)
         t0 = time.perf_counter()
-        status, n, (rec, maps), arows, carry = engine(sub, carry, noise, cfg)
+        status, n, (rec, maps), arows, carry, _ = engine(sub, carry, noise, cfg)
         pacer.ran(n, time.perf_counter() - t0)
         if status[0] != OK:
             raise InputError(_failure(events, stream, (status[0], e0 + status[1]), s0 + n))

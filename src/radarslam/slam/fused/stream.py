@@ -43,7 +43,7 @@ class Stream(NamedTuple):
     tau_i: np.ndarray      #: (S,) int64, the state index of each scan's radar's time offset (c.13.2), -1 for none
 
 
-def _stream_arrays(events, fast: bool = True, slam=None, live: bool = False) -> Stream:
+def _stream_arrays(events, fast: bool = True, slam=None, live: bool = False, gated: list | None = None) -> Stream:
     """The event stream as arrays (a :class:`Stream`), each event checked as :meth:`EkfSlam.predict` and
     :meth:`EkfSlam.update` check it (the same one-line errors, the first bad event's).
 
@@ -62,12 +62,15 @@ def _stream_arrays(events, fast: bool = True, slam=None, live: bool = False) -> 
     ``live``: the stream is a part of a longer one that ``slam``'s own components read in order (the
     fused engine event by event, :class:`~radarslam.slam.fused.online.Online`): they are used, not
     copied, so that the Doppler odometry's interval and the gate's generator go on from the part before
-    (and every event is checked as it is read, ``fast`` or not)."""
+    (and every event is checked as it is read, ``fast`` or not).
+
+    ``gated``: a list to which each scan's Doppler gate's ``(moving rows, EgoVelocity)`` is appended
+    (under the gate; the per-event report's, :class:`~radarslam.slam.report.ScanReport`)."""
     from radarslam.core.errors import InputError
 
     # the gate reads checked scans only; live components are read once (no second pass after an error)
     if live or not fast or (slam is not None and slam._gate is not None):
-        return _stream_arrays_checked(events, False, slam, live)
+        return _stream_arrays_checked(events, False, slam, live, gated)
     try:
         out = _stream_arrays_checked(events, True, slam, live)
     except InputError:
@@ -78,8 +81,9 @@ def _stream_arrays(events, fast: bool = True, slam=None, live: bool = False) -> 
     return out
 
 
-def _stream_arrays_checked(events, defer_polar: bool, slam=None, live: bool = False) -> Stream:
-    """:func:`_stream_arrays`, the detections of a float ``(m, 2)`` array left unchecked with ``defer_polar``."""
+def _stream_arrays_checked(events, defer_polar: bool, slam=None, live: bool = False, report=None) -> Stream:
+    """:func:`_stream_arrays`, the detections of a float ``(m, 2)`` array left unchecked with ``defer_polar``
+    (``report``: its ``gated``)."""
     import copy
 
     from radarslam.core.errors import InputError
@@ -157,6 +161,8 @@ def _stream_arrays_checked(events, defer_polar: bool, slam=None, live: bool = Fa
                 remember.append(objects is not None)
                 seen.append(np.empty((0, 2)) if objects is None else objects)
                 kept.append(keep)
+                if report is not None:
+                    report.append((bad, ego))
             kinds.append(SCAN)
             mounts.append((ORIGIN if scan_mounting(sen) is None else sen).as_array())
             views.append((view0[0] if sen is None or sen.max_range_m is None else float(sen.max_range_m),
