@@ -33,10 +33,10 @@ def test_extent_initialises_after_more_than_20_buffered_detections():
     cfg = quiet_config()
     slam = EkfSlam(cfg)
     slam.update(scan(1, rect_points(*CAR, 8, seed=0)))
-    st = slam.landmarks[0].extent
     total = 0
     for k in range(2, 12):
         rep = slam.update(scan(k, rect_points(*CAR, 6, seed=k)))
+        st = slam.landmarks[0].extent               # the landmark's extent after this scan
         total += rep.associations.get(0, np.empty(0)).size
         if total <= cfg.extent.n_init:
             assert not st.initialized and st.n_buffered == total, k
@@ -62,6 +62,7 @@ def test_extent_step_equals_kernels_by_hand():
     P_prior = slam.P[3:5, 3:5].copy()
     s = scan(7, rect_points(*CAR, 7, seed=70))
     rep = slam.update(s)
+    st = slam.landmarks[0].extent                   # after the scan
     idx = rep.associations[0]
     assert idx.size == 7
     polar = s.polar[idx]

@@ -307,8 +307,10 @@ def _carpark(associator: str, n_steps: int, backend: str = "python", r_scale: fl
     cfg = replace(cfg, trajectory=replace(cfg.trajectory, n_steps=n_steps),
                   filter=replace(cfg.filter, backend=backend))
     scenario = generate_scenario(cfg, np.random.default_rng(3))
+    # the orchestrator's steps, so that the associator object itself runs (the fused engine calls its kernels)
     slam = EkfSlam(replace(cfg, filter=replace(cfg.filter, range_std_m=r_scale * cfg.filter.range_std_m,
-                                               azimuth_std_deg=r_scale * cfg.filter.azimuth_std_deg)))
+                                               azimuth_std_deg=r_scale * cfg.filter.azimuth_std_deg)),
+                   engine="orchestrator")
     reports = [r for r in map(slam.process, scenario.events) if r is not None]
     return slam, scenario, reports
 

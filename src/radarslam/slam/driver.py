@@ -116,7 +116,7 @@ def drive(config: Config, events: Sequence[Odometry | Scan], *, slam: EkfSlam | 
         raise ConfigError(f"maps: expected one of {', '.join(MAPS)}, got {maps!r}")
     t0 = time.perf_counter()
     if slam is None:
-        slam = EkfSlam(config)
+        slam = EkfSlam(config, engine="orchestrator" if engine == "orchestrator" else "auto")
         why = None if engine == "orchestrator" else _fused.why_not(slam, events)
         if engine.startswith("fused-") and why is not None:
             raise ConfigError(f"engine: {engine!r} runs the fused engine's configurations only, got one it does not "

@@ -49,6 +49,7 @@ from radarslam.slam.layout import POSE_DIM
 from radarslam.slam.kernels import cluster_kernel as _cluster_kernel, step_kernels as _step_kernels
 from radarslam.slam.odometry_source import odometry_source
 from radarslam.slam.partial_view import view_components, view_corrected_centroid, view_walk
+from radarslam.slam.per_event import engine_for, read_back, write_through
 from radarslam.slam.report import ScanReport
 from radarslam.slam.state import Landmark
 
@@ -67,10 +68,17 @@ class EkfSlam:
         Components to use instead of the ones the configuration names. The measurement model is the
         one built in, range and azimuth (``filter.measurement_model``; docs/architecture.md
         "Measurement model"): the EKF kernels and the associators are written for it.
+    engine : {"auto", "orchestrator"}
+        What runs the events: ``"auto"``, the fused engine one event at a time where it covers the
+        configuration (slam/per_event.py ``engine_for``: the same compiled function a whole stream runs
+        through, the state read back after every event), else the orchestrator's steps below;
+        ``"orchestrator"``, those steps always (a first run that must not wait for the engine's compile).
     """
 
     def __init__(self, config: EstimatorConfig | Config, *, motion_model: MotionModel | None = None,
-                 associator: Associator | None = None, extent_estimator=None):
+                 associator: Associator | None = None, extent_estimator=None, engine: str = "auto"):
+        if engine not in ("auto", "orchestrator"):
+            raise InputError(f"engine: expected 'auto' or 'orchestrator', got {engine!r}")
         if isinstance(config, Config):
             config = config.estimator
         if not isinstance(config, EstimatorConfig):
@@ -128,6 +136,9 @@ class EkfSlam:
         self._gate = DopplerGate(f, config.mounting) if f.doppler_gate else None
         #: filter.odometry "doppler"/"both": the Doppler-and-gyro prediction driver (c.10.5), else None.
         self._odometry = odometry_source(self)
+        #: The fused engine one event at a time (slam/per_event.py), chosen at the first event; None: the steps below.
+        self._online, self._engine_asked = None, engine == "orchestrator"
+        self._initialized_at: dict[int, int] = {}      # landmark id -> the scan its extent was first seen set up
 
     def _check_fej(self, config: EstimatorConfig) -> None:
         """Refuse first-estimates Jacobians (c.2.1) where they are not built: a motion model whose
@@ -184,11 +195,34 @@ class EkfSlam:
 
     def snapshot(self) -> MapSnapshot:
         """The current map (copies): the landmarks of the state, then those retired from it (c.15)."""
+        if self._online is not None and self._online.maps is not None:
+            m = self._online.maps
+            return MapSnapshot(m.ids.copy(), m.pos.copy(), m.cov.copy(), m.rma.copy(), m.efa.copy(), m.created.copy())
         return self._retired.after(state_rows(self.state, self.extent))
+
+    def _engine(self):
+        """The fused engine this filter's events run through (decided at the first event), or None."""
+        if not self._engine_asked:
+            self._engine_asked = True
+            if self._scans == 0 and self.state.n_landmarks == 0:
+                self._online = engine_for(self)
+        return self._online
+
+    def _through_engine(self, event) -> ScanReport | None:
+        """``event`` run by the fused engine, the state read back (slam/per_event.py)."""
+        if not isinstance(event, (Odometry, Scan)):
+            raise InputError(f"event: expected Odometry or Scan, got {type(event).__name__}")
+        write_through(self, self._online)
+        self._online.process(event)
+        scan = isinstance(event, Scan)
+        read_back(self, self._online, int(event.index) if scan else None)
+        return self._online.report if scan else None
 
     # ------------------------------------------------------------------ events
     def process(self, event: Odometry | Scan) -> ScanReport | None:
         """Dispatch one event of the stream."""
+        if self._engine() is not None:
+            return self._through_engine(event)
         if self._odometry is not None:                 # c.10.5: Doppler and gyro drive the prediction
             return self._odometry.process(self, event)
         if isinstance(event, Odometry):
@@ -210,6 +244,9 @@ class EkfSlam:
         if self._odometry is not None:
             raise ConfigError(f"filter.odometry: expected 'odometer' for EkfSlam.predict, got "
                               f"{self.config.filter.odometry!r} (feed the events to EkfSlam.process; c.10.5)")
+        if self._engine() is not None:
+            self._through_engine(odo)
+            return
         u = odo.control
         if not (type(u) is np.ndarray and u.dtype == np.float64 and u.shape == (2,)   # the loaders' form
                 and math.isfinite(u[0]) and math.isfinite(u[1])):
@@ -243,6 +280,8 @@ class EkfSlam:
             scan time earlier than the previous scan's; after the steps, if the scan made the state
             non-finite (the filter is then not to be used further).
         """
+        if self._engine() is not None:
+            return self._through_engine(scan)
         polar = scan_polar(scan)
         t = finite_number(scan.t, "scan.t")
         if self._last_scan_t is not None and t < self._last_scan_t:

@@ -40,6 +40,7 @@ class Online:
         self.out = None                             # what the last event did beyond its record (events.ScanOut)
         #: The last scan's :class:`~radarslam.slam.report.ScanReport` (None before the first scan).
         self.report = None
+        self.maps = None                            # the map after the last scan (storage.MapRows), None before one
 
     def process(self, event):
         """Run one event. Returns None for an odometry reading, else the scan's record: ``(record, maps,
@@ -77,6 +78,7 @@ class Online:
         if not n:
             return None
         self.report = _report(event, stream, rec, arows, self.out, self.carry, gated[0] if gated else None)
+        self.maps = maps
         return rec, maps, arows
 
 

@@ -1,0 +1,106 @@
+""":class:`~radarslam.slam.filter.EkfSlam` event by event through the fused engine: the filter's state is the
+engine's record (:class:`~radarslam.slam.fused.events.Carry`), run by the same compiled function a whole
+stream runs through (:class:`~radarslam.slam.fused.online.Online`), and ``EkfSlam.state`` reads it after
+every event (:func:`read_back`). The steps are then written once, in ``slam/fused/``; the orchestrator's own
+steps run what the engine does not cover (:func:`engine_for`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from radarslam.landmarks.records import Records
+
+__all__ = ["EngineExtents", "engine_for", "read_back", "write_through"]
+
+
+def engine_for(slam):
+    """The fused engine one event at a time for ``slam`` (an EkfSlam that has processed nothing), or None
+    where the orchestrator runs it: ``filter.fused`` false (the orchestrator asked for), the reference
+    backend, a configuration the engine does not cover (:func:`~radarslam.slam.fused.plan.why_not`: a
+    component of the user's own), a motion model of the user's own (the engine runs it in Python only
+    whole streams), or the visible-arc estimator (whose per-landmark state holds its arcs' widths, which
+    :class:`EngineExtents` does not rebuild)."""
+    from radarslam.extent.visible_arc import VisibleArcEstimator
+    from radarslam.slam.fused.online import Online
+    from radarslam.slam.fused.plan import run_form, why_not
+
+    f = slam.config.filter
+    if not f.fused or f.backend != "numba" or isinstance(slam.extent, VisibleArcEstimator):
+        return None
+    if why_not(slam) is not None or run_form(slam) != "compiled":
+        return None
+    return Online(slam)
+
+
+class EngineExtents:
+    """The extent estimator's per-landmark states (its own type, as the orchestrator keeps them) of the
+    engine's landmark records: built from a copy of the rows when first read (``estimator._scatter``, the
+    estimator's own reading of array-held states); ``initialized_at`` from the scans at which each
+    landmark's extent was seen initialised. Valid until the next event."""
+
+    def __init__(self, estimator, lm, n: int, initialized_at: dict):
+        self._est, self._lm, self._n, self._at = estimator, lm, n, initialized_at
+        self._states = None
+
+    def _built(self) -> list:
+        if self._states is None:
+            n = self._n
+            rows = type(self._lm)(*(a[:n].copy() for a in self._lm))
+            states = [self._est.new() for _ in range(n)]
+            if n:
+                self._est._scatter(rows, states, np.zeros(n, dtype=bool), 0)
+            for st, lid in zip(states, rows.ids.tolist()):
+                st.initialized_at = self._at.get(lid)
+            self._states = states
+        return self._states
+
+    def __len__(self) -> int:
+        return self._n
+
+    def __getitem__(self, j):
+        return self._built()[j]
+
+    def __setitem__(self, j, value) -> None:
+        self._built()[j] = value
+
+    def __iter__(self):
+        return iter(self._built())
+
+
+def write_through(slam, online) -> None:
+    """A mean or covariance the caller set on ``slam.state`` since the last event (``SlamState.set``, new
+    arrays) into the engine's record, before the next event; changed in place, they are the record's own.
+
+    Raises
+    ------
+    InputError
+        For a state of another size (landmarks added or removed by hand after the first event: the
+        engine's landmark records would no longer match).
+    """
+    from radarslam.core.errors import InputError
+
+    c, st = online.carry, slam.state
+    if st.x is c.x and st.P is c.P:
+        return
+    n = c.x.shape[0]
+    if st.x.shape != (n,) or st.P.shape != (n, n):
+        raise InputError(f"slam.state: expected a mean of {n} and a covariance of {n} x {n} (the engine's "
+                         f"landmarks), got {st.x.shape} and {st.P.shape}; add landmarks before the first event")
+    online.carry = c._replace(x=np.ascontiguousarray(st.x, dtype=float), P=np.ascontiguousarray(st.P, dtype=float))
+
+
+def read_back(slam, online, k: int | None) -> None:
+    """``slam.state`` as the engine's record after an event (``k``: the scan's index, None for a reading):
+    the mean and covariance (the record's own arrays), the landmarks' records, the tentatives, the next id
+    and the extents (:class:`EngineExtents`); ``slam``'s scan count and last scan time."""
+    c = online.carry
+    st, lm, n = slam.state, c.lm, int(c.N)
+    st.x, st.P = c.x, c.P
+    st.records = Records(lm.ids, lm.created, lm.mbits, lm.rbits, lm.first)
+    st.tentatives, st.next_id = c.tent, int(c.next_id)
+    at = slam._initialized_at
+    if k is not None and n:
+        for lid in lm.ids[:n][lm.einit[:n]].tolist():
+            at.setdefault(lid, k)
+    st.extents = EngineExtents(slam.extent, lm, n, at)
+    slam._scans, slam._last_scan_t = int(c.scans), online.last_t

@@ -1,0 +1,83 @@
+"""EkfSlam event by event through the fused engine (slam/per_event.py): the state read back after every
+event, a state set by hand written through, and the orchestrator's steps where asked for.
+
+Oracle: the same filter on the orchestrator's steps (``engine="orchestrator"``), which the fused engine
+equals to rounding (docs/architecture.md "The fused engine"): every report the same, the state and the
+extents to 1e-9, the map after every scan the same ids; a landmark moved by hand between two scans moves
+both alike. Negative controls: the moved landmark changes the run (a write-through that did nothing would
+leave it as the unmoved run), and a state of another size is refused in one line.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from conftest import require
+
+require("numba")
+
+from radarslam.config import profile_config  # noqa: E402
+from radarslam.core.errors import InputError  # noqa: E402
+from radarslam.core.types import Scan  # noqa: E402
+from radarslam.simulation.scenario import generate_scenario  # noqa: E402
+from radarslam.slam.filter import EkfSlam  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def events():
+    return generate_scenario(profile_config(), np.random.default_rng(7)).events
+
+
+def test_the_engine_runs_the_events_and_the_state_is_read_back(events):
+    eng, orch = EkfSlam(profile_config()), EkfSlam(profile_config(), engine="orchestrator")
+    for ev in events:
+        ra, rb = eng.process(ev), orch.process(ev)
+        assert (ra is None) == (rb is None)
+        if ra is not None:
+            assert (ra.removed, ra.confirmed, ra.merged, ra.n_candidates) == \
+                (rb.removed, rb.confirmed, rb.merged, rb.n_candidates)
+            np.testing.assert_array_equal(eng.snapshot().ids, orch.snapshot().ids)
+    assert eng._online is not None and orch._online is None
+    np.testing.assert_allclose(eng.x, orch.x, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(eng.P, orch.P, rtol=0, atol=1e-9)
+    assert [lm.id for lm in eng.landmarks] == [lm.id for lm in orch.landmarks]
+    for a, b in zip(eng.state.extents, orch.state.extents):
+        assert a.initialized_at == b.initialized_at and a.n_buffered == b.n_buffered
+        if b.X is not None:
+            np.testing.assert_allclose(a.X, b.X, rtol=0, atol=1e-9)
+    assert eng.state.next_id == orch.state.next_id and eng.state.n_landmarks >= 5
+
+
+def _moved(engine: str, events, dx: float):
+    """The car park with the first landmark moved by ``dx`` along x after scan 40."""
+    slam, n = EkfSlam(profile_config(), engine=engine), 0
+    for ev in events:
+        slam.process(ev)
+        n += isinstance(ev, Scan)
+        if n == 40 and isinstance(ev, Scan) and dx:
+            x = slam.state.x.copy()
+            x[slam.state.index(0)] += dx
+            slam.state.set(x, slam.state.P.copy())
+    return slam.x
+
+
+def test_a_state_set_by_hand_is_written_through(events):
+    moved_engine, moved_orch = _moved("auto", events, 0.5), _moved("orchestrator", events, 0.5)
+    np.testing.assert_allclose(moved_engine, moved_orch, rtol=0, atol=1e-9)
+    unmoved = _moved("auto", events, 0.0)
+    assert unmoved.shape != moved_engine.shape or np.abs(unmoved - moved_engine).max() > 1e-3
+
+
+def test_a_state_of_another_size_and_a_bad_engine_are_refused(events):
+    slam = EkfSlam(profile_config())
+    k = 0
+    while slam.state.n_landmarks == 0:
+        slam.process(events[k])
+        k += 1
+    x, P = slam.state.x, slam.state.P
+    slam.state.set(np.concatenate([x, [1.0, 2.0]]), np.pad(P, ((0, 2), (0, 2))) + np.diag([0.0] * x.size + [1.0, 1.0]))
+    with pytest.raises(InputError, match=r"^slam.state: expected a mean of \d+"):
+        slam.process(events[k])
+    with pytest.raises(InputError, match="engine: expected 'auto' or 'orchestrator', got 'fast'"):
+        EkfSlam(profile_config(), engine="fast")
