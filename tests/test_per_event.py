@@ -69,13 +69,15 @@ def test_a_state_set_by_hand_is_written_through(events):
     assert unmoved.shape != moved_engine.shape or np.abs(unmoved - moved_engine).max() > 1e-3
 
 
-def test_a_state_of_another_size_and_a_bad_engine_are_refused(events):
+def test_a_state_of_another_size_an_extent_set_by_hand_and_a_bad_engine_are_refused(events):
     slam = EkfSlam(profile_config())
     k = 0
     while slam.state.n_landmarks == 0:
         slam.process(events[k])
         k += 1
     x, P = slam.state.x, slam.state.P
+    with pytest.raises(InputError, match=r"^slam.state.extents\[0\]: expected no extent set by hand"):
+        slam.landmarks[0].extent = slam.extent.new()
     slam.state.set(np.concatenate([x, [1.0, 2.0]]), np.pad(P, ((0, 2), (0, 2))) + np.diag([0.0] * x.size + [1.0, 1.0]))
     with pytest.raises(InputError, match=r"^slam.state: expected a mean of \d+"):
         slam.process(events[k])

@@ -36,7 +36,8 @@ class EngineExtents:
     """The extent estimator's per-landmark states (its own type, as the orchestrator keeps them) of the
     engine's landmark records: built from a copy of the rows when first read (``estimator._scatter``, the
     estimator's own reading of array-held states); ``initialized_at`` from the scans at which each
-    landmark's extent was seen initialised. Valid until the next event."""
+    landmark's extent was seen initialised. Valid until the next event; setting one is refused (it would
+    not reach the engine)."""
 
     def __init__(self, estimator, lm, n: int, initialized_at: dict):
         self._est, self._lm, self._n, self._at = estimator, lm, n, initialized_at
@@ -61,7 +62,11 @@ class EngineExtents:
         return self._built()[j]
 
     def __setitem__(self, j, value) -> None:
-        self._built()[j] = value
+        from radarslam.core.errors import InputError
+
+        raise InputError(f"slam.state.extents[{j}]: expected no extent set by hand on a filter the fused engine "
+                         f"runs (its extents are the engine's rows); build it with EkfSlam(config, "
+                         f"engine='orchestrator') to set one, got a {type(value).__name__}")
 
     def __iter__(self):
         return iter(self._built())
