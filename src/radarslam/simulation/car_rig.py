@@ -26,7 +26,7 @@ from radarslam.models.motion import UnicycleModel
 from radarslam.slam.bias import turned_step
 
 __all__ = ["DT", "INPUT_STD", "RIG", "SCAN_EVERY", "TOLERANCE", "CarErrors", "car_config", "car_controls", "car_world",
-           "one_drive", "simulate_car_rig", "truth_vector"]
+           "one_drive", "pose_nees_of_drive", "simulate_car_rig", "truth_vector"]
 
 #: The odometry's step (s) and the scans' spacing (odometry steps per scan, radars in turn).
 DT = 0.02
@@ -52,6 +52,11 @@ class CarErrors:
     thrust: float = math.radians(0.5)
     yaw_offsets: tuple = tuple(math.radians(a) for a in (1.5, -1.5, 1.0, -0.5, -0.5))
     time_offsets: tuple = (0.0, 0.015, 0.030, 0.045, 0.060)
+
+    def scaled(self, yaw: float = 1.0, time: float = 1.0) -> "CarErrors":
+        """The same errors with the radars' yaw offsets times ``yaw`` and their time offsets times ``time``."""
+        return replace(self, yaw_offsets=tuple(yaw * a for a in self.yaw_offsets),
+                       time_offsets=tuple(time * t for t in self.time_offsets))
 
 
 def car_controls(duration_s: float) -> np.ndarray:
@@ -141,3 +146,26 @@ def one_drive(seed: int, duration_s: float, errors: CarErrors = CarErrors(), con
         slam.process(ev)
     p = slam.bias_model.platform_dim
     return slam.x[3:p].copy(), slam.P[3:p, 3:p].copy()
+
+
+def pose_nees_of_drive(seed: int, duration_s: float, errors: CarErrors = CarErrors(), config=None,
+                       input_std=INPUT_STD) -> np.ndarray:
+    """The pose's NEES (3 dof) after every scan of drive ``seed`` (:func:`one_drive`'s drive, the odometer's
+    white noise of ``input_std``; ``config`` default :func:`car_config` with its turn-rate std set to
+    ``input_std``'s), against the true pose at the scan's stamp."""
+    from radarslam.slam import EkfSlam
+
+    rng = np.random.default_rng(seed)
+    events, poses = simulate_car_rig(errors, car_world(np.random.default_rng(10_000 + seed)), car_controls(duration_s),
+                                     rng, input_std=input_std)
+    cfg = config or car_config()
+    cfg = replace(cfg, filter=replace(cfg.filter, speed_std_mps=float(input_std[0]),
+                                      turn_rate_std_deg_s=math.degrees(float(input_std[1]))))
+    slam, out = EkfSlam(cfg), []
+    for ev in events:
+        slam.process(ev)
+        if isinstance(ev, Scan):
+            e = slam.pose - poses[len(out)]
+            e[2] = wrap_pi(e[2])
+            out.append(float(e @ np.linalg.solve(slam.pose_cov, e)))
+    return np.array(out)
