@@ -70,7 +70,7 @@ def _stream_arrays(events, fast: bool = True, slam=None, live: bool = False, gat
 
     # the gate reads checked scans only; live components are read once (no second pass after an error)
     if live or not fast or (slam is not None and slam._gate is not None):
-        return _stream_arrays_checked(events, False, slam, live, gated)
+        return _stream_arrays_checked(events, False, slam, live, gate_out=gated)
     try:
         out = _stream_arrays_checked(events, True, slam, live)
     except InputError:
@@ -81,9 +81,9 @@ def _stream_arrays(events, fast: bool = True, slam=None, live: bool = False, gat
     return out
 
 
-def _stream_arrays_checked(events, defer_polar: bool, slam=None, live: bool = False, report=None) -> Stream:
+def _stream_arrays_checked(events, defer_polar: bool, slam=None, live: bool = False, gate_out=None) -> Stream:
     """:func:`_stream_arrays`, the detections of a float ``(m, 2)`` array left unchecked with ``defer_polar``
-    (``report``: its ``gated``)."""
+    (``gate_out``: :func:`_stream_arrays`' ``gated``)."""
     import copy
 
     from radarslam.core.errors import InputError
@@ -161,8 +161,8 @@ def _stream_arrays_checked(events, defer_polar: bool, slam=None, live: bool = Fa
                 remember.append(objects is not None)
                 seen.append(np.empty((0, 2)) if objects is None else objects)
                 kept.append(keep)
-                if report is not None:
-                    report.append((bad, ego))
+                if gate_out is not None:
+                    gate_out.append((bad, ego))
             kinds.append(SCAN)
             mounts.append((ORIGIN if scan_mounting(sen) is None else sen).as_array())
             views.append((view0[0] if sen is None or sen.max_range_m is None else float(sen.max_range_m),
