@@ -112,9 +112,9 @@ def compare(module, n_trials: int) -> tuple[int, int, float, float]:
     finally:
         plan.form = real
     same = 0
-    for _, _, (st, n, (rec, maps), ar, c), (st2, n2, (rec2, maps2), ar2, c2) in runs:
+    for _, _, (st, n, (rec, maps), ar, c, out), (st2, n2, (rec2, maps2), ar2, c2, out2) in runs:
         rec, rec2 = rec._replace(seconds=rec.seconds * 0), rec2._replace(seconds=rec2.seconds * 0)
-        same += _equal((st, n, rec, maps, ar, tuple(c)), (st2, n2, rec2, maps2, ar2, tuple(c2)))
+        same += _equal((st, n, rec, maps, ar, tuple(c), tuple(out)), (st2, n2, rec2, maps2, ar2, tuple(c2), tuple(out2)))
     return len(runs), same, sum(r[0] for r in runs), sum(r[1] for r in runs)
 
 

@@ -15,7 +15,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import statistics
-import tempfile
 import time
 from pathlib import Path
 
@@ -40,23 +39,12 @@ def carpark_events():
 
 def recording_events(path: Path):
     """The configuration and events ``radarslam run --recording PATH --profile automotive`` gives its filter."""
-    import radarslam.runs.recording as rr
-    from radarslam.cli.main import main
+    from radarslam.config import profile_config
+    from radarslam.io.recording import read_recording
+    from radarslam.runs.recording import run_recording
 
-    got = {}
-    original = rr._run_filter
-
-    def capture(config, events, on_scan, first_run):
-        got["config"], got["events"] = config, events
-        return original(config, events, on_scan, None)
-
-    rr._run_filter = capture
-    try:
-        with tempfile.TemporaryDirectory() as out:
-            main(["run", "--recording", str(path), "--profile", "automotive", "--out", out + "/run", "--no-plot"])
-    finally:
-        rr._run_filter = original
-    return got["config"], got["events"]
+    run = run_recording(read_recording(path), profile_config("automotive"))
+    return run.filter_config, run.events
 
 
 def _events_one_by_one(cfg, events) -> None:

@@ -86,23 +86,12 @@ def test_the_car_park_reports_as_the_orchestrator(carpark, family):
 def test_a_nuscenes_scene_reports_as_the_orchestrator(tmp_path):
     """Five radars, the Doppler gate and Doppler odometry: the gate's moving rows and ego-velocity, the
     associations and each new landmark's detections as rows of the scan before the gate."""
-    import radarslam.runs.recording as rr
     from radarslam.io.recording import read_recording
+    from radarslam.runs.recording import run_recording
 
     rec = read_recording(first_seconds(shared_data() / "nuscenes_radar" / "scene-0061", 5.0, tmp_path / "rec"))
-    got = {}
-    real = rr._run_filter
-
-    def capture(config, events, on_scan, first_run):
-        got["config"], got["events"] = config, events
-        return real(config, events, on_scan, None)
-
-    rr._run_filter = capture
-    try:
-        rr.run_recording(rec, profile_config("automotive"))
-    finally:
-        rr._run_filter = real
-    pairs = _reports(got["config"], got["events"], "compiled")
+    run = run_recording(rec, profile_config("automotive"))
+    pairs = _reports(run.filter_config, run.events, "compiled")
     assert len(pairs) > 250
     assert [(ra.index, _differences(ra, rb)) for ra, rb in pairs if _differences(ra, rb)] == []
     assert sum(ra.moving.size for ra, _ in pairs) > 0 and all(ra.ego is not None for ra, _ in pairs)

@@ -83,6 +83,11 @@ class RecordingRun(RecordViews):
     gps: object = None
     reference_hits: np.ndarray | None = None
 
+    @property
+    def filter_config(self) -> Config:
+        """The configuration the filter ran with over :attr:`events` (:func:`with_rig` of :attr:`config`)."""
+        return with_rig(self.recording, self.config)
+
 
 def effective_mounting(rec: Recording, config: Config) -> Mounting:
     """The one mounting of the run's steps that take one: the bag's ``/tf_static`` mounting when it
