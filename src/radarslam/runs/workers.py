@@ -136,7 +136,14 @@ def run_pool(calls: dict, finish: Callable[[object, bytes], None], jobs: int, *,
                 proc.join(2.0)
                 if proc.is_alive():
                     proc.kill()
+            manager = getattr(ex, "_executor_manager_thread", None)
             ex.shutdown(wait=False, cancel_futures=True)
+            # Let the pool's manager thread see its dead workers and close its wake-up pipe now.
+            # Left running, it could close that pipe while the interpreter's exit hook
+            # (concurrent.futures.process._python_exit, unlocked on 3.11) writes to it: an
+            # OSError 'Bad file descriptor' traceback after the interrupted message (seen in CI).
+            if manager is not None:
+                manager.join(10.0)
             raise
         ex.shutdown(wait=True)
 
