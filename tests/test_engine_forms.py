@@ -159,3 +159,47 @@ def test_a_motion_model_of_the_users_own_runs_in_the_steps_form_with_every_kerne
         assert "with the odometry-bias states" in _fused.why_not(EkfSlam(with_bias))
     finally:
         MOTION_MODELS.unregister("slower")
+
+
+def test_an_associator_of_the_users_own_runs_in_the_steps_form_with_every_kernel_compiled(scenario):
+    """An associator registered through the registry, written in Python (the reference backend's
+    batch-joint associator with a quarter of the gate), runs where the engine's steps call step 4 and
+    step 7's alpha test (slam/fused/own.py): the run is the steps form's, the associator is called on
+    scan with landmarks and on every cluster's centre as often as by the orchestrator, and the record is
+    the orchestrator's with the same associator; the built-in batch-joint associator's run associates
+    more (the user's gate was used)."""
+    from radarslam.core.registry import ASSOCIATORS
+    from radarslam.slam.association import JointBatchAssociator
+
+    calls = {"associate": 0, "alpha": 0}
+
+    class Narrow(JointBatchAssociator):
+        def associate(self, state, polar, candidates, R, spreads):
+            calls["associate"] += 1
+            return super().associate(state, polar, candidates, R, spreads)
+
+        def min_log_distance(self, state, s, R):
+            calls["alpha"] += 1
+            return super().min_log_distance(state, s, R)
+
+    ASSOCIATORS.register("narrow", lambda c: Narrow(c.landmarks.beta / 4.0, c.landmarks.n_nearest_assoc,
+                                                    c.landmarks.n_nearest_new))
+    try:
+        cfg = profile_config()
+        mine = apply_variant(cfg, Variant("narrow", "narrow", {"landmarks": {"associator": "narrow"}}))
+        assert _fused.why_not(EkfSlam(mine)) is None
+        rec = run_filter(mine, scenario.events)
+        assert rec.engine == "fused-steps"
+        steps_calls, calls["associate"], calls["alpha"] = dict(calls), 0, 0
+        ref = run_filter(mine, scenario.events, engine="orchestrator")
+        assert steps_calls == calls and calls["associate"] > 100 and calls["alpha"] > 100
+        np.testing.assert_array_equal(rec.n_landmarks, ref.n_landmarks)
+        np.testing.assert_array_equal(rec.n_associated, ref.n_associated)
+        np.testing.assert_allclose(rec.poses, ref.poses, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(rec.pose_covs, ref.pose_covs, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(rec.nis_rows, ref.nis_rows, rtol=0, atol=1e-9)
+        builtin = run_filter(apply_variant(cfg, Variant("bj", "bj", {"landmarks": {"associator": "batch-joint"}})),
+                             scenario.events)
+        assert builtin.engine == "fused" and int(builtin.n_associated.sum()) > int(rec.n_associated.sum())
+    finally:
+        ASSOCIATORS.unregister("narrow")

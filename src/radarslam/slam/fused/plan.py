@@ -19,6 +19,7 @@ import numpy as np
 from radarslam.slam.fused.engine import BAD_PREDICTION, ODOMETRY, OK, VELOCITY, family_of, form
 from radarslam.slam.fused.chunks import Pacer, joined, part
 from radarslam.slam.fused.events import initial_carry
+from radarslam.slam.fused.own import own_associator, own_motion, run_form, user_components
 from radarslam.slam.fused.stream import Stream, _stream_arrays
 from radarslam.slam.fused.view import ViewParams, view_parameters
 
@@ -123,19 +124,15 @@ class Noise(NamedTuple):
 def why_not(slam, events=None) -> str | None:
     """Why :func:`run` cannot stand in for ``slam`` (an :class:`~radarslam.slam.filter.EkfSlam`
     that has processed nothing yet), or None when it can: the configuration's components must be
-    the built-in ones this engine reproduces, but for a motion model of the user's own, which the
-    engine's steps form calls in Python (:func:`user_components`). ``events`` is taken for the
+    the built-in ones this engine reproduces, but for a motion model or an associator of the user's
+    own, which the engine's steps form calls in Python (:func:`user_components`). ``events`` is taken for the
     callers' sake: no stream is refused (a scan of any size clusters compiled,
     ``landmarks/_compiled.py: neighbourhoods``)."""
     from radarslam.extent.estimator import RmaEfaEstimator
     from radarslam.extent.mem_ekf import MemEkfEstimator
     from radarslam.extent.view_estimator import PartialViewEstimator
     from radarslam.extent.visible_arc import VisibleArcEstimator
-    from radarslam.slam.partial_view import PARTIAL_VIEW_ASSOCIATORS
     from radarslam.models.radar import RangeAzimuthModel
-    from radarslam.slam._jcbb_numba import CompiledJcbbAssociator
-    from radarslam.slam.compiled_associators import (CompiledBatchAssociator, CompiledJointBatchAssociator,
-                                                     CompiledNearestNeighbourAssociator)
     from radarslam.slam.doppler_gate import DopplerGate
     from radarslam.slam.odometry_source import DopplerOdometry
 
@@ -148,14 +145,14 @@ def why_not(slam, events=None) -> str | None:
         (not f.doppler_gate or type(slam._gate) is DopplerGate, f"Doppler gate {type(slam._gate).__name__}"),
         # under Doppler odometry (c.10.5) the body-velocity model drives every prediction, not slam.model
         # a motion model of the user's own runs in the steps form (user_components), without bias states
-        (not _own_motion(slam) or slam.bias_model is None,
+        (not own_motion(slam) or slam.bias_model is None,
          f"motion model {type(slam.model).__name__} with the odometry-bias states"),
         (f.odometry == "odometer" or type(slam._odometry) is DopplerOdometry,
          f"odometry source {type(slam._odometry).__name__}"),
         (type(slam.measurement) is RangeAzimuthModel, f"measurement model {type(slam.measurement).__name__}"),
-        (type(slam.associator) in (CompiledNearestNeighbourAssociator, CompiledBatchAssociator,
-                                   CompiledJointBatchAssociator, CompiledJcbbAssociator, *PARTIAL_VIEW_ASSOCIATORS.values()),
-         f"associator {type(slam.associator).__name__}"),
+        # an associator of the user's own runs in the steps form (user_components), outside the partial view
+        (not own_associator(slam) or getattr(slam, "view", None) is None,
+         f"associator {type(slam.associator).__name__} with the partial view"),
         (type(slam.extent) in (RmaEfaEstimator, VisibleArcEstimator, MemEkfEstimator, PartialViewEstimator),
          f"extent estimator {type(slam.extent).__name__}"),
         (slam.state.n_landmarks == 0 and slam._scans == 0, "the filter has already processed a scan"),
@@ -164,44 +161,6 @@ def why_not(slam, events=None) -> str | None:
         if not ok:
             return reason
     return None
-
-
-def _own_motion(slam) -> bool:
-    """Whether ``slam``'s odometer predictions run a motion model of the user's own (not the unicycle or
-    Ackermann model; under Doppler odometry, c.10.5, the body-velocity model drives every prediction)."""
-    from radarslam.models.ackermann import AckermannModel
-    from radarslam.models.motion import UnicycleModel
-
-    return slam.config.filter.odometry == "odometer" and type(slam.model) not in (UnicycleModel, AckermannModel)
-
-
-def user_components(slam) -> tuple:
-    """The components of the user's own in ``slam`` (one :func:`why_not` accepts) as the ``replace``
-    pairs of :func:`~radarslam.slam.fused.engine.form`: a motion model that is not a built-in one
-    (docs/architecture.md "Motion model") in the place of the steps' ``_motion``. Empty when every
-    component is built in."""
-    return (("_motion", _user_motion(slam.model)),) if _own_motion(slam) else ()
-
-
-def run_form(slam, how: str = "compiled") -> str:
-    """The form :func:`run` runs ``slam`` in when asked for ``how``: the steps form in the place of the
-    compiled one where ``slam`` has a component of the user's own (the user's component in Python,
-    every kernel around it compiled), else ``how``."""
-    return "steps" if how == "compiled" and _own_motion(slam) else how
-
-
-def _user_motion(model):
-    """The steps' ``_motion(x, u, dt, code, cfg) -> (pose, F_x, F_u)`` of an odometer reading by
-    ``model``'s own ``step`` and ``jacobians`` (the MotionModel protocol), as the orchestrator's
-    prediction calls them (``code`` is the built-in model's, unused)."""
-
-    def motion(x, u, dt, code, cfg):
-        pose = x[:3].copy()
-        Fx, Fu = model.jacobians(pose, u, dt)
-        return (np.asarray(model.step(pose, u, dt), dtype=float), np.asarray(Fx, dtype=float),
-                np.asarray(Fu, dtype=float))
-
-    return motion
 
 
 def family(slam):
@@ -234,7 +193,7 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
     return FusedParams(
         assoc={CompiledBatchAssociator: 1, CompiledJointBatchAssociator: 2, CompiledJcbbAssociator: 3,
                PartialViewBatch: 1, PartialViewJointBatch: 2}.get(type(slam.associator), 0),
-        n_near=int(slam.associator.n_nearest), n_new=int(slam.associator.n_nearest_new),
+        n_near=int(getattr(slam.associator, "n_nearest", 1)), n_new=int(getattr(slam.associator, "n_nearest_new", 1)),
         min_samples=int(lc.cluster_min_samples),
         confirm_points=int(lc.confirm_points), confirm_window=int(lc.confirm_window),
         confirm_hits=int(lc.confirm_hits),
@@ -255,7 +214,7 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
         timing=bool(timing), all_maps=bool(all_maps),
         motion=ACKERMANN if ackermann else UNICYCLE,
         arc=arc, arc_min_scans=int(slam.extent.min_scans) if arc else 1,
-        beta=float(slam.associator.beta), alpha=float(lc.alpha),
+        beta=float(getattr(slam.associator, "beta", 0.0)), alpha=float(lc.alpha),
         sift_radius=float(lc.sift_radius_m), eps=float(lc.cluster_eps_m), tentative_gate=float(lc.tentative_gate_m),
         merge_distance=float(lc.merge_distance_m), merge_axis_tol=float(lc.merge_axis_tol_m),
         max_range=float(f.max_range_m), half_fov=math.radians(f.field_of_view_deg) / 2.0,

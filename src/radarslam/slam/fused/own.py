@@ -1,0 +1,122 @@
+"""Components of the user's own in the fused engine (docs/architecture.md "Components of your own"): a
+motion model or an associator registered through the registry and written in Python runs where the
+engine's steps call the built-in one, every other step compiled.
+
+The engine's steps form (``engine.form(family, "steps", replace)``, ``core/jit.py: uncompiled``) runs the
+steps of ``slam/fused/`` in Python over their compiled kernels; :func:`user_components` gives the
+``replace`` pairs, each a Python function with the signature of the step it stands in for:
+
+- a motion model: ``_motion(x, u, dt, code, cfg) -> (pose, F_x, F_u)`` by the model's ``step`` and
+  ``jacobians`` (the MotionModel protocol);
+- an associator: step 4, ``associate_step`` (c.4, a.7.2), by the associator's ``associate`` on a
+  :class:`~radarslam.slam.state.SlamState` over the engine's mean, covariance and landmark records with
+  the engine's own noise inflation (``tracking._inflation``: the :class:`Spreads` the orchestrator's
+  extent gives), and step 7's alpha test, ``alpha_test`` (c.6), by its ``min_log_distance``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["own_associator", "own_motion", "run_form", "user_components"]
+
+
+def own_motion(slam) -> bool:
+    """Whether ``slam``'s odometer predictions run a motion model of the user's own (not the unicycle or
+    Ackermann model; under Doppler odometry, c.10.5, the body-velocity model drives every prediction)."""
+    from radarslam.models.ackermann import AckermannModel
+    from radarslam.models.motion import UnicycleModel
+
+    return slam.config.filter.odometry == "odometer" and type(slam.model) not in (UnicycleModel, AckermannModel)
+
+
+def own_associator(slam) -> bool:
+    """Whether ``slam``'s associator is of the user's own: none of the engine's (the compiled nearest
+    neighbour, batch, batch-joint and JCBB associators, and their partial-view forms)."""
+    from radarslam.slam._jcbb_numba import CompiledJcbbAssociator
+    from radarslam.slam.compiled_associators import (CompiledBatchAssociator, CompiledJointBatchAssociator,
+                                                     CompiledNearestNeighbourAssociator)
+    from radarslam.slam.partial_view import PARTIAL_VIEW_ASSOCIATORS
+
+    builtin = (CompiledNearestNeighbourAssociator, CompiledBatchAssociator, CompiledJointBatchAssociator,
+               CompiledJcbbAssociator, *PARTIAL_VIEW_ASSOCIATORS.values())
+    return type(slam.associator) not in builtin
+
+
+def user_components(slam) -> tuple:
+    """The components of the user's own in ``slam`` (one ``plan.why_not`` accepts) as the ``replace``
+    pairs of :func:`~radarslam.slam.fused.engine.form` (module docstring). Empty when every component
+    is built in."""
+    pairs = []
+    if own_motion(slam):
+        pairs.append(("_motion", _user_motion(slam.model)))
+    if own_associator(slam):
+        pairs += [("associate_step", _user_association(slam.associator)),
+                  ("alpha_test", _user_alpha_test(slam.associator))]
+    return tuple(pairs)
+
+
+def run_form(slam, how: str = "compiled") -> str:
+    """The form ``plan.run`` runs ``slam`` in when asked for ``how``: the steps form in the place of the
+    compiled one where ``slam`` has a component of the user's own (the user's component in Python,
+    every kernel around it compiled), else ``how``."""
+    return "steps" if how == "compiled" and (own_motion(slam) or own_associator(slam)) else how
+
+
+def _user_motion(model):
+    """The steps' ``_motion(x, u, dt, code, cfg) -> (pose, F_x, F_u)`` of an odometer reading by
+    ``model``'s own ``step`` and ``jacobians`` (the MotionModel protocol), as the orchestrator's
+    prediction calls them (``code`` is the built-in model's, unused)."""
+
+    def motion(x, u, dt, code, cfg):
+        pose = x[:3].copy()
+        Fx, Fu = model.jacobians(pose, u, dt)
+        return (np.asarray(model.step(pose, u, dt), dtype=float), np.asarray(Fx, dtype=float),
+                np.asarray(Fu, dtype=float))
+
+    return motion
+
+
+def _state(x, P, lm, cfg, pose_first=None):
+    """A :class:`~radarslam.slam.state.SlamState` over the engine's mean ``x`` and covariance ``P`` (the same
+    arrays) and, with ``lm``, its landmarks' records; under first-estimates Jacobians (``cfg.fej``, c.2.1)
+    the prediction ``pose_first`` as the pose the Jacobians are taken at."""
+    from radarslam.landmarks.records import Records, new_records
+    from radarslam.slam.state import SlamState
+
+    records = new_records(1) if lm is None else Records(lm.ids, lm.created, lm.mbits, lm.rbits, lm.first)
+    lin = None if pose_first is None or not cfg.fej else np.array(pose_first, dtype=float)
+    return SlamState(x, P, records=records, platform_dim=int(cfg.platform), lin_pose=lin)
+
+
+def _user_association(associator):
+    """Step 4 (``view.associate_step``) by ``associator.associate`` (the Associator protocol) with the
+    association noise ``n_c R`` (c.11.9) and the spreads of the engine's inflation (a.7.2, c.17's
+    ``offset_k``). Returns ``(x, P, landmark per candidate or -1, NIS values)`` as the step does."""
+    from radarslam.slam.association import Spreads
+    from radarslam.slam.fused.tracking import _inflation
+
+    def associate_step(x, P, polar, cidx, lm, N, pose_first, shapes, terms, noise, cfg, view, jcbb):
+        if N == 0:
+            return x, P, np.full(cidx.shape[0], -1, dtype=np.int64), np.empty(0)
+        gX, has = _inflation(lm, N, noise, cfg)
+        st = _state(x, P, lm, cfg, pose_first)
+        out, nis = associator.associate(st, polar, cidx, noise.R_assoc, Spreads(gX, has, offset_k=cfg.offset_k))
+        return (np.ascontiguousarray(st.x, dtype=float), np.ascontiguousarray(st.P, dtype=float),
+                np.asarray(out, dtype=np.int64), np.asarray(nis, dtype=float).reshape(-1))
+
+    return associate_step
+
+
+def _user_alpha_test(associator):
+    """Step 7's alpha test (``mapping.alpha_test``) by ``associator.min_log_distance`` with the plain R
+    (a.7.2 inflates only association and update): the clusters whose centre is farther than
+    ``cfg.alpha`` from every landmark, in order."""
+
+    def alpha_test(x, P, polar, clusters, noise, cfg):
+        st = _state(x, P, None, cfg)
+        fresh = [c for c, i in enumerate(clusters.centre.tolist())
+                 if associator.min_log_distance(st, polar[i], noise.R) > cfg.alpha]
+        return np.array(fresh, dtype=np.int64)
+
+    return alpha_test
