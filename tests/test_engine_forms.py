@@ -19,6 +19,7 @@ from radarslam.config import profile_config  # noqa: E402
 from radarslam.config.variants import Variant, apply_variant  # noqa: E402
 from radarslam.core.errors import ConfigError  # noqa: E402
 from radarslam.core.jit import compiled_only, uncompiled  # noqa: E402
+from radarslam.core.types import Odometry  # noqa: E402
 from radarslam.simulation.scenario import generate_scenario  # noqa: E402
 from radarslam.slam import _fused  # noqa: E402
 from radarslam.slam.driver import run_filter  # noqa: E402
@@ -129,7 +130,6 @@ def test_a_motion_model_of_the_users_own_runs_in_the_steps_form_with_every_kerne
     it compiled), its model called once per odometry event, and it gives the orchestrator's record
     with the same model; the built-in unicycle's run differs (the model was used)."""
     from radarslam.core.registry import MOTION_MODELS
-    from radarslam.core.types import Odometry
     from radarslam.models.motion import UnicycleModel
 
     calls = []
@@ -155,10 +155,66 @@ def test_a_motion_model_of_the_users_own_runs_in_the_steps_form_with_every_kerne
         np.testing.assert_allclose(rec.pose_covs, ref.pose_covs, rtol=0, atol=1e-9)
         builtin = run_filter(cfg, scenario.events)
         assert np.abs(builtin.poses[:, :2] - rec.poses[:, :2]).max() > 0.1
-        with_bias = apply_variant(mine, Variant("b", "b", {"filter": {"odometry_bias": "states"}}))
-        assert "with the odometry-bias states" in _fused.why_not(EkfSlam(with_bias))
     finally:
         MOTION_MODELS.unregister("slower")
+
+
+def test_a_motion_model_of_the_users_own_with_the_bias_states_and_an_input_bias_of_its_own(scenario):
+    """With the odometry-bias states (c.11) a motion model of the user's own runs in the steps form too,
+    and an ``input_bias`` of a class of its own (here: the speed scale applied twice over) is called
+    where the bias steps correct the input: the orchestrator's record with the same model to 1e-9;
+    with the built-in class the record differs (the user's correction was used)."""
+    from dataclasses import dataclass
+
+    from radarslam.core.registry import MOTION_MODELS
+    from radarslam.models.input_bias import InputBias
+    from radarslam.models.motion import UnicycleModel
+
+    corrected = []
+
+    @dataclass(frozen=True)
+    class Doubled(InputBias):
+        def correct(self, u, b):
+            corrected.append(1)
+            return super().correct(u, 2.0 * np.asarray(b))
+
+        def jacobians(self, u, b):
+            Cu, Cb = super().jacobians(u, 2.0 * np.asarray(b))
+            return Cu, 2.0 * Cb
+
+    class Own(UnicycleModel):
+        name = "own"
+
+    class OwnDoubled(UnicycleModel):
+        name = "own-doubled"
+        input_bias = Doubled(**{k: getattr(UnicycleModel.input_bias, k) for k in
+                                ("scaled", "offset", "names", "units", "offset_keys")})
+
+    MOTION_MODELS.register("own", lambda f: Own())
+    MOTION_MODELS.register("own-doubled", lambda f: OwnDoubled())
+    try:
+        cfg = profile_config()
+        recs = {}
+        for name in ("own", "own-doubled"):
+            mine = apply_variant(cfg, Variant(name, name, {"filter": {"motion_model": name, "odometry_bias": "states",
+                                                                      "bias_scale_std": 0.1}}))
+            assert _fused.why_not(EkfSlam(mine)) is None
+            rec = run_filter(mine, scenario.events)
+            assert rec.engine == "fused-steps"
+            n_steps, corrected[:] = len(corrected), []
+            ref = run_filter(mine, scenario.events, engine="orchestrator")
+            assert n_steps == len(corrected) == (0 if name == "own" else
+                                                  sum(isinstance(e, Odometry) for e in scenario.events))
+            np.testing.assert_array_equal(rec.n_landmarks, ref.n_landmarks)
+            np.testing.assert_allclose(rec.poses, ref.poses, rtol=0, atol=1e-9)
+            np.testing.assert_allclose(rec.pose_covs, ref.pose_covs, rtol=0, atol=1e-9)
+            np.testing.assert_allclose(rec.bias, ref.bias, rtol=0, atol=1e-9)
+            recs[name] = rec
+            corrected[:] = []
+        assert np.abs(recs["own"].bias - recs["own-doubled"].bias).max() > 1e-4
+    finally:
+        MOTION_MODELS.unregister("own")
+        MOTION_MODELS.unregister("own-doubled")
 
 
 def test_an_associator_of_the_users_own_runs_in_the_steps_form_with_every_kernel_compiled(scenario):

@@ -7,7 +7,9 @@ steps of ``slam/fused/`` in Python over their compiled kernels; :func:`user_comp
 ``replace`` pairs, each a Python function with the signature of the step it stands in for:
 
 - a motion model: ``_motion(x, u, dt, code, cfg) -> (pose, F_x, F_u)`` by the model's ``step`` and
-  ``jacobians`` (the MotionModel protocol);
+  ``jacobians`` (the MotionModel protocol); with the odometry-bias states (c.11) and an ``input_bias``
+  of a class of its own, also the input's correction and its Jacobians (``_correct_input``,
+  ``_input_jacobians``) by that class's ``correct`` and ``jacobians``, as the orchestrator calls them;
 - an associator: step 4, ``associate_step`` (c.4, a.7.2), by the associator's ``associate`` on a
   :class:`~radarslam.slam.state.SlamState` over the engine's mean, covariance and landmark records with
   the engine's own noise inflation (``tracking._inflation``: the :class:`Spreads` the orchestrator's
@@ -47,9 +49,14 @@ def user_components(slam) -> tuple:
     """The components of the user's own in ``slam`` (one ``plan.why_not`` accepts) as the ``replace``
     pairs of :func:`~radarslam.slam.fused.engine.form` (module docstring). Empty when every component
     is built in."""
+    from radarslam.models.input_bias import InputBias
+
     pairs = []
     if own_motion(slam):
         pairs.append(("_motion", _user_motion(slam.model)))
+        spec = None if slam.bias_model is None else slam.bias_model.spec
+        if spec is not None and type(spec) is not InputBias:
+            pairs += _user_input_bias(spec)
     if own_associator(slam):
         pairs += [("associate_step", _user_association(slam.associator)),
                   ("alpha_test", _user_alpha_test(slam.associator))]
@@ -75,6 +82,20 @@ def _user_motion(model):
                 np.asarray(Fu, dtype=float))
 
     return motion
+
+
+def _user_input_bias(spec) -> list:
+    """The bias steps' input correction ``c(u, b)`` and its Jacobians ``(C_u, C_b)`` (c.11.1) by ``spec``'s
+    own ``correct`` and ``jacobians`` (the kernels' index arguments, the built-in class's, unused)."""
+
+    def correct_input(u, b, scaled, offset, turn):
+        return np.asarray(spec.correct(u, b), dtype=float)
+
+    def input_jacobians(u, b, scaled, offset, turn):
+        Cu, Cb = spec.jacobians(u, b)
+        return np.asarray(Cu, dtype=float), np.asarray(Cb, dtype=float)
+
+    return [("_correct_input", correct_input), ("_input_jacobians", input_jacobians)]
 
 
 def _state(x, P, lm, cfg, pose_first=None):

@@ -19,7 +19,7 @@ import numpy as np
 from radarslam.slam.fused.engine import BAD_PREDICTION, ODOMETRY, OK, VELOCITY, family_of, form
 from radarslam.slam.fused.chunks import Pacer, joined, part
 from radarslam.slam.fused.events import initial_carry
-from radarslam.slam.fused.own import own_associator, own_motion, run_form, user_components
+from radarslam.slam.fused.own import own_associator, run_form, user_components
 from radarslam.slam.fused.stream import Stream, _stream_arrays
 from radarslam.slam.fused.view import ViewParams, view_parameters
 
@@ -144,9 +144,6 @@ def why_not(slam, events=None) -> str | None:
          "the partial-view estimator with the full view, or the partial view with another estimator"),
         (not f.doppler_gate or type(slam._gate) is DopplerGate, f"Doppler gate {type(slam._gate).__name__}"),
         # under Doppler odometry (c.10.5) the body-velocity model drives every prediction, not slam.model
-        # a motion model of the user's own runs in the steps form (user_components), without bias states
-        (not own_motion(slam) or slam.bias_model is None,
-         f"motion model {type(slam.model).__name__} with the odometry-bias states"),
         (f.odometry == "odometer" or type(slam._odometry) is DopplerOdometry,
          f"odometry source {type(slam._odometry).__name__}"),
         (type(slam.measurement) is RangeAzimuthModel, f"measurement model {type(slam.measurement).__name__}"),
