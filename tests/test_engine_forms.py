@@ -259,3 +259,98 @@ def test_an_associator_of_the_users_own_runs_in_the_steps_form_with_every_kernel
         assert builtin.engine == "fused" and int(builtin.n_associated.sum()) > int(rec.n_associated.sum())
     finally:
         ASSOCIATORS.unregister("narrow")
+
+
+class _ScatterState:
+    def __init__(self):
+        self.n, self.s1, self.s2 = 0, np.zeros(2), np.zeros((2, 2))
+
+
+class _Scatter:
+    """An extent estimator of the user's own: 4 x the scatter of every detection associated so far (at
+    least 3), which widens association (its spreads) and sifts by a Mahalanobis contour of its own."""
+
+    posterior_centroid = False
+
+    def __init__(self, calls):
+        self.calls = calls
+
+    def new(self):
+        return _ScatterState()
+
+    def step(self, st, polar, pts, centroid, centroid_cov, pose, pose_cov, dt, k):
+        self.calls["step"] += 1
+        st.n += pts.shape[0]
+        st.s1 = st.s1 + pts.sum(axis=0)
+        st.s2 = st.s2 + pts.T @ pts
+
+    def merge(self, survivor, gone):
+        self.calls["merge"] += 1
+        survivor.n, survivor.s1, survivor.s2 = survivor.n + gone.n, survivor.s1 + gone.s1, survivor.s2 + gone.s2
+        return survivor
+
+    def matrix(self, st):
+        if st.n < 3:
+            return None
+        m = st.s1 / st.n
+        return 4.0 * (st.s2 / st.n - np.outer(m, m)) + 0.01 * np.eye(2)
+
+    def baseline(self, st):
+        return None
+
+    def spreads(self, states):
+        X = [self.matrix(s) for s in states]
+        has = np.array([x is not None for x in X], dtype=bool)
+        return np.array([0.25 * x if x is not None else np.zeros((2, 2)) for x in X]).reshape(-1, 2, 2), has
+
+    def sift(self, states, points, polar, centroids, centroid_covs, pose, pose_cov):
+        self.calls["sift"] += 1
+        X = [self.matrix(s) for s in states]
+        has = np.array([x is not None for x in X], dtype=bool)
+        inside = np.zeros((points.shape[0], len(states)), dtype=bool)
+        for j, x in enumerate(X):
+            if x is not None:
+                d = points - centroids[j]
+                inside[:, j] = np.einsum("ni,ij,nj->n", d, np.linalg.inv(x + centroid_covs[j]), d) < 9.0
+        return inside, has
+
+    def initial_spread(self):
+        return None
+
+
+def test_an_extent_estimator_of_the_users_own_runs_in_the_steps_form_with_every_kernel_compiled(scenario):
+    """An extent estimator registered through the registry, written in Python (the scatter of the
+    associated detections, which sifts by its own contour and widens association by its own spreads),
+    runs where the engine's steps read or change extents (slam/fused/own.py: UserExtents): the run is
+    the steps form's, the estimator is called as often as by the orchestrator (sift, step, merge), and
+    the record, the maps and their extents are the orchestrator's with the same estimator; the
+    built-in estimator's run differs (the user's extents were used)."""
+    from radarslam.core.registry import EXTENT_ESTIMATORS
+
+    calls = {"sift": 0, "step": 0, "merge": 0}
+    EXTENT_ESTIMATORS.register("scatter", lambda c: _Scatter(calls))
+    try:
+        cfg = profile_config()
+        mine = apply_variant(cfg, Variant("scatter", "scatter", {"extent": {"estimator": "scatter"},
+                                                                 "landmarks": {"merge_distance_m": 6.0}}))
+        assert _fused.why_not(EkfSlam(mine)) is None
+        rec = run_filter(mine, scenario.events)
+        assert rec.engine == "fused-steps"
+        steps_calls = dict(calls)
+        calls.update(sift=0, step=0, merge=0)
+        ref = run_filter(mine, scenario.events, engine="orchestrator")
+        assert steps_calls == calls and calls["sift"] > 100 and calls["step"] > 500 and calls["merge"] > 0, calls
+        np.testing.assert_array_equal(rec.n_landmarks, ref.n_landmarks)
+        np.testing.assert_array_equal(rec.n_associated, ref.n_associated)
+        np.testing.assert_allclose(rec.poses, ref.poses, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(rec.pose_covs, ref.pose_covs, rtol=0, atol=1e-9)
+        for a, b in zip(rec.maps, ref.maps):
+            np.testing.assert_array_equal(a.ids, b.ids)
+            np.testing.assert_allclose(a.rma, b.rma, rtol=0, atol=1e-9)
+            assert np.isnan(a.efa).all() and np.isnan(b.efa).all()
+        assert (~np.isnan(rec.maps[-1].rma[:, 0, 0])).sum() >= 5
+        builtin = run_filter(apply_variant(mine, Variant("rma", "rma", {"extent": {"estimator": "rma-efa"}})),
+                             scenario.events)
+        assert builtin.engine == "fused" and np.abs(builtin.poses[:, :2] - rec.poses[:, :2]).max() > 1e-3
+    finally:
+        EXTENT_ESTIMATORS.unregister("scatter")

@@ -13,14 +13,20 @@ steps of ``slam/fused/`` in Python over their compiled kernels; :func:`user_comp
 - an associator: step 4, ``associate_step`` (c.4, a.7.2), by the associator's ``associate`` on a
   :class:`~radarslam.slam.state.SlamState` over the engine's mean, covariance and landmark records with
   the engine's own noise inflation (``tracking._inflation``: the :class:`Spreads` the orchestrator's
-  extent gives), and step 7's alpha test, ``alpha_test`` (c.6), by its ``min_log_distance``.
+  extent gives), and step 7's alpha test, ``alpha_test`` (c.6), by its ``min_log_distance``;
+- an extent estimator (:class:`UserExtents`): its per-landmark states are kept beside the engine's
+  records, by landmark id, and the steps that read or change extents call it: step 3's sifting test
+  (``sift``), step 4's spreads (``_inflation``), step 6 (``extent_step``), and after each scan its
+  ``merge`` for step 10's merges and ``new`` for the landmarks born; its ``matrix`` and ``baseline`` are
+  written into the engine's extent rows after every scan, so that the record's maps and a retired
+  landmark's row (c.15) carry them.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["own_associator", "own_motion", "run_form", "user_components"]
+__all__ = ["UserExtents", "own_associator", "own_extent", "own_motion", "run_form", "user_components"]
 
 
 def own_motion(slam) -> bool:
@@ -45,6 +51,17 @@ def own_associator(slam) -> bool:
     return type(slam.associator) not in builtin
 
 
+def own_extent(slam) -> bool:
+    """Whether ``slam``'s extent estimator is of the user's own: none of the engine's (RMA/EFA, the
+    visible arc, MEM-EKF* and the partial view's)."""
+    from radarslam.extent.estimator import RmaEfaEstimator
+    from radarslam.extent.mem_ekf import MemEkfEstimator
+    from radarslam.extent.view_estimator import PartialViewEstimator
+    from radarslam.extent.visible_arc import VisibleArcEstimator
+
+    return type(slam.extent) not in (RmaEfaEstimator, VisibleArcEstimator, MemEkfEstimator, PartialViewEstimator)
+
+
 def user_components(slam) -> tuple:
     """The components of the user's own in ``slam`` (one ``plan.why_not`` accepts) as the ``replace``
     pairs of :func:`~radarslam.slam.fused.engine.form` (module docstring). Empty when every component
@@ -60,6 +77,8 @@ def user_components(slam) -> tuple:
     if own_associator(slam):
         pairs += [("associate_step", _user_association(slam.associator)),
                   ("alpha_test", _user_alpha_test(slam.associator))]
+    if own_extent(slam):
+        pairs.append(("scan_event", UserExtents(slam.extent).scan_event(dict(pairs))))
     return tuple(pairs)
 
 
@@ -67,7 +86,7 @@ def run_form(slam, how: str = "compiled") -> str:
     """The form ``plan.run`` runs ``slam`` in when asked for ``how``: the steps form in the place of the
     compiled one where ``slam`` has a component of the user's own (the user's component in Python,
     every kernel around it compiled), else ``how``."""
-    return "steps" if how == "compiled" and (own_motion(slam) or own_associator(slam)) else how
+    return "steps" if how == "compiled" and (own_motion(slam) or own_associator(slam) or own_extent(slam)) else how
 
 
 def _user_motion(model):
@@ -141,3 +160,101 @@ def _user_alpha_test(associator):
         return np.array(fresh, dtype=np.int64)
 
     return alpha_test
+
+
+class UserExtents:
+    """The extent states of an estimator of the user's own (``extent``, the ExtentEstimator protocol of
+    docs/architecture.md) beside the engine's records, by landmark id, and the steps that use them (module
+    docstring), each as the orchestrator calls the estimator (slam/filter.py ``_sift``,
+    ``_associate_and_update``, ``_extent_step``, ``_augment``, ``_merge``). One per run."""
+
+    def __init__(self, extent):
+        self.extent = extent
+        self.states: dict[int, object] = {}
+        self.k = 0
+
+    def of(self, lm, N) -> list:
+        """The states of the engine's ``N`` landmarks in state order; a landmark born since, ``extent.new()``."""
+        out = []
+        for lid in lm.ids[:N].tolist():
+            if lid not in self.states:
+                self.states[lid] = self.extent.new()
+            out.append(self.states[lid])
+        return out
+
+    def sift(self, x, P, polar, lm, N, prior, noise, cfg):
+        """Step 3 (``tracking.sift``): the estimator's own test where it has one, the radius test otherwise."""
+        from radarslam.landmarks._compiled import compiled_candidates
+        from radarslam.slam.fused.tracking import _to_world
+
+        m = polar.shape[0]
+        if N == 0 or m == 0:
+            return np.zeros(m, dtype=np.bool_)
+        pos_prior, cov_prior = prior
+        xy = _to_world(x, polar)
+        test = self.extent.sift(self.of(lm, N), xy, polar, pos_prior, cov_prior, x[:3].copy(), P[:3, :3].copy())
+        inside, has = (np.zeros((1, 1), dtype=np.bool_), np.zeros(N, dtype=np.bool_)) if test is None else test
+        return compiled_candidates(xy, pos_prior, cfg.sift_radius * cfg.sift_radius,
+                                   np.asarray(inside, dtype=np.bool_), np.asarray(has, dtype=np.bool_))
+
+    def inflation(self, lm, N, noise, cfg):
+        """Step 4's ``(gX, has)`` (``tracking._inflation``): the estimator's ``spreads``."""
+        gX, has = self.extent.spreads(self.of(lm, N))
+        return np.asarray(gX, dtype=float).reshape(N, 2, 2), np.asarray(has, dtype=np.bool_).reshape(N)
+
+    def extent_step(self, x, P, polar, xy, lm, N, old, aoff, arow, prior, dt, arcs, n_arcs, noise, cfg, view):
+        """Step 6 (``extent.extent_step``): the estimator's ``step_all``, or ``step`` for each landmark, with
+        its detections, its centroid (posterior, or the prediction's) and the pose."""
+        ext = self.extent
+        if not getattr(ext, "active", True) or N == 0:
+            return lm, arcs, n_arcs
+        from radarslam.slam.fused.storage import _blocks
+
+        states = self.of(lm, N)
+        if ext.posterior_centroid:
+            cents, covs = _blocks(x, P, cfg.platform)
+        else:
+            rows = old[:N]
+            cents, covs = prior[0][rows], prior[1][rows]
+        pose, pose_cov = x[:3].copy(), P[:3, :3].copy()
+        assoc = [arow[aoff[j]:aoff[j + 1]].tolist() for j in range(N)]
+        step_all = getattr(ext, "step_all", None)
+        if step_all is not None:
+            step_all(states, polar, xy, assoc, cents, covs, pose, pose_cov, dt, self.k)
+        else:
+            for j, st in enumerate(states):
+                ext.step(st, polar[assoc[j]], xy[assoc[j]], cents[j], covs[j], pose, pose_cov, dt, self.k)
+        return lm, arcs, n_arcs
+
+    def after_scan(self, lm, N, merged) -> None:
+        """Step 10's merges by the estimator's ``merge`` (in order), the states of the landmarks gone
+        dropped, and every landmark's ``matrix`` and ``baseline`` written into the engine's rows (RMA
+        and EFA of the record's maps; NaN for None)."""
+        for kept, gone in np.asarray(merged).reshape(-1, 2).tolist():
+            self.states[kept] = self.extent.merge(self.states[kept], self.states.pop(gone))
+        states = self.of(lm, N)
+        self.states = dict(zip(lm.ids[:N].tolist(), states))
+        nan = np.full((2, 2), np.nan)
+        for j, st in enumerate(states):
+            X, B = self.extent.matrix(st), self.extent.baseline(st)
+            lm.einit[j] = X is not None or B is not None
+            lm.X[j] = nan if X is None else X
+            lm.Xefa[j] = nan if B is None else B
+
+    def scan_event(self, others: dict):
+        """``events.scan_event`` in Python with this estimator's steps (and ``others``, the user's other
+        components) in the place of the built-in ones, :meth:`after_scan` after it."""
+        from radarslam.core.jit import uncompiled
+        from radarslam.slam.fused import events
+        from radarslam.slam.fused.engine import _kernels_kept
+
+        inner = uncompiled(events.scan_event, _kernels_kept("steps"),
+                           {**others, "sift": self.sift, "_inflation": self.inflation, "extent_step": self.extent_step})
+
+        def scan_event(c, stream, s, a_rows, n_arows, noise, cfg, view, jcbb, bias):
+            self.k = int(stream.scan_k[s])
+            res = inner(c, stream, s, a_rows, n_arows, noise, cfg, view, jcbb, bias)
+            self.after_scan(res[0].lm, int(res[0].N), res[6].merged)
+            return res
+
+        return scan_event

@@ -124,14 +124,11 @@ class Noise(NamedTuple):
 def why_not(slam, events=None) -> str | None:
     """Why :func:`run` cannot stand in for ``slam`` (an :class:`~radarslam.slam.filter.EkfSlam`
     that has processed nothing yet), or None when it can: the configuration's components must be
-    the built-in ones this engine reproduces, but for a motion model or an associator of the user's
-    own, which the engine's steps form calls in Python (:func:`user_components`). ``events`` is taken for the
+    the built-in ones this engine reproduces, but for a motion model, an associator or an extent
+    estimator of the user's own, which the engine's steps form calls in Python (:func:`user_components`). ``events`` is taken for the
     callers' sake: no stream is refused (a scan of any size clusters compiled,
     ``landmarks/_compiled.py: neighbourhoods``)."""
-    from radarslam.extent.estimator import RmaEfaEstimator
-    from radarslam.extent.mem_ekf import MemEkfEstimator
     from radarslam.extent.view_estimator import PartialViewEstimator
-    from radarslam.extent.visible_arc import VisibleArcEstimator
     from radarslam.models.radar import RangeAzimuthModel
     from radarslam.slam.doppler_gate import DopplerGate
     from radarslam.slam.odometry_source import DopplerOdometry
@@ -150,8 +147,6 @@ def why_not(slam, events=None) -> str | None:
         # an associator of the user's own runs in the steps form (user_components), outside the partial view
         (not own_associator(slam) or getattr(slam, "view", None) is None,
          f"associator {type(slam.associator).__name__} with the partial view"),
-        (type(slam.extent) in (RmaEfaEstimator, VisibleArcEstimator, MemEkfEstimator, PartialViewEstimator),
-         f"extent estimator {type(slam.extent).__name__}"),
         (slam.state.n_landmarks == 0 and slam._scans == 0, "the filter has already processed a scan"),
     )
     for ok, reason in checks:
@@ -216,7 +211,7 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
         merge_distance=float(lc.merge_distance_m), merge_axis_tol=float(lc.merge_axis_tol_m),
         max_range=float(f.max_range_m), half_fov=math.radians(f.field_of_view_deg) / 2.0,
         retire2=retire_radius(slam.config) ** 2,          # c.15: the reach plus the lever-arm margin
-        gate=float(slam.extent.gate), gamma=float(ec.spread_factor),
+        gate=float(getattr(slam.extent, "gate", 0.0)), gamma=float(ec.spread_factor),
         alpha0=float(ec.alpha0), tau=float(ec.tau_s), eig_floor=float(ec.eig_floor_m2), kappa=float(ec.kappa),
         beam_step=float(slam.extent.beam_step) if arc else 0.0,
         mem=mem, mem_noise=MEM_NOISE[ec.mem_ekf_noise],
@@ -325,10 +320,12 @@ def noises(slam, cfg, largest: int) -> Noise:
     """The :class:`Noise` of ``slam`` under the parameters ``cfg``, for scans of up to ``largest``
     detections (JCBB's gates: one for every depth a scan's candidates allow)."""
     ext = slam.extent
-    prior_spread = ext.prior_spread if ext.initial_spread() is not None or cfg.pre_spread else np.zeros((2, 2))
+    spread = ext.initial_spread()           # an estimator of the user's own may hold no prior_spread
+    prior_spread = getattr(ext, "prior_spread", spread) if spread is not None or cfg.pre_spread else None
+    prior_spread = np.zeros((2, 2)) if prior_spread is None else prior_spread
     gates = slam.associator.gates(largest) if cfg.assoc == 3 else np.zeros(2)
     Cp0 = np.asarray(ext.Cp0, dtype=float) if cfg.mem else np.zeros((3, 3))
-    return Noise(slam.R, ext.R_extent, slam.U, slam.Q, np.ascontiguousarray(prior_spread, dtype=float), gates, Cp0,
+    return Noise(slam.R, getattr(ext, "R_extent", slam.R), slam.U, slam.Q, np.ascontiguousarray(prior_spread, dtype=float), gates, Cp0,
                  np.ascontiguousarray(slam.R_assoc, dtype=float))
 
 
