@@ -83,3 +83,56 @@ def test_a_state_of_another_size_an_extent_set_by_hand_and_a_bad_engine_are_refu
         slam.process(events[k])
     with pytest.raises(InputError, match="engine: expected 'auto' or 'orchestrator', got 'fast'"):
         EkfSlam(profile_config(), engine="fast")
+
+
+def test_components_of_the_users_own_run_event_by_event_in_the_engines_steps_form(events):
+    """A motion model, an associator and an extent estimator of the user's own together (as in
+    tests/test_engine_forms.py), event by event: the engine runs them in its steps form (slam/fused/own.py),
+    the reports and the state are the orchestrator's, and ``state.extents`` are the estimator's own live
+    states, whose matrices equal the orchestrator's."""
+    import sys
+
+    from radarslam.config.variants import Variant, apply_variant
+    from radarslam.core.registry import ASSOCIATORS, EXTENT_ESTIMATORS, MOTION_MODELS
+    from radarslam.models.motion import UnicycleModel
+    from radarslam.slam.association import JointBatchAssociator
+
+    sys.path.insert(0, str(__import__("pathlib").Path(__file__).parent))
+    from test_engine_forms import _Scatter
+
+    class Own(UnicycleModel):
+        name = "own-pe"
+
+    calls = {"sift": 0, "step": 0, "merge": 0}
+    MOTION_MODELS.register("own-pe", lambda f: Own())
+    ASSOCIATORS.register("narrow-pe", lambda c: JointBatchAssociator(c.landmarks.beta / 4.0, c.landmarks.n_nearest_assoc,
+                                                                     c.landmarks.n_nearest_new))
+    EXTENT_ESTIMATORS.register("scatter-pe", lambda c: _Scatter(calls))
+    try:
+        cfg = apply_variant(profile_config(), Variant("own", "own", {
+            "filter": {"motion_model": "own-pe"}, "landmarks": {"associator": "narrow-pe", "merge_distance_m": 6.0},
+            "extent": {"estimator": "scatter-pe"}}))
+        eng, orch = EkfSlam(cfg), EkfSlam(cfg, engine="orchestrator")
+        merged = 0
+        for ev in events:
+            ra, rb = eng.process(ev), orch.process(ev)
+            assert (ra is None) == (rb is None)
+            if ra is not None:
+                assert (ra.removed, ra.confirmed, ra.merged, ra.n_associated) == \
+                    (rb.removed, rb.confirmed, rb.merged, rb.n_associated)
+                merged += len(ra.merged)
+        assert eng._online is not None and orch._online is None and merged >= 1
+        np.testing.assert_allclose(eng.x, orch.x, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(eng.P, orch.P, rtol=0, atol=1e-9)
+        ext = eng.state.extents
+        assert len(ext) == orch.state.n_landmarks >= 3 and all(type(s).__name__ == "_ScatterState" for s in ext)
+        mats = [(eng.extent.matrix(a), orch.extent.matrix(b)) for a, b in zip(ext, orch.state.extents)]
+        assert sum(b is not None for _, b in mats) >= 3
+        for a, b in mats:
+            assert (a is None) == (b is None)
+            if b is not None:
+                np.testing.assert_allclose(a, b, rtol=0, atol=1e-9)
+    finally:
+        MOTION_MODELS.unregister("own-pe")
+        ASSOCIATORS.unregister("narrow-pe")
+        EXTENT_ESTIMATORS.unregister("scatter-pe")

@@ -16,18 +16,17 @@ __all__ = ["EngineExtents", "engine_for", "read_back", "write_through"]
 def engine_for(slam):
     """The fused engine one event at a time for ``slam`` (an EkfSlam that has processed nothing), or None
     where the orchestrator runs it: ``filter.fused`` false (the orchestrator asked for), the reference
-    backend, a configuration the engine does not cover (:func:`~radarslam.slam.fused.plan.why_not`: a
-    component of the user's own), a motion model of the user's own (the engine runs it in Python only
-    whole streams), or the visible-arc estimator (whose per-landmark state holds its arcs' widths, which
-    :class:`EngineExtents` does not rebuild)."""
+    backend, a configuration the engine does not cover (:func:`~radarslam.slam.fused.plan.why_not`), or the
+    visible-arc estimator (whose per-landmark state holds its arcs' widths, which :class:`EngineExtents`
+    does not rebuild). A component of the user's own runs in the engine's steps form (slam/fused/own.py)."""
     from radarslam.extent.visible_arc import VisibleArcEstimator
     from radarslam.slam.fused.online import Online
-    from radarslam.slam.fused.plan import run_form, why_not
+    from radarslam.slam.fused.plan import why_not
 
     f = slam.config.filter
     if not f.fused or f.backend != "numba" or isinstance(slam.extent, VisibleArcEstimator):
         return None
-    if why_not(slam) is not None or run_form(slam) != "compiled":
+    if why_not(slam) is not None:
         return None
     return Online(slam)
 
@@ -39,9 +38,10 @@ class EngineExtents:
     landmark's extent was seen initialised. Valid until the next event; setting one is refused (it would
     not reach the engine)."""
 
-    def __init__(self, estimator, lm, n: int, initialized_at: dict):
+    def __init__(self, estimator, lm, n: int, initialized_at: dict, own=None):
         self._est, self._lm, self._n, self._at = estimator, lm, n, initialized_at
-        self._states = None
+        #: An estimator of the user's own: its live states (slam/fused/own.py UserExtents), not rebuilt.
+        self._states = None if own is None else own.of(lm, n)
 
     def _built(self) -> list:
         if self._states is None:
@@ -107,5 +107,5 @@ def read_back(slam, online, k: int | None) -> None:
     if k is not None and n:
         for lid in lm.ids[:n][lm.einit[:n]].tolist():
             at.setdefault(lid, k)
-    st.extents = EngineExtents(slam.extent, lm, n, at)
+    st.extents = EngineExtents(slam.extent, lm, n, at, online.user_extents)
     slam._scans, slam._last_scan_t = int(c.scans), online.last_t

@@ -11,8 +11,9 @@ import numpy as np
 from radarslam.core.errors import InputError
 from radarslam.core.types import Scan
 from radarslam.slam.event_input import finite_number
-from radarslam.slam.fused.engine import OK
-from radarslam.slam.fused.plan import _failure, _parameters, engine_of, first_carry, largest_scan, noises, why_not
+from radarslam.slam.fused.engine import OK, family_of, form
+from radarslam.slam.fused.own import run_form, user_components
+from radarslam.slam.fused.plan import _failure, _parameters, first_carry, largest_scan, noises, why_not
 from radarslam.slam.fused.stream import _stream_arrays
 from radarslam.slam.report import ScanReport
 
@@ -22,9 +23,10 @@ __all__ = ["Online"]
 class Online:
     """``slam``'s filter (an :class:`~radarslam.slam.filter.EkfSlam` that has processed nothing and whose
     configuration the fused engine covers, :func:`~radarslam.slam.fused.plan.why_not`) run by the fused
-    engine one event at a time, in form ``how`` (engine.FORMS). ``slam``'s own Doppler odometry and
-    Doppler gate read the events as they come, and so change with them; ``slam.state`` does not (the
-    filter's state is :attr:`carry`)."""
+    engine one event at a time, in form ``how`` (engine.FORMS; the steps form where ``slam`` has a component
+    of the user's own, slam/fused/own.py). ``slam``'s own Doppler odometry and Doppler gate read the
+    events as they come, and so change with them; ``slam.state`` does not (the filter's state is
+    :attr:`carry`)."""
 
     def __init__(self, slam, how: str = "compiled"):
         why = why_not(slam)
@@ -32,7 +34,11 @@ class Online:
             raise InputError(f"slam: expected a filter the fused engine covers, got one it does not ({why})")
         self.slam = slam
         self.cfg = _parameters(slam, False, True)
-        self.engine = engine_of(slam, self.cfg, how)
+        how = run_form(slam, how)
+        pairs = dict(user_components(slam) if how != "compiled" else ())
+        self.engine = form(family_of(self.cfg), how, tuple(pairs.items()))
+        #: An extent estimator of the user's own: its states (own.UserExtents), else None.
+        self.user_extents = getattr(pairs.get("scan_event"), "extents", None)
         self.largest = 1
         self.noise = noises(slam, self.cfg, self.largest)
         self.carry = first_carry(slam, self.cfg, self.largest)

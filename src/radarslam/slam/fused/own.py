@@ -74,11 +74,12 @@ def user_components(slam) -> tuple:
         spec = None if slam.bias_model is None else slam.bias_model.spec
         if spec is not None and type(spec) is not InputBias:
             pairs += _user_input_bias(spec)
+    extents = UserExtents(slam.extent) if own_extent(slam) else None
     if own_associator(slam):
-        pairs += [("associate_step", _user_association(slam.associator)),
+        pairs += [("associate_step", _user_association(slam.associator, extents)),
                   ("alpha_test", _user_alpha_test(slam.associator))]
-    if own_extent(slam):
-        pairs.append(("scan_event", UserExtents(slam.extent).scan_event(dict(pairs))))
+    if extents is not None:
+        pairs.append(("scan_event", extents.scan_event(dict(pairs))))
     return tuple(pairs)
 
 
@@ -129,17 +130,20 @@ def _state(x, P, lm, cfg, pose_first=None):
     return SlamState(x, P, records=records, platform_dim=int(cfg.platform), lin_pose=lin)
 
 
-def _user_association(associator):
+def _user_association(associator, extents=None):
     """Step 4 (``view.associate_step``) by ``associator.associate`` (the Associator protocol) with the
     association noise ``n_c R`` (c.11.9) and the spreads of the engine's inflation (a.7.2, c.17's
-    ``offset_k``). Returns ``(x, P, landmark per candidate or -1, NIS values)`` as the step does."""
+    ``offset_k``), or of an extent estimator of the user's own (``extents``, :class:`UserExtents`).
+    Returns ``(x, P, landmark per candidate or -1, NIS values)`` as the step does."""
     from radarslam.slam.association import Spreads
     from radarslam.slam.fused.tracking import _inflation
+
+    inflation = _inflation if extents is None else extents.inflation
 
     def associate_step(x, P, polar, cidx, lm, N, pose_first, shapes, terms, noise, cfg, view, jcbb):
         if N == 0:
             return x, P, np.full(cidx.shape[0], -1, dtype=np.int64), np.empty(0)
-        gX, has = _inflation(lm, N, noise, cfg)
+        gX, has = inflation(lm, N, noise, cfg)
         st = _state(x, P, lm, cfg, pose_first)
         out, nis = associator.associate(st, polar, cidx, noise.R_assoc, Spreads(gX, has, offset_k=cfg.offset_k))
         return (np.ascontiguousarray(st.x, dtype=float), np.ascontiguousarray(st.P, dtype=float),
@@ -257,4 +261,5 @@ class UserExtents:
             self.after_scan(res[0].lm, int(res[0].N), res[6].merged)
             return res
 
+        scan_event.extents = self            # the states, for the filter run event by event (slam/per_event.py)
         return scan_event
