@@ -9,7 +9,8 @@ the result. Two passes over the same trials:
 2. by stage: the same trials with a timer around each stage (simulation, configuration, the
    filter, evaluation, encoding). Within the filter: with the fused engine (the default,
    ``filter.fused``) its three parts (the event stream as arrays, the compiled run, the record);
-   with the orchestrator (``--no-fused`` or ``--backend python``) the steps of docs/method.md a.8.
+   with the orchestrator (``--no-fused``) the steps of docs/method.md a.8; ``--backend python`` runs the
+   fused engine's Python form (docs/architecture.md "Backends").
    The timers cost ~1 us per call, so the stages add up to a little more than pass 1.
 
 The machine this runs on (a VM) changes speed by up to 2x between minutes: compare figures from
@@ -116,7 +117,7 @@ def main() -> None:
         t.append(time.perf_counter() - t0)
     t = np.array(t)
     names = " + ".join(v.name for v in variants)
-    engine = "fused" if cfg.filter.fused and cfg.filter.backend == "numba" else "orchestrator"
+    engine = "orchestrator" if not cfg.filter.fused else "fused" if cfg.filter.backend == "numba" else "fused-python"
     print(f"complete trial (simulation, {names}, RMA + EFA, evaluation), backend {cfg.filter.backend}, {engine}, "
           f"{a.trials} trials, one core (first trial incl. warm-up: {warm:.2f} s):")
     print(f"  median {1e3 * np.median(t):.1f} ms   p10 {1e3 * np.percentile(t, 10):.1f} ms   "

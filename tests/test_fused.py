@@ -266,7 +266,6 @@ def test_golden_runs_reproduced():
 
 @pytest.mark.parametrize("overlay,reason", [
     ({"filter": {"fused": False}}, "filter.fused"),
-    ({"filter": {"backend": "python"}}, "filter.backend"),
 ])
 def test_uncovered_configurations_are_refused(overlay, reason):
     assert reason in _fused.why_not(EkfSlam(_overlay(profile_config("apsipa"), overlay)))

@@ -151,7 +151,8 @@ def test_the_view_test_is_the_sensors_own():
 def test_the_fused_engine_takes_scans_from_their_own_radars_as_the_orchestrator(gate):
     """The car park's scans seen by three radars in turn (front, left turned 88 deg, rear turned
     -176 deg, each with its own field of view): the fused engine and the Python reference give the
-    same associations and landmark counts and poses and covariances to 1e-9."""
+    same associations and landmark counts and poses and covariances to 1e-9; so does the orchestrator's
+    steps (``engine="orchestrator"``)."""
     pytest.importorskip("numba")
     from radarslam.core.mounting import detections_to_sensor
 
@@ -170,11 +171,13 @@ def test_the_fused_engine_takes_scans_from_their_own_radars_as_the_orchestrator(
         events.append(e)
     py = run_filter(dataclasses.replace(cfg, filter=dataclasses.replace(cfg.filter, backend="python")), events)
     fu = run_filter(cfg, events)
-    assert py.engine == "orchestrator" and fu.engine == "fused"
-    np.testing.assert_array_equal(py.n_associated, fu.n_associated)
-    np.testing.assert_array_equal(py.n_landmarks, fu.n_landmarks)
-    np.testing.assert_allclose(fu.poses, py.poses, rtol=0, atol=1e-9)
-    np.testing.assert_allclose(fu.pose_covs, py.pose_covs, rtol=0, atol=1e-9)
+    orch = run_filter(cfg, events, engine="orchestrator")
+    assert (py.engine, fu.engine, orch.engine) == ("fused-python", "fused", "orchestrator")
+    for other in (py, orch):
+        np.testing.assert_array_equal(other.n_associated, fu.n_associated)
+        np.testing.assert_array_equal(other.n_landmarks, fu.n_landmarks)
+        np.testing.assert_allclose(fu.poses, other.poses, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(fu.pose_covs, other.pose_covs, rtol=0, atol=1e-9)
 
 
 def _nis_and_rmse(rec, cfg):

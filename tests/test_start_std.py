@@ -23,7 +23,7 @@ from radarslam.runs.recording import run_recording, start_std
 from radarslam.simulation.trial import check_simulation_config
 from radarslam.io.recording.synthetic import synthetic_recording
 
-#: Seeds of the drive's radar noise (fixed; each run is a few seconds on the Python backend).
+#: Seeds of the drive's radar noise (fixed).
 SEEDS = (1, 3)
 #: Measured at this change (position RMSE, m): anchored 0.189 and 0.278, the truth's start with the
 #: default truth_pose_std 0.187 and 0.276, the simulator's std 0.943 and 1.482. The bounds leave
@@ -35,8 +35,7 @@ MIN_RATIO = 2.5
 
 @pytest.fixture(scope="module")
 def config():
-    cfg = profile_config("apsipa")
-    return dataclasses.replace(cfg, filter=dataclasses.replace(cfg.filter, backend="python"))
+    return profile_config("apsipa")
 
 
 def _drive(config, seed: int):

@@ -18,7 +18,8 @@ def add_config_args(p: argparse.ArgumentParser) -> None:
 
 def add_backend_arg(p: argparse.ArgumentParser) -> None:
     p.add_argument("--backend", choices=BACKENDS, default=None,
-                   help="per-scan steps: numba (compiled, the default) or python (the reference, for checking)")
+                   help="the filter's steps: numba (compiled, the default) or python (the same functions by the "
+                        "interpreter: the reference, for checking)")
 
 
 def with_backend(config: Config, args: argparse.Namespace) -> Config:

@@ -61,7 +61,7 @@ def _side_compile(cfg_dict: dict, events: list) -> None:
     est = from_dict(cfg_dict).estimator
     slam = EkfSlam(est, associator=ASSOCIATORS.create(est.landmarks.associator, est, backend="python"))
     slam._clusters = cluster_kernel("python")     # its reference; the compiled one is the run's to compile
-    drive(est, events, slam=slam)
+    drive(est, events, slam=slam, engine="orchestrator")
     mark_compiled()                               # a pool's process ends without running atexit
 
 

@@ -46,11 +46,11 @@ class FilterConfig:
     measurement_model: str = param("range-azimuth", "sensor measurement model: the one built in, range and "
                                    "azimuth (docs/method.md a.2; the EKF kernels and associators are written for it)",
                                    choices=("range-azimuth",))
-    backend: str = param("numba", "implementation of the per-scan steps: 'numba' (compiled, the default) or "
-                         "'python' (the reference, for checking)", choices=BACKENDS)
-    fused: bool = param(True, "with backend 'numba': run a whole event stream in one compiled call when every "
-                        "component is a built-in one the fused engine covers (docs/architecture.md \"The fused "
-                        "engine\"); false = the orchestrator, scan by scan")
+    backend: str = param("numba", "how the filter's steps run: 'numba' (compiled, the default) or 'python' (the "
+                         "reference, for checking: the same functions by the interpreter; docs/architecture.md "
+                         "\"Backends\")", choices=BACKENDS)
+    fused: bool = param(True, "run the events through the fused engine (docs/architecture.md \"The fused engine\"), "
+                        "whose steps are written once; false = the orchestrator's steps, scan by scan")
     initial_pose: list[float] = param([0.1, 0.1, math.pi / 180.0], "initial estimate [x_m, y_m, theta_rad]", length=3)
     initial_pose_std: list[float] = param([0.15, 0.15, math.pi / 180.0], "initial std [x_m, y_m, theta_rad] of the "
                                           "simulation (b.5) and of a recording run started at filter.initial_pose "

@@ -24,7 +24,7 @@ def engine_for(slam):
     from radarslam.slam.fused.plan import why_not
 
     f = slam.config.filter
-    if not f.fused or f.backend != "numba" or isinstance(slam.extent, VisibleArcEstimator):
+    if not f.fused or isinstance(slam.extent, VisibleArcEstimator):
         return None
     if why_not(slam) is not None:
         return None

@@ -12,7 +12,7 @@ from radarslam.core.errors import InputError
 from radarslam.core.types import Scan
 from radarslam.slam.event_input import finite_number
 from radarslam.slam.fused.engine import OK, family_of, form
-from radarslam.slam.fused.own import run_form, user_components
+from radarslam.slam.fused.own import reference_kernels, run_form, user_components
 from radarslam.slam.fused.plan import _failure, _parameters, first_carry, largest_scan, noises, why_not
 from radarslam.slam.fused.stream import _stream_arrays
 from radarslam.slam.report import ScanReport
@@ -35,7 +35,7 @@ class Online:
         self.slam = slam
         self.cfg = _parameters(slam, False, True)
         how = run_form(slam, how)
-        pairs = dict(user_components(slam) if how != "compiled" else ())
+        pairs = dict(user_components(slam) + reference_kernels(how) if how != "compiled" else ())
         self.engine = form(family_of(self.cfg), how, tuple(pairs.items()))
         #: An extent estimator of the user's own: its states (own.UserExtents), else None.
         self.user_extents = getattr(pairs.get("scan_event"), "extents", None)

@@ -26,7 +26,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["UserExtents", "own_associator", "own_extent", "own_motion", "run_form", "user_components"]
+__all__ = ["UserExtents", "own_associator", "own_extent", "own_motion", "reference_kernels", "run_form",
+           "user_components"]
 
 
 def own_motion(slam) -> bool:
@@ -38,17 +39,28 @@ def own_motion(slam) -> bool:
     return slam.config.filter.odometry == "odometer" and type(slam.model) not in (UnicycleModel, AckermannModel)
 
 
-def own_associator(slam) -> bool:
-    """Whether ``slam``'s associator is of the user's own: none of the engine's (the compiled nearest
-    neighbour, batch, batch-joint and JCBB associators, and their partial-view forms)."""
+def BUILTIN_ASSOCIATORS(backend: str = "numba") -> dict:
+    """The associators the engine's step 4 reproduces, each with its ``FusedParams.assoc``: the nearest
+    neighbour (0), batch (1), batch-joint (2) and JCBB (3) associators, compiled and in the partial view's
+    forms, and under the reference backend (``backend`` "python") the reference's own. Under the compiled
+    backend a reference associator given by hand is run as it is, in Python (one of the user's own)."""
     from radarslam.slam._jcbb_numba import CompiledJcbbAssociator
+    from radarslam.slam.association import BatchAssociator, JointBatchAssociator, NearestNeighbourAssociator
     from radarslam.slam.compiled_associators import (CompiledBatchAssociator, CompiledJointBatchAssociator,
                                                      CompiledNearestNeighbourAssociator)
-    from radarslam.slam.partial_view import PARTIAL_VIEW_ASSOCIATORS
+    from radarslam.slam.jcbb import JcbbAssociator
+    from radarslam.slam.partial_view import PartialViewBatch, PartialViewJointBatch, PartialViewNearestNeighbour
 
-    builtin = (CompiledNearestNeighbourAssociator, CompiledBatchAssociator, CompiledJointBatchAssociator,
-               CompiledJcbbAssociator, *PARTIAL_VIEW_ASSOCIATORS.values())
-    return type(slam.associator) not in builtin
+    out = {CompiledNearestNeighbourAssociator: 0, PartialViewNearestNeighbour: 0, CompiledBatchAssociator: 1,
+           PartialViewBatch: 1, CompiledJointBatchAssociator: 2, PartialViewJointBatch: 2, CompiledJcbbAssociator: 3}
+    if backend == "python":
+        out.update({NearestNeighbourAssociator: 0, BatchAssociator: 1, JointBatchAssociator: 2, JcbbAssociator: 3})
+    return out
+
+
+def own_associator(slam) -> bool:
+    """Whether ``slam``'s associator is of the user's own: none of the engine's (:func:`BUILTIN_ASSOCIATORS`)."""
+    return type(slam.associator) not in BUILTIN_ASSOCIATORS(slam.config.filter.backend)
 
 
 def own_extent(slam) -> bool:
@@ -83,10 +95,26 @@ def user_components(slam) -> tuple:
     return tuple(pairs)
 
 
+def reference_kernels(how: str) -> tuple:
+    """The ``replace`` pairs of the engine's Python form (``how`` "python"; none otherwise): the EKF update
+    and its ``R_eff`` in the reference's numpy form (``slam/ekf.py: joseph_update_inplace``, ``r_eff``), of
+    which ``slam/_numba.py``'s loops are numba's form (``core.jit.compile_kernels``' ``replace``; the two
+    agree to rounding, tests/test_backends.py). The interpreter runs the n x n pass as numpy's whole-array
+    operations rather than element by element (a car-park trial 0.34 s instead of 1.6 s)."""
+    if how != "python":
+        return ()
+    from radarslam.slam import ekf
+
+    return (("_joseph_update_inplace", ekf.joseph_update_inplace), ("_r_eff", ekf.r_eff))
+
+
 def run_form(slam, how: str = "compiled") -> str:
-    """The form ``plan.run`` runs ``slam`` in when asked for ``how``: the steps form in the place of the
-    compiled one where ``slam`` has a component of the user's own (the user's component in Python,
-    every kernel around it compiled), else ``how``."""
+    """The form ``plan.run`` runs ``slam`` in when asked for ``how``: the Python form under the reference
+    backend (``filter.backend = "python"``: every step and kernel by the interpreter); the steps form in
+    the place of the compiled one where ``slam`` has a component of the user's own (the user's component
+    in Python, every kernel around it compiled); else ``how``."""
+    if slam.config.filter.backend == "python":
+        return "python"
     return "steps" if how == "compiled" and (own_motion(slam) or own_associator(slam) or own_extent(slam)) else how
 
 

@@ -19,7 +19,7 @@ import numpy as np
 from radarslam.slam.fused.engine import BAD_PREDICTION, ODOMETRY, OK, VELOCITY, family_of, form
 from radarslam.slam.fused.chunks import Pacer, joined, part
 from radarslam.slam.fused.events import initial_carry
-from radarslam.slam.fused.own import own_associator, run_form, user_components
+from radarslam.slam.fused.own import BUILTIN_ASSOCIATORS, own_associator, reference_kernels, run_form, user_components
 from radarslam.slam.fused.stream import Stream, _stream_arrays
 from radarslam.slam.fused.view import ViewParams, view_parameters
 
@@ -136,7 +136,6 @@ def why_not(slam, events=None) -> str | None:
     f, ec = slam.config.filter, slam.config.extent
     checks = (
         (f.fused, "filter.fused is false"),
-        (f.backend == "numba", f"filter.backend is {f.backend!r}"),
         ((getattr(slam, "view", None) is None) == (type(slam.extent) is not PartialViewEstimator),
          "the partial-view estimator with the full view, or the partial view with another estimator"),
         (not f.doppler_gate or type(slam._gate) is DopplerGate, f"Doppler gate {type(slam._gate).__name__}"),
@@ -169,12 +168,9 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
     from radarslam.slam.map_rows import retire_radius
     from radarslam.extent.visible_arc import VisibleArcEstimator
     from radarslam.models.ackermann import AckermannModel
-    from radarslam.slam._jcbb_numba import CompiledJcbbAssociator
     from radarslam.extent.measurement import W_MODES
     from radarslam.extent.rows import MEM_NOISE
-    from radarslam.slam.compiled_associators import CompiledBatchAssociator, CompiledJointBatchAssociator
     from radarslam.slam.fused.tracking import ACKERMANN, UNICYCLE
-    from radarslam.slam.partial_view import PartialViewBatch, PartialViewJointBatch
 
     model = slam.model
     ackermann = type(model) is AckermannModel
@@ -183,8 +179,7 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
 
     in_slam = bool(ec.use_in_slam)
     return FusedParams(
-        assoc={CompiledBatchAssociator: 1, CompiledJointBatchAssociator: 2, CompiledJcbbAssociator: 3,
-               PartialViewBatch: 1, PartialViewJointBatch: 2}.get(type(slam.associator), 0),
+        assoc=BUILTIN_ASSOCIATORS(f.backend).get(type(slam.associator), 0),
         n_near=int(getattr(slam.associator, "n_nearest", 1)), n_new=int(getattr(slam.associator, "n_nearest_new", 1)),
         min_samples=int(lc.cluster_min_samples),
         confirm_points=int(lc.confirm_points), confirm_window=int(lc.confirm_window),
@@ -301,7 +296,7 @@ def engine_of(slam, cfg, how: str = "compiled"):
     """The engine of ``slam``'s family (``cfg``: its parameters) in the form ``how`` asks for
     (:func:`run_form`), with ``slam``'s components of the user's own (:func:`user_components`)."""
     how = run_form(slam, how)
-    return form(family_of(cfg), how, user_components(slam) if how != "compiled" else ())
+    return form(family_of(cfg), how, user_components(slam) + reference_kernels(how) if how != "compiled" else ())
 
 
 def first_carry(slam, cfg, largest: int):
@@ -323,9 +318,15 @@ def noises(slam, cfg, largest: int) -> Noise:
     spread = ext.initial_spread()           # an estimator of the user's own may hold no prior_spread
     prior_spread = getattr(ext, "prior_spread", spread) if spread is not None or cfg.pre_spread else None
     prior_spread = np.zeros((2, 2)) if prior_spread is None else prior_spread
-    gates = slam.associator.gates(largest) if cfg.assoc == 3 else np.zeros(2)
+    from radarslam.slam._jcbb_numba import joint_gates
+
+    gates = np.zeros(2)
+    if cfg.assoc == 3:                      # the reference backend's JCBB holds no gates of its own
+        own = getattr(slam.associator, "gates", None)
+        gates = own(largest) if own is not None else joint_gates(slam.associator.gate_probability, largest)
     Cp0 = np.asarray(ext.Cp0, dtype=float) if cfg.mem else np.zeros((3, 3))
-    return Noise(slam.R, getattr(ext, "R_extent", slam.R), slam.U, slam.Q, np.ascontiguousarray(prior_spread, dtype=float), gates, Cp0,
+    return Noise(slam.R, getattr(ext, "R_extent", slam.R), slam.U, slam.Q,
+                 np.ascontiguousarray(prior_spread, dtype=float), gates, Cp0,
                  np.ascontiguousarray(slam.R_assoc, dtype=float))
 
 
