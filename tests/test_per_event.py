@@ -136,3 +136,26 @@ def test_components_of_the_users_own_run_event_by_event_in_the_engines_steps_for
         MOTION_MODELS.unregister("own-pe")
         ASSOCIATORS.unregister("narrow-pe")
         EXTENT_ESTIMATORS.unregister("scatter-pe")
+
+
+def test_the_visible_arc_estimator_runs_event_by_event_with_its_widths_read_back(events):
+    """The visible-arc estimator (a.9) event by event through the engine: each landmark's state carries the
+    widths of its arcs as the orchestrator's does (read from the engine's arcs), and its diameter is the
+    same; a landmark with no width has none in both."""
+    from radarslam.config.variants import Variant, apply_variant
+
+    cfg = apply_variant(profile_config(), Variant("arc", "arc", {"extent": {"estimator": "visible-arc"}}))
+    eng, orch = EkfSlam(cfg), EkfSlam(cfg, engine="orchestrator")
+    for ev in events:
+        eng.process(ev)
+        orch.process(ev)
+    assert eng._online is not None and orch._online is None
+    np.testing.assert_allclose(eng.x, orch.x, rtol=0, atol=1e-9)
+    widths = 0
+    for a, b in zip(eng.state.extents, orch.state.extents):
+        np.testing.assert_allclose(a.arc, b.arc, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(a.beam, b.beam, rtol=0, atol=1e-12)
+        widths += len(b.arc)
+        da, db = eng.extent.diameter(a), orch.extent.diameter(b)
+        assert (np.isnan(da) and np.isnan(db)) or abs(da - db) < 1e-12
+    assert widths >= 20                   # measured: 32 widths over the final landmarks

@@ -16,15 +16,13 @@ __all__ = ["EngineExtents", "engine_for", "read_back", "write_through"]
 def engine_for(slam):
     """The fused engine one event at a time for ``slam`` (an EkfSlam that has processed nothing), or None
     where the orchestrator runs it: ``filter.fused`` false (the orchestrator asked for), the reference
-    backend, a configuration the engine does not cover (:func:`~radarslam.slam.fused.plan.why_not`), or the
-    visible-arc estimator (whose per-landmark state holds its arcs' widths, which :class:`EngineExtents`
-    does not rebuild). A component of the user's own runs in the engine's steps form (slam/fused/own.py)."""
-    from radarslam.extent.visible_arc import VisibleArcEstimator
+    configuration the engine does not cover (:func:`~radarslam.slam.fused.plan.why_not`). A component of
+    the user's own runs in the engine's steps form (slam/fused/own.py)."""
     from radarslam.slam.fused.online import Online
     from radarslam.slam.fused.plan import why_not
 
     f = slam.config.filter
-    if not f.fused or isinstance(slam.extent, VisibleArcEstimator):
+    if not f.fused:
         return None
     if why_not(slam) is not None:
         return None
@@ -34,12 +32,13 @@ def engine_for(slam):
 class EngineExtents:
     """The extent estimator's per-landmark states (its own type, as the orchestrator keeps them) of the
     engine's landmark records: built from a copy of the rows when first read (``estimator._scatter``, the
-    estimator's own reading of array-held states); ``initialized_at`` from the scans at which each
-    landmark's extent was seen initialised. Valid until the next event; setting one is refused (it would
-    not reach the engine)."""
+    estimator's own reading of array-held states) and, for the visible-arc estimator, the widths of its
+    arcs from the engine's ``arcs`` (a.9); ``initialized_at`` from the scans at which each landmark's extent
+    was seen initialised. Valid until the next event; setting one is refused (it would not reach the
+    engine)."""
 
-    def __init__(self, estimator, lm, n: int, initialized_at: dict, own=None):
-        self._est, self._lm, self._n, self._at = estimator, lm, n, initialized_at
+    def __init__(self, estimator, lm, n: int, initialized_at: dict, own=None, arcs=None):
+        self._est, self._lm, self._n, self._at, self._arcs = estimator, lm, n, initialized_at, arcs
         #: An estimator of the user's own: its live states (slam/fused/own.py UserExtents), not rebuilt.
         self._states = None if own is None else own.of(lm, n)
 
@@ -52,6 +51,12 @@ class EngineExtents:
                 self._est._scatter(rows, states, np.zeros(n, dtype=bool), 0)
             for st, lid in zip(states, rows.ids.tolist()):
                 st.initialized_at = self._at.get(lid)
+            if self._arcs is not None and hasattr(self._est, "min_scans"):       # the visible arc's widths
+                from radarslam.slam.fused.storage import arc_values
+
+                for j, st in enumerate(states):
+                    d, b = arc_values.py_func(self._arcs, self._lm, j)
+                    st.arc, st.beam = d.tolist(), b.tolist()
             self._states = states
         return self._states
 
@@ -107,5 +112,5 @@ def read_back(slam, online, k: int | None) -> None:
     if k is not None and n:
         for lid in lm.ids[:n][lm.einit[:n]].tolist():
             at.setdefault(lid, k)
-    st.extents = EngineExtents(slam.extent, lm, n, at, online.user_extents)
+    st.extents = EngineExtents(slam.extent, lm, n, at, online.user_extents, c.arcs)
     slam._scans, slam._last_scan_t = int(c.scans), online.last_t
