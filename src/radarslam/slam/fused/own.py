@@ -96,16 +96,27 @@ def user_components(slam) -> tuple:
 
 
 def reference_kernels(how: str) -> tuple:
-    """The ``replace`` pairs of the engine's Python form (``how`` "python"; none otherwise): the EKF update
-    and its ``R_eff`` in the reference's numpy form (``slam/ekf.py: joseph_update_inplace``, ``r_eff``), of
-    which ``slam/_numba.py``'s loops are numba's form (``core.jit.compile_kernels``' ``replace``; the two
-    agree to rounding, tests/test_backends.py). The interpreter runs the n x n pass as numpy's whole-array
-    operations rather than element by element (a car-park trial 0.34 s instead of 1.6 s)."""
+    """The ``replace`` pairs of the engine's Python form (``how`` "python"; none otherwise): the EKF
+    updates and ``R_eff`` in the reference's numpy form (``slam/ekf.py: joseph_update_inplace``, ``r_eff``,
+    ``joint_update_inplace``), of which ``slam/_numba.py``'s loops are numba's form (``core.jit.
+    compile_kernels``' ``replace``, ``joint_update_loops``; they agree to rounding, tests/test_backends.py).
+    The interpreter runs the n x n pass as numpy's whole-array operations rather than element by element
+    (a car-park trial 0.36 s instead of 1.6 s; benchmarks/bench_forms.py)."""
     if how != "python":
         return ()
     from radarslam.slam import ekf
 
-    return (("_joseph_update_inplace", ekf.joseph_update_inplace), ("_r_eff", ekf.r_eff))
+    def joint_update(x, P, e, Hs, idx, Rb):
+        """``joint_update_loops``' sparse blocks as the reference's dense ``H`` and block-diagonal ``R``."""
+        q = 2 * Hs.shape[0]
+        H, R = np.zeros((q, x.shape[0])), np.zeros((q, q))
+        for a in range(Hs.shape[0]):
+            H[2 * a:2 * a + 2, idx[a]] = Hs[a]
+            R[2 * a:2 * a + 2, 2 * a:2 * a + 2] = Rb[a]
+        return ekf.joint_update_inplace(x, P, e, H, R)
+
+    return (("_joseph_update_inplace", ekf.joseph_update_inplace), ("_r_eff", ekf.r_eff),
+            ("joint_update_loops", joint_update))
 
 
 def run_form(slam, how: str = "compiled") -> str:
