@@ -90,14 +90,11 @@ def test_components_of_the_users_own_run_event_by_event_in_the_engines_steps_for
     tests/test_engine_forms.py), event by event: the engine runs them in its steps form (slam/fused/own.py),
     the reports and the state are the orchestrator's, and ``state.extents`` are the estimator's own live
     states, whose matrices equal the orchestrator's."""
-    import sys
-
     from radarslam.config.variants import Variant, apply_variant
     from radarslam.core.registry import ASSOCIATORS, EXTENT_ESTIMATORS, MOTION_MODELS
     from radarslam.models.motion import UnicycleModel
     from radarslam.slam.association import JointBatchAssociator
 
-    sys.path.insert(0, str(__import__("pathlib").Path(__file__).parent))
     from test_engine_forms import _Scatter
 
     class Own(UnicycleModel):
@@ -105,8 +102,8 @@ def test_components_of_the_users_own_run_event_by_event_in_the_engines_steps_for
 
     calls = {"sift": 0, "step": 0, "merge": 0}
     MOTION_MODELS.register("own-pe", lambda f: Own())
-    ASSOCIATORS.register("narrow-pe", lambda c: JointBatchAssociator(c.landmarks.beta / 4.0, c.landmarks.n_nearest_assoc,
-                                                                     c.landmarks.n_nearest_new))
+    ASSOCIATORS.register("narrow-pe", lambda c: JointBatchAssociator(
+        c.landmarks.beta / 4.0, c.landmarks.n_nearest_assoc, c.landmarks.n_nearest_new))
     EXTENT_ESTIMATORS.register("scatter-pe", lambda c: _Scatter(calls))
     try:
         cfg = apply_variant(profile_config(), Variant("own", "own", {

@@ -11,9 +11,8 @@ import numpy as np
 from radarslam.core.errors import InputError
 from radarslam.core.types import Scan
 from radarslam.slam.event_input import finite_number
-from radarslam.slam.fused.engine import OK, family_of, form
-from radarslam.slam.fused.own import reference_kernels, run_form, user_components
-from radarslam.slam.fused.plan import _failure, _parameters, first_carry, largest_scan, noises, why_not
+from radarslam.slam.fused.engine import OK
+from radarslam.slam.fused.plan import _failure, _parameters, engine_of, first_carry, largest_scan, noises, why_not
 from radarslam.slam.fused.stream import _stream_arrays
 from radarslam.slam.report import ScanReport
 
@@ -34,11 +33,8 @@ class Online:
             raise InputError(f"slam: expected a filter the fused engine covers, got one it does not ({why})")
         self.slam = slam
         self.cfg = _parameters(slam, False, True)
-        how = run_form(slam, how)
-        pairs = dict(user_components(slam) + reference_kernels(how) if how != "compiled" else ())
-        self.engine = form(family_of(self.cfg), how, tuple(pairs.items()))
-        #: An extent estimator of the user's own: its states (own.UserExtents), else None.
-        self.user_extents = getattr(pairs.get("scan_event"), "extents", None)
+        #: ``user_extents``: an extent estimator of the user's own's states (own.UserExtents), else None.
+        self.engine, self.user_extents = engine_of(slam, self.cfg, how)
         self.largest = 1
         self.noise = noises(slam, self.cfg, self.largest)
         self.carry = first_carry(slam, self.cfg, self.largest)

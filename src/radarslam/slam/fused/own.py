@@ -26,8 +26,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["UserExtents", "own_associator", "own_extent", "own_motion", "reference_kernels", "run_form",
-           "user_components"]
+__all__ = ["UserExtents", "builtin_associators", "own_associator", "own_extent", "own_motion", "reference_kernels",
+           "run_form", "user_components"]
 
 
 def own_motion(slam) -> bool:
@@ -39,7 +39,7 @@ def own_motion(slam) -> bool:
     return slam.config.filter.odometry == "odometer" and type(slam.model) not in (UnicycleModel, AckermannModel)
 
 
-def BUILTIN_ASSOCIATORS(backend: str = "numba") -> dict:
+def builtin_associators(backend: str = "numba") -> dict:
     """The associators the engine's step 4 reproduces, each with its ``FusedParams.assoc``: the nearest
     neighbour (0), batch (1), batch-joint (2) and JCBB (3) associators, compiled and in the partial view's
     forms, and under the reference backend (``backend`` "python") the reference's own. Under the compiled
@@ -59,8 +59,8 @@ def BUILTIN_ASSOCIATORS(backend: str = "numba") -> dict:
 
 
 def own_associator(slam) -> bool:
-    """Whether ``slam``'s associator is of the user's own: none of the engine's (:func:`BUILTIN_ASSOCIATORS`)."""
-    return type(slam.associator) not in BUILTIN_ASSOCIATORS(slam.config.filter.backend)
+    """Whether ``slam``'s associator is of the user's own: none of the engine's (:func:`builtin_associators`)."""
+    return type(slam.associator) not in builtin_associators(slam.config.filter.backend)
 
 
 def own_extent(slam) -> bool:
@@ -194,7 +194,8 @@ def _user_association(associator, extents=None):
 def _user_alpha_test(associator):
     """Step 7's alpha test (``mapping.alpha_test``) by ``associator.min_log_distance`` with the plain R
     (a.7.2 inflates only association and update): the clusters whose centre is farther than
-    ``cfg.alpha`` from every landmark, in order."""
+    ``cfg.alpha`` from every landmark, in order. The state it reads holds the mean and covariance; the
+    engine's step gives it no landmark records (the test needs none)."""
 
     def alpha_test(x, P, polar, clusters, noise, cfg):
         st = _state(x, P, None, cfg)

@@ -19,7 +19,7 @@ import numpy as np
 from radarslam.slam.fused.engine import BAD_PREDICTION, ODOMETRY, OK, VELOCITY, family_of, form
 from radarslam.slam.fused.chunks import Pacer, joined, part
 from radarslam.slam.fused.events import initial_carry
-from radarslam.slam.fused.own import BUILTIN_ASSOCIATORS, own_associator, reference_kernels, run_form, user_components
+from radarslam.slam.fused.own import builtin_associators, own_associator, reference_kernels, run_form, user_components
 from radarslam.slam.fused.stream import Stream, _stream_arrays
 from radarslam.slam.fused.view import ViewParams, view_parameters
 
@@ -125,9 +125,9 @@ def why_not(slam, events=None) -> str | None:
     """Why :func:`run` cannot stand in for ``slam`` (an :class:`~radarslam.slam.filter.EkfSlam`
     that has processed nothing yet), or None when it can: the configuration's components must be
     the built-in ones this engine reproduces, but for a motion model, an associator or an extent
-    estimator of the user's own, which the engine's steps form calls in Python (:func:`user_components`). ``events`` is taken for the
-    callers' sake: no stream is refused (a scan of any size clusters compiled,
-    ``landmarks/_compiled.py: neighbourhoods``)."""
+    estimator of the user's own, which the engine's steps form calls in Python (:func:`user_components`).
+    ``events`` is taken for the callers' sake: no stream is refused (a scan of any size clusters
+    compiled, ``landmarks/_compiled.py: neighbourhoods``)."""
     from radarslam.extent.view_estimator import PartialViewEstimator
     from radarslam.models.radar import RangeAzimuthModel
     from radarslam.slam.doppler_gate import DopplerGate
@@ -179,7 +179,7 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
 
     in_slam = bool(ec.use_in_slam)
     return FusedParams(
-        assoc=BUILTIN_ASSOCIATORS(f.backend).get(type(slam.associator), 0),
+        assoc=builtin_associators(f.backend).get(type(slam.associator), 0),
         n_near=int(getattr(slam.associator, "n_nearest", 1)), n_new=int(getattr(slam.associator, "n_nearest_new", 1)),
         min_samples=int(lc.cluster_min_samples),
         confirm_points=int(lc.confirm_points), confirm_window=int(lc.confirm_window),
@@ -277,7 +277,7 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None, h
         stream = stream._replace(trace=trace)
     cfg = _parameters(slam, timing, all_maps)
     largest = largest_scan(stream)
-    rec, maps, arows = _parts(engine_of(slam, cfg, how), events, stream, first_carry(slam, cfg, largest),
+    rec, maps, arows = _parts(engine_of(slam, cfg, how)[0], events, stream, first_carry(slam, cfg, largest),
                               noises(slam, cfg, largest), cfg, on_scans)
     if stream.kept.shape[0] and arows.shape[0]:           # the gate's kept rows back to the scan's detections
         arows[:, 1] = stream.kept[stream.scan_off[arows[:, 0]] + arows[:, 1]]
@@ -294,9 +294,13 @@ def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None, h
 
 def engine_of(slam, cfg, how: str = "compiled"):
     """The engine of ``slam``'s family (``cfg``: its parameters) in the form ``how`` asks for
-    (:func:`run_form`), with ``slam``'s components of the user's own (:func:`user_components`)."""
+    (:func:`run_form`), with ``slam``'s components of the user's own (:func:`user_components`) and, in
+    the Python form, the reference's EKF updates (:func:`reference_kernels`). Returns ``(engine,
+    extents)``: ``extents`` the states of an extent estimator of the user's own (own.UserExtents), else
+    None."""
     how = run_form(slam, how)
-    return form(family_of(cfg), how, user_components(slam) + reference_kernels(how) if how != "compiled" else ())
+    pairs = user_components(slam) + reference_kernels(how) if how != "compiled" else ()
+    return form(family_of(cfg), how, pairs), getattr(dict(pairs).get("scan_event"), "extents", None)
 
 
 def first_carry(slam, cfg, largest: int):
