@@ -77,6 +77,18 @@ FAMILIES = {
 }
 
 
+def _same_record(rec, ref, bias: bool = False) -> None:
+    """``rec`` is ``ref``'s record: the same landmark counts and associations after every scan, the poses,
+    their covariances, every NIS and (``bias``) the bias states to 1e-9."""
+    np.testing.assert_array_equal(rec.n_landmarks, ref.n_landmarks)
+    np.testing.assert_array_equal(rec.n_associated, ref.n_associated)
+    np.testing.assert_allclose(rec.poses, ref.poses, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(rec.pose_covs, ref.pose_covs, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(rec.nis_rows, ref.nis_rows, rtol=0, atol=1e-9)
+    if bias:
+        np.testing.assert_allclose(rec.bias, ref.bias, rtol=0, atol=1e-9)
+
+
 @pytest.fixture(scope="module")
 def scenario():
     return generate_scenario(profile_config(), np.random.default_rng(7))
@@ -150,9 +162,7 @@ def test_a_motion_model_of_the_users_own_runs_in_the_steps_form_with_every_kerne
         assert rec.engine == "fused-steps"
         assert len(calls) == sum(isinstance(e, Odometry) for e in scenario.events)
         ref = run_filter(mine, scenario.events, engine="orchestrator")
-        np.testing.assert_array_equal(rec.n_landmarks, ref.n_landmarks)
-        np.testing.assert_allclose(rec.poses, ref.poses, rtol=0, atol=1e-9)
-        np.testing.assert_allclose(rec.pose_covs, ref.pose_covs, rtol=0, atol=1e-9)
+        _same_record(rec, ref)
         builtin = run_filter(cfg, scenario.events)
         assert np.abs(builtin.poses[:, :2] - rec.poses[:, :2]).max() > 0.1
     finally:
@@ -205,10 +215,7 @@ def test_a_motion_model_of_the_users_own_with_the_bias_states_and_an_input_bias_
             ref = run_filter(mine, scenario.events, engine="orchestrator")
             assert n_steps == len(corrected) == (0 if name == "own" else
                                                   sum(isinstance(e, Odometry) for e in scenario.events))
-            np.testing.assert_array_equal(rec.n_landmarks, ref.n_landmarks)
-            np.testing.assert_allclose(rec.poses, ref.poses, rtol=0, atol=1e-9)
-            np.testing.assert_allclose(rec.pose_covs, ref.pose_covs, rtol=0, atol=1e-9)
-            np.testing.assert_allclose(rec.bias, ref.bias, rtol=0, atol=1e-9)
+            _same_record(rec, ref, bias=True)
             recs[name] = rec
             corrected[:] = []
         assert np.abs(recs["own"].bias - recs["own-doubled"].bias).max() > 1e-4
@@ -249,11 +256,7 @@ def test_an_associator_of_the_users_own_runs_in_the_steps_form_with_every_kernel
         steps_calls, calls["associate"], calls["alpha"] = dict(calls), 0, 0
         ref = run_filter(mine, scenario.events, engine="orchestrator")
         assert steps_calls == calls and calls["associate"] > 100 and calls["alpha"] > 100
-        np.testing.assert_array_equal(rec.n_landmarks, ref.n_landmarks)
-        np.testing.assert_array_equal(rec.n_associated, ref.n_associated)
-        np.testing.assert_allclose(rec.poses, ref.poses, rtol=0, atol=1e-9)
-        np.testing.assert_allclose(rec.pose_covs, ref.pose_covs, rtol=0, atol=1e-9)
-        np.testing.assert_allclose(rec.nis_rows, ref.nis_rows, rtol=0, atol=1e-9)
+        _same_record(rec, ref)
         builtin = run_filter(apply_variant(cfg, Variant("bj", "bj", {"landmarks": {"associator": "batch-joint"}})),
                              scenario.events)
         assert builtin.engine == "fused" and int(builtin.n_associated.sum()) > int(rec.n_associated.sum())
@@ -340,10 +343,7 @@ def test_an_extent_estimator_of_the_users_own_runs_in_the_steps_form_with_every_
         calls.update(sift=0, step=0, merge=0)
         ref = run_filter(mine, scenario.events, engine="orchestrator")
         assert steps_calls == calls and calls["sift"] > 100 and calls["step"] > 500 and calls["merge"] > 0, calls
-        np.testing.assert_array_equal(rec.n_landmarks, ref.n_landmarks)
-        np.testing.assert_array_equal(rec.n_associated, ref.n_associated)
-        np.testing.assert_allclose(rec.poses, ref.poses, rtol=0, atol=1e-9)
-        np.testing.assert_allclose(rec.pose_covs, ref.pose_covs, rtol=0, atol=1e-9)
+        _same_record(rec, ref)
         for a, b in zip(rec.maps, ref.maps):
             np.testing.assert_array_equal(a.ids, b.ids)
             np.testing.assert_allclose(a.rma, b.rma, rtol=0, atol=1e-9)

@@ -29,16 +29,23 @@ def events():
     return generate_scenario(profile_config(), np.random.default_rng(7)).events
 
 
-def test_the_engine_runs_the_events_and_the_state_is_read_back(events):
-    eng, orch = EkfSlam(profile_config()), EkfSlam(profile_config(), engine="orchestrator")
+def _both(cfg, events, report=("removed", "confirmed", "merged", "n_candidates")):
+    """``cfg``'s filter through the engine and through the orchestrator event by event, each report's
+    ``report`` fields equal: ``(engine's, orchestrator's, merges)``; the engine was taken."""
+    eng, orch, merged = EkfSlam(cfg), EkfSlam(cfg, engine="orchestrator"), 0
     for ev in events:
         ra, rb = eng.process(ev), orch.process(ev)
         assert (ra is None) == (rb is None)
         if ra is not None:
-            assert (ra.removed, ra.confirmed, ra.merged, ra.n_candidates) == \
-                (rb.removed, rb.confirmed, rb.merged, rb.n_candidates)
+            assert [getattr(ra, f) for f in report] == [getattr(rb, f) for f in report]
             np.testing.assert_array_equal(eng.snapshot().ids, orch.snapshot().ids)
+            merged += len(ra.merged)
     assert eng._online is not None and orch._online is None
+    return eng, orch, merged
+
+
+def test_the_engine_runs_the_events_and_the_state_is_read_back(events):
+    eng, orch, _ = _both(profile_config(), events)
     np.testing.assert_allclose(eng.x, orch.x, rtol=0, atol=1e-9)
     np.testing.assert_allclose(eng.P, orch.P, rtol=0, atol=1e-9)
     assert [lm.id for lm in eng.landmarks] == [lm.id for lm in orch.landmarks]
@@ -109,16 +116,8 @@ def test_components_of_the_users_own_run_event_by_event_in_the_engines_steps_for
         cfg = apply_variant(profile_config(), Variant("own", "own", {
             "filter": {"motion_model": "own-pe"}, "landmarks": {"associator": "narrow-pe", "merge_distance_m": 6.0},
             "extent": {"estimator": "scatter-pe"}}))
-        eng, orch = EkfSlam(cfg), EkfSlam(cfg, engine="orchestrator")
-        merged = 0
-        for ev in events:
-            ra, rb = eng.process(ev), orch.process(ev)
-            assert (ra is None) == (rb is None)
-            if ra is not None:
-                assert (ra.removed, ra.confirmed, ra.merged, ra.n_associated) == \
-                    (rb.removed, rb.confirmed, rb.merged, rb.n_associated)
-                merged += len(ra.merged)
-        assert eng._online is not None and orch._online is None and merged >= 1
+        eng, orch, merged = _both(cfg, events, ("removed", "confirmed", "merged", "n_associated"))
+        assert merged >= 1
         np.testing.assert_allclose(eng.x, orch.x, rtol=0, atol=1e-9)
         np.testing.assert_allclose(eng.P, orch.P, rtol=0, atol=1e-9)
         ext = eng.state.extents
@@ -142,11 +141,7 @@ def test_the_visible_arc_estimator_runs_event_by_event_with_its_widths_read_back
     from radarslam.config.variants import Variant, apply_variant
 
     cfg = apply_variant(profile_config(), Variant("arc", "arc", {"extent": {"estimator": "visible-arc"}}))
-    eng, orch = EkfSlam(cfg), EkfSlam(cfg, engine="orchestrator")
-    for ev in events:
-        eng.process(ev)
-        orch.process(ev)
-    assert eng._online is not None and orch._online is None
+    eng, orch, _ = _both(cfg, events)
     np.testing.assert_allclose(eng.x, orch.x, rtol=0, atol=1e-9)
     widths = 0
     for a, b in zip(eng.state.extents, orch.state.extents):

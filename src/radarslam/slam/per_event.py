@@ -51,7 +51,9 @@ class EngineExtents:
                 self._est._scatter(rows, states, np.zeros(n, dtype=bool), 0)
             for st, lid in zip(states, rows.ids.tolist()):
                 st.initialized_at = self._at.get(lid)
-            if self._arcs is not None and hasattr(self._est, "min_scans"):       # the visible arc's widths
+            from radarslam.extent.visible_arc import VisibleArcEstimator
+
+            if self._arcs is not None and isinstance(self._est, VisibleArcEstimator):   # its arcs' widths (a.9)
                 from radarslam.slam.fused.storage import arc_values
 
                 for j, st in enumerate(states):
