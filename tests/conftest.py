@@ -185,8 +185,7 @@ def _standalone_kernels(cfg) -> None:
     warm-up's second process compiles it while the default family compiles beside it (instead of a
     test inside its call, after the warm-up): the Doppler gate's classifier of a stream (what every
     fused run of the automotive profile calls first, and its per-scan classifier), then the
-    per-event orchestrator's JCBB association and the MEM-EKF extent rows. Measured alone on an
-    empty cache: 18, 23 and 4 s."""
+    kernels of the engine's steps form under JCBB and the MEM-EKF extent rows."""
     from radarslam.config import profile_config
     from radarslam.config.variants import Variant, apply_variant
     from radarslam.core.types import Scan
@@ -198,7 +197,7 @@ def _standalone_kernels(cfg) -> None:
     gate_stream([e for e in stream if isinstance(e, Scan)], DopplerGate(profile_config("automotive").filter))
     for overlay in ({"landmarks": {"associator": "jcbb"}}, {"extent": {"estimator": "mem-ekf"}}):
         overlay = {**overlay, "filter": {"backend": "numba"}}
-        run_filter(apply_variant(cfg, Variant("kernels", "kernels", overlay)), stream, engine="orchestrator")
+        run_filter(apply_variant(cfg, Variant("kernels", "kernels", overlay)), stream, engine="fused-steps")
 
 
 @contextlib.contextmanager
@@ -314,8 +313,7 @@ def _compiling_one_process_at_a_time(lock_dir: Path):
 def _fused_engine_compiled(family_evidence_path):
     """Compile the fused engine once before the first test when numba's cache is cold, so that
     every Monte Carlo in the session runs its trials with the engine the results are compared
-    against (a short run on a cold cache would take the orchestrator, equal only to 1e-9,
-    compiling/warmup.py). Without numba, nothing to do.
+    against (a short run on a cold cache would take the engine's steps form, compiling/warmup.py). Without numba, nothing to do.
 
     Under pytest-xdist one worker compiles and the others wait for its lock, then find the cache
     warm. The warm-up's second process (the simulation and the evaluation) takes the idle core.

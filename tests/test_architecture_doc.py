@@ -1,6 +1,6 @@
 """docs/architecture.md names only what exists: every module path it gives (``slam/fused/plan.py``,
 ``io/datasets/victoria_park/``, ``radarslam.core.registry``) is a file or folder of the source, and
-every name it places in a module (``slam/fused/plan.py: why_not``, ``plan.py: _stream_arrays``,
+every name it places in a module (``slam/fused/plan.py: first_carry``, ``plan.py: _stream_arrays``,
 ``warmup.first_run_engine``, ``EkfSlam.update``, ``step_all()``) is defined there. The source is read
 with ``ast``, never imported, so the check costs no compile and no heavy import.
 
@@ -173,7 +173,7 @@ CALL = re.compile(rf"^({IDENT})\(.*\)")
 
 def references(text: str) -> list[tuple[str, str, str]]:
     """Every reference the doc makes, as (kind, module or path, name): ``("path", "slam/fused/",
-    "")``, ``("in", "slam/fused/plan.py", "why_not")``, ``("dotted", "", "warmup.first_run_engine")``,
+    "")``, ``("in", "slam/fused/plan.py", "first_carry")``, ``("dotted", "", "warmup.first_run_engine")``,
     ``("call", "", "step_all")``."""
     refs: list[tuple[str, str, str]] = []
     for span in _spans(text):
@@ -285,7 +285,7 @@ def test_architecture_doc_names_only_what_exists():
 def test_the_check_finds_a_missing_module_and_a_missing_function():
     """Negative control: a module that does not exist, a function its module does not define, a
     closure of a module and an existing function in every form the doc uses."""
-    text = ("The plan (`slam/fused/plan.py: why_not, no_such_check`) and `slam/no_such_module.py`.\n"
+    text = ("The plan (`slam/fused/plan.py: first_carry, no_such_check`) and `slam/no_such_module.py`.\n"
             "The engine (`slam/fused/engine.py: run_stream`, `engine.py: engine`), `cli/recording.py`,\n"
             "`radarslam.slam.filter`, `EkfSlam.update`, `EkfSlam.no_such_method`, `filter.fused`,\n"
             "`warmup.no_such_warmup`, `plan(config, workload)`, `no_such_call()`, `dataclasses.replace(x)`\n"

@@ -137,25 +137,25 @@ def test_a_stale_marker_counts_as_cold():
     assert edited.stdout.split() == ["True", "True"]
 
 
-def test_first_run_engine_takes_the_orchestrator_while_it_ends_sooner():
-    """The choice of a cold first run (compiling/warmup.py): the orchestrator up to the trial
+def test_first_run_engine_takes_the_steps_form_while_it_ends_sooner():
+    """The choice of a cold first run (compiling/warmup.py): the steps form up to the trial
     count where compiling the fused engine first pays for itself, computed from the measured
     costs, and the fused engine beyond it; more workers move the boundary up in proportion."""
-    per = costs.ORCHESTRATOR_S - costs.FUSED_S
-    saved = costs.FUSED_COMPILE_S - costs.ORCHESTRATOR_WARM_UP_S
+    per = costs.STEPS_S - costs.FUSED_S
+    saved = costs.FUSED_COMPILE_S - costs.STEPS_WARM_UP_S
     boundary = int(saved / per * 2 / 3)                  # three variants on two workers
     assert boundary == 2303
-    assert costs.first_run_engine(200, 3, 2) == "orchestrator"           # the README's main job
-    assert costs.first_run_engine(boundary, 3, 2) == "orchestrator"
+    assert costs.first_run_engine(200, 3, 2) == "steps"           # the README's main job
+    assert costs.first_run_engine(boundary, 3, 2) == "steps"
     assert costs.first_run_engine(boundary + 1, 3, 2) == "auto"
     assert costs.first_run_engine(5000, 3, 2) == "auto"
-    assert costs.first_run_engine(int(saved / per * 4 / 3), 3, 4) == "orchestrator"
+    assert costs.first_run_engine(int(saved / per * 4 / 3), 3, 4) == "steps"
     assert costs.first_run_engine(boundary + 1, 3, 1) == "auto"         # one worker: less time to save
 
 
-def test_a_short_cold_run_uses_the_orchestrator_and_stores_the_same_results(tmp_path, monkeypatch):
+def test_a_short_cold_run_uses_the_steps_form_and_stores_the_same_results(tmp_path, monkeypatch):
     """A cold cache and a short run: the compiling line says the run does not wait, the detached
-    compilation is started once, every trial records the orchestrator, and the results equal a
+    compilation is started once, every trial records the steps form, and the results equal a
     fused run's (same associations and landmark counts exactly, values to 1e-9); the report's
     Fig. 2 reruns trial 1 with the engine that stored it, bit for bit. Negative control: the plain
     run's trials record the fused engine."""
@@ -169,26 +169,26 @@ def test_a_short_cold_run_uses_the_orchestrator_and_stores_the_same_results(tmp_
     started: list = []
     monkeypatch.setattr(policy, "cache_is_cold", lambda: True)
     monkeypatch.setattr(policy, "fused_is_cold", lambda: True)
-    monkeypatch.setattr(policy, "_orchestrator_is_cold", lambda: True)
+    monkeypatch.setattr(policy, "_steps_are_cold", lambda: True)
     monkeypatch.setattr(background, "start", lambda *a: started.append(a) or 4242)
     logs: list[str] = []
     mc.run_montecarlo(cfg, 5, 2, tmp_path / "short", jobs=2, progress=False, log=logs.append)
-    assert sum(warmup.COMPILING_SHORT.format(s=costs.ORCHESTRATOR_WARM_UP_S) in line for line in logs) == 1
+    assert sum(warmup.COMPILING_SHORT.format(s=costs.STEPS_WARM_UP_S) in line for line in logs) == 1
     assert len(started) == 1 and any("pid 4242" in line for line in logs)
-    # the orchestrator's kernels cached, the fused engine still compiling: no compiling line, no
-    # second background process, the trials by the orchestrator again
-    monkeypatch.setattr(policy, "_orchestrator_is_cold", lambda: False)
+    # the steps form's kernels cached, the fused engine still compiling: no compiling line, no
+    # second background process, the trials by the steps form again
+    monkeypatch.setattr(policy, "_steps_are_cold", lambda: False)
     monkeypatch.setattr(background, "enabled", lambda: True)
     monkeypatch.setattr(background, "busy", lambda: True)
     logs.clear()
     mc.run_montecarlo(cfg, 5, 1, tmp_path / "again", jobs=1, progress=False, log=logs.append)
     assert not any("compiling the numba" in line for line in logs)
     assert sum("still compiling in the background" in line for line in logs) == 1 and len(started) == 1
-    assert mc.load_results(tmp_path / "again")["engines"]["consistent"] == ["orchestrator"]
+    assert mc.load_results(tmp_path / "again")["engines"]["consistent"] == ["fused-steps"]
     plain = mc.load_results(tmp_path / "plain")
     short = mc.load_results(tmp_path / "short")
     assert all(e == ["fused", "fused"] for e in plain["engines"].values())
-    assert all(e == ["orchestrator", "orchestrator"] for e in short["engines"].values())
+    assert all(e == ["fused-steps", "fused-steps"] for e in short["engines"].values())
     for v in ("noext", "ext", "consistent"):
         a, b = plain[v], short[v]
         assert np.array_equal(a["n_landmarks"], b["n_landmarks"])
@@ -221,21 +221,21 @@ def test_a_short_warm_up_splits_the_variants_over_its_two_processes(monkeypatch)
         def shutdown(self, wait=True):
             pass
 
-    for name in ("cache_is_cold", "fused_is_cold", "_orchestrator_is_cold"):
+    for name in ("cache_is_cold", "fused_is_cold", "_steps_are_cold"):
         monkeypatch.setattr(policy, name, lambda *families: True)
     monkeypatch.setattr(background, "start", lambda *a: None)
     monkeypatch.setattr(warmup, "ProcessPoolExecutor", Inline)
-    monkeypatch.setattr(warmup, "_orchestrator_trial",
+    monkeypatch.setattr(warmup, "_steps_trial",
                         lambda cfg, variants, evaluation=False: calls.append(("here", [v.name for v in variants], evaluation)))
     monkeypatch.setattr(warmup, "_side", lambda cfg_dict, overlay: calls.append(("_side", overlay)))
     cfg, variants = profile_config(), mc.DEFAULT_VARIANTS
-    assert warmup.warm_up(cfg, variants, lambda s: None, parallel=True, n_trials=200, jobs=2) == "orchestrator"
+    assert warmup.warm_up(cfg, variants, lambda s: None, parallel=True, n_trials=200, jobs=2) == "fused-steps"
     assert calls == [("_short_side", (variants[-1:],)), ("here", ["noext", "ext"], True)]
     calls.clear()
-    assert warmup.warm_up(cfg, variants[:1], lambda s: None, parallel=True, n_trials=200, jobs=2) == "orchestrator"
+    assert warmup.warm_up(cfg, variants[:1], lambda s: None, parallel=True, n_trials=200, jobs=2) == "fused-steps"
     assert calls == [("_short_side", ((),)), ("here", ["noext"], True)]
     calls.clear()
-    assert warmup.warm_up(cfg, variants, lambda s: None, parallel=False, n_trials=200, jobs=1) == "orchestrator"
+    assert warmup.warm_up(cfg, variants, lambda s: None, parallel=False, n_trials=200, jobs=1) == "fused-steps"
     assert calls == [("here", ["noext", "ext", "consistent"], False), ("_side", dict(variants[0].overlay))]
 
 
@@ -279,9 +279,9 @@ def test_first_run_engine_scans_for_a_recording():
     """One run of a recording on a cold cache: event by event up to the scan count where the fused
     engine's compilation pays for itself, from the measured costs (Victoria Park's whole run,
     about 7,200 scans, well inside); the fused engine beyond."""
-    saved = costs.FUSED_COMPILE_S - costs.ORCHESTRATOR_COMPILE_S
-    boundary = int(saved / (costs.ORCHESTRATOR_SCAN_S - costs.FUSED_SCAN_S))
+    saved = costs.FUSED_COMPILE_S - costs.STEPS_COMPILE_S
+    boundary = int(saved / (costs.STEPS_SCAN_S - costs.FUSED_SCAN_S))
     assert 7300 < boundary == 63157
-    assert costs.first_run_engine_scans(7300) == "orchestrator"
-    assert costs.first_run_engine_scans(boundary) == "orchestrator"
+    assert costs.first_run_engine_scans(7300) == "steps"
+    assert costs.first_run_engine_scans(boundary) == "steps"
     assert costs.first_run_engine_scans(boundary + 1) == "auto"

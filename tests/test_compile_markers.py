@@ -190,5 +190,5 @@ def test_every_dispatcher_the_policy_asks_about_is_watched(monkeypatch):
     watched = {id(d) for d in readiness.watched()}
     assert asked and {id(d) for d in asked} <= watched
     names = {f"{d.py_func.__module__}.{d.py_func.__name__}" for d in asked}
-    assert {"radarslam.landmarks.confirmation.rule12", "radarslam.extent.rows.rma_efa_rows",
+    assert {"radarslam.landmarks.confirmation.mn_windows", "radarslam.extent.rows.merge_rows",
             "radarslam.simulation._compiled.simulate_scans", "radarslam.metrics._compiled.match_scans"} <= names

@@ -98,7 +98,7 @@ CONSIDER = merge_tables(CONSISTENT.overlay, {"filter": {"odometry_bias": "states
 
 def test_both_engines_hold_the_car_states_alike():
     """The biased car park (c.11.4) with the odometry-bias states considered: the fused engine is the
-    orchestrator's run to 1e-9; the states stay at their prior 0 after every scan and their variance
+    steps form's run to 1e-9; the states stay at their prior 0 after every scan and their variance
     only grows (by the random walk's drift), while the pose's covariance carries them; estimated
     instead (negative control), they move, their variance shrinks and the run differs."""
     cfg = _overlay(profile_config("apsipa"), BIASED)

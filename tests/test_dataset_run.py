@@ -197,4 +197,4 @@ def test_run_dataset_runs_victoria_park_as_a_recording(victoria_park_dir, monkey
     assert run.events is run.recording.events and run.gps is run.recording.gps
     assert run.reference_hits is not None and run.reference_hits.shape[1] == 3
     assert run.times.size == run.poses.shape[0] == 40 and run.truth is None
-    assert run.metrics["load_seconds"] > 0 and run.engine in ("fused", "orchestrator", "python")
+    assert run.metrics["load_seconds"] > 0 and run.engine in ("fused", "fused-steps", "python")

@@ -162,14 +162,6 @@ def test_simulated_doppler_matches_the_static_world_and_leaves_the_draws_alone()
     assert 0.09 < res.std() < 0.13 and abs(res.mean()) < 0.01
 
 
-def test_fused_engine_takes_the_doppler_gate():
-    """The gate runs in the fused engine (equality with the orchestrator: tests/test_fused.py)."""
-    from radarslam.slam._fused import why_not
-    from radarslam.slam.filter import EkfSlam
-
-    assert why_not(EkfSlam(from_dict({"filter": {"doppler_gate": True}}))) is None
-
-
 # ------------------------------------------------------------------ bags
 def test_int16_doppler_field_is_read_as_its_values(tmp_path):
     require("rosbags")

@@ -127,20 +127,18 @@ def test_the_comparison_sees_a_changed_parameter(scenario):
     assert np.abs(rec.poses - ref.poses).max() > 1e-6
 
 
-def test_a_python_form_refuses_what_the_fused_engine_does_not_cover(scenario):
-    """``engine="fused-python"`` on a configuration the fused engine does not run (filter.fused false)
-    is refused in one line naming why, rather than run by the orchestrator under its name."""
-    cfg = profile_config()
-    off = apply_variant(cfg, Variant("off", "off", {"filter": {"fused": False}}))
-    with pytest.raises(ConfigError, match="filter.fused is false"):
-        run_filter(off, scenario.events, engine="fused-python")
+def test_an_unknown_form_is_refused_in_one_line(scenario):
+    """``engine`` names a form of the engine; another value is refused naming the choices."""
+    with pytest.raises(ConfigError, match="engine: expected one of auto, fused-steps, fused-python, got 'orchestrator'"):
+        run_filter(profile_config(), scenario.events, engine="orchestrator")
 
 
 def test_a_motion_model_of_the_users_own_runs_in_the_steps_form_with_every_kernel_compiled(scenario):
     """A motion model registered through the registry, written in Python, runs where the steps call
     the built-in one (plan.py ``user_components``): the run is the steps form's (every kernel around
-    it compiled), its model called once per odometry event, and it gives the orchestrator's record
-    with the same model; the built-in unicycle's run differs (the model was used)."""
+    it compiled), its model called once per odometry event. Oracle: a model of the user's own that
+    computes what the built-in unicycle does gives the compiled built-in's record; the slower one's run
+    differs from it (the model was used)."""
     from radarslam.core.registry import MOTION_MODELS
     from radarslam.models.motion import UnicycleModel
 
@@ -153,27 +151,39 @@ def test_a_motion_model_of_the_users_own_runs_in_the_steps_form_with_every_kerne
             calls.append(dt)
             return super().step(pose, np.array([0.9 * u[0], u[1]]), dt)
 
+    class Plain(UnicycleModel):
+        name = "plain"
+
+        def step(self, pose, u, dt):
+            calls.append(dt)
+            return super().step(pose, u, dt)
+
     MOTION_MODELS.register("slower", lambda f: Slower())
+    MOTION_MODELS.register("plain", lambda f: Plain())
     try:
         cfg = profile_config()
-        mine = apply_variant(cfg, Variant("slower", "slower", {"filter": {"motion_model": "slower"}}))
-        assert _fused.why_not(EkfSlam(mine)) is None
-        rec = run_filter(mine, scenario.events)
-        assert rec.engine == "fused-steps"
-        assert len(calls) == sum(isinstance(e, Odometry) for e in scenario.events)
-        ref = run_filter(mine, scenario.events, engine="orchestrator")
-        _same_record(rec, ref)
+        n_odometry = sum(isinstance(e, Odometry) for e in scenario.events)
         builtin = run_filter(cfg, scenario.events)
+        plain = run_filter(apply_variant(cfg, Variant("plain", "plain", {"filter": {"motion_model": "plain"}})),
+                           scenario.events)
+        assert (builtin.engine, plain.engine) == ("fused", "fused-steps") and len(calls) == n_odometry
+        _same_record(plain, builtin)
+        calls[:] = []
+        mine = apply_variant(cfg, Variant("slower", "slower", {"filter": {"motion_model": "slower"}}))
+        rec = run_filter(mine, scenario.events)
+        assert rec.engine == "fused-steps" and len(calls) == n_odometry
         assert np.abs(builtin.poses[:, :2] - rec.poses[:, :2]).max() > 0.1
     finally:
         MOTION_MODELS.unregister("slower")
+        MOTION_MODELS.unregister("plain")
 
 
 def test_a_motion_model_of_the_users_own_with_the_bias_states_and_an_input_bias_of_its_own(scenario):
     """With the odometry-bias states (c.11) a motion model of the user's own runs in the steps form too,
     and an ``input_bias`` of a class of its own (here: the speed scale applied twice over) is called
-    where the bias steps correct the input: the orchestrator's record with the same model to 1e-9;
-    with the built-in class the record differs (the user's correction was used)."""
+    where the bias steps correct the input. Oracle: the model of the user's own with the built-in input
+    bias gives the compiled built-in unicycle's record with the same bias states, and the doubled
+    correction's differs from it (the user's correction was used)."""
     from dataclasses import dataclass
 
     from radarslam.core.registry import MOTION_MODELS
@@ -208,16 +218,15 @@ def test_a_motion_model_of_the_users_own_with_the_bias_states_and_an_input_bias_
         for name in ("own", "own-doubled"):
             mine = apply_variant(cfg, Variant(name, name, {"filter": {"motion_model": name, "odometry_bias": "states",
                                                                       "bias_scale_std": 0.1}}))
-            assert _fused.why_not(EkfSlam(mine)) is None
             rec = run_filter(mine, scenario.events)
             assert rec.engine == "fused-steps"
-            n_steps, corrected[:] = len(corrected), []
-            ref = run_filter(mine, scenario.events, engine="orchestrator")
-            assert n_steps == len(corrected) == (0 if name == "own" else
-                                                  sum(isinstance(e, Odometry) for e in scenario.events))
-            _same_record(rec, ref, bias=True)
+            assert len(corrected) == (0 if name == "own" else sum(isinstance(e, Odometry) for e in scenario.events))
             recs[name] = rec
             corrected[:] = []
+        builtin = run_filter(apply_variant(cfg, Variant("b", "b", {"filter": {"odometry_bias": "states",
+                                                                              "bias_scale_std": 0.1}})), scenario.events)
+        assert builtin.engine == "fused"
+        _same_record(recs["own"], builtin, bias=True)
         assert np.abs(recs["own"].bias - recs["own-doubled"].bias).max() > 1e-4
     finally:
         MOTION_MODELS.unregister("own")
@@ -227,10 +236,10 @@ def test_a_motion_model_of_the_users_own_with_the_bias_states_and_an_input_bias_
 def test_an_associator_of_the_users_own_runs_in_the_steps_form_with_every_kernel_compiled(scenario):
     """An associator registered through the registry, written in Python (the reference backend's
     batch-joint associator with a quarter of the gate), runs where the engine's steps call step 4 and
-    step 7's alpha test (slam/fused/own.py): the run is the steps form's, the associator is called on
-    scan with landmarks and on every cluster's centre as often as by the orchestrator, and the record is
-    the orchestrator's with the same associator; the built-in batch-joint associator's run associates
-    more (the user's gate was used)."""
+    step 7's alpha test (slam/fused/own.py): the run is the steps form's and the associator is called
+    on scans with landmarks and on clusters' centres. Oracle: the same associator with the built-in's
+    gate gives the compiled built-in batch-joint associator's record; the narrow gate's run associates
+    less (the user's gate was used)."""
     from radarslam.core.registry import ASSOCIATORS
     from radarslam.slam.association import JointBatchAssociator
 
@@ -247,21 +256,24 @@ def test_an_associator_of_the_users_own_runs_in_the_steps_form_with_every_kernel
 
     ASSOCIATORS.register("narrow", lambda c: Narrow(c.landmarks.beta / 4.0, c.landmarks.n_nearest_assoc,
                                                     c.landmarks.n_nearest_new))
+    ASSOCIATORS.register("same", lambda c: Narrow(c.landmarks.beta, c.landmarks.n_nearest_assoc,
+                                                  c.landmarks.n_nearest_new))
     try:
         cfg = profile_config()
-        mine = apply_variant(cfg, Variant("narrow", "narrow", {"landmarks": {"associator": "narrow"}}))
-        assert _fused.why_not(EkfSlam(mine)) is None
-        rec = run_filter(mine, scenario.events)
-        assert rec.engine == "fused-steps"
-        steps_calls, calls["associate"], calls["alpha"] = dict(calls), 0, 0
-        ref = run_filter(mine, scenario.events, engine="orchestrator")
-        assert steps_calls == calls and calls["associate"] > 100 and calls["alpha"] > 100
-        _same_record(rec, ref)
         builtin = run_filter(apply_variant(cfg, Variant("bj", "bj", {"landmarks": {"associator": "batch-joint"}})),
                              scenario.events)
-        assert builtin.engine == "fused" and int(builtin.n_associated.sum()) > int(rec.n_associated.sum())
+        same = run_filter(apply_variant(cfg, Variant("same", "same", {"landmarks": {"associator": "same"}})),
+                          scenario.events)
+        assert (builtin.engine, same.engine) == ("fused", "fused-steps")
+        assert calls["associate"] > 100 and calls["alpha"] > 100
+        _same_record(same, builtin)
+        mine = apply_variant(cfg, Variant("narrow", "narrow", {"landmarks": {"associator": "narrow"}}))
+        rec = run_filter(mine, scenario.events)
+        assert rec.engine == "fused-steps"
+        assert int(builtin.n_associated.sum()) > int(rec.n_associated.sum())
     finally:
         ASSOCIATORS.unregister("narrow")
+        ASSOCIATORS.unregister("same")
 
 
 class _ScatterState:
@@ -325,9 +337,10 @@ def test_an_extent_estimator_of_the_users_own_runs_in_the_steps_form_with_every_
     """An extent estimator registered through the registry, written in Python (the scatter of the
     associated detections, which sifts by its own contour and widens association by its own spreads),
     runs where the engine's steps read or change extents (slam/fused/own.py: UserExtents): the run is
-    the steps form's, the estimator is called as often as by the orchestrator (sift, step, merge), and
-    the record, the maps and their extents are the orchestrator's with the same estimator; the
-    built-in estimator's run differs (the user's extents were used)."""
+    the steps form's and the estimator is called (sift, step, merge). Oracle: the same filter event by
+    event (EkfSlam, its extents the estimator's own live states) gives the whole stream's record, and
+    every landmark's extent in the map is the estimator's ``matrix`` of its state; the built-in
+    estimator's run differs (the user's extents were used)."""
     from radarslam.core.registry import EXTENT_ESTIMATORS
 
     calls = {"sift": 0, "step": 0, "merge": 0}
@@ -336,19 +349,25 @@ def test_an_extent_estimator_of_the_users_own_runs_in_the_steps_form_with_every_
         cfg = profile_config()
         mine = apply_variant(cfg, Variant("scatter", "scatter", {"extent": {"estimator": "scatter"},
                                                                  "landmarks": {"merge_distance_m": 6.0}}))
-        assert _fused.why_not(EkfSlam(mine)) is None
         rec = run_filter(mine, scenario.events)
         assert rec.engine == "fused-steps"
         steps_calls = dict(calls)
         calls.update(sift=0, step=0, merge=0)
-        ref = run_filter(mine, scenario.events, engine="orchestrator")
+        slam = EkfSlam(mine)
+        ref = run_filter(mine, scenario.events, slam=slam)
         assert steps_calls == calls and calls["sift"] > 100 and calls["step"] > 500 and calls["merge"] > 0, calls
         _same_record(rec, ref)
         for a, b in zip(rec.maps, ref.maps):
             np.testing.assert_array_equal(a.ids, b.ids)
             np.testing.assert_allclose(a.rma, b.rma, rtol=0, atol=1e-9)
             assert np.isnan(a.efa).all() and np.isnan(b.efa).all()
-        assert (~np.isnan(rec.maps[-1].rma[:, 0, 0])).sum() >= 5
+        last, n = rec.maps[-1], slam.state.n_landmarks
+        est = slam.extent
+        for j in range(n):
+            X = est.matrix(slam.state.extents[j])
+            want = np.full((2, 2), np.nan) if X is None else X
+            np.testing.assert_allclose(last.rma[j], want, rtol=0, atol=1e-12)
+        assert (~np.isnan(last.rma[:n, 0, 0])).sum() >= 5
         builtin = run_filter(apply_variant(mine, Variant("rma", "rma", {"extent": {"estimator": "rma-efa"}})),
                              scenario.events)
         assert builtin.engine == "fused" and np.abs(builtin.poses[:, :2] - rec.poses[:, :2]).max() > 1e-3

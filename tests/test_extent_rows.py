@@ -1,5 +1,5 @@
 """The extent step over array-held states (radarslam.extent.rows), the one form the fused engine
-and the orchestrator's built-in estimators share (issue "One engine", item 1): against the public
+and the built-in estimators' own methods share (issue "One engine", item 1): against the public
 equations (seed eqs. 5, 8-20, the EFA of d.3), Python against compiled to the bit, and the
 landmarks it must leave alone."""
 

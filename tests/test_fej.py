@@ -175,12 +175,11 @@ def _short(jacobians: str, **filt):
 def test_fej_filter_runs_and_the_fused_engine_covers_it():
     """The consistent variant with FEJ runs 40 scans of a trial (finite, within 1 m of the standard
     run's pose, and not the standard run); the fused engine covers it (tests/test_fused.py checks
-    that it makes the orchestrator's run)."""
+    that it makes the steps form's run)."""
     from radarslam.simulation.trial import run_trial
 
     fej = run_trial(_short("fej"), 777)
     std = run_trial(_short("standard"), 777)
-    assert _fused.why_not(EkfSlam(_short("fej"))) is None
     assert np.all(np.isfinite(fej.record.poses)) and np.all(np.isfinite(fej.record.pose_covs))
     assert not np.array_equal(fej.record.poses, std.record.poses)
     assert np.max(np.linalg.norm(fej.record.poses[:, :2] - std.record.poses[:, :2], axis=1)) < 1.0
@@ -190,7 +189,7 @@ def test_fej_filter_runs_and_the_fused_engine_covers_it():
 def test_compiled_fej_associators_equal_the_python_ones(associator):
     """The compiled associators evaluate the Jacobians at the first estimates as the Python
     reference does (``SlamState.linearisation_all`` against ``linearisation(j)``): 60 scans of a
-    trial, orchestrator by orchestrator, the same associations and poses to rounding; and not the
+    trial, form by form, the same associations and poses to rounding; and not the
     standard Jacobians' run (negative control)."""
     from radarslam.simulation.trial import run_trial
 

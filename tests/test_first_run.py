@@ -90,7 +90,7 @@ def test_run_recording_cold_takes_the_reference_and_equals_the_warm_run(tmp_path
     runs = {}
     for name, ready in (("cold", False), ("warm", True)):
         _state(monkeypatch, ready, True, True, started)
-        monkeypatch.setattr(policy, "_orchestrator_ready", lambda: ready)   # cold: nothing compiled
+        monkeypatch.setattr(policy, "_steps_ready", lambda: ready)   # cold: nothing compiled
         assert main(["run", "--recording", str(d), "--out", str(tmp_path / name)]) == 0
         err = capsys.readouterr().err
         assert ("run: first run on this machine" in err) is (not ready)
@@ -103,44 +103,45 @@ def test_run_recording_cold_takes_the_reference_and_equals_the_warm_run(tmp_path
 
 # --- run --dataset (compiling/stream_plan.py first_run_plan) ---------------------------------------------
 
-def _dataset_state(monkeypatch, fused: bool, orchestrator: bool, started: list) -> None:
+def _dataset_state(monkeypatch, fused: bool, steps: bool, started: list) -> None:
 
     monkeypatch.setattr(policy, "_fused_ready", lambda: fused)
-    monkeypatch.setattr(policy, "_orchestrator_ready", lambda: orchestrator)
+    monkeypatch.setattr(policy, "_steps_ready", lambda: steps)
     _fake_background(monkeypatch, started)
 
 
 def test_dataset_plan_picks_what_ends_sooner_and_says_how_long(monkeypatch):
-    """Cold: a short run takes the reference at once, a whole park compiles the orchestrator's
+    """Cold: a short run takes the reference at once, a whole park compiles the steps form's
     kernels first (with the expected seconds); either way the fused engine goes to the background.
     Warm (negative controls): the fused engine, nothing announced, nothing started."""
     from radarslam.config import profile_config
     from radarslam.runs import dataset
     from radarslam.compiling import costs
+    from radarslam.compiling.policy import Plan as FirstRunPlan
 
     cfg = profile_config("victoria-park")
     started: list = []
     _dataset_state(monkeypatch, False, False, started)
     short = dataset.first_run_plan(cfg, 300, fused=True)
     assert short.engine == "python" and not short.compiles and "300 scans go through the Python reference" in short.announce
-    assert f"about {300 * dataset.PYTHON_SCAN_S:.0f} s" in short.announce and "pid 4242" in short.announce
+    assert f"about {300 * costs.PYTHON_SCAN_S:.0f} s" in short.announce and "pid 4242" in short.announce
     whole = dataset.first_run_plan(cfg, 7230, fused=True)
-    assert whole.engine == "orchestrator" and whole.compiles and whole.compile_s == dataset.ORCHESTRATOR_COMPILE_S
-    assert f"about {dataset.ORCHESTRATOR_COMPILE_S:.0f} s" in whole.announce and "compiling" in whole.announce
+    assert whole.engine == "steps" and whole.compiles and whole.compile_s == costs.STEPS_COMPILE_S
+    assert f"about {costs.STEPS_COMPILE_S:.0f} s" in whole.announce and "compiling" in whole.announce
     # the break-even of the cost model, from its constants
-    n = int(dataset.ORCHESTRATOR_COMPILE_S / (dataset.PYTHON_SCAN_S - costs.ORCHESTRATOR_SCAN_S))
+    n = int(costs.STEPS_COMPILE_S / (costs.PYTHON_SCAN_S - costs.STEPS_SCAN_S))
     assert dataset.first_run_plan(cfg, n, True).engine == "python"
-    assert dataset.first_run_plan(cfg, n + 2, True).engine == "orchestrator"
+    assert dataset.first_run_plan(cfg, n + 2, True).engine == "steps"
     _dataset_state(monkeypatch, False, True, started)
     ready = dataset.first_run_plan(cfg, 7230, fused=True)
-    assert ready.engine == "orchestrator" and not ready.compiles and "event by event" in ready.announce
+    assert ready.engine == "steps" and not ready.compiles and "steps form" in ready.announce
     n_started = len(started)
     _dataset_state(monkeypatch, True, False, started)
     warm = dataset.first_run_plan(cfg, 7230, fused=True)          # compiled, its progress part by part: no note
     assert warm.engine == "fused" and not warm.compiles and warm.announce == ""
     assert warm.expected_s == pytest.approx(7230 * costs.FUSED_SCAN_S)
     assert len(started) == n_started
-    assert dataset.first_run_plan(to_python(cfg), 300, fused=False) == dataset.FirstRunPlan("python")
+    assert dataset.first_run_plan(to_python(cfg), 300, fused=False) == FirstRunPlan("python")
 
 
 def to_python(cfg):
@@ -233,18 +234,18 @@ def test_a_recording_plans_by_its_size_the_reference_or_a_compile(monkeypatch):
     """The one compile policy for a recording: from an empty cache a nuScenes-sized
     recording (1,263 scans, 126,749 detections) goes through the reference at once, a RadarScenes-sized
     one (6,478 scans, 1,071,716 detections: minutes through the reference) compiles the
-    orchestrator's kernels first; the old rule took the reference for both (409 s measured)."""
-    from radarslam.compiling.costs import ORCHESTRATOR_COMPILE_S
+    steps form's kernels first; the old rule took the reference for both (409 s measured)."""
+    from radarslam.compiling.costs import STEPS_COMPILE_S
     from radarslam.compiling.policy import Workload, plan, python_seconds
     from radarslam.config import profile_config
 
     cfg = profile_config("automotive")
     monkeypatch.setattr(policy, "_filter_ready", lambda *f: False)
-    monkeypatch.setattr(policy, "_orchestrator_ready", lambda: False)
+    monkeypatch.setattr(policy, "_steps_ready", lambda: False)
     small = plan(cfg, Workload("stream", n_scans=1263, n_detections=126_749, fused=True))
     big = plan(cfg, Workload("stream", n_scans=6478, n_detections=1_071_716, fused=True))
     assert small.engine == "python" and not small.compiles and small.expected_s < 30
-    assert big.engine == "orchestrator" and big.compiles and big.compile_s == ORCHESTRATOR_COMPILE_S
+    assert big.engine == "steps" and big.compiles and big.compile_s == STEPS_COMPILE_S
     assert python_seconds(6478, 1_071_716) > 300 and big.expected_s < 100
     assert f"about {python_seconds(6478, 1_071_716):.0f} s" in big.announce   # the reference's cost it avoided, said
     # warm (negative control): the fused engine, whatever the size

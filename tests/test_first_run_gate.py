@@ -14,7 +14,7 @@ from radarslam.models._doppler_compiled import classify_scan
 
 
 def _plan(monkeypatch, gate_compiled: bool, doppler_gate: bool):
-    monkeypatch.setattr(policy, "_orchestrator_ready", lambda: True)   # the per-event kernels: cached
+    monkeypatch.setattr(policy, "_steps_ready", lambda: True)   # the steps form's kernels: cached
     monkeypatch.setattr(policy, "_fused_ready", lambda *f: False)
     real = policy.ready
     monkeypatch.setattr(policy, "ready", lambda d: gate_compiled if d is classify_scan else real(d))
@@ -25,7 +25,7 @@ def _plan(monkeypatch, gate_compiled: bool, doppler_gate: bool):
 
 def test_the_gate_not_compiled_is_not_a_ready_run(monkeypatch):
     p = _plan(monkeypatch, gate_compiled=False, doppler_gate=True)
-    assert not (p.engine == "orchestrator" and not p.compiles)          # before: orchestrator, compiling silently
+    assert not (p.engine == "steps" and not p.compiles)          # before: the steps form, compiling silently
     assert p.announce.startswith("first run on this machine")
     assert p.engine == "python" or p.compiles
 
@@ -33,7 +33,7 @@ def test_the_gate_not_compiled_is_not_a_ready_run(monkeypatch):
 def test_a_compiled_gate_or_no_gate_is_ready(monkeypatch):
     for compiled, gate in ((True, True), (False, False)):               # the negative controls
         p = _plan(monkeypatch, gate_compiled=compiled, doppler_gate=gate)
-        assert p.engine == "orchestrator" and not p.compiles
+        assert p.engine == "steps" and not p.compiles
 
 
 def test_a_long_stage_beats_and_says_when_it_ends(monkeypatch, capsys):

@@ -1,5 +1,5 @@
 """The fused engine with odometry-bias states (docs/method.md c.11, ``filter.odometry_bias = "states"``)
-against the orchestrator it stands in for, and its prediction against :class:`BiasStates`'.
+against its steps form run event by event (the filter object, EkfSlam with filter.fused false), and its prediction against :class:`BiasStates`'.
 
 The platform block is then ``[x, y, theta, b_1 .. b_m]``: every landmark index, the records and the
 prediction follow it. The oracle is ``EkfSlam`` event by event (numba backend, ``filter.fused``
@@ -63,7 +63,7 @@ def _biased_carpark(doppler: bool = False):
 
 @pytest.mark.parametrize("name", sorted(CASES))
 @pytest.mark.parametrize("trial", [3, 4])
-def test_bias_states_same_as_orchestrator(name, trial):
+def test_bias_states_same_as_the_steps_form(name, trial):
     """Every decision and every estimate after every scan, the bias states included; the states
     moved (they are not at their prior 0) and changed the run (negative control: without them)."""
     cfg = _biased_carpark()
@@ -99,9 +99,9 @@ def test_speed_scale_is_learnt_by_the_fused_engine():
 
 
 @pytest.mark.parametrize("mode", ["doppler", "both"])
-def test_bias_states_with_doppler_odometry_same_as_orchestrator(mode):
+def test_bias_states_with_doppler_odometry_same_as_the_steps_form(mode):
     """Under Doppler odometry (c.10.5) the body-velocity model's states ([speed scale, yaw-rate
-    offset] on ``[v_x, v_y, omega]``) through the fused engine: the orchestrator's run."""
+    offset] on ``[v_x, v_y, omega]``) through the fused engine: the steps form's run."""
     cfg = _biased_carpark(doppler=True)
     events = _scenario(cfg, 3).events
     run = _overlay(cfg, merge_tables(STATES, merge_tables(CONSISTENT.overlay, {"filter": {"odometry": mode}})))

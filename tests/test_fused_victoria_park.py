@@ -1,5 +1,5 @@
 """The fused engine on Victoria Park (the Ackermann model, the visible-arc estimator, both input
-modes) against the orchestrator it stands in for, and its Ackermann prediction against the model's.
+modes) against its steps form run event by event (the filter object, EkfSlam with filter.fused false), and its Ackermann prediction against the model's.
 
 The oracle is ``EkfSlam`` event by event (numba backend, ``filter.fused`` false): the same
 associations and landmark ids after every scan, poses, covariances, maps and every NIS to 1e-9 (the
@@ -34,14 +34,14 @@ N_SCANS = 400
 TOL = 1e-9
 
 
-def _orchestrator(cfg):
+def _steps_filter(cfg):
     return EkfSlam(replace(cfg, filter=replace(cfg.filter, fused=False)))
 
 
-def _orchestrated(cfg, events):
+def _event_by_event(cfg, events):
     """Event by event: sorted ``(scan position, detection, id)`` rows, poses, pose covariances, every
     NIS, the map after every scan, and the bias states and their covariances after every scan."""
-    slam = _orchestrator(cfg)
+    slam = _steps_filter(cfg)
     rows, poses, covs, nis, snaps, bias, bias_covs = [], [], [], [], [], [], []
     for ev in events:
         rep = slam.process(ev)
@@ -60,9 +60,8 @@ def _orchestrated(cfg, events):
 
 
 def _assert_same(cfg, events):
-    """The fused engine's run of ``events`` equals the orchestrator's; returns the fused record."""
-    assert _fused.why_not(EkfSlam(cfg), events) is None
-    rows, poses, covs, nis, snaps, bias = _orchestrated(cfg, events)
+    """The fused engine's run of ``events`` equals its steps form's event by event; returns the fused record."""
+    rows, poses, covs, nis, snaps, bias = _event_by_event(cfg, events)
     r, arows = _fused.run(EkfSlam(cfg), events)
     assert sorted(map(tuple, arows.tolist())) == rows                      # every association
     assert len(rows) > 1000
@@ -92,11 +91,10 @@ def vp(request, victoria_park_dir):
 
 def test_victoria_park_profiles_run_fused(vp):
     mode, cfg, data = vp
-    assert _fused.why_not(EkfSlam(cfg), data.events) is None
-    assert _fused.why_not(_orchestrator(cfg)) == "filter.fused is false"
+    assert _fused.family(EkfSlam(cfg)) == _fused.DEFAULT
 
 
-def test_fused_same_as_orchestrator_on_victoria_park(vp):
+def test_fused_same_as_the_steps_form_on_victoria_park(vp):
     """Both input modes, the first 400 scans: every decision and every estimate after every scan."""
     mode, cfg, data = vp
     r = _assert_same(cfg, data.events)
@@ -108,9 +106,9 @@ def test_fused_same_as_orchestrator_on_victoria_park(vp):
         assert np.array_equal(circles[:, 0, 0], circles[:, 1, 1])
 
 
-def test_fej_same_as_orchestrator_on_victoria_park(vp):
+def test_fej_same_as_the_steps_form_on_victoria_park(vp):
     """First-estimates Jacobians (c.2.1) with the Ackermann model, the first 400 scans of each
-    input mode: the fused engine makes the orchestrator's run, and not the standard Jacobians' run."""
+    input mode: the fused engine makes the steps form's run, and not the standard Jacobians' run."""
     mode, cfg, data = vp
     fej = replace(cfg, filter=replace(cfg.filter, jacobians="fej"))
     r = _assert_same(fej, data.events)
@@ -118,9 +116,9 @@ def test_fej_same_as_orchestrator_on_victoria_park(vp):
     assert np.abs(r["poses"] - std["poses"]).max() > 1e3 * TOL
 
 
-def test_turn_noise_and_correlated_r_same_as_orchestrator_on_victoria_park(vp):
+def test_turn_noise_and_correlated_r_same_as_the_steps_form_on_victoria_park(vp):
     """Turn-dependent steering noise (c.11.8) and the correlated-R equivalent (c.11.9), the
-    candidate of docs/method.md c.11.10: compiled, the orchestrator's run. Negative control: the
+    candidate of docs/method.md c.11.10: compiled, the steps form's run. Negative control: the
     keys change the run."""
     _, cfg, data = vp
     cand = replace(cfg, filter=replace(cfg.filter, turn_noise_gain=0.461, measurement_corr_scans=11.0))
@@ -132,10 +130,10 @@ def test_turn_noise_and_correlated_r_same_as_orchestrator_on_victoria_park(vp):
 
 @pytest.mark.parametrize("overlay", [{}, {"bias_turn": "both", "jacobians": "fej", "bias_tau_s": 20.0}],
                          ids=["offset", "both-fej-gauss-markov"])
-def test_bias_states_same_as_orchestrator_on_victoria_park(vp, overlay):
+def test_bias_states_same_as_the_steps_form_on_victoria_park(vp, overlay):
     """Odometry-bias states (c.11) with the Ackermann model, [speed scale, steering offset] and with
     the steering scale too, under first-estimates Jacobians (c.11.7): the fused engine makes the
-    orchestrator's run, the bias states after every scan included. Negative control: the states
+    steps form's run, the bias states after every scan included. Negative control: the states
     moved and changed the run."""
     _, cfg, data = vp
     on = replace(cfg, filter=replace(cfg.filter, odometry_bias="states", **overlay))
@@ -146,7 +144,7 @@ def test_bias_states_same_as_orchestrator_on_victoria_park(vp, overlay):
 
 
 def test_run_dataset_bias_states_same_by_either_engine(vp, victoria_park_dir, monkeypatch):
-    """``run_dataset`` with odometry-bias states takes the fused engine and gives the orchestrator's
+    """``run_dataset`` with odometry-bias states takes the compiled engine and gives its steps form's
     bias trajectory (values and stds after every scan, names and units: bias.csv and bias.png)."""
     mode, cfg, _ = vp
     opts = victoria_park_options(cfg, mode)
@@ -157,7 +155,7 @@ def test_run_dataset_bias_states_same_by_either_engine(vp, victoria_park_dir, mo
     fused = run_dataset("victoria-park", victoria_park_dir, on, n_scans=150, progress=False, loader_options=opts)
     slow = run_dataset("victoria-park", victoria_park_dir, replace(on, filter=replace(on.filter, fused=False)),
                        n_scans=150, progress=False, loader_options=opts)
-    assert calls == [1]                                    # the fused engine ran the first, not the second
+    assert calls == [1, 1] and fused.engine == "fused" and slow.engine in ("fused-steps", "python")
     assert fused.bias_names == slow.bias_names == ("speed_scale", "steering_offset")
     assert fused.bias_units == slow.bias_units
     assert fused.bias.shape == slow.bias.shape == (150, 2)
@@ -167,8 +165,8 @@ def test_run_dataset_bias_states_same_by_either_engine(vp, victoria_park_dir, mo
 
 
 def test_run_dataset_same_by_either_engine(vp, victoria_park_dir, monkeypatch):
-    """``run_dataset`` takes the fused engine for the profile and gives the orchestrator's
-    DatasetRun: per-scan records, every NIS, the final map and the reference hits."""
+    """``run_dataset`` takes the compiled engine for the profile and gives its steps form's
+    DatasetRun (``filter.fused`` false): per-scan records, every NIS, the final map and the reference hits."""
     mode, cfg, data = vp
     opts = victoria_park_options(cfg, mode)
     fused = run_dataset("victoria-park", victoria_park_dir, cfg, n_scans=N_SCANS, progress=False, loader_options=opts)
@@ -177,9 +175,7 @@ def test_run_dataset_same_by_either_engine(vp, victoria_park_dir, monkeypatch):
     monkeypatch.setattr(_fused, "run", lambda *a, **k: calls.append(1) or real(*a, **k))
     slow = run_dataset("victoria-park", victoria_park_dir, replace(cfg, filter=replace(cfg.filter, fused=False)),
                        n_scans=N_SCANS, progress=False, loader_options=opts)
-    assert calls == []                                     # filter.fused false: event by event
-    run_dataset("victoria-park", victoria_park_dir, cfg, n_scans=30, progress=False, loader_options=opts)
-    assert calls == [1]                                    # the profile: the fused engine
+    assert calls == [1] and fused.engine == "fused" and slow.engine in ("fused-steps", "python")
     from radarslam.compiling import background, policy
     started = []
     monkeypatch.setattr(policy, "_fused_ready", lambda: False)      # the first run's rule
@@ -187,7 +183,7 @@ def test_run_dataset_same_by_either_engine(vp, victoria_park_dir, monkeypatch):
     monkeypatch.setattr(background, "busy", lambda: False)
     monkeypatch.setattr(background, "start", lambda *a: started.append(a) or 4242)
     run_dataset("victoria-park", victoria_park_dir, cfg, n_scans=30, progress=False, loader_options=opts)
-    assert calls == [1] and len(started) == 1              # not compiled yet: event by event, compiled aside
+    assert calls == [1, 1] and len(started) == 1           # not compiled yet: a Python form, compiled aside
     assert fused.times.size == slow.times.size == N_SCANS
     assert np.array_equal(fused.times, slow.times)
     for key in ("n_landmarks", "n_associated"):
@@ -210,7 +206,7 @@ def test_comparison_detects_another_run(vp):
     (its poses differ far beyond the tolerance; in laser mode its associations too)."""
     mode, cfg, data = vp
     events = data.events[:2000]
-    rows, poses = _orchestrated(cfg, events)[:2]
+    rows, poses = _event_by_event(cfg, events)[:2]
     other = replace(cfg, filter=replace(cfg.filter, steering_std_deg=cfg.filter.steering_std_deg * 3))
     r, arows = _fused.run(EkfSlam(other), events)
     assert np.abs(r["poses"] - poses).max() > 1e3 * TOL
@@ -218,7 +214,7 @@ def test_comparison_detects_another_run(vp):
         assert sorted(map(tuple, arows.tolist())) != rows
 
 
-def test_visible_arc_on_the_car_park_same_as_orchestrator():
+def test_visible_arc_on_the_car_park_same_as_the_steps_form():
     """The visible-arc estimator through the fused engine on a simulated car park (its circle in
     every scan's map, widths pooled when landmarks merge)."""
     cfg = from_dict(merge_tables(to_dict(profile_config("apsipa")), {"extent": {"estimator": "visible-arc",
@@ -285,7 +281,7 @@ def test_ackermann_prediction_is_not_the_unicycle():
 
 
 def test_ackermann_prediction_refuses_a_non_finite_result():
-    """The engine leaves the state as it was when the prediction is not finite (the orchestrator's
+    """The engine leaves the state as it was when the prediction is not finite (the filter's
     InputError is raised by fused.run from the status)."""
     slam, params = _fused_params()
     x, P = np.array([0.0, 0.0, 0.1]), np.eye(3)

@@ -1,5 +1,5 @@
 """The fused engine under the partial view (docs/method.md a.12; radarslam.slam.fused.view) against
-the orchestrator it stands in for: the same associations, landmark ids, poses, maps and shapes
+its steps form run event by event (the filter object, EkfSlam with filter.fused false): the same associations, landmark ids, poses, maps and shapes
 (the partial-view estimator's in the map's ``rma`` slot, the RMA beneath it in ``efa``) to 1e-9 on
 simulated car-park trials under the visible-faces spread model, with each associator the partial
 view has, with and without the view-init correction and the shape's uncertainty, with the view
@@ -9,6 +9,8 @@ the odometry-bias states between the pose and the landmarks (c.11)."""
 from __future__ import annotations
 
 import pytest
+
+from radarslam.core.errors import InputError
 
 from conftest import require
 from test_fused import _assert_same_run, _overlay, _scenario
@@ -54,17 +56,27 @@ CASES = {
 
 @pytest.mark.parametrize("name", list(CASES))
 @pytest.mark.parametrize("trial", [1, 2])
-def test_partial_view_same_as_orchestrator(name, trial):
+def test_partial_view_same_as_the_steps_form(name, trial):
     cfg = _config(CASES[name])
     slam = EkfSlam(cfg)
-    assert slam.view is not None and _fused.why_not(slam) is None
+    assert slam.view is not None
     n = _assert_same_run(cfg, _scenario(cfg, trial).events)
     assert n > 500                                    # a real run: hundreds of associations compared
 
 
 def test_partial_view_estimator_under_the_full_view_is_refused():
     """The partial-view estimator without the partial-view model (its sifting about the arcs'
-    means, the full view's association) is left to the orchestrator, as is the converse."""
+    means, the full view's association: no step of the engine) is refused in one line when the filter
+    is built, as is an associator of the user's own under the partial view."""
+    from radarslam.slam.association import NearestNeighbourAssociator
+
     cfg = _config({"extent": {"estimator": "partial-view", "view_model": "full"}})
-    slam = EkfSlam(cfg)
-    assert slam.view is None and "partial-view estimator" in _fused.why_not(slam)
+    with pytest.raises(InputError, match="extent_estimator: expected the partial-view estimator exactly with "
+                                         "extent.view_model partial, got PartialViewEstimator with the full view"):
+        EkfSlam(cfg)
+
+    class Mine(NearestNeighbourAssociator):
+        pass
+
+    with pytest.raises(InputError, match="associator: expected a built-in associator under the partial view"):
+        EkfSlam(_config(CASES[next(iter(CASES))]), associator=Mine(0.0, 1, 1))

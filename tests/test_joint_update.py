@@ -101,7 +101,7 @@ def test_compiled_joint_update_equals_reference():
 
 @pytest.mark.parametrize("trial", [1, 2])
 def test_backends_agree_on_whole_runs(trial):
-    """Python reference and the compiled orchestrator: the same associations, states to 1e-9."""
+    """Python reference and the compiled engine: the same associations, states to 1e-9."""
     require("numba")
     cfg = profile_config("apsipa")
     events = generate_scenario(cfg, np.random.default_rng(trial_seed(1, trial))).events

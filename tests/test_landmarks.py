@@ -217,7 +217,7 @@ def test_non_finite_initial_pose_is_refused():
         validate(replace(cfg, filter=replace(cfg.filter, initial_pose=[0.0, float("nan"), 0.0])))
 
 
-def test_orchestrator_equals_functions_called_by_hand():
+def test_the_filter_equals_functions_called_by_hand():
     """EkfSlam.update on a scan = sift + ekf.update per associated detection, by hand."""
     cfg = quiet_config()
     slam = EkfSlam(cfg)
@@ -464,7 +464,7 @@ def test_growth_by_doubling_is_one_kernel_python_and_compiled():
 
 
 def test_slam_state_records_follow_removals_and_merges():
-    """The orchestrator's state holds its landmarks' bookkeeping in the records' arrays: ids,
+    """The filter's state holds its landmarks' bookkeeping in the records' arrays: ids,
     creation scans and first estimates stay with their rows of ``x`` through a removal, and the
     extents list moves with them."""
     from radarslam.slam.state import SlamState

@@ -70,7 +70,7 @@ def test_the_same_drive_at_another_rate_gives_the_same_estimate_and_covariance(v
     assert np.abs(np.sqrt(np.diag(old_P)) / np.sqrt(np.diag(ref_P)) - 1).max() > 0.05
 
 
-def test_the_fused_engine_scales_the_noise_as_the_orchestrator():
+def test_the_fused_engine_scales_the_noise_as_its_python_form():
     """A stream at 100 Hz odometry (not the reference interval) with scans: the fused engine and
     the Python reference give the same poses and covariances (to 1e-9)."""
     pytest.importorskip("numba")
@@ -87,7 +87,8 @@ def test_the_fused_engine_scales_the_noise_as_the_orchestrator():
         else:
             assert isinstance(ev, Scan)
             events.append(ev)
-    py = run_filter(_config("python"), events, engine="orchestrator")
+    py = run_filter(_config("python"), events)
+    assert py.engine == "fused-python"
     fu = run_filter(_config("numba"), events)
     assert fu.engine == "fused"
     np.testing.assert_array_equal(py.n_landmarks, fu.n_landmarks)

@@ -3,8 +3,10 @@ from the steps' own outputs, slam/fused/events.py ``ScanOut``) as EkfSlam.update
 associations, removed, confirmed and merged ids, the clusters, the tentatives, each new landmark's
 detections, the NIS, and under the Doppler gate the moving detections and the ego-velocity, every scan.
 
-Oracle: EkfSlam's own per-scan report (slam/filter.py, the orchestrator) on the same events: the same ids,
-counts and detection rows exactly, the NIS to 1e-9 (the two sum in different orders). Cases: the car-park
+Oracles: the whole stream's record in one run (an independent path: the engine's per-scan record and map,
+not the steps' outputs): each scan's detections, associations (as ``(detection, landmark id)`` rows), NIS,
+the ids confirmed (new in the map) and those removed or merged away (gone from it); and the same events
+in the engine's Python form (every field, the ids and counts exactly, the NIS to 1e-9). Cases: the car-park
 trial (seed 7) in each family of the fused engine (default, partial view, JCBB, bias states), and the first
 five seconds of nuScenes scene-0061 under the automotive profile (five radars, the Doppler gate, Doppler
 odometry, merges, moving detections). A negative control checks that the comparison sees a wrong id.
@@ -51,8 +53,9 @@ def _differences(a, b) -> list[str]:
 
 
 def _reports(cfg, events, how: str):
-    """Each scan's report from EkfSlam and from Online (``how``) on the same events."""
-    slam, online = EkfSlam(cfg), Online(EkfSlam(cfg), how)
+    """Each scan's report from the Python form and from Online (``how``) on the same events, after checking
+    the latter against the whole stream's record (:func:`_against_record`)."""
+    slam, online = EkfSlam(cfg, engine="python"), Online(EkfSlam(cfg), how)
     pairs = []
     for ev in events:
         ra = slam.process(ev)
@@ -60,7 +63,26 @@ def _reports(cfg, events, how: str):
         assert (ra is None) == (rb is None)
         if ra is not None:
             pairs.append((ra, online.report))
+    _against_record(cfg, events, [rb for _, rb in pairs])
     return pairs
+
+
+def _against_record(cfg, events, reports) -> None:
+    """``reports`` say what the whole stream's record says of each scan (module docstring)."""
+    from radarslam.slam import _fused
+
+    r, arows = _fused.run(EkfSlam(cfg), events)
+    off, prev = r["map_offsets"], set()
+    assert len(reports) == off.shape[0] - 1
+    for s, rep in enumerate(reports):
+        assert rep.n_detections == r["n_detections"][s] and rep.n_associated == r["n_associated"][s]
+        mine = sorted((int(d), int(lid)) for lid, dets in rep.associations.items() for d in dets)
+        assert mine == sorted(map(tuple, arows[arows[:, 0] == s][:, 1:].tolist())), s
+        np.testing.assert_allclose(rep.nis, r["nis"][r["nis_offsets"][s]:r["nis_offsets"][s + 1]], rtol=0, atol=1e-12)
+        now = set(r["ids"][off[s]:off[s + 1]].tolist())
+        assert set(rep.confirmed) == now - prev, s
+        assert set(rep.removed) | {gone for _, gone in rep.merged} == prev - now, s
+        prev = now
 
 
 @pytest.fixture(scope="module")
@@ -69,7 +91,7 @@ def carpark():
 
 
 @pytest.mark.parametrize("family", list(FAMILIES))
-def test_the_car_park_reports_as_the_orchestrator(carpark, family):
+def test_the_car_park_reports_as_its_record_and_the_python_form(carpark, family):
     cfg = profile_config()
     if FAMILIES[family]:
         cfg = apply_variant(cfg, Variant(family, family, FAMILIES[family]))
@@ -83,7 +105,7 @@ def test_the_car_park_reports_as_the_orchestrator(carpark, family):
     assert _differences(ra, wrong) == ["confirmed", "created"]
 
 
-def test_a_nuscenes_scene_reports_as_the_orchestrator(tmp_path):
+def test_a_nuscenes_scene_reports_as_its_record_and_the_python_form(tmp_path):
     """Five radars, the Doppler gate and Doppler odometry: the gate's moving rows and ego-velocity, the
     associations and each new landmark's detections as rows of the scan before the gate."""
     from radarslam.io.recording import read_recording

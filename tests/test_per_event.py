@@ -1,8 +1,8 @@
 """EkfSlam event by event through the fused engine (slam/per_event.py): the state read back after every
-event, a state set by hand written through, and the orchestrator's steps where asked for.
+event, a state set by hand written through, in the engine's compiled and steps forms.
 
-Oracle: the same filter on the orchestrator's steps (``engine="orchestrator"``), which the fused engine
-equals to rounding (docs/architecture.md "The fused engine"): every report the same, the state and the
+Oracle: the same filter in the engine's steps form (``engine="steps"``: its steps run by the interpreter,
+tests/test_engine_forms.py), and the whole stream in one run: every report the same, the state and the
 extents to 1e-9, the map after every scan the same ids; a landmark moved by hand between two scans moves
 both alike. Negative controls: the moved landmark changes the run (a write-through that did nothing would
 leave it as the unmoved run), and a state of another size is refused in one line.
@@ -30,9 +30,9 @@ def events():
 
 
 def _both(cfg, events, report=("removed", "confirmed", "merged", "n_candidates")):
-    """``cfg``'s filter through the engine and through the orchestrator event by event, each report's
-    ``report`` fields equal: ``(engine's, orchestrator's, merges)``; the engine was taken."""
-    eng, orch, merged = EkfSlam(cfg), EkfSlam(cfg, engine="orchestrator"), 0
+    """``cfg``'s filter through the compiled engine and through its steps form event by event, each
+    report's ``report`` fields equal: ``(compiled, steps form, merges)``."""
+    eng, orch, merged = EkfSlam(cfg), EkfSlam(cfg, engine="steps"), 0
     for ev in events:
         ra, rb = eng.process(ev), orch.process(ev)
         assert (ra is None) == (rb is None)
@@ -40,7 +40,7 @@ def _both(cfg, events, report=("removed", "confirmed", "merged", "n_candidates")
             assert [getattr(ra, f) for f in report] == [getattr(rb, f) for f in report]
             np.testing.assert_array_equal(eng.snapshot().ids, orch.snapshot().ids)
             merged += len(ra.merged)
-    assert eng._online is not None and orch._online is None
+    assert eng._online is not None and orch._online is not None
     return eng, orch, merged
 
 
@@ -70,7 +70,7 @@ def _moved(engine: str, events, dx: float):
 
 
 def test_a_state_set_by_hand_is_written_through(events):
-    moved_engine, moved_orch = _moved("auto", events, 0.5), _moved("orchestrator", events, 0.5)
+    moved_engine, moved_orch = _moved("auto", events, 0.5), _moved("steps", events, 0.5)
     np.testing.assert_allclose(moved_engine, moved_orch, rtol=0, atol=1e-9)
     unmoved = _moved("auto", events, 0.0)
     assert unmoved.shape != moved_engine.shape or np.abs(unmoved - moved_engine).max() > 1e-3
@@ -88,21 +88,22 @@ def test_a_state_of_another_size_an_extent_set_by_hand_and_a_bad_engine_are_refu
     slam.state.set(np.concatenate([x, [1.0, 2.0]]), np.pad(P, ((0, 2), (0, 2))) + np.diag([0.0] * x.size + [1.0, 1.0]))
     with pytest.raises(InputError, match=r"^slam.state: expected a mean of \d+"):
         slam.process(events[k])
-    with pytest.raises(InputError, match="engine: expected 'auto' or 'orchestrator', got 'fast'"):
+    with pytest.raises(InputError, match="engine: expected one of auto, compiled, steps, python, got 'fast'"):
         EkfSlam(profile_config(), engine="fast")
 
 
 def test_components_of_the_users_own_run_event_by_event_in_the_engines_steps_form(events):
     """A motion model, an associator and an extent estimator of the user's own together (as in
-    tests/test_engine_forms.py), event by event: the engine runs them in its steps form (slam/fused/own.py),
-    the reports and the state are the orchestrator's, and ``state.extents`` are the estimator's own live
-    states, whose matrices equal the orchestrator's."""
+    tests/test_engine_forms.py), event by event: the engine runs them in its steps form (slam/fused/own.py).
+    Oracle: the whole stream in one run of the same filter gives the same record and maps, and
+    ``state.extents`` are the estimator's own live states, whose matrices are the map's extents."""
     from radarslam.config.variants import Variant, apply_variant
     from radarslam.core.registry import ASSOCIATORS, EXTENT_ESTIMATORS, MOTION_MODELS
     from radarslam.models.motion import UnicycleModel
     from radarslam.slam.association import JointBatchAssociator
+    from radarslam.slam.driver import run_filter
 
-    from test_engine_forms import _Scatter
+    from test_engine_forms import _Scatter, _same_record
 
     class Own(UnicycleModel):
         name = "own-pe"
@@ -116,18 +117,21 @@ def test_components_of_the_users_own_run_event_by_event_in_the_engines_steps_for
         cfg = apply_variant(profile_config(), Variant("own", "own", {
             "filter": {"motion_model": "own-pe"}, "landmarks": {"associator": "narrow-pe", "merge_distance_m": 6.0},
             "extent": {"estimator": "scatter-pe"}}))
-        eng, orch, merged = _both(cfg, events, ("removed", "confirmed", "merged", "n_associated"))
-        assert merged >= 1
-        np.testing.assert_allclose(eng.x, orch.x, rtol=0, atol=1e-9)
-        np.testing.assert_allclose(eng.P, orch.P, rtol=0, atol=1e-9)
-        ext = eng.state.extents
-        assert len(ext) == orch.state.n_landmarks >= 3 and all(type(s).__name__ == "_ScatterState" for s in ext)
-        mats = [(eng.extent.matrix(a), orch.extent.matrix(b)) for a, b in zip(ext, orch.state.extents)]
-        assert sum(b is not None for _, b in mats) >= 3
-        for a, b in mats:
-            assert (a is None) == (b is None)
-            if b is not None:
-                np.testing.assert_allclose(a, b, rtol=0, atol=1e-9)
+        eng = EkfSlam(cfg)
+        rec = run_filter(cfg, events, slam=eng)
+        whole = run_filter(cfg, events)
+        assert whole.engine == "fused-steps" and eng._online is not None and calls["merge"] >= 2
+        _same_record(rec, whole)
+        for a, b in zip(rec.maps, whole.maps):
+            np.testing.assert_array_equal(a.ids, b.ids)
+            np.testing.assert_allclose(a.rma, b.rma, rtol=0, atol=1e-9)
+        ext, n = eng.state.extents, eng.state.n_landmarks
+        assert len(ext) == n >= 3 and all(type(s).__name__ == "_ScatterState" for s in ext)
+        mats = [eng.extent.matrix(a) for a in ext]
+        assert sum(m is not None for m in mats) >= 3
+        for j, m in enumerate(mats):
+            np.testing.assert_allclose(rec.maps[-1].rma[j], np.full((2, 2), np.nan) if m is None else m, rtol=0,
+                                       atol=1e-12)
     finally:
         MOTION_MODELS.unregister("own-pe")
         ASSOCIATORS.unregister("narrow-pe")
@@ -136,7 +140,7 @@ def test_components_of_the_users_own_run_event_by_event_in_the_engines_steps_for
 
 def test_the_visible_arc_estimator_runs_event_by_event_with_its_widths_read_back(events):
     """The visible-arc estimator (a.9) event by event through the engine: each landmark's state carries the
-    widths of its arcs as the orchestrator's does (read from the engine's arcs), and its diameter is the
+    widths of its arcs as the compiled engine's does (read from the engine's arcs), and its diameter is the
     same; a landmark with no width has none in both."""
     from radarslam.config.variants import Variant, apply_variant
 

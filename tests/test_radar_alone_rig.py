@@ -96,7 +96,7 @@ def test_the_cli_runs_the_radar_alone_on_a_rig(tmp_path, capsys, monkeypatch):
 
 
 def _inputs(rec, cfg):
-    """Every prediction input ``(u, U, dt)`` the radar alone takes over ``rec`` (the orchestrator's
+    """Every prediction input ``(u, U, dt)`` the radar alone takes over ``rec`` (the filter's
     event flow, slam/odometry_source.py)."""
     from radarslam.egomotion.rig_odometry import with_rig_velocity
     from radarslam.io.recording.stream import stream_events

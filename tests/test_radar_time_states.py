@@ -20,7 +20,6 @@ from radarslam.core.errors import ConfigError
 from radarslam.core.types import Odometry, Scan, Sensor
 from radarslam.models.motion import UnicycleModel
 from radarslam.slam import EkfSlam
-from radarslam.slam.fused.plan import why_not
 from radarslam.slam.radar_time import enter_time, leave_time, pose_rate
 
 #: Three radars: front, rear-left, rear-right (x, y, yaw), and their true time offsets (ms): radar j's
@@ -104,7 +103,6 @@ def test_options_and_refusals():
     assert [both.yaw_index(j) for j in range(3)] == [5, 6, 7] and [both.time_index(j) for j in range(3)] == [8, 9, 10]
     assert both.units[-6:] == ("rad",) * 3 + ("s",) * 3
     cfg = _config(True)
-    assert why_not(EkfSlam(replace(cfg, filter=replace(cfg.filter, fused=True)))) is None
     for change, message in (({"odometry_bias": "none"}, "filter.radar_time_states: expected filter.odometry_bias 'states'"),
                             ({"odometry": "doppler"}, "filter.radar_time_states: expected filter.odometry 'odometer'"),
                             ({"bias_tau_s": 5.0}, "filter.bias_tau_s: expected 0 with .*radar_time_states")):
@@ -200,7 +198,7 @@ def test_with_first_estimates_and_the_other_car_states():
 @pytest.mark.parametrize("jacobians", ["standard", "fej"])
 def test_the_compiled_run_is_the_scan_by_scan_run(jacobians):
     """The scan's frame with every car state (time and yaw offsets, thrust) is one set of kernels
-    (slam/scan_frame.py) that the orchestrator calls as Python and the fused engine compiled: on the
+    (slam/scan_frame.py) that the fused engine calls: on the
     rig drive (seed 2) the two runs agree bit for bit (poses, covariances, the car's states, the
     landmarks and associations), with and without first-estimates Jacobians."""
     from radarslam.slam.driver import drive
@@ -208,8 +206,8 @@ def test_the_compiled_run_is_the_scan_by_scan_run(jacobians):
     events, _ = _rig_run(2)
     cfg = _config(True, thrust=True, yaw=True)
     cfg = replace(cfg, filter=replace(cfg.filter, fused=True, jacobians=jacobians))
-    ref, fused = drive(cfg, events, engine="orchestrator"), drive(cfg, events)
-    assert (ref.engine, fused.engine) == ("orchestrator", "fused")
+    ref, fused = drive(cfg, events, engine="fused-steps"), drive(cfg, events)
+    assert (ref.engine, fused.engine) == ("fused-steps", "fused")
     np.testing.assert_array_equal(fused.poses, ref.poses)
     np.testing.assert_array_equal(fused.pose_covs, ref.pose_covs)
     np.testing.assert_array_equal(fused.bias, ref.bias)

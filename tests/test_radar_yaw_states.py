@@ -19,7 +19,6 @@ from radarslam.core.errors import ConfigError
 from radarslam.core.types import Odometry, Scan, Sensor
 from radarslam.models.motion import UnicycleModel
 from radarslam.slam import EkfSlam
-from radarslam.slam.fused.plan import why_not
 from radarslam.slam.radar_yaw import enter_yaw, leave_yaw
 
 #: Three radars: front, rear-left, rear-right (x, y, yaw), and their true yaw offsets (sum 0, deg).
@@ -67,8 +66,6 @@ def test_options_and_refusals():
     assert slam.P[5, 5] == pytest.approx(math.radians(1.0) ** 2 * 2 / 3, rel=1e-6)
     free = EkfSlam(_rig_config(True, "none"))
     assert ones @ free.P @ ones == pytest.approx(3 * math.radians(1.0) ** 2)
-    fused = _rig_config(True)
-    assert why_not(EkfSlam(replace(fused, filter=replace(fused.filter, fused=True)))) is None
     cfg = _rig_config(True)
     with pytest.raises(ConfigError, match="filter.radar_yaw_states: expected filter.odometry_bias 'states'"):
         EkfSlam(replace(cfg, filter=replace(cfg.filter, odometry_bias="none")))

@@ -177,7 +177,7 @@ def shared(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def scene_runs(shared, tmp_path_factory):
-    """scene-0061's first 5 s with the Doppler gate, by the fused engine and by the orchestrator."""
+    """scene-0061's first 5 s with the Doppler gate, by the compiled engine and by its Python form."""
     base = tmp_path_factory.mktemp("runs")
     cfg = base / "gate.toml"
     cfg.write_text(GATE)
@@ -192,7 +192,7 @@ def scene_runs(shared, tmp_path_factory):
 def test_moving_csv_one_row_per_input_detection_equal_from_both_engines(shared, scene_runs):
     fused, python = (_table(scene_runs[k] / "moving.csv") for k in ("fused", "python"))
     assert json.loads((scene_runs["fused"] / "run.json").read_text())["engine"] == "fused"
-    assert json.loads((scene_runs["python"] / "run.json").read_text())["engine"] == "orchestrator"
+    assert json.loads((scene_runs["python"] / "run.json").read_text())["engine"] == "fused-python"
     assert list(fused) == ["t_s", "sensor_id", "moving", "landmark", "used"]
     assert fused == python
     det = _table(shared["nuscenes_radar/scene-0061"] / "detections.csv")
@@ -208,7 +208,7 @@ def test_moving_csv_one_row_per_input_detection_equal_from_both_engines(shared, 
 
 
 def test_landmark_column_is_the_filters_associations(shared, scene_runs):
-    """An independent path: the orchestrator scan by scan, each scan carrying its rows' numbers as a
+    """An independent path: the filter event by event (EkfSlam's reports), each scan carrying its rows' numbers as a
     channel, its ScanReport's moving rows and associations put back at those rows."""
     from radarslam.config import load_config
     from radarslam.runs.recording import effective_mounting, start_pose

@@ -67,7 +67,7 @@ def _run(rec, config, build=to_events):
     times = np.array([e.t for e in events if isinstance(e, Scan)])
     pose, _ = start_pose(rec, config, float(times[0]), "truth")
     cfg = dataclasses.replace(config, filter=dataclasses.replace(config.filter, initial_pose=pose))
-    record = run_filter(cfg, events, engine="orchestrator")
+    record = run_filter(cfg, events, engine="fused-steps")
     return record.poses, record.pose_covs, truth_at(times, rec.truth_t, rec.truth)
 
 

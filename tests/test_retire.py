@@ -63,7 +63,7 @@ def test_negative_control_retiring_inside_the_range_changes_the_run(rec, kept):
     assert np.max(np.abs(run.record.poses[:, :2] - kept.record.poses[:, :2])) > 1e-3
 
 
-def test_the_fused_engine_retires_as_the_orchestrator(rec):
+def test_the_fused_engine_retires_as_its_steps_form(rec):
     ref = run_recording(rec, _config(40.0))
     fused = run_recording(rec, _config(40.0, backend="numba"))
     assert fused.record.engine == "fused"

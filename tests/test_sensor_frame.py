@@ -148,11 +148,10 @@ def test_the_view_test_is_the_sensors_own():
 
 
 @pytest.mark.parametrize("gate", [False, True])
-def test_the_fused_engine_takes_scans_from_their_own_radars_as_the_orchestrator(gate):
+def test_the_fused_engine_takes_scans_from_their_own_radars_in_each_form(gate):
     """The car park's scans seen by three radars in turn (front, left turned 88 deg, rear turned
-    -176 deg, each with its own field of view): the fused engine and the Python reference give the
-    same associations and landmark counts and poses and covariances to 1e-9; so does the orchestrator's
-    steps (``engine="orchestrator"``)."""
+    -176 deg, each with its own field of view): the compiled engine, its steps form and the Python
+    reference give the same associations and landmark counts and poses and covariances to 1e-9."""
     pytest.importorskip("numba")
     from radarslam.core.mounting import detections_to_sensor
 
@@ -171,8 +170,8 @@ def test_the_fused_engine_takes_scans_from_their_own_radars_as_the_orchestrator(
         events.append(e)
     py = run_filter(dataclasses.replace(cfg, filter=dataclasses.replace(cfg.filter, backend="python")), events)
     fu = run_filter(cfg, events)
-    orch = run_filter(cfg, events, engine="orchestrator")
-    assert (py.engine, fu.engine, orch.engine) == ("fused-python", "fused", "orchestrator")
+    orch = run_filter(cfg, events, engine="fused-steps")
+    assert (py.engine, fu.engine, orch.engine) == ("fused-python", "fused", "fused-steps")
     for other in (py, orch):
         np.testing.assert_array_equal(other.n_associated, fu.n_associated)
         np.testing.assert_array_equal(other.n_landmarks, fu.n_landmarks)
@@ -201,8 +200,8 @@ def test_a_radar_ahead_gives_the_nis_and_accuracy_of_the_same_drive_at_the_axle(
 
     Run on the default engine (the fused one, on the session's compiled cache; 1 s for the 24 drives
     against 14 s on the Python reference): the same means to 1e-12 (measured: NIS 1.84991, 1.86119, 4.13800,
-    RMSE 0.395368, 0.387860, 1.372445 m on both), and test_the_fused_engine_takes_scans_from_their_own_radars_as_
-    the_orchestrator holds the two to 1e-9 on mounted radars."""
+    RMSE 0.395368, 0.387860, 1.372445 m on both), and test_the_fused_engine_takes_scans_from_their_own_radars_in_
+    each_form holds the forms to 1e-9 on mounted radars."""
     from radarslam.core.mounting import detections_to_platform
     from radarslam.io.recording.synthetic import synthetic_recording
 

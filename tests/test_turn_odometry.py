@@ -141,18 +141,16 @@ def test_turn_noise_matches_a_monte_carlo_of_the_heading():
 
 def test_measurement_corr_scans_scales_r_and_the_fused_engine_carries_both():
     """``measurement_corr_scans`` n_c: association and update take ``n_c R`` (c.11.9), landmark
-    creation keeps R; the fused engine carries both new options (its runs equal the orchestrator's,
+    creation keeps R; the fused engine carries both new options (its runs equal its steps form's,
     tests/test_fused_victoria_park.py); n_c < 1 and a negative gain are refused, and turn noise
     needs a model with a turning input."""
     cfg = _plain_trees()
     base = EkfSlam(cfg)
-    assert _fused.why_not(base) is None and base.R_assoc is base.R
+    assert base.R_assoc is base.R
     corr = EkfSlam(replace(cfg, filter=replace(cfg.filter, measurement_corr_scans=4.0)))
     np.testing.assert_allclose(corr.R_assoc, 4.0 * base.R, rtol=1e-15)
     np.testing.assert_allclose(corr.R, base.R, rtol=0)
-    assert _fused.why_not(corr) is None
-    turn = EkfSlam(replace(cfg, filter=replace(cfg.filter, turn_noise_gain=0.3)))
-    assert _fused.why_not(turn) is None
+    EkfSlam(replace(cfg, filter=replace(cfg.filter, turn_noise_gain=0.3)))
     with pytest.raises(ConfigError, match="measurement_corr_scans"):
         validate(replace(cfg, filter=replace(cfg.filter, measurement_corr_scans=0.5)))
     with pytest.raises(ConfigError, match="turn_noise_gain"):

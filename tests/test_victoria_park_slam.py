@@ -342,7 +342,7 @@ def test_sensitivity_script_at_reduced_size(victoria_park_dir, monkeypatch):
 def test_sensitivity_script_lays_a_candidate_under_the_variants(victoria_park_dir):
     """scripts/victoria_park_sensitivity.py's overlay (``--config``, c.11.7): a candidate's keys are
     laid over the profile before the variant's change. Under FEJ the JCBB row runs with the standard
-    Jacobians (its orchestrated form has no first estimates), so it equals the JCBB row without the
+    Jacobians (its event-by-event form has no first estimates), so it equals the JCBB row without the
     candidate to the last digit, while the FEJ candidate's own row differs from the profile's (the
     overlay is applied: the negative control). 300 scans of the tree input."""
     import importlib.util

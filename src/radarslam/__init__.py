@@ -5,7 +5,7 @@ Sub-packages, dependencies pointing one way
 
 - :mod:`radarslam.core`        angles, linear algebra, validation, event types
 - :mod:`radarslam.models`      motion (odometry) and range-azimuth radar models with Jacobians
-- :mod:`radarslam.slam`        EKF-SLAM maths and the :class:`~radarslam.slam.filter.EkfSlam` orchestrator
+- :mod:`radarslam.slam`        EKF-SLAM maths, the fused engine and the :class:`~radarslam.slam.filter.EkfSlam` filter
 - :mod:`radarslam.landmarks`   sifting, log-distance association, DBSCAN, confirmation, M/N, merging
 - :mod:`radarslam.extent`      random-matrix (RMA) and ellipse-fitting (EFA) extents, GWD
 - :mod:`radarslam.simulation`  the car park of the APSIPA / seed papers

@@ -66,11 +66,8 @@ def stream_first_run(config, n_scans: int, n_detections: int):
     """The plan of a recording's run (:func:`radarslam.compiling.stream_plan.first_run_plan`), its
     first line said on stderr."""
     from radarslam.compiling.stream_plan import first_run_plan
-    from radarslam.slam import _fused
-    from radarslam.slam.filter import EkfSlam
 
-    fused = _fused.why_not(EkfSlam(config)) is None
-    plan = first_run_plan(config, n_scans, fused, n_detections=n_detections)
+    plan = first_run_plan(config, n_scans, bool(config.filter.fused), n_detections=n_detections)
     if plan.announce:
         print(f"run: {plan.announce}", file=sys.stderr, flush=True)
     return plan

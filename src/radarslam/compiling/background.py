@@ -1,7 +1,7 @@
 """Compile the fused engine in a detached, low-priority process, for the runs that come after.
 
-The first Monte Carlo on a machine runs its trials with the per-event orchestrator when that ends
-sooner than compiling the fused engine first (:func:`radarslam.compiling.warmup.first_run_engine`).
+The first Monte Carlo on a machine runs its trials with the engine's steps form when that ends
+sooner than compiling the fused engine's whole loop first (:func:`radarslam.compiling.warmup.first_run_engine`).
 The fused engine is then compiled here, in a process of its own that outlives the command: at the
 lowest CPU priority (``nice 19``), so that it takes the cores only when the run leaves them idle,
 in a process group of its own (Ctrl-C on the command does not reach it), with its output in a log

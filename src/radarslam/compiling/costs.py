@@ -10,46 +10,45 @@ from __future__ import annotations
 #: simulation and the evaluation's ~20 s included, which the warm-up compiles beside on the second
 #: core): seconds per variant and trial with a warm cache, fused engine and orchestrator; wall
 #: seconds to fill a cold cache for each.
-FUSED_S, ORCHESTRATOR_S = 0.0105, 0.0432
+FUSED_S, STEPS_S = 0.0105, 0.0432
 
 
 #: FUSED_COMPILE_S: the default family's engine alone since the fused steps compile once as functions
 #: without entry points (``NUMBA_CACHE_DIR=$(mktemp -d) python benchmarks/compile_table.py
 #: --cases carpark``: 130.4-146.5 s of CPU in four runs, mean 138).
-FUSED_COMPILE_S, ORCHESTRATOR_COMPILE_S = 140.0, 20.0
+FUSED_COMPILE_S, STEPS_COMPILE_S = 140.0, 20.0
 
 
 #: A short Monte Carlo's warm-up (:func:`warm_up`), wall seconds on two cores: the default variants'
 #: orchestrator kernels, the simulation and the evaluation, split over two processes
 #: (:func:`_short_side`). Measured (``radarslam reproduce --trials 200`` from an empty cache, the
 #: first line to the first trial): 27.2 s, and 26.3 / 26.4 s for the two processes alone.
-ORCHESTRATOR_WARM_UP_S = 27.0
+STEPS_WARM_UP_S = 27.0
 
 
 def first_run_engine(n_trials: int, n_variants: int, jobs: int) -> str:
     """The engine that ends a run of ``n_trials`` trials of ``n_variants`` variants on ``jobs``
     workers sooner from a cold cache: ``"auto"`` (compile the fused engine first) or
-    ``"orchestrator"``. With the constants above and three variants on two workers the
-    orchestrator is chosen up to 2,303 trials."""
+    ``"steps"`` (the engine's steps form over its compiled kernels)."""
     par = max(1, min(int(jobs), int(n_trials)))
     work = n_trials * n_variants / par
     fused = FUSED_COMPILE_S + work * FUSED_S
-    orchestrator = ORCHESTRATOR_WARM_UP_S + work * ORCHESTRATOR_S
-    return "orchestrator" if orchestrator < fused else "auto"
+    steps = STEPS_WARM_UP_S + work * STEPS_S
+    return "steps" if steps < fused else "auto"
 
 
 #: Seconds per scan of a real recording, orchestrator and fused engine (``python
 #: benchmarks/bench_dataset.py``: Victoria Park's raw laser, the slower mode, over the whole run;
 #: the orchestrator's figure is its first 1,000 scans' 1.5 ms, doubled for the larger map later).
-ORCHESTRATOR_SCAN_S, FUSED_SCAN_S = 0.003, 0.0011
+STEPS_SCAN_S, FUSED_SCAN_S = 0.003, 0.0011
 
 
 def first_run_engine_scans(n_scans: int) -> str:
     """:func:`first_run_engine` for one run of ``n_scans`` scans of a recording, on one core:
-    ``"orchestrator"`` up to about 63,000 scans with the constants above."""
+    ``"steps"`` up to tens of thousands of scans with the constants above."""
     fused = FUSED_COMPILE_S + n_scans * FUSED_SCAN_S
-    orchestrator = ORCHESTRATOR_COMPILE_S + n_scans * ORCHESTRATOR_SCAN_S
-    return "orchestrator" if orchestrator < fused else "auto"
+    steps = STEPS_COMPILE_S + n_scans * STEPS_SCAN_S
+    return "steps" if steps < fused else "auto"
 
 
 #: The first run of ``run --dataset`` on a machine whose numba cache is empty (measured on this
@@ -59,7 +58,7 @@ def first_run_engine_scans(n_scans: int) -> str:
 #: landmarks), the orchestrator's kernels 26.2 s to compile in one process (7.6 s within the first
 #: scan, 19.0 s within the second: the association, 10 s, and the extent step), of which the
 #: extent and clustering steps compile in a second process beside (:func:`_compile_beside`) so that
-#: this process pays ORCHESTRATOR_COMPILE_S; the run itself then costs warmup.ORCHESTRATOR_SCAN_S
+#: this process pays STEPS_COMPILE_S; the run itself then costs warmup.STEPS_SCAN_S
 #: a scan (25.5 s for the whole park warm, 3.5 ms a scan). The reference ends sooner up to about
 #: 1,400 scans (``--scans``): a first short run starts at once.
 PYTHON_SCAN_S = 0.0168

@@ -3,12 +3,12 @@
 
 Every command asks :func:`plan` with its :class:`Workload` (one simulated trial, a Monte Carlo's
 trials, a recorded stream of scans and detections) and gets one :class:`Plan`: the engine that
-ends the run soonest by the measured costs of :mod:`.costs` (the fused engine, compiled first if
-it must be; the per-event orchestrator, its kernels compiled first if they must be; or the Python
-reference, at once), which parts go through their reference, whether numba compiles in the
-foreground and for how long, whether the fused engine should compile in the background for the
-runs that come after, and the first line that says so. Every engine gives the same results (the
-reference and the orchestrator to 1e-9 with the same associations; tests/test_backends.py).
+ends the run soonest by the measured costs of :mod:`.costs` (the fused engine compiled, first if
+it must be; its steps form over its compiled kernels, those compiled first if they must be; or its
+Python form, at once), which parts go through their reference, whether numba compiles in the
+foreground and for how long, whether the compiled engine should compile in the background for the
+runs that come after, and the first line that says so. Every form gives the same results (the same
+code; tests/test_engine_forms.py).
 Readiness is read by :mod:`.readiness`; nothing here compiles or starts a process.
 """
 
@@ -16,10 +16,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from radarslam.compiling.costs import (FUSED_COMPILE_S, FUSED_SCAN_S, ORCHESTRATOR_COMPILE_S, ORCHESTRATOR_SCAN_S,
+from radarslam.compiling.costs import (FUSED_COMPILE_S, FUSED_SCAN_S, STEPS_COMPILE_S, STEPS_SCAN_S,
                                        PYTHON_DETECTION_SCAN_S, PYTHON_SCAN_S, first_run_engine,
                                        first_run_engine_scans)
-from radarslam.compiling.readiness import (_orchestrator_is_cold, cache_is_cold, engines, fused_families,
+from radarslam.compiling.readiness import (_steps_are_cold, cache_is_cold, engines, fused_families,
                                            fused_is_cold, ready)
 from radarslam.config import Config
 from radarslam.core.errors import ConfigError
@@ -43,7 +43,7 @@ class Workload:
     simulation, matching : bool
         A trial also simulates the car park and matches the map to its truth (their own kernels).
     fused : bool
-        The fused engine covers the configuration (:func:`radarslam.slam._fused.why_not`).
+        The configuration asks for the compiled engine (``filter.fused``).
     """
 
     kind: str
@@ -65,8 +65,8 @@ class Plan:
     ----------
     engine : str
         ``"auto"`` (the configuration's: the fused engine where it covers it, every part ready or
-        compiled first), ``"fused"``, ``"orchestrator"`` (event by event, compiled steps) or
-        ``"python"`` (the reference).
+        compiled first), ``"fused"``, ``"steps"`` (the engine's steps form, its kernels compiled) or
+        ``"python"`` (its Python form, the reference).
     compiles : bool
         numba compiles in the foreground within this run, for about ``compile_s`` seconds.
     announce : str
@@ -141,32 +141,30 @@ def _trial(config: Config, w: Workload) -> Plan:
                 background=bool(parts))
 
 
-# --- a Monte Carlo: compile the fused engine first, or run a short one by the orchestrator -------
+# --- a Monte Carlo: compile the fused engine first, or run a short one by its steps form ---------
 
 def _trials(config: Config, w: Workload) -> Plan:
     """Warm: nothing to do. Cold: the fused engine compiled first, or (a run short enough to end
-    sooner so, :func:`~.costs.first_run_engine`) the orchestrator's kernels, the fused engine then
+    sooner so, :func:`~.costs.first_run_engine`) the kernels of its steps form, the fused engine then
     compiling in the background."""
     families = fused_families(config, w.variants)
     if not cache_is_cold(*families):
         return Plan()
     short = (w.n_trials > 0 and fused_is_cold(*families)
-             and first_run_engine(w.n_trials, max(1, len(w.variants)), w.jobs) == "orchestrator")
+             and first_run_engine(w.n_trials, max(1, len(w.variants)), w.jobs) == "steps")
     if short:
-        return Plan("orchestrator", compiles=_orchestrator_is_cold(), background=True)
+        return Plan("steps", compiles=_steps_are_cold(), background=True)
     return Plan("auto", compiles=True)
 
 
 # --- a recorded stream: what ends sooner, from its size ------------------------------------------
 
-def _orchestrator_ready() -> bool:
-    """True when the kernels of a run event by event are compiled or cached: the associators, the
-    M/N rules and the extent step (the last to compile)."""
-    from radarslam.extent._compiled import rma_efa_rows
-    from radarslam.landmarks._compiled import compiled_rule12
-    from radarslam.slam._numba import associate_scan, batch_associate_scan
+def _steps_ready() -> bool:
+    """True when the kernels the engine's steps form calls are compiled or cached (readiness.py
+    ``steps_kernels``)."""
+    from radarslam.compiling.readiness import steps_kernels
 
-    return (ready(compiled_rule12) and ready(rma_efa_rows)) and (ready(batch_associate_scan) or ready(associate_scan))
+    return all(ready(d) for d in steps_kernels())
 
 
 def _gate_ready(config: Config) -> bool:
@@ -197,29 +195,29 @@ def python_seconds(n_scans: int, n_detections: int = 0) -> float:
 
 
 def _stream(config: Config, w: Workload) -> Plan:
-    """The fused engine when it covers the configuration and its machine code is ready, or when a
-    stream this long ends sooner compiling it (:func:`~.costs.first_run_engine_scans`); else event by
-    event: the compiled orchestrator when its kernels are ready, else what ends sooner, the Python
-    reference at once (:func:`python_seconds`) or the orchestrator after numba compiles its kernels.
-    The fused engine then compiles in the background for later runs (``background``)."""
+    """The compiled engine (``filter.fused``) when its machine code is ready, or when a stream this long
+    ends sooner compiling it (:func:`~.costs.first_run_engine_scans`); else the engine's steps form when
+    its kernels are ready, else what ends sooner, the Python form at once (:func:`python_seconds`) or
+    the steps form after numba compiles its kernels. The compiled engine then compiles in the background
+    for later runs (``background``)."""
     n = w.n_scans
     if w.fused and _fused_ready(*fused_families(config)):
         return Plan("fused", expected_s=n * FUSED_SCAN_S)     # its progress moves part by part (fused/chunks.py)
     if w.fused and first_run_engine_scans(n) == "auto":
         return Plan("fused", compiles=True, announce=COMPILING, expected_s=FUSED_COMPILE_S + n * FUSED_SCAN_S)
-    if _orchestrator_ready() and _gate_ready(config):
-        return Plan("orchestrator", background=w.fused, expected_s=n * ORCHESTRATOR_SCAN_S, announce=(
+    if _steps_ready() and _gate_ready(config):
+        return Plan("steps", background=w.fused, expected_s=n * STEPS_SCAN_S, announce=(
             f"the fused engine is not compiled on this machine yet and {n} scans end sooner without it: this run goes "
-            "event by event (the same results)") if w.fused else "")
+            "through the engine's steps form (the same results)") if w.fused else "")
     python_s = python_seconds(n, w.n_detections)
-    run_s = n * ORCHESTRATOR_SCAN_S
-    if python_s <= ORCHESTRATOR_COMPILE_S + run_s:
+    run_s = n * STEPS_SCAN_S
+    if python_s <= STEPS_COMPILE_S + run_s:
         return Plan("python", background=w.fused, reference_parts=("filter",), expected_s=python_s, announce=(
             f"first run on this machine: the compiled code is not built yet, so these {n} scans go through the "
             f"Python reference (about {python_s:.0f} s; compiling first would take about "
-            f"{ORCHESTRATOR_COMPILE_S + run_s:.0f} s; the same results)"))
-    return Plan("orchestrator", True, ORCHESTRATOR_COMPILE_S, background=w.fused,
-                expected_s=ORCHESTRATOR_COMPILE_S + run_s, announce=(
-        f"first run on this machine: compiling the per-event engine's kernels (once per machine, about "
-        f"{ORCHESTRATOR_COMPILE_S:.0f} s on two cores), then {n} scans event by event (about {run_s:.0f} s; the "
+            f"{STEPS_COMPILE_S + run_s:.0f} s; the same results)"))
+    return Plan("steps", True, STEPS_COMPILE_S, background=w.fused,
+                expected_s=STEPS_COMPILE_S + run_s, announce=(
+        f"first run on this machine: compiling the kernels of the engine's steps (once per machine, about "
+        f"{STEPS_COMPILE_S:.0f} s on two cores), then {n} scans through its steps form (about {run_s:.0f} s; the "
         f"Python reference would take about {python_s:.0f} s; the same results)"))

@@ -1,5 +1,5 @@
 """Whether numba's cache already holds the machine code a command needs (docs/speed.md "First run"):
-the fused engine of each family, the orchestrator's kernels, the scan simulation and the
+the fused engine of each family, the kernels its steps form calls, the scan simulation and the
 evaluation's matching. Nothing here compiles.
 
 What the cache holds is read from radarslam's own markers (:mod:`.markers`), never out of numba's
@@ -21,9 +21,18 @@ from radarslam.config.variants import Variant, apply_variant
 #: The compiled functions the policy (:mod:`.policy`) asks about, beside the fused engine's
 #: families: ``(module, name)``.
 WATCHED = (("radarslam.simulation._compiled", "simulate_scans"), ("radarslam.metrics._compiled", "match_scans"),
-           ("radarslam.slam._numba", "associate_scan"), ("radarslam.slam._numba", "batch_associate_scan"),
-           ("radarslam.landmarks._compiled", "compiled_rule12"), ("radarslam.extent._compiled", "rma_efa_rows"),
+           *(STEPS_KERNELS := (("radarslam.slam._numba", "associate_scan"), ("radarslam.slam._numba", "batch_associate_scan"),
+                               ("radarslam.landmarks._compiled", "compiled_mn_windows"),
+                               ("radarslam.extent._compiled", "merge_rows"))),
            ("radarslam.models._doppler_compiled", "classify_scan"))
+
+
+def steps_kernels() -> list:
+    """The kernels of :data:`STEPS_KERNELS` (imported): those the engine's steps form compiles last on a
+    first scan, whose machine code says its kernels are ready."""
+    import importlib
+
+    return [getattr(importlib.import_module(m), name) for m, name in STEPS_KERNELS]
 
 
 def has_fresh_code(dispatcher) -> bool | None:
@@ -65,14 +74,12 @@ def fused_families(config: Config, variants: tuple[Variant, ...] = ()) -> tuple:
     ``config`` under each of ``variants`` (none: ``config`` itself) runs with, as arguments for
     :func:`cache_is_cold`, :func:`fused_is_cold` and :func:`.first_run._filter_ready`: empty when
     that is the default family alone (or the fused engine covers none of them)."""
-    from radarslam.slam._fused import DEFAULT, family, why_not
+    from radarslam.slam._fused import DEFAULT, family
     from radarslam.slam.filter import EkfSlam
 
     found = set()
     for v in variants or (None,):
-        slam = EkfSlam(config if v is None else apply_variant(config, v))
-        if why_not(slam) is None:
-            found.add(family(slam))
+        found.add(family(EkfSlam(config if v is None else apply_variant(config, v))))
     return () if found <= {DEFAULT} else tuple(sorted(found))
 
 
@@ -100,14 +107,13 @@ def fused_is_cold(*families) -> bool:
     return any(has_fresh_code(d) is False for d in engines(families))
 
 
-def _orchestrator_is_cold() -> bool:
+def _steps_are_cold() -> bool:
     """True when the kernels a short first run needs (the simulation, the evaluation's matching
-    and the orchestrator's nearest-neighbour associator) have no fresh cached code."""
+    and the engine's steps form's, :func:`steps_kernels`) have no fresh cached code."""
     from radarslam.metrics._compiled import match_scans
     from radarslam.simulation._compiled import simulate_scans
-    from radarslam.slam._numba import associate_scan
 
-    return any(has_fresh_code(d) is False for d in (simulate_scans, match_scans, associate_scan))
+    return any(has_fresh_code(d) is False for d in (simulate_scans, match_scans, *steps_kernels()))
 
 
 def ready(dispatcher) -> bool:

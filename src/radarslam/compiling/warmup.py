@@ -10,13 +10,12 @@ runs one trial with the Python filter (``filter.backend = "python"`` runs no com
 Both write numba's cache, from which the first real trial and every worker then load. Results are
 not touched: the warm-up's outputs are thrown away.
 
-Compiling the fused engine costs far more (about 215 s of the 235 s on one core) than compiling the
-kernels the per-event orchestrator calls (about 27 s on two cores), while a trial then runs about 4x
-faster. A Monte Carlo short enough to end sooner without it (:func:`first_run_engine`, from the
-costs measured by ``benchmarks/bench_compile.py``) therefore runs its trials with the
-orchestrator, the same associations and values to 1e-9, and leaves the fused engine to a detached
-low-priority process (:mod:`.background`) for the runs that come after. Each trial's meta says
-which engine ran it.
+Compiling the fused engine's whole loop costs far more than compiling the kernels its steps form
+calls (its steps as Python, slam/fused/engine.py ``form``), while a trial then runs about 4x faster.
+A Monte Carlo short enough to end sooner without it (:func:`first_run_engine`, from the costs
+measured by ``benchmarks/bench_compile.py``) therefore runs its trials in the steps form, the same
+results, and leaves the whole loop to a detached low-priority process (:mod:`.background`) for the
+runs that come after. Each trial's meta says which form ran it.
 """
 
 from __future__ import annotations
@@ -26,7 +25,7 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
-from radarslam.compiling.costs import FUSED_COMPILE_S, ORCHESTRATOR_WARM_UP_S
+from radarslam.compiling.costs import FUSED_COMPILE_S, STEPS_WARM_UP_S
 from radarslam.compiling.heartbeat import _heartbeat
 from radarslam.compiling.policy import COMPILING, Workload, plan
 from radarslam.compiling.readiness import mark_compiled
@@ -35,8 +34,8 @@ from radarslam.config.variants import Variant, apply_variant
 from radarslam.core.types import Odometry, Scan
 from radarslam.slam.driver import run_filter
 
-#: ... and when this run's trials go through the orchestrator (:func:`first_run_engine`).
-COMPILING_SHORT = ("compiling the numba kernels the per-event engine uses (once per machine, about {s:.0f} s); "
+#: ... and when this run's trials go through the engine's steps form (:func:`first_run_engine`).
+COMPILING_SHORT = ("compiling the numba kernels the engine's steps use (once per machine, about {s:.0f} s); "
                    "this run is short, so it does not wait for the fused engine")
 
 
@@ -67,10 +66,10 @@ def _side(cfg_dict: dict, overlay: dict) -> None:
     mark_compiled()          # a pool's process ends without running atexit
 
 
-def _orchestrator_trial(config: Config, variants: tuple[Variant, ...], evaluation: bool = False,
-                        simulation: bool = False) -> None:
-    """One car park through every variant with the orchestrator: what a real trial makes numba
-    compile of the orchestrator's kernels; with ``evaluation``, the evaluation's matching of the
+def _steps_trial(config: Config, variants: tuple[Variant, ...], evaluation: bool = False,
+                 simulation: bool = False) -> None:
+    """One car park through every variant by the engine's steps form: what a real trial makes numba
+    compile of the kernels the steps call; with ``evaluation``, the evaluation's matching of the
     first variant's run too; with ``simulation``, the car park by the compiled scan simulation
     (else by its reference, which compiles nothing)."""
     from radarslam.simulation.trial import evaluate
@@ -78,7 +77,7 @@ def _orchestrator_trial(config: Config, variants: tuple[Variant, ...], evaluatio
 
     scenario = generate_scenario(config, np.random.default_rng(0), compiled=simulation)
     for i, v in enumerate(variants):
-        rec = run_filter(apply_variant(config, v), scenario.events, engine="orchestrator")
+        rec = run_filter(apply_variant(config, v), scenario.events, engine="fused-steps")
         if evaluation and i == 0:
             evaluate(apply_variant(config, v), scenario, rec)
     mark_compiled()
@@ -86,13 +85,9 @@ def _orchestrator_trial(config: Config, variants: tuple[Variant, ...], evaluatio
 
 def _short_side(cfg_dict: dict, variants: tuple[Variant, ...]) -> None:
     """Second process of a short first run: the scan simulation, then ``variants`` through the
-    orchestrator (the main process takes the others and the evaluation). Measured from
-    an empty cache (``python benchmarks/compile_table.py --cases orchestrator,simulation``, CPU s):
-    the three default variants' orchestrator kernels 31.2 (17.3 + 1.0 + 12.9, the last one's
-    batch-joint associator most of its share), the simulation and the evaluation 16.2; split so,
-    26.3 and 26.4 s of wall for the two processes side by side (some callees compile in both),
-    against 31 and 16 when the main process compiled every variant."""
-    _orchestrator_trial(from_dict(cfg_dict), variants, simulation=True)
+    engine's steps form (the main process takes the others and the evaluation), so that the kernels
+    compile on both cores."""
+    _steps_trial(from_dict(cfg_dict), variants, simulation=True)
 
 
 def _background(config: Config, variants: tuple[Variant, ...], log: Callable[[str], None]) -> None:
@@ -102,8 +97,8 @@ def _background(config: Config, variants: tuple[Variant, ...], log: Callable[[st
 
     where = f"log {background.lock_path().with_suffix('.log')}"
     if background.enabled() and background.busy():
-        log(f"montecarlo: the fused engine is still compiling in the background ({where}); this run uses the "
-            "per-event engine, with the same results")
+        log(f"montecarlo: the fused engine is still compiling in the background ({where}); this run uses its "
+            "steps form, with the same results")
         return
     pid = background.start(to_dict(config), variants_to_json(variants))
     if pid is not None:
@@ -115,19 +110,19 @@ def warm_up(config: Config, variants: tuple[Variant, ...], log: Callable[[str], 
             n_trials: int | None = None, jobs: int = 1) -> str:
     """Compile the backend before the first trial when the cache is cold (module docstring); a
     no-op, silent, when it is warm or the backend is ``python``. Returns the ``engine`` the trials
-    run with (:func:`~.single.run_filter`): ``"orchestrator"`` when ``n_trials`` (None: unknown,
+    run with (:func:`~.single.run_filter`): ``"fused-steps"`` when ``n_trials`` (None: unknown,
     compile the fused engine) on ``jobs`` workers end sooner so (:func:`first_run_engine`), the
     fused engine then compiling in the background (:mod:`.background`); else ``"auto"``."""
     p = plan(config, Workload("trials", n_trials=n_trials if n_trials is not None else 0, jobs=jobs,
                               variants=tuple(variants)))
     if p.engine == "auto" and not p.compiles:    # warm, or the reference: nothing to compile
         return "auto"
-    short = p.engine == "orchestrator"
+    short = p.engine == "steps"
     if short:
         _background(config, variants, log)
         if not p.compiles:
-            return "orchestrator"
-    log(f"montecarlo: {COMPILING_SHORT.format(s=ORCHESTRATOR_WARM_UP_S) if short else COMPILING}")
+            return "fused-steps"
+    log(f"montecarlo: {COMPILING_SHORT.format(s=STEPS_WARM_UP_S) if short else COMPILING}")
     side = None
     mine, theirs = variants, ()
     if parallel:
@@ -137,12 +132,12 @@ def warm_up(config: Config, variants: tuple[Variant, ...], log: Callable[[str], 
             job = side.submit(_short_side, to_dict(config), theirs)
         else:
             job = side.submit(_side, to_dict(config), dict(variants[0].overlay))
-    expected = ORCHESTRATOR_WARM_UP_S if short else FUSED_COMPILE_S
+    expected = STEPS_WARM_UP_S if short else FUSED_COMPILE_S
     beat = _heartbeat(expected, "montecarlo: still compiling the numba kernels")
     beat.__enter__()
     try:
         if short:
-            _orchestrator_trial(config, mine, evaluation=side is not None)
+            _steps_trial(config, mine, evaluation=side is not None)
         else:
             compile_fused(config, variants)      # each variant's family
         if side is None:                         # one core: the simulation and the evaluation next, here
@@ -155,4 +150,4 @@ def warm_up(config: Config, variants: tuple[Variant, ...], log: Callable[[str], 
                 log(f"montecarlo: the second compiling process failed ({type(exc).__name__}); compiling on one core")
             side.shutdown(wait=True)
         beat.__exit__(None, None, None)
-    return "orchestrator" if short else "auto"
+    return "fused-steps" if short else "auto"

@@ -49,8 +49,8 @@ class FilterConfig:
     backend: str = param("numba", "how the filter's steps run: 'numba' (compiled, the default) or 'python' (the "
                          "reference, for checking: the same functions by the interpreter; docs/architecture.md "
                          "\"Backends\")", choices=BACKENDS)
-    fused: bool = param(True, "run the events through the fused engine (docs/architecture.md \"The fused engine\"), "
-                        "whose steps are written once; false = the orchestrator's steps, scan by scan")
+    fused: bool = param(True, "run the events through the fused engine compiled whole (docs/architecture.md \"The "
+                        "fused engine\"); false = its steps form, the same steps as Python over the compiled kernels")
     initial_pose: list[float] = param([0.1, 0.1, math.pi / 180.0], "initial estimate [x_m, y_m, theta_rad]", length=3)
     initial_pose_std: list[float] = param([0.15, 0.15, math.pi / 180.0], "initial std [x_m, y_m, theta_rad] of the "
                                           "simulation (b.5) and of a recording run started at filter.initial_pose "
@@ -134,7 +134,7 @@ class FilterConfig:
                                         low=0.0)
     odometry_bias: str = param("none", "[PROP] systematic odometry errors (c.11): none (white noise U only, the "
                                "paper) or states (a speed scale and a steering or turn-rate offset estimated as "
-                               "slowly varying states after the pose; orchestrator only)", choices=("none", "states"))
+                               "slowly varying states after the pose)", choices=("none", "states"))
     bias_scale_std: float = param(0.05, "[PROP] prior std of the speed-scale error eps (v = (1 + eps) v_meas; c.11)",
                                   low=0.0)
     bias_scale_drift_per_rt_s: float = param(1e-5, "[PROP] random-walk intensity of eps (1/sqrt(s); c.11)", low=0.0)
@@ -183,11 +183,10 @@ class FilterConfig:
                                    choices=("refuse", "allow"))
     turn_noise_gain: float = param(0.0, "[PROP] k: each odometry sample's turning-input variance grows by (k u_turn)^2 "
                                    "(steering in rad, turn rate in rad/s), heteroscedastic input noise; 0: U alone "
-                                   "(c.11.8; orchestrator only)", low=0.0)
+                                   "(c.11.8)", low=0.0)
     measurement_corr_scans: float = param(1.0, "[PROP] n_c >= 1: a landmark's measurement error is correlated over "
                                           "consecutive scans with integrated correlation time n_c scans; association "
-                                          "and updates take the equivalent white noise n_c R (c.11.9; orchestrator "
-                                          "only)", low=1.0)
+                                          "and updates take the equivalent white noise n_c R (c.11.9)", low=1.0)
     bias_tau_s: float = param(0.0, "[PROP] 0: the bias states are random walks; > 0: first-order Gauss-Markov "
                               "processes about 0 with this time constant (s), the drift driving them (c.11)", low=0.0)
     odometry_tau_s: float = param(0.0, "[PROP] 0: U is white noise per odometry sample (the paper); > 0: the input "

@@ -191,7 +191,7 @@ def _run_locked(store, config, seed, n_trials, variants, jobs, scheduler, dask_l
         # A cold numba cache is filled here, on two cores, before any trial or local worker starts
         # (compiling/warmup.py), and the progress output says so; the workers then load it
         # instead of each compiling the same code (benchmarks/bench_compile.py). A short local run
-        # goes through the orchestrator meanwhile, the fused engine compiling in the background.
+        # goes through the engine's steps form meanwhile, the whole loop compiling in the background.
         engine = warm_up(config, variants, log, parallel=local_workers,
                          n_trials=len(todo) if dask_local is None else None, jobs=jobs)
         bar.restart()

@@ -24,19 +24,8 @@ from radarslam.metrics.alignment import error_against_fixes
 from radarslam.models.radar import polar_to_xy
 from radarslam.runs.recording import RecordingRun
 from radarslam.runs.stream_run import refuse_drawn_start, run_stream
-from radarslam.slam import _fused
 from radarslam.slam.driver import Observer
-from radarslam.slam.filter import EkfSlam
-from radarslam.compiling.stream_plan import (  # noqa: F401  (re-exported: their former home)
-    HEARTBEAT_S,
-    ORCHESTRATOR_COMPILE_S,
-    PYTHON_SCAN_S,
-    FirstRunPlan,
-    _compile_beside,
-    _heartbeat,
-    _with_backend,
-    first_run_plan,
-)
+from radarslam.compiling.stream_plan import first_run_plan
 
 #: Radius (m) within which a reference trunk detection is attributed to the nearest landmark.
 #: Trunks in the park stand metres apart; a landmark centroid sits about pi d / 8 (< 0.4 m for
@@ -61,17 +50,15 @@ def victoria_park_options(config: Config, input: str = "laser", **extra) -> dict
 
 def run_dataset(name: str, path, config: Config, *, first_scan: int | None = None, n_scans: int | None = None,
                 progress: bool = True, loader_options: dict | None = None) -> RecordingRun:
-    """Load dataset ``name`` from ``path`` and run :class:`EkfSlam` over its event stream as a
+    """Load dataset ``name`` from ``path`` and run the filter over its event stream as a
     recording's is run (:func:`~radarslam.runs.stream_run.run_stream`): a :class:`RecordingRun`
     whose ``recording`` is the loaded data, with its ``gps`` and, in Victoria Park's laser mode,
     ACFR's tree detections attributed to the landmarks after each scan (``reference_hits``); the
     map is kept after the last scan only, and ``metrics`` holds ``load_seconds``.
 
-    A configuration the fused engine covers (:func:`radarslam.slam._fused.why_not`; the Victoria
-    Park profiles of both input modes do) runs the whole stream compiled and gives the
-    same run (docs/architecture.md "The fused engine"); any other runs event by event. On a machine
-    whose compiled code is not built yet, :func:`first_run_plan` picks what ends sooner and says so
-    on the first line of stderr."""
+    The whole stream runs through the fused engine (docs/architecture.md "The fused engine"). On a
+    machine whose compiled code is not built yet, :func:`first_run_plan` picks what ends sooner (the
+    engine's steps or Python form, the same run) and says so on the first line of stderr."""
     from radarslam.runs.progress import Progress, scan_clock
     from radarslam.io.datasets import get_dataset
 
@@ -85,7 +72,7 @@ def run_dataset(name: str, path, config: Config, *, first_scan: int | None = Non
     if getattr(data, "options", {}).get("input") == "trees":
         trees = None      # the trees are the input: there is no independent reference to attribute
     hits = _ReferenceHits(_Reference(trees, config.filter.max_range_m))
-    plan = first_run_plan(config, n, _fused.why_not(EkfSlam(config), data.events) is None)
+    plan = first_run_plan(config, n, bool(config.filter.fused))
     if plan.announce and progress:
         print(f"run: {plan.announce}", file=sys.stderr, flush=True)
     fused = plan.engine == "fused"

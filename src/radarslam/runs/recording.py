@@ -375,7 +375,8 @@ def animation_frames(run: RecordingRun) -> list[dict]:
     """What the animation draws (:class:`AnimationFrames`): the associations are not in the run's
     record, so the stream is run once more (by the same engine: the same estimate) to read them."""
     frames = AnimationFrames(run.truth)
-    drive(run.config, run.events, observers=[frames], engine="orchestrator" if run.record.engine != "fused" else "auto")
+    form = {"fused-steps": "fused-steps", "fused-python": "fused-python", "python": "fused-python"}
+    drive(run.config, run.events, observers=[frames], engine=form.get(run.record.engine, "auto"))
     return frames.frames
 
 

@@ -42,32 +42,26 @@ def run_stream(config: Config, events: list, first_run=None, *, observers: Seque
                maps: str = "all", on_scan=None, heartbeat: bool = True, on_scans=None) -> FilterRecord:
     """The filter over ``events`` (:func:`~radarslam.slam.driver.drive`, told to ``observers``) by
     the first-run plan's engine (``first_run``, a :class:`~radarslam.compiling.policy.Plan`; None:
-    the configuration's). A plan that compiles the orchestrator's kernels first splits the compile
-    over the two cores and, with ``heartbeat``, says every few seconds that it is still compiling;
-    a plan that took the Python reference for a compiled configuration records the engine
+    the configuration's): the compiled engine, its steps form or its Python form. A plan that compiles
+    the steps form's kernels first says, with ``heartbeat``, every few seconds that it is still
+    compiling; a plan that took the Python form for a compiled configuration records the engine
     ``"python"``. ``maps="last"`` keeps the map after the last scan only (a long recording).
     ``on_scan()`` and ``on_scans(n)``: :func:`~radarslam.slam.driver.drive`'s."""
-    from radarslam.compiling.stream_plan import _compile_beside, _heartbeat
+    from radarslam.compiling.heartbeat import _heartbeat
 
     engine = "auto" if first_run is None else first_run.engine
-    run_config = config
-    if engine == "python":
-        run_config = dataclasses.replace(config, filter=dataclasses.replace(config.filter, backend="python"))
-    compiles = first_run is not None and first_run.compiles and engine == "orchestrator"
-    side = _compile_beside(config, events) if compiles else None
+    compiles = first_run is not None and first_run.compiles and engine == "steps"
     with _heartbeat(first_run.compile_s if compiles and heartbeat else 0.0) as compiled:
         n = [0]
 
-        def tick():                      # numba compiles within the first two scans (stream_plan)
+        def tick():                      # numba compiles the steps' kernels within the first scans
             if on_scan is not None:
                 on_scan()
             n[0] += 1
             if n[0] == 2:
                 compiled.set()
-        record = drive(run_config, events, engine="orchestrator" if engine in ("python", "orchestrator") else "auto",
+        record = drive(config, events, engine={"python": "fused-python", "steps": "fused-steps"}.get(engine, "auto"),
                        observers=observers, maps=maps, on_scan=tick, on_scans=on_scans)
-    if side is not None:
-        side.shutdown(wait=False, cancel_futures=True)
     if engine == "python" and config.filter.backend != "python":   # the plan chose the reference (a first run)
         record.engine = "python"
     return record

@@ -111,8 +111,7 @@ def run_trial(config: Config, seed: int | np.random.SeedSequence, *, use_extent:
     scenario = generate_scenario(config, np.random.default_rng(ss), compiled=sim)
     config = with_initial_estimate(config, scenario, ss)
     if first_run is not None and first_run.filter_backend == "python":
-        python = replace(config, filter=replace(config.filter, backend="python"))
-        rec = run_filter(python, scenario.events, on_scan=on_scan, engine="orchestrator")
+        rec = run_filter(config, scenario.events, on_scan=on_scan, engine="fused-python")
         rec.engine = "python"
     else:
         rec = run_filter(config, scenario.events, on_scan=on_scan, engine=engine)

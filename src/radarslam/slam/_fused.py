@@ -19,9 +19,8 @@ from radarslam.slam.fused import (
     family,
     run,
     run_stream,
-    why_not,
 )
 
 __all__ = ["BAD_PREDICTION", "BAD_SCAN", "DEFAULT", "OK", "Family", "FusedParams", "Noise", "Stream", "engine",
-           "family", "run", "run_stream", "why_not", "_parameters", "_stream_arrays"]
+           "family", "run", "run_stream", "_parameters", "_stream_arrays"]
 

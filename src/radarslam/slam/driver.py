@@ -1,11 +1,11 @@
-"""The one event driver: a stream of odometry and scans through :class:`EkfSlam`, the estimate
-recorded after every scan (docs/architecture.md "The path of a recording").
+"""The one event driver: a stream of odometry and scans through the filter, the estimate recorded after
+every scan (docs/architecture.md "The path of a recording").
 
-:func:`drive` is the only loop over the filter above the engine. The fused engine runs the whole
-stream in compiled calls over parts of it where it covers the configuration; the orchestrator runs it event by
-event; both give the same :class:`FilterRecord`. What a command records beyond it (a detection's
-fate, a reference's hits, an animation's frames) is an :class:`Observer`, told of every scan by
-the orchestrator or of the whole run by the fused engine."""
+:func:`drive` is the only loop over the filter above the engine. A new filter runs the whole stream through
+the fused engine in calls over parts of it (slam/fused/plan.py ``run``); a given :class:`EkfSlam` runs it
+event by event (the same engine, one event per call); both give the same :class:`FilterRecord`. What a
+command records beyond it (a detection's fate, a reference's hits, an animation's frames) is an
+:class:`Observer`, told of every scan of a run event by event or of the whole run at its end."""
 
 from __future__ import annotations
 
@@ -38,9 +38,10 @@ class FilterRecord:
     seconds : float
         Wall time of the filter alone.
     engine : str
-        Which engine ran it: ``"fused"`` (compiled), ``"orchestrator"`` (per event), or the
-        fused engine's code run by the interpreter, ``"fused-steps"`` (its steps in Python over
-        compiled kernels) or ``"fused-python"`` (all of it; :func:`radarslam.slam.fused.engine.form`).
+        Which form of the fused engine ran it: ``"fused"`` (compiled), or its code run by the
+        interpreter, ``"fused-steps"`` (its steps in Python over compiled kernels) or ``"fused-python"``
+        (all of it; :func:`radarslam.slam.fused.engine.form`); ``"events"``, a given filter event by
+        event (:class:`EkfSlam`'s own form).
     times : ndarray (K,)
         The scans' times (s).
     nis_rows : ndarray (u, 2)
@@ -62,7 +63,7 @@ class FilterRecord:
     events: list = field(default_factory=list)
     nis_sum: np.ndarray = field(default_factory=lambda: np.empty(0))
     nis_count: np.ndarray = field(default_factory=lambda: np.empty(0))
-    engine: str = "orchestrator"
+    engine: str = "events"
     times: np.ndarray = field(default_factory=lambda: np.empty(0))
     nis_rows: np.ndarray = field(default_factory=lambda: np.empty((0, 2)))
     bias: np.ndarray | None = None
@@ -70,9 +71,9 @@ class FilterRecord:
     bias_units: tuple[str, ...] = ()
 
 
-#: ``engine`` of :func:`run_filter`: the fused engine where it covers the configuration, or never; or
-#: the fused engine's own code as Python, above its compiled kernels or whole (the reference).
-ENGINES = ("auto", "orchestrator", "fused-steps", "fused-python")
+#: ``engine`` of :func:`run_filter`: the configuration's form of the fused engine (compiled, or its steps
+#: form under ``filter.fused`` false), or its own code as Python, above its compiled kernels or whole.
+ENGINES = ("auto", "fused-steps", "fused-python")
 #: ``maps`` of :func:`drive`: the map after every scan, or after the last one only (a long recording).
 MAPS = ("all", "last")
 
@@ -87,7 +88,7 @@ class Observer:
         return None
 
     def after_scan(self, k: int, slam: EkfSlam, scan: Scan, report) -> None:
-        """The orchestrator ran scan ``k`` (its :class:`~radarslam.slam.filter.ScanReport`)."""
+        """The given filter ran scan ``k`` (its :class:`~radarslam.slam.filter.ScanReport`)."""
 
     def after_fused(self, slam: EkfSlam, scans: Sequence[Scan], result: dict, associations: np.ndarray) -> None:
         """The fused engine ran the stream: its arrays by name and the ``(scan, detection, landmark
@@ -103,28 +104,20 @@ def drive(config: Config, events: Sequence[Odometry | Scan], *, slam: EkfSlam | 
     second: slam/fused/chunks.py); ``on_scans(n)`` is told of the scans done ``n`` at a time (a part's,
     or one).
 
-    ``slam`` (an :class:`EkfSlam` of ``config``) runs event by event; without it, ``engine="auto"``
-    runs a configuration the fused engine covers (:func:`radarslam.slam._fused.why_not`) in one
-    compiled call, the same record (docs/architecture.md "The fused engine"), and
-    ``engine="orchestrator"`` event by event whatever the configuration (the same associations,
-    values equal to 1e-9). ``engine="fused-steps"`` and ``"fused-python"`` run the fused engine's own
-    code through the interpreter (its steps, or all of it; a configuration it does not cover is
-    refused). ``maps="last"`` keeps the map after the last scan only."""
+    ``slam`` (an :class:`EkfSlam` of ``config``) runs event by event; without it, the whole stream runs
+    through a new filter's fused engine in the form ``engine`` asks for: ``"auto"`` compiled (its steps
+    form under ``filter.fused`` false), ``"fused-steps"`` and ``"fused-python"`` the engine's own code
+    through the interpreter (its steps, or all of it). ``maps="last"`` keeps the map after the last scan
+    only."""
     if engine not in ENGINES:
         raise ConfigError(f"engine: expected one of {', '.join(ENGINES)}, got {engine!r}")
     if maps not in MAPS:
         raise ConfigError(f"maps: expected one of {', '.join(MAPS)}, got {maps!r}")
     t0 = time.perf_counter()
     if slam is None:
-        slam = EkfSlam(config, engine="orchestrator" if engine == "orchestrator" else "auto")
-        why = None if engine == "orchestrator" else _fused.why_not(slam, events)
-        if engine.startswith("fused-") and why is not None:
-            raise ConfigError(f"engine: {engine!r} runs the fused engine's configurations only, got one it does not "
-                              f"cover ({why})")
-        if engine != "orchestrator" and why is None:
-            return _drive_fused(slam, events, observers, maps, _told(on_scan, on_scans), t0,
-                                engine.removeprefix("fused-") if engine.startswith("fused-") else "compiled")
-    elif engine.startswith("fused-"):
+        how = engine.removeprefix("fused-") if engine != "auto" else "compiled" if config.filter.fused else "steps"
+        return _drive_fused(EkfSlam(config), events, observers, maps, _told(on_scan, on_scans), t0, how)
+    if engine != "auto":
         raise ConfigError(f"engine: {engine!r} runs a new filter, not the given slam; got slam and {engine!r}")
     told = _told(on_scan, on_scans)
     return _drive_events(slam, events, observers, maps, None if told is None else (lambda: told(1)), t0)

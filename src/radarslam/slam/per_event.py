@@ -1,8 +1,7 @@
 """:class:`~radarslam.slam.filter.EkfSlam` event by event through the fused engine: the filter's state is the
-engine's record (:class:`~radarslam.slam.fused.events.Carry`), run by the same compiled function a whole
-stream runs through (:class:`~radarslam.slam.fused.online.Online`), and ``EkfSlam.state`` reads it after
-every event (:func:`read_back`). The steps are then written once, in ``slam/fused/``; the orchestrator's own
-steps run what the engine does not cover (:func:`engine_for`)."""
+engine's record (:class:`~radarslam.slam.fused.events.Carry`), run by the same function a whole stream
+runs through (:class:`~radarslam.slam.fused.online.Online`), and ``EkfSlam.state`` reads it after every event
+(:func:`read_back`). The steps are written once, in ``slam/fused/``."""
 
 from __future__ import annotations
 
@@ -10,23 +9,43 @@ import numpy as np
 
 from radarslam.landmarks.records import Records
 
-__all__ = ["EngineExtents", "engine_for", "read_back", "write_through"]
+__all__ = ["EngineExtents", "check_components", "engine_for", "read_back", "write_through"]
 
 
-def engine_for(slam):
-    """The fused engine one event at a time for ``slam`` (an EkfSlam that has processed nothing), or None
-    where the orchestrator runs it: ``filter.fused`` false (the orchestrator asked for), the reference
-    configuration the engine does not cover (:func:`~radarslam.slam.fused.plan.why_not`). A component of
-    the user's own runs in the engine's steps form (slam/fused/own.py)."""
+def check_components(slam) -> None:
+    """Refuse in one line the components the engine has no step for, when ``slam`` is built: the
+    partial-view estimator with the full view or the partial view with another estimator, and an
+    associator of the user's own under the partial view (the view's association is the engine's,
+    slam/fused/view.py).
+
+    Raises
+    ------
+    InputError
+        Naming the component and what the engine takes instead.
+    """
+    from radarslam.core.errors import InputError
+    from radarslam.extent.view_estimator import PartialViewEstimator
+    from radarslam.slam.fused.own import own_associator
+
+    view = getattr(slam, "view", None) is not None
+    if view != (type(slam.extent) is PartialViewEstimator):
+        raise InputError(f"extent_estimator: expected the partial-view estimator exactly with extent.view_model "
+                         f"partial, got {type(slam.extent).__name__} with the {'partial' if view else 'full'} view")
+    if view and own_associator(slam):
+        raise InputError(f"associator: expected a built-in associator under the partial view (its association is "
+                         f"the engine's, docs/method.md a.12), got {type(slam.associator).__name__}")
+
+
+def engine_for(slam, how: str = "auto"):
+    """The fused engine one event at a time for ``slam`` (an EkfSlam that has processed nothing) in the
+    form ``how`` (``EkfSlam``'s ``engine``): ``"auto"`` the compiled engine, its steps form under
+    ``filter.fused`` false; a component of the user's own and ``filter.backend`` python choose their
+    form as a whole stream's would (slam/fused/own.py ``run_form``)."""
     from radarslam.slam.fused.online import Online
-    from radarslam.slam.fused.plan import why_not
 
-    f = slam.config.filter
-    if not f.fused:
-        return None
-    if why_not(slam) is not None:
-        return None
-    return Online(slam)
+    if how == "auto":
+        how = "compiled" if slam.config.filter.fused else "steps"
+    return Online(slam, how)
 
 
 class EngineExtents:
@@ -71,9 +90,8 @@ class EngineExtents:
     def __setitem__(self, j, value) -> None:
         from radarslam.core.errors import InputError
 
-        raise InputError(f"slam.state.extents[{j}]: expected no extent set by hand on a filter the fused engine "
-                         f"runs (its extents are the engine's rows); build it with EkfSlam(config, "
-                         f"engine='orchestrator') to set one, got a {type(value).__name__}")
+        raise InputError(f"slam.state.extents[{j}]: expected no extent set by hand after the first event (the "
+                         f"extents are the engine's rows; set them before it), got a {type(value).__name__}")
 
     def __iter__(self):
         return iter(self._built())

@@ -135,9 +135,10 @@ def _write_figures(rdir: Path, rep: dict, res: dict, variants: tuple[Variant, ..
         from radarslam.config.variants import apply_variant
 
         v = next((x for x in variants if x.name == FIG2_VARIANT), variants[-1])
-        # the engine that ran the stored trial (a first run's trials may have used the orchestrator,
-        # compiling/warmup.py), so that the figure's run is that trial bit for bit
-        engine = "orchestrator" if res["engines"][v.name][trials.index(1)] == "orchestrator" else "auto"
+        # the form of the engine that ran the stored trial (a first run's trials may have used its steps
+        # form, compiling/warmup.py), so that the figure's run is that trial bit for bit
+        stored_engine = res["engines"][v.name][trials.index(1)]
+        engine = stored_engine if stored_engine in ("fused-steps", "fused-python") else "auto"
         tr = run_trial(apply_variant(res["config"], v), trial_seed(res["seed"], 1), engine=engine)
         vr.plot_fig2(rdir / "fig2_trial1.png", tr, label=v.label)
         stored = res[v.name]["poses"][trials.index(1)]

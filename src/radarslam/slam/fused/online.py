@@ -12,7 +12,7 @@ from radarslam.core.errors import InputError
 from radarslam.core.types import Scan
 from radarslam.slam.event_input import finite_number
 from radarslam.slam.fused.engine import OK
-from radarslam.slam.fused.plan import _failure, _parameters, engine_of, first_carry, largest_scan, noises, why_not
+from radarslam.slam.fused.plan import _failure, _parameters, engine_of, first_carry, largest_scan, noises
 from radarslam.slam.fused.stream import _stream_arrays
 from radarslam.slam.report import ScanReport
 
@@ -20,17 +20,13 @@ __all__ = ["Online"]
 
 
 class Online:
-    """``slam``'s filter (an :class:`~radarslam.slam.filter.EkfSlam` that has processed nothing and whose
-    configuration the fused engine covers, :func:`~radarslam.slam.fused.plan.why_not`) run by the fused
+    """``slam``'s filter (an :class:`~radarslam.slam.filter.EkfSlam` that has processed nothing) run by the fused
     engine one event at a time, in form ``how`` (engine.FORMS; the steps form where ``slam`` has a component
     of the user's own, slam/fused/own.py). ``slam``'s own Doppler odometry and Doppler gate read the
     events as they come, and so change with them; ``slam.state`` does not (the filter's state is
     :attr:`carry`)."""
 
     def __init__(self, slam, how: str = "compiled"):
-        why = why_not(slam)
-        if why is not None:
-            raise InputError(f"slam: expected a filter the fused engine covers, got one it does not ({why})")
         self.slam = slam
         self.cfg = _parameters(slam, False, True)
         #: ``user_extents``: an extent estimator of the user's own's states (own.UserExtents), else None.

@@ -1,5 +1,4 @@
-"""The fused engine's Python side: which configurations it covers (:func:`why_not`), its
-parameters by name (:class:`FusedParams`, from the configuration by :func:`_parameters`), and :func:`run`, which calls the
+"""The fused engine's Python side: its parameters by name (:class:`FusedParams`, from the configuration by :func:`_parameters`), and :func:`run`, which calls the
 compiled :func:`~radarslam.slam.fused.engine.run_stream` of the configuration's family
 (:func:`~radarslam.slam.fused.engine.engine`, :func:`family`) and names what it returns.
 
@@ -121,42 +120,9 @@ class Noise(NamedTuple):
     R_assoc: np.ndarray       #: (2, 2) measurement noise of association and update (n_c R, c.11.9)
 
 
-def why_not(slam, events=None) -> str | None:
-    """Why :func:`run` cannot stand in for ``slam`` (an :class:`~radarslam.slam.filter.EkfSlam`
-    that has processed nothing yet), or None when it can: the configuration's components must be
-    the built-in ones this engine reproduces, but for a motion model, an associator or an extent
-    estimator of the user's own, which the engine's steps form calls in Python (:func:`user_components`).
-    ``events`` is taken for the callers' sake: no stream is refused (a scan of any size clusters
-    compiled, ``landmarks/_compiled.py: neighbourhoods``)."""
-    from radarslam.extent.view_estimator import PartialViewEstimator
-    from radarslam.models.radar import RangeAzimuthModel
-    from radarslam.slam.doppler_gate import DopplerGate
-    from radarslam.slam.odometry_source import DopplerOdometry
-
-    f, ec = slam.config.filter, slam.config.extent
-    checks = (
-        (f.fused, "filter.fused is false"),
-        ((getattr(slam, "view", None) is None) == (type(slam.extent) is not PartialViewEstimator),
-         "the partial-view estimator with the full view, or the partial view with another estimator"),
-        (not f.doppler_gate or type(slam._gate) is DopplerGate, f"Doppler gate {type(slam._gate).__name__}"),
-        # under Doppler odometry (c.10.5) the body-velocity model drives every prediction, not slam.model
-        (f.odometry == "odometer" or type(slam._odometry) is DopplerOdometry,
-         f"odometry source {type(slam._odometry).__name__}"),
-        (type(slam.measurement) is RangeAzimuthModel, f"measurement model {type(slam.measurement).__name__}"),
-        # an associator of the user's own runs in the steps form (user_components), outside the partial view
-        (not own_associator(slam) or getattr(slam, "view", None) is None,
-         f"associator {type(slam.associator).__name__} with the partial view"),
-        (slam.state.n_landmarks == 0 and slam._scans == 0, "the filter has already processed a scan"),
-    )
-    for ok, reason in checks:
-        if not ok:
-            return reason
-    return None
-
-
 def family(slam):
-    """The :class:`~radarslam.slam.fused.engine.Family` of ``slam``'s compiled engine (``slam`` one
-    :func:`why_not` accepts): the optional branches its configuration takes (from the same
+    """The :class:`~radarslam.slam.fused.engine.Family` of ``slam``'s compiled engine: the optional
+    branches its configuration takes (from the same
     :func:`_parameters` :func:`run` passes)."""
     return family_of(_parameters(slam))
 
@@ -242,8 +208,7 @@ def _bias_parameters(bias) -> dict:
 
 def run(slam, events, timing: bool = False, all_maps: bool = True, trace=None, how: str = "compiled",
         on_scans=None):
-    """Run ``events`` through the fused engine with ``slam``'s configuration and components
-    (:func:`why_not` of both must be None). Returns ``(record, associations)``: the arrays of
+    """Run ``events`` through the fused engine with ``slam``'s configuration and components. Returns ``(record, associations)``: the arrays of
     :func:`~radarslam.slam.fused.engine.run_stream` by name, and the ``(scan, detection, landmark
     id)`` rows. ``timing`` adds ``"seconds"``: each scan's wall time with the predictions before it
     (``benchmarks/bench_scaling.py``).
@@ -305,8 +270,38 @@ def engine_of(slam, cfg, how: str = "compiled"):
 
 def first_carry(slam, cfg, largest: int):
     """The engine's state before ``slam``'s first event (:func:`~radarslam.slam.fused.events.initial_carry`),
-    room buffered for scans of ``largest`` detections."""
-    return initial_carry(slam.state.x, slam.state.P, cfg.n_init + largest + 1)
+    room buffered for scans of ``largest`` detections; landmarks added to ``slam.state`` by hand before
+    it (``SlamState.add_landmark``) with their records, tentatives and extents (:func:`_seeded`)."""
+    carry = initial_carry(slam.state.x, slam.state.P, cfg.n_init + largest + 1)
+    st = slam.state
+    if st.n_landmarks == 0 and st.tentatives.count.shape[0] == 0 and st.next_id == 0:
+        return carry
+    return _seeded(carry, st, slam.extent)
+
+
+def _seeded(carry, st, estimator):
+    """``carry`` with the landmarks of the state ``st`` (a :class:`~radarslam.slam.state.SlamState`): their
+    bookkeeping, their extents as the built-in estimator ``estimator`` holds them in rows (``_gather``),
+    the tentatives and the next id."""
+    from radarslam.core.errors import InputError
+    from radarslam.slam.fused.storage import new_landmarks
+
+    n, lm = st.n_landmarks, carry.lm
+    gather = getattr(estimator, "_gather", None)
+    if n and gather is None:
+        raise InputError(f"slam.state: expected landmarks added by hand with a built-in extent estimator, got "
+                         f"{n} with {type(estimator).__name__}; add them after the first event")
+    if n:
+        E = gather(st.extents)
+        B = max(lm.buf.shape[1], E.buf.shape[1])
+        lm = new_landmarks.py_func(max(16, 2 * n), B)
+        r = st.records
+        for name in ("ids", "created", "mbits", "rbits", "first"):
+            getattr(lm, name)[:n] = getattr(r, name)[:n]
+        for name in ("einit", "X", "alpha", "Xefa", "nbuf", "shape", "Cs", "xi", "Pxi", "nview"):
+            getattr(lm, name)[:n] = getattr(E, name)
+        lm.buf[:n, :E.buf.shape[1]] = E.buf
+    return carry._replace(lm=lm, N=np.int64(n), next_id=np.int64(st.next_id), tent=st.tentatives)
 
 
 def largest_scan(stream: Stream) -> int:
