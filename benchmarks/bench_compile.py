@@ -6,7 +6,7 @@ runs the same job in fresh interpreters against an empty cache directory:
 
 1. cold: the first process compiles everything it uses and writes the cache;
 2. warm: a second process loads the cache (what every later run and every Monte Carlo worker pays);
-3. both again with the trials run by the per-event orchestrator (``engine="orchestrator"``, what a
+3. both again with the trials run by the engine's steps form (``engine="fused-steps"``, what a
    short first run uses while the fused engine compiles in the background, compiling/warmup.py);
 4. python: the same job with ``filter.backend = "python"`` (no numba code runs).
 
@@ -53,8 +53,8 @@ def main() -> None:
     ap.add_argument("--trials", type=int, default=10, help="warm trials timed after the first (default 10)")
     args = ap.parse_args()
     rows = []
-    for engine in ("auto", "orchestrator"):
-        name = "fused engine" if engine == "auto" else "orchestrator"
+    for engine in ("auto", "fused-steps"):
+        name = "fused engine" if engine == "auto" else "steps form"
         with tempfile.TemporaryDirectory(prefix="radarslam-numba-cache-") as cache:
             rows.append((f"{name}: cold (compiles)", *run("numba", engine, cache, args.trials)))
             rows.append((f"{name}: warm (loads the cache)", *run("numba", engine, cache, args.trials)))
@@ -66,10 +66,10 @@ def main() -> None:
     print(f"  {'run':36s} {'process':>8s} {'import':>8s} {'trial 1':>8s} {'per trial':>9s}")
     for name, wall, (imp, t1, tn) in rows:
         print(f"  {name:36s} {wall:7.2f}s {imp:7.2f}s {t1:7.2f}s {tn:8.4f}s")
-    for i, name in ((0, "fused engine"), (2, "orchestrator")):
+    for i, name in ((0, "fused engine"), (2, "steps form")):
         (_, _, (_, c1, _)), (_, _, (_, w1, tn)) = rows[i], rows[i + 1]
         print(f"{name}: compilation on first use {c1 - w1:.1f} s on one core; {tn / 3 * 1e3:.1f} ms per variant "
-              f"and trial warm (compiling/costs.py FUSED_S / ORCHESTRATOR_S)")
+              f"and trial warm (compiling/costs.py FUSED_S / STEPS_S)")
     print(f"fused engine's cache {size / 1e6:.1f} MB")
 
 

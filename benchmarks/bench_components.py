@@ -12,10 +12,10 @@ relinearises every landmark's arc after each update. Each configuration simulate
 compiled code is loaded or built), then ``--repeat`` times timed: the figure is the median over the
 repeats of the mean filter time per trial (``run_filter``: the whole event stream to the record).
 The ratio is to the Consistent variant's time; the engine is the fused one when
-``slam.fused.why_not`` is None, else the orchestrator.
+``filter.fused``, else its steps form.
 
-Victoria Park (``--vp-scans`` scans of each input mode, fused engine; ``--vp-orchestrator`` adds
-the orchestrator): ms per scan, median of ``--repeat`` runs, by ``bench_dataset.bench``.
+Victoria Park (``--vp-scans`` scans of each input mode, fused engine; ``--vp-steps`` adds
+the engine's steps form): ms per scan, median of ``--repeat`` runs, by ``bench_dataset.bench``.
 
     python benchmarks/bench_components.py                      # 10 trials, 3 repeats, 1000 VP scans
     python benchmarks/bench_components.py --trials 20 --repeat 5 --vp-scans 0   # car park only
@@ -39,8 +39,6 @@ from radarslam.montecarlo.trials import trial_seed
 from radarslam.slam.driver import run_filter
 from radarslam.config.variants import CONSISTENT, PAPER_VARIANTS
 from radarslam.simulation.scenario import generate_scenario
-from radarslam.slam import _fused
-from radarslam.slam.filter import EkfSlam
 
 
 def _with(base: dict, overlay: dict) -> dict:
@@ -71,7 +69,7 @@ def carpark_row(overlay: dict, trials: int, repeat: int) -> tuple[float, str]:
     """Median over ``repeat`` of the mean filter seconds per trial, and the engine."""
     cfg = from_dict(merge_tables(to_dict(profile_config("apsipa")), overlay))
     streams = [generate_scenario(cfg, np.random.default_rng(trial_seed(1, k))).events for k in range(1, trials + 1)]
-    engine = "fused" if _fused.why_not(EkfSlam(cfg), streams[0]) is None else "orchestrator"
+    engine = run_filter(cfg, streams[0]).engine
     run_filter(cfg, streams[0])                                    # compile or load the cache
     per = []
     for _ in range(repeat):
@@ -87,7 +85,7 @@ def main() -> None:
     ap.add_argument("--trials", type=int, default=10, help="car-park trials per configuration (default 10)")
     ap.add_argument("--repeat", type=int, default=3, help="timed passes over them (default 3): the median")
     ap.add_argument("--vp-scans", type=int, default=1000, help="Victoria Park scans per mode (0: skip; default 1000)")
-    ap.add_argument("--vp-orchestrator", action="store_true", help="time the orchestrator on Victoria Park too")
+    ap.add_argument("--vp-steps", action="store_true", help="time the engine's steps form on Victoria Park too")
     ap.add_argument("--only", default=None, help="car-park rows whose name contains this (default: all)")
     a = ap.parse_args()
     print(f"load average before: {os.getloadavg()}")
@@ -110,7 +108,7 @@ def main() -> None:
         else:
             print(f"\nVictoria Park, first {a.vp_scans} scans, median of {a.repeat} runs")
             print(f"{'mode':10s} {'engine':13s} {'ms/scan':>9s}")
-            engines = ("fused", "orchestrator") if a.vp_orchestrator else ("fused",)
+            engines = ("fused", "steps") if a.vp_steps else ("fused",)
             for mode in ("laser", "trees"):
                 for engine in engines:
                     r = bench(DEFAULT_PATH, mode, engine, "numba", a.vp_scans, a.repeat)

@@ -1,6 +1,6 @@
 """Wall time of a whole recorded dataset (default: Victoria Park, all scans) on one core: the filter's
 time per scan (EKF-SLAM + landmark management + extents) of each input mode (raw laser, ACFR's tree
-detections) and each engine (the fused engine, one compiled call; the orchestrator, event by event),
+detections) and each form of the engine (compiled; its steps form, the steps as Python over the compiled kernels),
 each run ``--repeat`` times (min and median), with the landmarks at the end and the GPS-aligned RMSE
 (which the two engines share), then loading and evaluation of the last run.
 
@@ -19,11 +19,9 @@ import _common  # noqa: F401  (single-threaded BLAS)
 from radarslam.config import profile_config
 from radarslam.runs.dataset import compare_tree_diameters, evaluate_against_gps, run_dataset, victoria_park_options
 from radarslam.io.datasets.victoria_park import INPUT_PROFILES
-from radarslam.slam import _fused
-from radarslam.slam.filter import EkfSlam
 
 DEFAULT_PATH = Path(__file__).resolve().parents[2] / "shared" / "data" / "victoria_park"
-ENGINES = ("fused", "orchestrator")
+ENGINES = ("fused", "steps")
 
 
 def _config(mode: str, engine: str, backend: str):
@@ -41,7 +39,7 @@ def bench(path: Path, mode: str, engine: str, backend: str, scans, repeat: int) 
     for _ in range(repeat):
         run = run_dataset("victoria-park", path, cfg, n_scans=scans, progress=False, loader_options=loader)
         ms.append(1e3 * run.seconds / max(run.times.size, 1))
-    ran = "fused" if _fused.why_not(EkfSlam(cfg)) is None else "orchestrator"
+    ran = run.engine
     return {"ms": ms, "run": run, "ran": ran}
 
 
@@ -55,7 +53,7 @@ def main() -> None:
                     help="raw laser returns (profile victoria-park), ACFR's tree detections (victoria-park-trees), "
                          "or both (default)")
     ap.add_argument("--engine", choices=(*ENGINES, "both"), default="both",
-                    help="filter.fused true (the fused engine) or false (the orchestrator), or both (default)")
+                    help="filter.fused true (the compiled engine) or false (its steps form), or both (default)")
     ap.add_argument("--repeat", type=int, default=3, help="runs of each (default 3): min and median")
     a = ap.parse_args()
     modes = ("laser", "trees") if a.input == "both" else (a.input,)

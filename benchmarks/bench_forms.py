@@ -1,8 +1,8 @@
 """Wall time of the filter alone in each way the package can run it, on the same events, warm (numba's
 cache built; run once first if it is not): the fused engine compiled, its steps as Python over the
 compiled kernels (``engine="fused-steps"``), all of it as Python (``"fused-python"``; slam/fused/engine.py
-``form``), the compiled engine fed one event at a time (``fused-events``: slam/fused/online.py), and the
-orchestrator with compiled kernels and with the Python backend (docs/speed.md "The engine's three forms").
+``form``), and the compiled engine fed one event at a time (``fused-events``: slam/fused/online.py;
+docs/speed.md "The engine's three forms").
 Workloads: one car-park trial (the apsipa profile, seed 1), the nuScenes scene-0061 and RadarScenes
 sequence 105 under ``--profile automotive`` (their events as ``radarslam run --recording`` builds them).
 Prints the median of ``--repeat`` runs (one run for a form that takes over 20 s).
@@ -25,8 +25,7 @@ DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 RECORDINGS = {"nuscenes": DATA / "nuscenes_radar" / "scene-0061", "radarscenes": DATA / "radarscenes" / "sequence_105"}
 #: name: (drive's engine, filter.backend)
 FORMS = {"fused": ("auto", "numba"), "fused-steps": ("fused-steps", "numba"), "fused-python": ("fused-python", "numba"),
-         "fused-events": ("events", "numba"), "orchestrator": ("orchestrator", "numba"),
-         "orchestrator-python": ("orchestrator", "python")}
+         "fused-events": ("events", "numba")}
 
 
 def carpark_events():

@@ -3,7 +3,7 @@
 Runs the filter once over the generated car park of the profile ``large-carpark`` (docs/method.md
 b.1.1: about 500 parked cars in rows, a 2000-scan drive through the aisles; ``--steps`` changes the
 length) and times every scan (with the predictions before it): the fused engine times its scans itself
-(the default), the orchestrator (``--no-fused``) every ``EkfSlam.update`` and ``predict`` call. Prints the median cost per scan
+(the default), its steps form (``--no-fused``) every ``EkfSlam.update`` and ``predict`` call. Prints the median cost per scan
 in bins of the landmark count, the power-law exponent fitted to the bins above ``--fit-from``
 landmarks (cost ~ N^b), and writes a figure of the curve (``--out``).
 
@@ -37,9 +37,9 @@ VARIANTS = {v.name: v for v in PAPER_VARIANTS + (CONSISTENT, PER_LANDMARK)}
 
 def run(cfg, scenario):
     """Per scan: landmarks in the state before it, seconds of (predict + update), detections. With
-    the fused engine (when it covers ``cfg``) the engine times each scan itself."""
+    the compiled engine (``filter.fused``) the engine times each scan itself."""
     slam = EkfSlam(cfg)
-    if _fused.why_not(slam) is None:
+    if cfg.filter.fused:
         r, _ = _fused.run(slam, scenario.events, timing=True)
         before = np.concatenate([[0], r["n_landmarks"][:-1]])
         err = np.hypot(*(r["poses"][-1, :2] - scenario.truth.poses[-1, :2]))
@@ -69,7 +69,7 @@ def main() -> None:
     ap.add_argument("--bin", type=int, default=50, help="landmark-count bin width")
     ap.add_argument("--fit-from", type=int, default=100, help="fit the exponent on bins from this count")
     ap.add_argument("--out", default="runs/bench_scaling.png", help="figure path")
-    ap.add_argument("--no-fused", action="store_true", help="filter.fused = false: the orchestrator, scan by scan")
+    ap.add_argument("--no-fused", action="store_true", help="filter.fused = false: the engine's steps form, event by event")
     a = ap.parse_args()
     base = profile_config("large-carpark")
     if a.no_fused:
@@ -91,7 +91,7 @@ def main() -> None:
         rows, err = run(cfg, scenario)
         total = time.perf_counter() - t0
         n, sec = rows[:, 0], rows[:, 1]
-        engine = "orchestrator" if _fused.why_not(EkfSlam(cfg)) else "fused"
+        engine = "fused" if cfg.filter.fused else "steps"
         print(f"\n{name} ({VARIANTS[name].label}; associator {cfg.landmarks.associator}, backend "
               f"{cfg.filter.backend}, {engine}): {total:.1f} s for {rows.shape[0]} scans, {int(n.max())} landmarks at most, "
               f"final position error {err:.1f} m")
@@ -129,7 +129,7 @@ def main() -> None:
     ax.set_xlabel("landmarks in the state N")
     ax.set_ylabel("filter time per scan (ms)")
     ax.set_yscale("log")
-    engine = "fused" if base.filter.fused else "orchestrator"
+    engine = "fused" if base.filter.fused else "steps"
     ax.set_title(f"Large car park ({w.rows * w.cars_per_row} cars), one core, {base.filter.backend}, {engine}")
     ax.legend(fontsize=7)
     out = Path(a.out)

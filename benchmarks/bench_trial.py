@@ -7,10 +7,9 @@ the result. Two passes over the same trials:
 1. plain: ``compute_trial`` as the Monte Carlo calls it; median, p10, p90 (what the issue's
    target is about);
 2. by stage: the same trials with a timer around each stage (simulation, configuration, the
-   filter, evaluation, encoding). Within the filter: with the fused engine (the default,
-   ``filter.fused``) its three parts (the event stream as arrays, the compiled run, the record);
-   with the orchestrator (``--no-fused``) the steps of docs/method.md a.8; ``--backend python`` runs the
-   fused engine's Python form (docs/architecture.md "Backends").
+   filter, evaluation, encoding). Within the filter, the engine's parts (the event stream as arrays,
+   the run in parts, the record), compiled (the default, ``filter.fused``), in its steps form
+   (``--no-fused``) or in its Python form (``--backend python``, docs/architecture.md "Backends").
    The timers cost ~1 us per call, so the stages add up to a little more than pass 1.
 
 The machine this runs on (a VM) changes speed by up to 2x between minutes: compare figures from
@@ -29,11 +28,6 @@ from radarslam.config import profile_config
 from radarslam.montecarlo import trials as montecarlo
 from radarslam.config.variants import DEFAULT_VARIANTS, PAPER_VARIANTS
 from radarslam.slam.fused import plan as _fused
-from radarslam.slam.filter import EkfSlam
-
-#: The orchestrator's steps (docs/architecture.md "The orchestrator") timed in pass 2.
-FILTER_STEPS = ("predict", "_prior", "_sift", "_associate_and_update", "_remove_unseen", "_extent_step",
-                "_cluster", "_alpha_test", "_confirm_and_augment", "_merge", "snapshot")
 #: Module-level stages of compute_trial timed in pass 2.
 TRIAL_STAGES = {"generate_scenario": "simulation", "variant_config": "configuration",
                 "evaluate": "evaluation", "encode_trial": "encoding", "run_filter": "filter"}
@@ -55,13 +49,10 @@ def stage_times(cfg, seed, trials, variants):
     """Seconds per trial of each stage (pass 2); restores everything it wraps."""
     acc = defaultdict(float)
     saved_mc = {n: getattr(montecarlo, n) for n in TRIAL_STAGES}
-    saved_slam = {n: getattr(EkfSlam, n) for n in FILTER_STEPS + ("update", "process")}
     saved_fused = {n: getattr(_fused, n) for n in FUSED_PARTS}
     try:
         for n, label in TRIAL_STAGES.items():
             setattr(montecarlo, n, _timed(saved_mc[n], label, acc))
-        for n in FILTER_STEPS + ("update", "process"):
-            setattr(EkfSlam, n, _timed(saved_slam[n], n, acc))
         for n, label in FUSED_PARTS.items():
             setattr(_fused, n, _timed(saved_fused[n], label, acc))
         t0 = time.perf_counter()
@@ -71,20 +62,12 @@ def stage_times(cfg, seed, trials, variants):
     finally:
         for n, f in saved_mc.items():
             setattr(montecarlo, n, f)
-        for n, f in saved_slam.items():
-            setattr(EkfSlam, n, f)
         for n, f in saved_fused.items():
             setattr(_fused, n, f)
     n = len(trials)
     rows = {label: acc[label] / n for label in TRIAL_STAGES.values() if label != "filter"}
-    if acc["process"] > 0:        # the orchestrator: its steps
-        steps = {s: acc[s] / n for s in FILTER_STEPS}
-        steps["update (rest)"] = (acc["update"] - sum(acc[s] for s in FILTER_STEPS
-                                                      if s not in ("predict", "snapshot"))) / n
-        steps["run_filter (rest)"] = (acc["filter"] - acc["process"]) / n
-    else:                         # the fused engine: its parts
-        steps = {label: acc[label] / n for label in FUSED_PARTS.values()}
-        steps["run_filter (rest: EkfSlam, record)"] = (acc["filter"] - sum(acc[v] for v in FUSED_PARTS.values())) / n
+    steps = {label: acc[label] / n for label in FUSED_PARTS.values()}
+    steps["run_filter (rest: EkfSlam, record)"] = (acc["filter"] - sum(acc[v] for v in FUSED_PARTS.values())) / n
     rows["other (compute_trial)"] = total / n - sum(rows.values()) - acc["filter"] / n
     return total / n, rows, steps
 
@@ -97,7 +80,7 @@ def main() -> None:
                     help="filter.backend (default: the configuration's, numba)")
     ap.add_argument("--variants", choices=("paper", "default"), default="paper",
                     help="paper: No extent + With extent (the issue's trial); default: the Monte Carlo's three")
-    ap.add_argument("--no-fused", action="store_true", help="filter.fused = false: the orchestrator, scan by scan")
+    ap.add_argument("--no-fused", action="store_true", help="filter.fused = false: the engine's steps form")
     ap.add_argument("--no-stages", action="store_true", help="skip pass 2")
     a = ap.parse_args()
     cfg = profile_config()
@@ -117,7 +100,7 @@ def main() -> None:
         t.append(time.perf_counter() - t0)
     t = np.array(t)
     names = " + ".join(v.name for v in variants)
-    engine = "orchestrator" if not cfg.filter.fused else "fused" if cfg.filter.backend == "numba" else "fused-python"
+    engine = "fused-python" if cfg.filter.backend == "python" else "fused" if cfg.filter.fused else "fused-steps"
     print(f"complete trial (simulation, {names}, RMA + EFA, evaluation), backend {cfg.filter.backend}, {engine}, "
           f"{a.trials} trials, one core (first trial incl. warm-up: {warm:.2f} s):")
     print(f"  median {1e3 * np.median(t):.1f} ms   p10 {1e3 * np.percentile(t, 10):.1f} ms   "

@@ -13,8 +13,8 @@ the evaluation's matching those two commands compile beside it (a trial with the
 ``automotive``, ``run --recording .../nuscenes_radar/scene-0061 --profile automotive`` (its first
 60 scans); ``victoria-park``, ``run --dataset victoria-park`` (its first 300 scans). And beyond the
 README, one family each: ``view`` (the partial view, a.12), ``jcbb`` (c.4.1), ``bias`` (the
-odometry-bias states, c.11); ``orchestrator``, the per-event kernels that a short first
-``reproduce`` compiles and runs its trials with (``warmup._orchestrator_trial``). Run it with an empty cache (else nothing compiles) on a quiet machine.
+odometry-bias states, c.11); ``steps``, the kernels of the engine's steps form that a
+short first ``reproduce`` compiles and runs its trials with (``warmup._steps_trial``). Run it with an empty cache (else nothing compiles) on a quiet machine.
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ OTHER_CASES = {
     "view": {"extent": {"use_in_slam": True, "spread_model": "visible-faces"}},
     "jcbb": {"landmarks": {"associator": "jcbb"}},
     "bias": {"filter": {"odometry_bias": "states"}},
-    "orchestrator": None,     # what a short first reproduce compiles of the per-event kernels (warmup._orchestrator_trial)
+    "steps": None,            # what a short first reproduce compiles of the steps form's kernels (warmup._steps_trial)
 }
 
 
@@ -83,10 +83,10 @@ def run_case(name: str) -> None:
         cfg = profile_config("victoria-park")
         run_dataset("victoria-park", DATA / "victoria_park", cfg, n_scans=300, progress=False,
                     loader_options=victoria_park_options(cfg))
-    elif name == "orchestrator":
-        from radarslam.compiling.warmup import _orchestrator_trial
+    elif name == "steps":
+        from radarslam.compiling.warmup import _steps_trial
 
-        _orchestrator_trial(profile_config(), DEFAULT_VARIANTS)
+        _steps_trial(profile_config(), DEFAULT_VARIANTS)
     else:
         compile_fused(profile_config(), (Variant(name, name, OTHER_CASES[name]),))
 

@@ -4,8 +4,8 @@ initial covariance (b.5) and with first-estimates Jacobians (c.2.1), on training
     python scripts/nees_study.py --trials 100 --seed 777 --jobs 1 --out runs/nees-study
 
 Variants: the consistent one as in Table 1 (fixed initial offset), (a) with ``filter.initial_error =
-"draw"``, (b) with "draw" and ``filter.jacobians = "fej"`` (the Python orchestrator: the fused
-engine declines FEJ). Prints position / heading avg. RMSE, the fraction of scans whose average NEES
+"draw"``, (b) with "draw" and ``filter.jacobians = "fej"`` (first-estimates Jacobians in the
+fused engine). Prints position / heading avg. RMSE, the fraction of scans whose average NEES
 lies inside its two-sided 95% band (and below / above it, over all scans and from k = 56 on, the
 stretch after the turn and the revisit) and the time-averaged NEES. The reporting seed 1 is refused
 unless ``--report`` says that this is the final run, every parameter fixed on training seeds.

@@ -4,7 +4,7 @@
 
 Collects the shapes and views that the partial-view shape update meets in ``--trials`` car-park
 trials of training seed ``--seed`` (the consistent variant under the visible-faces spread model,
-the orchestrator: every ``(d = t - p, X = expm(xi))`` its shape update is called with), and adds
+every ``(d = t - p, X = expm(xi))`` its shape update is called with), and adds
 harder sets: 10:1 and 50:1 ellipses from ``|q|`` = 1.001 to 1e6, near-tangent views
 (``|q| < 1.05``) and views whose arc ends within 1e-3 rad of the long axis' vertex (where the
 quadrature's split changes). For each set and each node count it prints the largest error,
@@ -30,7 +30,7 @@ REF = 512
 
 
 def collect(seed: int, trials: int) -> np.ndarray:
-    """``(K, 5)``: ``(dx, dy, X11, X12, X22)`` of every shape update of the trials (orchestrator)."""
+    """``(K, 5)``: ``(dx, dy, X11, X12, X22)`` of every shape update of the trials."""
     from radarslam.config import from_dict, merge_tables, profile_config, to_dict
     from radarslam.montecarlo.trials import trial_seed
     from radarslam.slam.driver import run_filter
@@ -54,9 +54,13 @@ def collect(seed: int, trials: int) -> np.ndarray:
     try:
         for k in range(1, trials + 1):
             events = generate_scenario(cfg, np.random.default_rng(trial_seed(seed, k))).events
-            run_filter(cfg, events, engine="orchestrator")
+            run_filter(cfg, events, engine="fused-python")
     finally:
         ve.PartialViewEstimator.view_step = orig
+    if not rows:
+        raise RuntimeError("collect: expected the shape updates of the trials, got none: the filter runs the "
+                           "partial view's shapes in the fused engine (slam/fused/view.py), which does not call "
+                           "PartialViewEstimator.view_step; this study needs a hook in the engine's shape step")
     return np.array(rows)
 
 

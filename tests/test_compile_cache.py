@@ -144,7 +144,7 @@ def test_first_run_engine_takes_the_steps_form_while_it_ends_sooner():
     per = costs.STEPS_S - costs.FUSED_S
     saved = costs.FUSED_COMPILE_S - costs.STEPS_WARM_UP_S
     boundary = int(saved / per * 2 / 3)                  # three variants on two workers
-    assert boundary == 2303
+    assert boundary == 1692
     assert costs.first_run_engine(200, 3, 2) == "steps"           # the README's main job
     assert costs.first_run_engine(boundary, 3, 2) == "steps"
     assert costs.first_run_engine(boundary + 1, 3, 2) == "auto"
@@ -281,7 +281,7 @@ def test_first_run_engine_scans_for_a_recording():
     about 7,200 scans, well inside); the fused engine beyond."""
     saved = costs.FUSED_COMPILE_S - costs.STEPS_COMPILE_S
     boundary = int(saved / (costs.STEPS_SCAN_S - costs.FUSED_SCAN_S))
-    assert 7300 < boundary == 63157
+    assert 7300 < boundary == 47368
     assert costs.first_run_engine_scans(7300) == "steps"
     assert costs.first_run_engine_scans(boundary) == "steps"
     assert costs.first_run_engine_scans(boundary + 1) == "auto"

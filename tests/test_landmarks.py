@@ -13,7 +13,6 @@ from radarslam.core.errors import InputError
 from radarslam.core.types import Odometry, Scan
 from radarslam.landmarks.clustering import dbscan_labels
 from radarslam.landmarks.confirmation import push_bit, should_remove
-from radarslam.landmarks.steps import next_merge
 from radarslam.models.radar import xy_to_polar
 from radarslam.slam import ekf
 from radarslam.slam.filter import EkfSlam
@@ -246,10 +245,15 @@ def test_mn_helpers():
     assert not should_remove(10, 1, 0b111, (1 << 10) - 1, window=10, max_hits=2)
 
 
-def test_next_merge_keeps_older():
+def test_the_merge_kernel_keeps_the_older():
+    """The merge step's pair (landmarks.merging.closest_pair, compiled as the engine calls it): the
+    closest pair within the distance, the later-created one dropped; none beyond it."""
+    from radarslam.landmarks._compiled import compiled_closest_pair
+
     pos = np.array([[0.0, 0.0], [0.0, 1.0], [5.0, 5.0]])
-    assert next_merge(pos, np.array([3, 1, 1]), np.array([0, 1, 2]), 1.5) == (1, 0)
-    assert next_merge(pos, np.array([3, 1, 1]), np.array([0, 1, 2]), 0.5) is None
+    ids, created = np.array([0, 1, 2]), np.array([3, 1, 1])
+    assert compiled_closest_pair(pos, created, ids, 1.5, np.inf) == (1, 0)
+    assert compiled_closest_pair(pos, created, ids, 0.5, np.inf)[0] < 0
 
 
 @pytest.mark.parametrize("min_samples", [1, 2, 3, 5])

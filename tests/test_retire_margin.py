@@ -35,17 +35,9 @@ def test_both_engines_retire_beyond_the_reach_plus_the_lever_arm():
     cfg = _config()
     slam = EkfSlam(cfg)
     assert _parameters(slam).retire2 == pytest.approx(253.412 ** 2, rel=1e-12)       # the fused engine's
-    from radarslam.slam.map_rows import RetiredMap, retire_radius
+    from radarslam.slam.map_rows import retire_radius
 
     assert retire_radius(cfg.estimator) == pytest.approx(250.0 + 3.412, abs=1e-12)
-
-    class State:                     # a landmark 252 m ahead of the pose: the front radar sees it at 248.6 m
-        n_landmarks = 1
-        x = np.zeros(3)
-        positions = np.array([[252.0, 0.0]])
-
-    assert RetiredMap().select(State, retire_radius(cfg.estimator), set()) == []
-    assert RetiredMap().select(State, 250.0, set()) == [0]                   # what d_r alone did
 
 
 def test_negative_control_a_radar_at_the_origin_keeps_d_r_and_zero_never_retires():

@@ -3,7 +3,7 @@
 numba keys a cached function by its own file only: a compiled function whose callee lives in
 another module (the fused engine calls the associators of ``slam/_numba.py``, which call the
 kernels of ``slam/ekf.py``) keeps its old machine code when only the callee's file changes. An
-edited kernel would then run in the orchestrator but not in the fused engine. So at import the
+edited kernel would then run in the engine's steps form but not in its compiled loop. So at import the
 package stamps the size and modification time of every file with compiled code; when the stamp
 changes, the package's cached machine code is deleted (it is rebuilt on first use, ~90 s), with
 the markers that say it is there (:mod:`radarslam.compiling.markers`).

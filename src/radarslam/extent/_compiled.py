@@ -32,7 +32,7 @@ _fit_entries = _K["fit_entries"]
 buffer_and_fit = _K["buffer_and_fit"]
 merge_outcome = _K["merge_outcome"]
 buffered_scatter = _K["buffered_scatter"]
-#: The extent step over array-held states (extent.rows), for the fused engine and the orchestrator's numba backend.
+#: The extent step over array-held states (extent.rows), for the fused engine.
 buffer_need = _K["buffer_need"]
 initialise_rows = _K["initialise_rows"]
 rma_efa_rows = _K["rma_efa_rows"]
@@ -47,7 +47,7 @@ _A = compile_kernels(arc_kernels.arc_width_diameter, arc_kernels.gated_diameter,
 arc_widths_rows = _A["arc_widths_rows"]
 gated_diameter = _A["gated_diameter"]
 
-#: The literal and measurement contours of a.7.1, compiled as they are (the orchestrator's numba backend and the fused engine).
+#: The literal and measurement contours of a.7.1, compiled as they are for the fused engine.
 _S = compile_kernels(sifting.literal_inside, sifting.contour_inside)
 literal_inside = _S["literal_inside"]
 contour_inside = _S["contour_inside"]

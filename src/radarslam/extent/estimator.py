@@ -30,11 +30,11 @@ from radarslam.extent.sifting import chi2_2dof_quantile, literal_contour, litera
 
 
 class ExtentEstimator(Protocol):
-    """What the orchestrator needs from an extent estimator (per-landmark states are opaque)."""
+    """What the filter needs from an extent estimator of the user's own (slam/fused/own.py) (per-landmark states are opaque)."""
 
     #: True: the update uses the landmark's posterior centroid of this scan; False: the prior (h.4).
     posterior_centroid: bool
-    #: False: :meth:`step` does nothing this run (``extent.track = false``), so the orchestrator
+    #: False: :meth:`step` does nothing this run (``extent.track = false``), so the filter
     #: skips the per-landmark loop. Optional; an estimator without it is always stepped.
     active: bool
 
@@ -51,7 +51,7 @@ class ExtentEstimator(Protocol):
                  dt: float, k: int) -> None:
         """Optional: :meth:`step` for every landmark of the scan at once (landmark ``j`` has the
         detections ``assoc[j]`` of ``polar``/``pts``, the centroid ``centroids[j]`` and its
-        covariance ``centroid_covs[j]``). The orchestrator calls it when present, else :meth:`step`."""
+        covariance ``centroid_covs[j]``). The filter calls it when present, else :meth:`step`."""
 
     def merge(self, survivor: Any, gone: Any) -> Any:
         """The extent state of the landmark that survives a merge (c.9)."""

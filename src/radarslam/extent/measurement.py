@@ -238,7 +238,7 @@ def scan_w_entries(pose, pose_cov, pol, R, mode):
     """Entries ``(W11, W12, W22)`` of the scan's one ``W`` (seed eq. 12, h.3) from the ``W(i)`` of the
     detections ``pol`` (m, 2), ``m >= 1``: ``mode`` :data:`W_MAX_TRACE` the one of largest trace
     (:func:`max_trace_w_entries`), :data:`W_MAX_DET` of largest determinant, :data:`W_MEAN` their
-    mean; first on ties. A kernel: the orchestrator's estimators (:func:`_scan_W`) and the fused
+    mean; first on ties. A kernel: the estimators' own methods (:func:`_scan_W`) and the fused
     engine's extent step call it."""
     p00, p01, p02 = pose_cov[0, 0], pose_cov[0, 1], pose_cov[0, 2]
     p11, p12, p22 = pose_cov[1, 1], pose_cov[1, 2], pose_cov[2, 2]

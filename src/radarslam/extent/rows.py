@@ -1,12 +1,12 @@
 """The extent step over array-held states (docs/method.md a.8 step 6; docs/architecture.md
-"Extent estimators"): written once, for the fused engine and the orchestrator alike.
+"Extent estimators"): written once, for the fused engine and the estimators' own methods alike.
 
 Every landmark's extent state is a row of a record of arrays (:class:`ExtentRows`, or the fused
 engine's :class:`~radarslam.slam.fused.storage.Landmarks`, which has the same fields by name).
 The functions below are *kernels* (:mod:`radarslam.core.jit`): plain Python that the reference
 backend runs as it is and :mod:`radarslam.extent._compiled` compiles as it is, so the two backends
 share the arithmetic and the bookkeeping. The fused engine calls them compiled on its records;
-the orchestrator's built-in estimators (:mod:`.estimator`), which hold one object per landmark for
+the built-in estimators' own methods (:mod:`.estimator`), which hold one object per landmark for
 the plug-in protocol, gather those objects into an :class:`ExtentRows`, call the same function
 and write the rows back.
 

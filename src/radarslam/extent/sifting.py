@@ -11,8 +11,8 @@ landmark whose extent is initialised:
   has no term for noise or uncertainty and rejects the corners and the noise spill of a car.
 
 Both return an ``(m, N)`` boolean matrix; rows are detections, columns landmarks. Each is one
-kernel of plain loops (no ``(m, N, 2, 2)`` temporaries), run as it is by the orchestrator's python
-backend and compiled for its numba backend and the fused engine.
+kernel of plain loops (no ``(m, N, 2, 2)`` temporaries), run as it is by the engine's Python form
+and compiled for the fused engine.
 """
 
 from __future__ import annotations
@@ -32,9 +32,8 @@ def chi2_2dof_quantile(probability: float) -> float:
 def literal_inside(points: np.ndarray, centroids: np.ndarray, X: np.ndarray, has: np.ndarray,
                    kk: float) -> np.ndarray:
     """The literal contour of a.7.1 (seed), a kernel: ``(m, N)`` with ``(z_i - p_n)^T X_n^-1 (z_i -
-    p_n) <= kk`` (``kk = kappa^2``) for the landmarks with ``has[n]``, False for the others. The
-    orchestrator calls it (compiled under the numba backend, :mod:`._compiled`) and the fused engine
-    links the same compiled function."""
+    p_n) <= kk`` (``kk = kappa^2``) for the landmarks with ``has[n]``, False for the others. The fused engine
+    links it compiled (:mod:`._compiled`)."""
     m, n = points.shape[0], centroids.shape[0]
     out = np.zeros((m, n), dtype=np.bool_)
     for j in range(n):
@@ -61,8 +60,8 @@ def literal_contour(points: np.ndarray, centroids: np.ndarray, X: np.ndarray, ka
 def contour_inside(points: np.ndarray, W: np.ndarray, centroids: np.ndarray, spreads: np.ndarray,
                    centroid_covs: np.ndarray, gate: float) -> np.ndarray:
     """The measurement contour of a.7.1, a kernel: ``(m, N)`` with ``(z_i - p_n)^T (S_n + P_n +
-    W_i)^-1 (z_i - p_n) <= gate``. The orchestrator calls it (compiled under the numba backend,
-    :mod:`._compiled`), and the fused engine links the same compiled function.
+    W_i)^-1 (z_i - p_n) <= gate``. The fused engine links it compiled
+    (:mod:`._compiled`).
 
     Parameters
     ----------

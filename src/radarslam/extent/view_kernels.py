@@ -1,6 +1,6 @@
 """The partial-view shape estimator's kernels (docs/method.md a.12.7-a.12.9): the predicted rows of
 one scan, their Jacobian, the iterated update, the arcs' rows for sifting; compiled by
-:mod:`._compiled` for the orchestrator and the fused engine, the class of :mod:`.view_estimator`
+:mod:`._compiled` for the fused engine, the class of :mod:`.view_estimator`
 calls them."""
 
 from __future__ import annotations

@@ -23,8 +23,7 @@ from radarslam.landmarks import records
 from radarslam.core.arrays import grown, grown_inner
 
 # Sifting's decision, the associations by landmark, Rule 1 / Rule 2, the M/N windows and the merge pair (c.3, c.4, c.7, c.5, c.9): the kernels of
-# landmarks.confirmation and landmarks.merging compiled as they are, for the orchestrator's numba
-# backend and the fused engine alike.
+# landmarks.confirmation and landmarks.merging compiled as they are, for the fused engine.
 _K = compile_kernels(popcount, push_bit, should_remove, mn_windows, rule12, closest_pair, candidates, by_landmark,
                      seen_landmarks, wrap_pi_scalar, in_view, grown, grown_inner, *records.KERNELS)
 # The landmark records' growth, birth and removal (landmarks.records), for the fused engine.

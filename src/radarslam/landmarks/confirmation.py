@@ -11,8 +11,8 @@ from radarslam.core.angles import wrap_pi_scalar
 
 
 class Tentatives(NamedTuple):
-    """The unconfirmed landmarks of Rule 2 (c.7), one row each, as the orchestrator keeps them in
-    :class:`~radarslam.slam.state.SlamState` and the fused engine in its loop."""
+    """The unconfirmed landmarks of Rule 2 (c.7), one row each, as
+    :class:`~radarslam.slam.state.SlamState` and the fused engine keep them."""
 
     centre: np.ndarray     #: (T, 2) the last matched cluster's centre detection, world frame [m]
     count: np.ndarray      #: (T,) int64, scans in which it was matched
@@ -27,8 +27,8 @@ def no_tentatives() -> Tentatives:
 
 
 def rule12(t_centre, t_count, t_window, t_npts, c_centre, c_size, gate, confirm_points, window, hits):
-    """One scan of Rule 2 then Rule 1 (c.7) over arrays; a kernel (``core.jit``): the orchestrator
-    calls it as Python (:func:`.steps.rule2_step`), the fused engine compiles it as it is.
+    """One scan of Rule 2 then Rule 1 (c.7) over arrays; a kernel (``core.jit``) that the fused
+    engine compiles as it is.
 
     Tentative ``t`` is ``(t_centre[t], t_count[t], t_window[t], t_npts[t])``; cluster ``c`` (one
     that passed the alpha test) has its centre detection ``c_centre[c]`` and ``c_size[c]`` points.
@@ -120,7 +120,7 @@ def should_remove(k, created, assoc, in_range, window, max_hits):
 
 def mn_windows(assoc, in_range, created, hit, in_view, k, window, max_hits):
     """One scan of the M/N removal windows (c.5, every scan, Decision 8) over arrays, in place; a
-    kernel that the orchestrator (:func:`.steps.removal_step`) calls as Python and the fused engine
+    kernel that the fused engine
     compiles as it is. Landmark ``j`` pushes whether it was associated (``hit[j]``) and whether it
     was in range (``in_view[j]``; an associated landmark counts as in range) into its windows
     ``assoc[j]``, ``in_range[j]``. Returns which landmarks stay (boolean)."""
@@ -139,8 +139,8 @@ def in_view(x, platform, n, max_range, half_fov):
     """Which of the ``n`` landmarks of the state ``x`` (centroids after the ``platform`` block) the
     sensor at ``x``'s pose covers: within ``max_range`` and, for a sensor that does not see all
     around (``half_fov < pi``, rad), within the field of view centred on the heading (the "in
-    range" of the M/N removal, c.5). Boolean ``(n,)``; a kernel that the orchestrator calls as
-    Python (or compiled, numba backend) and the fused engine compiles as it is."""
+    range" of the M/N removal, c.5). Boolean ``(n,)``; a kernel that the fused engine
+    compiles as it is."""
     out = np.empty(n, dtype=np.bool_)
     for j in range(n):
         i = platform + 2 * j

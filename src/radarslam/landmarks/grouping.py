@@ -1,5 +1,5 @@
 """Step 4's associations grouped by landmark (docs/method.md a.8, c.4): one kernel for the
-orchestrator (either backend) and the fused engine."""
+fused engine."""
 
 from __future__ import annotations
 
@@ -9,9 +9,8 @@ import numpy as np
 def by_landmark(out: np.ndarray, cidx: np.ndarray, n: int):
     """Step 4's associations grouped by landmark, a kernel: ``out[c]`` is the landmark (or -1) of
     candidate detection ``cidx[c]``; returns ``(aoff (n + 1,), arow)`` with landmark ``j``'s
-    detections ``arow[aoff[j]:aoff[j + 1]]`` in ascending candidate order. The orchestrator calls
-    it (compiled under the numba backend, :mod:`radarslam.landmarks._compiled`) and the fused
-    engine links the same compiled function."""
+    detections ``arow[aoff[j]:aoff[j + 1]]`` in ascending candidate order. The fused engine links
+    it compiled (:mod:`radarslam.landmarks._compiled`)."""
     cnt = np.zeros(n + 1, dtype=np.int64)
     for c in range(out.shape[0]):
         if out[c] >= 0:

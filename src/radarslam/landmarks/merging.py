@@ -43,8 +43,7 @@ def merge_candidates(positions: np.ndarray, distance: float, axis_tol: float = m
 
 def closest_pair(positions, created, ids, distance, axis_tol):
     """The closest eligible pair of landmarks (c.9) as ``(keep, drop)`` indices, ``(-1, -1)`` for
-    none; a kernel (``core.jit``): the orchestrator calls it (compiled with the numba backend) and
-    the fused engine's merge step compiles it as it is.
+    none; a kernel (``core.jit``): the fused engine's merge step compiles it as it is.
 
     Eligible: ``d < distance`` and, with a finite ``axis_tol``, ``|dx| <= axis_tol or |dy| <=
     axis_tol``; the first of equal distances in the row-major order of the upper triangle. The

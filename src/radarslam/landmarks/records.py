@@ -1,9 +1,9 @@
 """The confirmed landmarks' bookkeeping as arrays: ids, creation scans, the M/N windows and the
 first estimates, in state order (docs/method.md a.8 steps 5, 9 and 10; c.5, c.8, c.9, c.2.1).
 
-One :class:`Records` holds them for the orchestrator's :class:`~radarslam.slam.state.SlamState`
+One :class:`Records` holds them for :class:`~radarslam.slam.state.SlamState`
 and for the fused engine (:mod:`radarslam.slam.fused.storage`) alike; the functions below are the
-only code that adds, moves or grows the rows. They are kernels (``core.jit``): the orchestrator
+only code that adds, moves or grows the rows. They are kernels (``core.jit``): the state
 calls them as Python, the fused engine compiles them as they are (:mod:`radarslam.landmarks._compiled`).
 Rows ``0 .. n - 1`` are in use; the arrays' length is the capacity (grown by doubling), so that a
 landmark's birth does not copy the others' records.

@@ -9,9 +9,8 @@ def candidates(points: np.ndarray, centroids: np.ndarray, r2: float, inside: np.
                has: np.ndarray) -> np.ndarray:
     """Step 3's decision, a kernel (docs/method.md c.3, a.7.1): ``(m,)`` True for a detection
     ``points[i]`` inside the extent-aware test ``inside[i, j]`` of a landmark with ``has[j]``, or
-    within ``sqrt(r2)`` of a centroid ``centroids[j]`` of one without. The orchestrator calls it
-    (compiled under ``filter.backend = "numba"``, :mod:`._compiled`), the fused engine links the
-    same compiled function."""
+    within ``sqrt(r2)`` of a centroid ``centroids[j]`` of one without. The fused engine links it
+    compiled (:mod:`._compiled`)."""
     m, n = points.shape[0], centroids.shape[0]
     out = np.zeros(m, dtype=np.bool_)
     for i in range(m):

@@ -3,8 +3,8 @@ it moving (docs/method.md c.10.4) and which landmark it updated, by either engin
 the recording's rows (``moving.csv``, docs/recordings.md "Outputs"), and its scores against the
 recording's annotation (RadarScenes' ``label``).
 
-The orchestrator says both in each scan's :class:`~radarslam.slam.filter.ScanReport` (``moving``,
-``associations``); the fused engine returns its association rows ``(scan, detection, landmark id)``
+A filter run event by event says both in each scan's :class:`~radarslam.slam.filter.ScanReport`
+(``moving``, ``associations``); a whole stream's run returns its association rows ``(scan, detection, landmark id)``
 and keeps the gate's ``kept`` rows in its :class:`~radarslam.slam.fused.plan.Stream` (a detection
 not kept is one the gate called moving, its ``kept`` rows). Both are read as they run
 (:class:`FlagsObserver` of :func:`radarslam.slam.driver.drive`), at no extra pass over the data.
@@ -73,8 +73,8 @@ class DetectionFlags:
 
 
 class FlagsObserver(Observer):
-    """Every scan detection's :class:`ScanFlags`, from the orchestrator's scan reports (``moving``,
-    ``associations``) or the fused engine's association rows and its gate's kept rows."""
+    """Every scan detection's :class:`ScanFlags`, from the scan reports of a filter run event by event
+    (``moving``, ``associations``) or a whole stream's association rows and its gate's kept rows."""
 
     def __init__(self):
         self._sizes: list[int] = []

@@ -111,7 +111,7 @@ class RecordViews:
 
     @property
     def engine(self) -> str:
-        """What ran the filter: ``"fused"``, ``"orchestrator"`` or ``"python"`` (the reference)."""
+        """What ran the filter: ``"fused"``, ``"fused-steps"``, ``"fused-python"``, or ``"python"`` (a first run's Python form)."""
         return self.record.engine
 
     @property

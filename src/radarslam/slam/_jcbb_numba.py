@@ -1,7 +1,7 @@
 """JCBB compiled (``landmarks.associator = "jcbb"`` with ``filter.backend = "numba"``; docs/method.md c.4.1).
 
 The same association as :class:`radarslam.slam.jcbb.JcbbAssociator`, the reference, as one compiled
-call per scan that the orchestrator's associator and the fused engine both make
+call per scan that the fused engine makes
 (:func:`jcbb_associate_scan`): the observations (DBSCAN of the candidates in the sensor frame,
 clusters in label order then the noise points), the individual gate against the
 ``n_prefilter`` Euclidean-nearest landmarks (candidates by ``D^2`` then landmark), the search order

@@ -1,9 +1,8 @@
 """The partial-view kernels compiled with numba (:mod:`radarslam.slam.view_kernels`, with the arc
 kernels of :mod:`radarslam.extent.partial_view` and :mod:`radarslam.extent.view_estimator` and the
 batch noise of :mod:`radarslam.slam.ekf` they call, compiled as they are by
-:func:`radarslam.core.jit.compile_kernels`; docs/method.md a.12). The orchestrator's partial-view
-associators (:mod:`radarslam.slam.partial_view`) and the fused engine (:mod:`radarslam.slam.fused.view`)
-both call these.
+:func:`radarslam.core.jit.compile_kernels`; docs/method.md a.12). The fused engine
+(:mod:`radarslam.slam.fused.view`) calls these.
 """
 
 from __future__ import annotations

@@ -53,7 +53,7 @@ class Spreads:
 
 
 class Associator(Protocol):
-    """What the orchestrator needs from data association."""
+    """What the filter needs from an associator of the user's own (slam/fused/own.py)."""
 
     def associate(self, state: SlamState, polar: np.ndarray, candidates: np.ndarray, R: np.ndarray,
                   spreads: Spreads) -> tuple[np.ndarray, np.ndarray]:

@@ -16,8 +16,7 @@ with ``K_s`` and ``K_c* = P_cs H^T S^-1`` the optimal gain's rows, i.e. the opti
 ``P_ss'`` and ``P_sc'``; and ``P_ss'``, ``P_sc'``, ``x_s'`` depend on ``P_cc`` and ``x_c`` only
 through ``H``, which does not touch them. So a scan of ordinary updates followed by putting back the
 held mean and block as they were before the scan (:func:`held`, :func:`restore`) is the
-Schmidt-Kalman filter exactly, with no change to any update. Both are kernels: the orchestrator
-calls them as Python, the fused engine compiled (``slam/fused/sensor.py``).
+Schmidt-Kalman filter exactly, with no change to any update. Both are kernels, which the fused engine calls compiled (``slam/fused/sensor.py``).
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """The Doppler gate's steps that depend on the filter's state (docs/method.md c.10.4.3-c.10.4.4) as
 kernels: the memory of the moving objects' detections in the world frame, the young landmarks a
 moving object was seen on, the veto of a new cluster near a remembered moving detection.
-:class:`~radarslam.slam.doppler_gate.DopplerGate` (the orchestrator) calls them as Python and the
+:class:`~radarslam.slam.doppler_gate.DopplerGate` calls them as Python (its unit tests) and the
 fused engine (:mod:`radarslam.slam.fused.gate`) compiled, so each is written once.
 """
 

@@ -1,9 +1,9 @@
 """The map a run reports: the landmarks of the filter's state and those retired from it (docs/method.md c.15).
 
 :class:`MapSnapshot` is the map after a scan; :func:`state_rows` reads the state's landmarks (with
-their extents as the estimator reports them); :class:`RetiredMap` keeps each landmark that left the
-state for being farther than ``landmarks.retire_distance_m`` from the scan's radar, as it was when
-it left, and appends them after the state's rows, as the fused engine's ``record_map`` does.
+their extents as the estimator reports them); :func:`retire_radius` is the distance beyond which the
+engine retires a landmark from the state (its step 5) and keeps it, as it was when it left, after the
+state's rows in the map (``slam/fused/storage.py: record_map``).
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["MAP_FIELDS", "MapSnapshot", "RetiredMap", "retire_radius", "state_rows"]
+__all__ = ["MAP_FIELDS", "MapSnapshot", "retire_radius", "state_rows"]
 
 
 def retire_radius(config) -> float:
@@ -57,32 +57,3 @@ def state_rows(state, extent) -> MapSnapshot:
         efa=np.array([nan if X is None else X for X in efa]).reshape(n, 2, 2),
         created=state.created(),
     )
-
-
-class RetiredMap:
-    """The landmarks retired from the state so far (c.15), in the order they left, each as it left."""
-
-    def __init__(self) -> None:
-        self.parts: list[MapSnapshot] = []
-        self.ids: set[int] = set()
-
-    def select(self, state, distance_m: float, dropped: set[int]) -> list[int]:
-        """The landmarks (state positions, ascending) farther than ``distance_m`` from the pose block's
-        position (the platform's origin; ``distance_m`` is :func:`retire_radius`, c.15), other than
-        ``dropped``; none for ``distance_m`` <= 0."""
-        if distance_m <= 0.0 or state.n_landmarks == 0:
-            return []
-        far = np.flatnonzero(np.sum((state.positions - state.x[:2]) ** 2, axis=1) > distance_m ** 2).tolist()
-        return [j for j in far if j not in dropped]
-
-    def keep(self, now: MapSnapshot, rows: list[int]) -> None:
-        """Keep ``rows`` of the state's map ``now`` (before they leave the state)."""
-        if rows:
-            self.parts.append(MapSnapshot(*(getattr(now, f)[rows] for f in MAP_FIELDS)))
-            self.ids.update(int(i) for i in now.ids[rows])
-
-    def after(self, now: MapSnapshot) -> MapSnapshot:
-        """The map: ``now`` (the state's rows), then the retired ones."""
-        if not self.parts:
-            return now
-        return MapSnapshot(*(np.concatenate([getattr(p, f) for p in (now, *self.parts)]) for f in MAP_FIELDS))

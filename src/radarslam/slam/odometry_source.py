@@ -1,7 +1,7 @@
 """What drives the EKF prediction under ``filter.odometry`` "doppler" or "both" (docs/method.md c.10.5).
 
-Event flow (:meth:`DopplerOdometry.process`, called by :meth:`EkfSlam.process
-<radarslam.slam.filter.EkfSlam.process>`):
+Event flow (what the fused engine's stream takes from :class:`DopplerOdometry`,
+``slam/fused/stream.py: _stream_arrays``):
 
 - an :class:`~radarslam.core.types.Odometry` event only accumulates: its ``dt``, its gyro reading
   ``gyro_rad_s`` weighted by ``dt`` and (under "both") the odometer's forward speed weighted by ``dt``;
@@ -9,8 +9,8 @@ Event flow (:meth:`DopplerOdometry.process`, called by :meth:`EkfSlam.process
   body-velocity model (:mod:`radarslam.models.body_velocity`), input ``u = [v_x, v_y, omega]``:
   ``(v_x, v_y)`` the *previous* scan's Doppler ego-velocity fit (c.10.2) and ``omega`` the mean gyro
   rate, ``U = blockdiag(cov(v), sigma_gyro^2 dt_0 / dt)`` (the gyro a density, c.2.2), ``Q`` once per accumulated odometer interval (as
-  the odometer's predictions add it); then updates with the scan (:meth:`EkfSlam.update`); then fits
-  this scan's velocity, to drive the next interval.
+  the odometer's predictions add it); then the engine updates with the scan; then this scan's
+  velocity is fitted, to drive the next interval.
 
 Why the previous scan's velocity: the interval ``[t_k, t_{k+1}]`` starts at scan k, whose Doppler
 measures the platform's velocity at ``t_k`` -- the causal, zero-order-hold choice, and in the
@@ -41,8 +41,6 @@ from radarslam.core.errors import ConfigError, InputError
 from radarslam.core.mounting import ORIGIN, Mounting
 from radarslam.core.types import Odometry, Scan
 from radarslam.models.body_velocity import BodyVelocityModel
-from radarslam.slam import ekf
-from radarslam.slam.bias import predict_terms
 
 __all__ = ["DopplerOdometry", "fuse_forward_speed", "odometry_source", "platform_input"]
 
@@ -200,19 +198,6 @@ class DopplerOdometry:
         """Start a new interval (after a prediction)."""
         self.dt, self.n, self.gyro_dt, self.speed_dt = 0.0, 0, 0.0, 0.0
 
-    def process(self, slam, event):
-        """One event of the stream (module docstring): None for odometry, the scan's ScanReport."""
-        if isinstance(event, Odometry):
-            self.accumulate(event)
-            return None
-        if isinstance(event, Scan):
-            if self.n:
-                self._predict(slam, event.t)
-            report = slam.update(event)
-            self.fit(event, report.ego)
-            return report
-        raise InputError(f"event: expected Odometry or Scan, got {type(event).__name__}")
-
     def accumulate(self, odo: Odometry) -> None:
         """Add an odometry event to the interval before the next scan (module docstring)."""
         dt = float(odo.dt)
@@ -252,19 +237,6 @@ class DopplerOdometry:
         # Q a density (c.2.2): n readings of the reference interval take n Q, as before, bit for bit
         steady = abs(self.dt - self.n * self.noise_ref) <= 1e-9
         return u, U, self.dt, self.n * Q if steady else Q * (self.dt / self.noise_ref)
-
-    def _predict(self, slam, t) -> None:
-        """Predict over the accumulated interval (c.10.5), then clear it."""
-        u, U, dt, Q = self.prediction_input(slam.Q)
-        st = slam.state
-        with np.errstate(over="ignore", invalid="ignore"):
-            pose, Ppp, Ppl = predict_terms(slam.bias_model, st.x, st.P, u, dt, self.model, U, Q)
-        if not (np.isfinite(pose).all() and np.isfinite(Ppp).all() and np.isfinite(Ppl).all()):
-            raise InputError(f"odometry before the scan at t={t!r}: expected an input that keeps the state finite "
-                             f"(u {u.tolist()}, dt {dt!r}), got one that makes it non-finite")
-        ekf.apply_prediction(st.x, st.P, pose, Ppp, Ppl)
-        slam._dt_since_scan += dt
-        self.clear_interval()
 
     def fit(self, scan: Scan, gate_ego=None) -> None:
         """This scan's ego velocity, held for the next interval: the one the scan carries (a 3-D

@@ -19,7 +19,7 @@ measurement of the full-view filter keeps its form with ``p - t`` replaced by ``
 - the associators that use them (the partial-view forms of ``nearest-neighbour``, ``batch`` and
   ``batch-joint``), and the view-corrected centroid of a new landmark (a.12.6).
 
-The shapes ``X`` come from the extent estimator (``view_shapes``); the orchestrator passes them in
+The shapes ``X`` come from the extent estimator (``view_shapes``); they are passed in
 :class:`~radarslam.slam.association.Spreads` (``shapes``, ``model_error``).
 """
 

@@ -49,7 +49,7 @@ def engine_for(slam, how: str = "auto"):
 
 
 class EngineExtents:
-    """The extent estimator's per-landmark states (its own type, as the orchestrator keeps them) of the
+    """The extent estimator's per-landmark states (its own type, as the estimator's protocol has them) of the
     engine's landmark records: built from a copy of the rows when first read (``estimator._scatter``, the
     estimator's own reading of array-held states) and, for the visible-arc estimator, the widths of its
     arcs from the engine's ``arcs`` (a.9); ``initialized_at`` from the scans at which each landmark's extent

@@ -1,8 +1,8 @@
 """The estimator's state: the EKF mean and covariance, the landmark records and the tentatives.
 
 :class:`SlamState` owns ``x``, ``P`` and the bookkeeping beside them, and is the only object that
-maps a landmark to its rows of ``x`` and ``P`` (through :mod:`.layout`). The orchestrator
-(:class:`~radarslam.slam.filter.EkfSlam`) and the components (associator, extent estimator) read
+maps a landmark to its rows of ``x`` and ``P`` (through :mod:`.layout`). The filter
+(:class:`~radarslam.slam.filter.EkfSlam`, reading the engine's record back) and the components (associator, extent estimator) read
 and replace ``x``/``P`` through it.
 """
 

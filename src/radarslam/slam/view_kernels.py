@@ -1,8 +1,7 @@
 """The partial-view measurement model's arithmetic as kernels (docs/method.md a.12.4-a.12.6).
 
-Plain loops over landmarks on small arrays: :mod:`radarslam.slam.partial_view` (the orchestrator's
-associators) calls them compiled (:mod:`radarslam.slam._view_compiled`), and the fused engine
-(:mod:`radarslam.slam.fused.view`) calls the same compiled functions, so that the arithmetic of
+Plain loops over landmarks on small arrays: the fused engine
+(:mod:`radarslam.slam.fused.view`) calls them compiled (:mod:`radarslam.slam._view_compiled`), so that the arithmetic of
 ``mu``, ``B``, ``S``, the model error, the polar and sensor-frame measurements, the log distance,
 the view-corrected centroid and the view walk is written here once. Landmark ``j`` of a state
 ``x`` sits at ``x[platform + 2 j : platform + 2 j + 2]`` (:mod:`.layout`).

@@ -1,6 +1,6 @@
 """The fused engine's prediction with odometry-bias states (docs/method.md c.11; ``filter.odometry_bias
 = "states"``): the platform block is then ``[x, y, theta, b_1 .. b_m]`` (``cfg.platform = 3 + m``)
-and each prediction runs the kernels of the orchestrator's :class:`~radarslam.slam.bias.BiasStates`,
+and each prediction runs the kernels of :class:`~radarslam.slam.bias.BiasStates`,
 compiled as they are: the correction of the input by the bias and its Jacobians
 (:func:`~radarslam.models.input_bias.correct_input`, :func:`~radarslam.models.input_bias.input_jacobians`),
 the bias states' transition (:func:`~radarslam.slam.bias.bias_transition`) and the platform block's

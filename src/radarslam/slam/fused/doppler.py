@@ -5,7 +5,7 @@ the scans alone, and each draws from its own generator in scan order as the per-
 (:meth:`DopplerGate.classify`, :meth:`DopplerOdometry.fit`) do, so the results are theirs
 (tests/test_fused.py). A stream whose scans are not all plain (a finite float ``(m, 2)`` polar
 array with ranges >= 0, a ``doppler_mps`` channel of ``m`` finite values, no ``Scan.ego``) gets
-None: the per-scan calls then run, and raise the orchestrator's errors in order.
+None: the per-scan calls then run, and raise the filter's errors in order.
 """
 
 from __future__ import annotations

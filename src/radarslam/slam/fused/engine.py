@@ -3,8 +3,7 @@ state it is given (:class:`~radarslam.slam.fused.events.Carry`) to the state it 
 
 :func:`run_stream` calls :func:`~radarslam.slam.fused.events.predict_event` per odometry event and
 :func:`~radarslam.slam.fused.events.scan_event` per scan, which read like
-:meth:`radarslam.slam.filter.EkfSlam.update`: the steps of docs/method.md a.8 in the orchestrator's
-order, each a compiled function of :mod:`~radarslam.slam.fused.tracking` (steps 1-5),
+docs/method.md a.8: its steps in order, each a compiled function of :mod:`~radarslam.slam.fused.tracking` (steps 1-5),
 :mod:`~radarslam.slam.fused.extent` (6) or :mod:`~radarslam.slam.fused.mapping` (steps 7-10), under
 the partial view those of :mod:`~radarslam.slam.fused.view` (a.12); then the record after the scan
 (:mod:`~radarslam.slam.fused.storage`).

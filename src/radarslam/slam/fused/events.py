@@ -149,7 +149,7 @@ def predict_event(c, u, dt, U, Q, model, odometer, cfg, bias):  # pragma: no cov
 @njit(cache=True, inline="always")
 def scan_event(c, stream, s, a_rows, n_arows, noise, cfg, view, jcbb, bias):  # pragma: no cover - compiled
     """Scan ``s`` of ``stream`` (a :class:`~radarslam.slam.fused.stream.Stream`) through a.8 steps 2-10 in
-    the orchestrator's order, in its radar's frame at its time (c.13-c.13.4). ``a_rows[:n_arows]`` are
+    the order of docs/method.md a.8, in its radar's frame at its time (c.13-c.13.4). ``a_rows[:n_arows]`` are
     the ``(scan, detection, landmark id)`` rows of the associations so far, this scan's appended.
     Returns ``(carry, polar, n_assoc, nis, a_rows, n_arows, out)``: the scan's detections, the number
     associated, the NIS of each update (2 dof) and what else the scan did (:class:`ScanOut`)."""

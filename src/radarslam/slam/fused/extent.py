@@ -1,5 +1,5 @@
 """The fused engine's extent step (docs/method.md a.8 step 6): the extent step over array-held
-states (:mod:`radarslam.extent.rows`, the functions the orchestrator's built-in estimators call
+states (:mod:`radarslam.extent.rows`, the functions the built-in estimators' own methods call
 too), compiled, on the engine's landmark record: buffering and the EFA initialisation (a.3), then
 per scan the random-matrix prediction and update with the EFA baseline (a.4, a.5, Decision 5) or
 MEM-EKF* (a.10), the visible-arc widths (a.9) and the partial view's shapes (a.12.7). ``cfg`` is

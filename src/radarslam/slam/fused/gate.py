@@ -8,7 +8,7 @@ the filter's state is here, as :class:`~radarslam.slam.doppler_gate.DopplerGate`
 memory in the world frame of the pose at the scan (:func:`remember`, c.10.4.3), the young
 landmarks a moving object was seen on (:func:`moving_young`, removed with step 5, c.10.4.4), and
 the veto of new clusters near a remembered moving detection (:func:`veto`, step 7), each over the
-kernels of :mod:`radarslam.slam.gate_kernels` that the orchestrator's gate calls as Python. ``cfg``
+kernels of :mod:`radarslam.slam.gate_kernels`. ``cfg``
 is the engine's :class:`~radarslam.slam.fused.plan.FusedParams`.
 """
 
@@ -21,7 +21,7 @@ from radarslam.slam import gate_kernels
 from radarslam.slam.fused.storage import Memory
 
 
-#: The gate's kernels (slam/gate_kernels.py), the orchestrator's own, compiled as they are.
+#: The gate's kernels (slam/gate_kernels.py), compiled as they are.
 _K = compile_kernels(*gate_kernels.KERNELS)
 near_any, remember_rows, moving_young_rows = _K["near_any"], _K["remember_rows"], _K["moving_young_rows"]
 

@@ -80,8 +80,8 @@ def alpha_test(x, P, polar, clusters, noise, cfg):  # pragma: no cover - compile
 
 @compiled_only
 def confirm(tent, fresh, clusters, xy, cfg):  # pragma: no cover - compiled
-    """Step 8: Rule 2 then Rule 1 (c.7) of the fresh clusters, the orchestrator's own kernel
-    (landmarks.confirmation.rule12) compiled as it is. Returns ``(confirmed clusters, tent)``."""
+    """Step 8: Rule 2 then Rule 1 (c.7) of the fresh clusters, the kernel
+    landmarks.confirmation.rule12 compiled as it is. Returns ``(confirmed clusters, tent)``."""
     nf = fresh.shape[0]
     cc = np.empty((nf, 2))
     cs = np.empty(nf, dtype=np.int64)

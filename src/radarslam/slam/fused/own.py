@@ -9,11 +9,11 @@ steps of ``slam/fused/`` in Python over their compiled kernels; :func:`user_comp
 - a motion model: ``_motion(x, u, dt, code, cfg) -> (pose, F_x, F_u)`` by the model's ``step`` and
   ``jacobians`` (the MotionModel protocol); with the odometry-bias states (c.11) and an ``input_bias``
   of a class of its own, also the input's correction and its Jacobians (``_correct_input``,
-  ``_input_jacobians``) by that class's ``correct`` and ``jacobians``, as the orchestrator calls them;
+  ``_input_jacobians``) by that class's ``correct`` and ``jacobians``;
 - an associator: step 4, ``associate_step`` (c.4, a.7.2), by the associator's ``associate`` on a
   :class:`~radarslam.slam.state.SlamState` over the engine's mean, covariance and landmark records with
-  the engine's own noise inflation (``tracking._inflation``: the :class:`Spreads` the orchestrator's
-  extent gives), and step 7's alpha test, ``alpha_test`` (c.6), by its ``min_log_distance``;
+  the engine's own noise inflation (``tracking._inflation``: the :class:`Spreads` of the built-in
+  extents), and step 7's alpha test, ``alpha_test`` (c.6), by its ``min_log_distance``;
 - an extent estimator (:class:`UserExtents`): its per-landmark states are kept beside the engine's
   records, by landmark id, and the steps that read or change extents call it: step 3's sifting test
   (``sift``), step 4's spreads (``_inflation``), step 6 (``extent_step``), and after each scan its
@@ -131,8 +131,7 @@ def run_form(slam, how: str = "compiled") -> str:
 
 def _user_motion(model):
     """The steps' ``_motion(x, u, dt, code, cfg) -> (pose, F_x, F_u)`` of an odometer reading by
-    ``model``'s own ``step`` and ``jacobians`` (the MotionModel protocol), as the orchestrator's
-    prediction calls them (``code`` is the built-in model's, unused)."""
+    ``model``'s own ``step`` and ``jacobians`` (the MotionModel protocol) (``code`` is the built-in model's, unused)."""
 
     def motion(x, u, dt, code, cfg):
         pose = x[:3].copy()
@@ -209,8 +208,8 @@ def _user_alpha_test(associator):
 class UserExtents:
     """The extent states of an estimator of the user's own (``extent``, the ExtentEstimator protocol of
     docs/architecture.md) beside the engine's records, by landmark id, and the steps that use them (module
-    docstring), each as the orchestrator calls the estimator (slam/filter.py ``_sift``,
-    ``_associate_and_update``, ``_extent_step``, ``_augment``, ``_merge``). One per run."""
+    docstring), each at its step of docs/method.md a.8 (sift, associate and update, extent step,
+    augment, merge). One per run."""
 
     def __init__(self, extent):
         self.extent = extent

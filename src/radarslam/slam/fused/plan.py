@@ -354,7 +354,7 @@ def _parts(engine, events, stream: Stream, carry, noise, cfg, on_scans):
 
 
 def _failure(events, stream: Stream, status, n_scans: int) -> str:
-    """The orchestrator's message for the event ``status[1]`` of ``stream`` that made the state non-finite."""
+    """The one-line message for the event ``status[1]`` of ``stream`` that made the state non-finite."""
     from radarslam.core.types import Scan
 
     ev, kind = int(status[1]), int(stream.kinds[int(status[1])])

@@ -1,5 +1,5 @@
 """The fused engine's records (:mod:`radarslam.slam.fused`): the landmarks, the Doppler gate's memory
-and the per-scan outputs as arrays (the tentatives are the orchestrator's own record,
+and the per-scan outputs as arrays (the tentatives are :class:`~radarslam.slam.state.SlamState`'s own record,
 landmarks.confirmation.Tentatives), with their growth, removal and the record after a scan.
 
 Each record is a :class:`typing.NamedTuple` of arrays, which numba compiles as a tuple with named

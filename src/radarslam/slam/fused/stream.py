@@ -57,7 +57,7 @@ def _stream_arrays(events, fast: bool = True, slam=None, live: bool = False, gat
 
     ``fast``: a scan whose detections are already a float ``(m, 2)`` array is checked with all the
     others at once at the end (finite, ranges >= 0); if anything is wrong, the stream is checked
-    again event by event, so that the error is the one the orchestrator raises first.
+    again event by event, so that the error is the first one the events make.
 
     ``live``: the stream is a part of a longer one that ``slam``'s own components read in order (the
     fused engine event by event, :class:`~radarslam.slam.fused.online.Online`): they are used, not

@@ -46,7 +46,7 @@ _BV = compile_kernels(wrap_2pi_scalar, body_velocity_increment, body_velocity_st
 _body_velocity_step = _BV["body_velocity_step"]
 _body_velocity_jacobians = _BV["body_velocity_jacobians"]
 _fej_motion_jacobian = compile_kernels(ekf.fej_motion_jacobian)["fej_motion_jacobian"]
-#: The orchestrator's heteroscedastic control noise of one sample (c.11.8), compiled as it is.
+#: The heteroscedastic control noise of one sample (c.11.8), compiled as it is.
 turn_noise = compile_kernels(_turn_noise_kernel)["turn_noise"]
 
 #: Motion-model codes of ``FusedParams.motion`` (BODY_VELOCITY: the Doppler odometry's predictions, c.10.5).
@@ -213,7 +213,7 @@ def jcbb_and_update(x, P, polar, cidx, lm, N, noise, cfg):  # pragma: no cover -
 @compiled_only
 def group_associations(out, cidx, N, ids, s, a_rows, n_arows):  # pragma: no cover - compiled
     """The associations of step 4 by landmark, ``assoc[j] = arow[aoff[j]:aoff[j + 1]]``, by the
-    orchestrator's own kernel (landmarks.grouping.by_landmark) compiled as it is, and the ``(scan,
+    kernel landmarks.grouping.by_landmark compiled as it is, and the ``(scan,
     detection, landmark id)`` rows appended to ``a_rows``. Returns
     ``(n_assoc, aoff, arow, a_rows, n_arows)``."""
     aoff, arow = compiled_by_landmark(out, cidx, N)
@@ -231,8 +231,8 @@ def group_associations(out, cidx, N, ids, s, a_rows, n_arows):  # pragma: no cov
 @compiled_only
 def remove_unseen(x, P, lm, N, aoff, k, young, sensor_view, retired, n_retired, arcs, cfg):  # pragma: no cover
     """Step 5: age the M/N windows of scan ``k`` and remove the landmarks seen in too few of the
-    last ``cfg.removal_window`` scans they were in view (c.5), by the orchestrator's own kernel
-    (landmarks.confirmation.mn_windows) compiled as it is, and those ``young`` marks (the Doppler
+    last ``cfg.removal_window`` scans they were in view (c.5), by the kernel
+    landmarks.confirmation.mn_windows compiled as it is, and those ``young`` marks (the Doppler
     gate's, c.10.4.4), in view of the scan's radar (``sensor_view``: its range and half field of
     view, c.13); then retire the survivors farther than ``sqrt(cfg.retire2)`` from the scan's
     radar (c.15, ``cfg.retire2`` 0: never), each written to ``retired`` (a

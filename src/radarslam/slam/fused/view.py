@@ -1,6 +1,6 @@
 """The fused engine under the partial view (docs/method.md a.12): its parameters (:class:`ViewParams`,
 ``FusedParams.pv``, from :func:`view_parameters`) and its steps, each the bookkeeping of the
-orchestrator's partial-view parts around the kernels they call (:mod:`radarslam.slam.view_kernels`,
+partial view's parts around the kernels they call (:mod:`radarslam.slam.view_kernels`,
 compiled in :mod:`radarslam.slam._view_compiled`; the shape update of
 :mod:`radarslam.extent.view_estimator`):
 
@@ -81,7 +81,7 @@ def view_parameters(slam) -> ViewParams:
 @compiled_only
 def view_walk(x, P, lm, N, cfg):  # pragma: no cover - compiled
     """a.12.5's walk of the centroids with the viewing angle, in place on ``P``, and each
-    landmark's bearing kept for the next scan (none under a zero walk, as the orchestrator)."""
+    landmark's bearing kept for the next scan (none under a zero walk)."""
     if cfg.pv.walk > 0.0 and N > 0:
         lm.vangle[:N] = view_walk_rows(x, P, lm.vangle[:N].copy(), cfg.pv.walk, cfg.platform)
 
@@ -210,9 +210,8 @@ def _block_index(j, platform):  # pragma: no cover - compiled
 @compiled_only
 def _complete(x, P, xi, Pxi, js, terms, R, sc, pv, platform):  # pragma: no cover - compiled
     """The model error (with the shape's uncertainty ``Pxi`` of the shapes ``xi``, ``pv.with_cov``),
-    ``Rj`` and ``Sn`` of the landmarks ``js`` not yet done, in ``sc`` (the orchestrator's
-    ``model_errors``, ``polar_terms`` and ``log_distances`` of them: the same kernels on the same
-    state). Called per detection: it takes the arrays it reads, not the landmark and configuration
+    ``Rj`` and ``Sn`` of the landmarks ``js`` not yet done, in ``sc`` (the model errors, polar terms and log distances of them by the kernels of
+    slam/view_kernels.py). Called per detection: it takes the arrays it reads, not the landmark and configuration
     records, whose every array a call would count a reference to."""
     todo = np.empty(js.shape[0], dtype=np.int64)
     n = 0
