@@ -180,7 +180,7 @@ def test_registry_refuses_a_second_factory_under_a_taken_name():
         reg.create("b")
 
 
-# ------------------------------------------------------------- compiled vs Python associator
+# ------------------------------------------------------------- the associators' kernels
 def _random_state(rng, n_lm: int) -> SlamState:
     pose = np.array([rng.uniform(-5, 5), rng.uniform(-5, 5), rng.uniform(0, 2 * math.pi)])
     L = pose[:2] + rng.uniform(-15, 15, (n_lm, 2))
@@ -200,42 +200,50 @@ def _scan_near(rng, st: SlamState, m: int) -> np.ndarray:
                             np.angle(np.exp(1j * (np.arctan2(d[:, 1], d[:, 0]) - st.x[2])))])
 
 
-@pytest.mark.parametrize("kind", ["nearest-neighbour", "batch"])
+@pytest.mark.parametrize("kind", ["nearest-neighbour", "batch", "batch-joint"])
 @pytest.mark.parametrize("seed", range(12))
-def test_compiled_associator_matches_python_on_random_states(seed, kind):
+def test_associator_kernels_match_the_numpy_oracle_on_random_states(seed, kind):
+    """Each scheme's one kernel (slam/_numba.py), compiled and run in the interpreter (the reference
+    backend), against the scheme written in numpy over slam/ekf.py (tests/associator_oracles.py): the
+    same landmarks, states to 1e-12, NIS to 1e-9, the alpha test to 1e-12."""
     require("numba")
-    from radarslam.slam.compiled_associators import CompiledBatchAssociator, CompiledNearestNeighbourAssociator
+    import associator_oracles as oracle
+    from radarslam.slam.association import JointBatchAssociator
 
     rng = np.random.default_rng(seed)
     n_lm = int(rng.integers(1, 25))
-    st_py = _random_state(rng, n_lm)
-    st_nb = SlamState.from_mean(st_py.x.copy(), st_py.P.copy())
-    polar = _scan_near(rng, st_py, int(rng.integers(1, 40)))
+    st0 = _random_state(rng, n_lm)
+    polar = _scan_near(rng, st0, int(rng.integers(1, 40)))
     cand = np.flatnonzero(rng.random(polar.shape[0]) < 0.8)
     R = np.diag([rng.uniform(0.05, 0.5) ** 2, math.radians(rng.uniform(0.5, 2)) ** 2])
     X = rng.normal(size=(n_lm, 2, 2))
     spreads = Spreads(0.25 * (X @ X.transpose(0, 2, 1)), rng.random(n_lm) < 0.5)
     beta = float(rng.choice([3.0, 20.0]))
-    if kind == "batch":
-        py, nb = BatchAssociator(beta, 3, 5), CompiledBatchAssociator(beta, 3, 5)
-    else:
-        py, nb = NearestNeighbourAssociator(beta, 3, 5), CompiledNearestNeighbourAssociator(beta, 3, 5)
-    out_py, nis_py = py.associate(st_py, polar, cand, R, spreads)
-    out_nb, nis_nb = nb.associate(st_nb, polar, cand, R, spreads)
-    assert np.array_equal(out_py, out_nb)
-    n_updates = (out_py >= 0).sum() if kind != "batch" else np.unique(out_py[out_py >= 0]).size
-    assert nis_py.shape == (n_updates,) and np.all(nis_py >= 0)
-    np.testing.assert_allclose(nis_nb, nis_py, rtol=1e-9)
-    assert (out_py >= 0).sum() >= 1  # the case exercised updates
-    np.testing.assert_allclose(st_nb.x, st_py.x, rtol=0, atol=1e-12)
-    np.testing.assert_allclose(st_nb.P, st_py.P, rtol=0, atol=1e-12)
-    for s in polar[:5]:
-        assert nb.min_log_distance(st_nb, s, R) == pytest.approx(py.min_log_distance(st_py, s, R), rel=1e-12)
+    cls, reference = {"nearest-neighbour": (NearestNeighbourAssociator, oracle.sequential),
+                      "batch": (BatchAssociator, oracle.batch),
+                      "batch-joint": (JointBatchAssociator, oracle.joint_batch)}[kind]
+    st_or = SlamState.from_mean(st0.x.copy(), st0.P.copy())
+    out_or, nis_or = reference(st_or, polar, cand, R, spreads, beta, 3)
+    assert (out_or >= 0).sum() >= 1  # the case exercised updates
+    n_updates = {"nearest-neighbour": (out_or >= 0).sum(), "batch": np.unique(out_or[out_or >= 0]).size}.get(kind)
+    for backend in ("numba", "python"):
+        assoc = cls(beta, 3, 5, backend=backend)
+        st = SlamState.from_mean(st0.x.copy(), st0.P.copy())
+        out, nis = assoc.associate(st, polar, cand, R, spreads)
+        assert np.array_equal(out, out_or), backend
+        if n_updates is not None:
+            assert nis.shape == (n_updates,) and np.all(nis >= 0)
+        np.testing.assert_allclose(nis, nis_or, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(st.x, st_or.x, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(st.P, st_or.P, rtol=0, atol=1e-12)
+        for s in polar[:5]:
+            assert assoc.min_log_distance(st0, s, R) == pytest.approx(
+                oracle.best_match(st0, s, 5, R)[1], rel=1e-12)
 
 
 def test_compiled_associator_without_landmarks_associates_nothing():
     require("numba")
-    from radarslam.slam.compiled_associators import CompiledNearestNeighbourAssociator
+    from radarslam.slam.association import CompiledNearestNeighbourAssociator
 
     st = SlamState(np.zeros(3), np.eye(3))
     out, nis = CompiledNearestNeighbourAssociator(20.0, 3, 5).associate(st, np.array([[5.0, 0.1]]), np.array([0]),

@@ -13,9 +13,10 @@ from scipy import stats
 
 from radarslam.extent.sifting import chi2_2dof_quantile, literal_contour, measurement_contour
 from radarslam.slam import EkfSlam, ekf
-from radarslam.slam.association import BatchAssociator, NearestNeighbourAssociator, Spreads
+from radarslam.slam.association import BatchAssociator, Spreads
 from radarslam.slam.state import SlamState
 
+import associator_oracles as oracle
 from helpers import quiet_config, rect_points, scan
 
 
@@ -131,7 +132,7 @@ def test_batch_associator_assigns_as_the_sequential_scheme_scores_first_and_upda
     st = SlamState.from_mean(x.copy(), P.copy())
     out, nis = batch.associate(st, polar, cand, R, spreads)
     # the assignment is the sequential scheme's first choice for each detection at the prior state
-    first = [NearestNeighbourAssociator(20.0, 3, 5).best_match(SlamState.from_mean(x, P), s, 3, R, spreads)
+    first = [oracle.best_match(SlamState.from_mean(x, P), s, 3, R, spreads)
              for s in polar]
     assert out.tolist() == [j if D < 20.0 else -1 for j, D, *_ in first]
     assert nis.size == np.unique(out[out >= 0]).size          # one update per landmark

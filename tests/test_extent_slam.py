@@ -208,7 +208,7 @@ def test_ablation_switches_select_each_half_of_with_extent():
     assert has2[0] and np.array_equal(gX2[0], 0.25 * s2.landmarks[0].extent.X)
     # the alpha test always uses the plain R: its log distance ignores the extent
     from radarslam.slam import ekf
-    from radarslam.slam.association import nearest_landmarks
+    from associator_oracles import nearest_landmarks
 
     s = scan(8, outside).polar[0]
     js = nearest_landmarks(s1.x.tolist(), s, s1.config.landmarks.n_nearest_new)

@@ -80,7 +80,7 @@ def test_compiled_joint_batch_matches_python_with_the_offset(seed):
     """The compiled batch-joint update with ``offset_k`` equals the Python reference (1e-12), and the
     offset changes the update (the negative control: k = 0 gives another state)."""
     require("numba")
-    from radarslam.slam.compiled_associators import CompiledJointBatchAssociator
+    import associator_oracles as oracle
 
     rng = np.random.default_rng(100 + seed)
     n = 8
@@ -95,11 +95,12 @@ def test_compiled_joint_batch_matches_python_with_the_offset(seed):
     B = rng.normal(size=(n, 2, 2))
     spreads = Spreads(0.25 * (B @ B.transpose(0, 2, 1)) * 4, rng.random(n) < 0.7, offset_k=1.0)
     states = {}
-    for name, assoc, sp in (("py", JointBatchAssociator(20.0, 3, 5), spreads),
-                            ("nb", CompiledJointBatchAssociator(20.0, 3, 5), spreads),
-                            ("k0", JointBatchAssociator(20.0, 3, 5), replace(spreads, offset_k=0.0))):
+    for name, assoc, sp in (("py", lambda *a: oracle.joint_batch(*a, 20.0, 3), spreads),
+                            ("nb", JointBatchAssociator(20.0, 3, 5, backend="numba").associate, spreads),
+                            ("k0", JointBatchAssociator(20.0, 3, 5, backend="numba").associate,
+                             replace(spreads, offset_k=0.0))):
         st = SlamState.from_mean(x.copy(), P.copy())
-        out, _ = assoc.associate(st, polar, cand, R, sp)
+        out, _ = assoc(st, polar, cand, R, sp)
         states[name] = (out, st.x.copy(), st.P.copy())
     assert np.array_equal(states["py"][0], states["nb"][0]) and (states["py"][0] >= 0).sum() > 0
     np.testing.assert_allclose(states["nb"][1], states["py"][1], rtol=0, atol=1e-12)

@@ -1,17 +1,13 @@
-"""JCBB compiled (``landmarks.associator = "jcbb"`` with ``filter.backend = "numba"``; docs/method.md c.4.1).
-
-The same association as :class:`radarslam.slam.jcbb.JcbbAssociator`, the reference, as one compiled
-call per scan that the fused engine makes
+"""JCBB's scan kernel (``landmarks.associator = "jcbb"``; docs/method.md c.4.1): one call per scan,
+which the fused engine's step 4 and :class:`radarslam.slam.jcbb.JcbbAssociator` make
 (:func:`jcbb_associate_scan`): the observations (DBSCAN of the candidates in the sensor frame,
 clusters in label order then the noise points), the individual gate against the
 ``n_prefilter`` Euclidean-nearest landmarks (candidates by ``D^2`` then landmark), the search order
 (fewest candidates first, ties by observation), the joint covariance, the branch and bound
-(:func:`radarslam.slam.jcbb_search.jcbb_search`, the reference's kernel compiled as it is: the same
-hypothesis, nodes and budget), and the batch updates (landmarks ascending). Its kernels are the
-reference's (:mod:`radarslam.slam.ekf`: the batch measurement and noise, the Joseph update) and the
-compiled DBSCAN (:mod:`radarslam.landmarks._compiled`). What is written for numba: the per-scan loops
-around them (the observations, the individual gate, the joint covariance). The two agree to rounding
-(tests/test_jcbb.py: every hypothesis of the brute-force oracle problems, car-park runs).
+(:func:`radarslam.slam.jcbb_search.jcbb_search`), and the batch updates (landmarks ascending). Its
+kernels are :mod:`radarslam.slam.ekf`'s (the batch measurement and noise, the Joseph update) and the
+compiled DBSCAN (:mod:`radarslam.landmarks._compiled`). Under ``filter.backend = "python"`` the same
+code runs in the interpreter (tests/test_jcbb.py checks it against brute-force oracle problems).
 
 The joint gates ``chi2.ppf(p, 2 k)`` come in as an array (:func:`joint_gates`): scipy is not
 compiled.
@@ -32,9 +28,7 @@ from radarslam.slam._numba import (
     _polar_to_sensor_xy,
     _sensor_xy_measurement,
     _smallest,
-    min_log_distance,
 )
-from radarslam.slam.jcbb import JcbbAssociator, JcbbResult, make_jcbb
 from radarslam.slam.jcbb_search import _can_beat, close_block, extend_loops, jcbb_search
 
 
@@ -48,14 +42,14 @@ def joint_gates(probability: float, depth: int) -> np.ndarray:
     return g
 
 
-#: The branch and bound of c.4.1, the reference's own kernels compiled as they are (slam/jcbb_search.py).
+#: The branch and bound of c.4.1, the kernels of slam/jcbb_search.py compiled as they are.
 _J = compile_kernels(close_block, extend_loops, _can_beat, jcbb_search)
 jcbb_search = _J["jcbb_search"]
 
 
 @njit(cache=True)
 def _observations(polar, cand, R, eps, min_samples):  # pragma: no cover - compiled
-    """:func:`radarslam.slam.jcbb.cluster_observations` of ``polar[cand]``: each observation's members
+    """The observations of ``polar[cand]`` (c.4.1 step 1, DBSCAN in the sensor frame): each one's members
     (positions in ``cand``) as ``members[moff[o]:moff[o + 1]]``, its sensor-frame mean ``zbar (n, 2)``
     and mean detection noise ``R_xy (n, 2, 2)``."""
     sub = np.empty((cand.shape[0], 2))
@@ -98,7 +92,7 @@ def _observations(polar, cand, R, eps, min_samples):  # pragma: no cover - compi
 
 @njit(cache=True)
 def _candidate_pairs(x, P, zbar, R_xy, moff, gX, has_gX, platform, n_prefilter, gate1):  # pragma: no cover
-    """:meth:`radarslam.slam.jcbb.JcbbAssociator.candidate_pairs`: the individually compatible
+    """c.4.1 step 2, against each observation's ``n_prefilter`` nearest landmarks: the individually compatible
     pairings, as rows ``(observation, landmark, D^2, nu (2,), Hs (2, 5), idx (5,), noise (2, 2))``
     grouped by observation (``coff``) and within one by ``D^2`` then landmark."""
     n, N = zbar.shape[0], (x.shape[0] - platform) // 2
@@ -149,7 +143,7 @@ def _candidate_pairs(x, P, zbar, R_xy, moff, gX, has_gX, platform, n_prefilter, 
 
 @njit(cache=True)
 def _joint_covariance(rows, c_H, c_idx, c_N, P):  # pragma: no cover - compiled
-    """:func:`radarslam.slam.jcbb.joint_covariance` of the pairings ``rows`` from their sparse
+    """:func:`radarslam.slam.jcbb_search.joint_covariance` of the pairings ``rows`` from their sparse
     Jacobians: ``C = H P H^T + blockdiag(N)``, symmetrised."""
     M = rows.shape[0]
     C = np.empty((2 * M, 2 * M))
@@ -173,7 +167,7 @@ def _joint_covariance(rows, c_H, c_idx, c_N, P):  # pragma: no cover - compiled
 @njit(cache=True)
 def jcbb_associate_scan(x, P, polar, cand, R, gX, has_gX, platform, eps, min_samples, n_prefilter, gates,
                         max_nodes):  # pragma: no cover - compiled
-    """:meth:`radarslam.slam.jcbb.JcbbAssociator.associate` of the candidates ``polar[cand]``, in place
+    """JCBB's association of the candidates ``polar[cand]`` (c.4.1), in place
     on ``x``, ``P``: observations, individual gate, search order, joint covariance, branch and bound,
     then one batch update per paired landmark (ascending), each at the state its predecessors left.
     ``gates``: :func:`joint_gates` to at least the number of candidates. Returns ``(x, P, landmark
@@ -215,46 +209,3 @@ def jcbb_associate_scan(x, P, polar, cand, R, gX, has_gX, platform, eps, min_sam
         for b in range(moff[o], moff[o + 1]):
             out[members[b]] = j
     return x, P, out, nis, (pairs, obs[pairs], lm[pairs], d2, nodes, exhausted)
-
-
-class CompiledJcbbAssociator(JcbbAssociator):
-    """:class:`~radarslam.slam.jcbb.JcbbAssociator`, compiled (:func:`jcbb_associate_scan`)."""
-
-    backend = "numba"
-
-    def __init__(self, *args, **kwargs):
-        super().__init__(*args, **kwargs)
-        self._gates = joint_gates(self.gate_probability, 64)
-
-    def gates(self, depth: int) -> np.ndarray:
-        """:func:`joint_gates` to at least ``depth`` pairings (kept and grown)."""
-        if self._gates.shape[0] <= depth:
-            self._gates = joint_gates(self.gate_probability, max(depth, 2 * (self._gates.shape[0] - 1)))
-        return self._gates
-
-    def associate(self, state, polar, candidates, R, spreads):
-        if not state.n_landmarks or candidates.size == 0:
-            return super().associate(state, polar, candidates, R, spreads)
-        x, P, out, nis, (rows, obs, lm, d2, nodes, exhausted) = jcbb_associate_scan(
-            state.x, state.P, polar, candidates.astype(np.int64), R, spreads.gX, spreads.has, state.platform_dim,
-            self.cluster_eps, self.cluster_min_samples, self.n_prefilter, self.gates(candidates.size),
-            self.max_nodes)
-        state.set(x, P)
-        self.last = JcbbResult(tuple(zip(obs.tolist(), lm.tolist())), tuple(rows.tolist()), float(d2), int(nodes),
-                               bool(exhausted))
-        self.nodes += self.last.nodes
-        self.budget_hits += int(self.last.exhausted)
-        return out, nis
-
-    def min_log_distance(self, state, s, R) -> float:
-        return float(min_log_distance(state.x, state.P, float(s[0]), float(s[1]), self.n_nearest_new, R,
-                                      state.platform_dim))
-
-
-def make_compiled_jcbb(config) -> CompiledJcbbAssociator:
-    """:func:`radarslam.slam.jcbb.make_jcbb`, compiled."""
-    ref = make_jcbb(config)
-    return CompiledJcbbAssociator(ref.beta, ref.n_nearest, ref.n_nearest_new, ref.gate_probability, ref.max_nodes,
-                                  ref.cluster_eps, ref.cluster_min_samples, ref.n_prefilter)
-
-

@@ -1,13 +1,10 @@
-"""The compiled associators' kernels (``filter.backend = "numba"``, the default; the classes that
-wrap them: :mod:`radarslam.slam.compiled_associators`).
-
-The same association scheme as :class:`radarslam.slam.association.NearestNeighbourAssociator`,
-compiled as one loop over the scan's candidates. It has no maths of its own: the measurement
+"""The associators' kernels (the classes that run them: :mod:`radarslam.slam.association`; the
+fused engine's step 4 calls them too): each scheme as one loop over the scan's candidates. It has no maths of its own: the measurement
 Jacobian, the log distance, ``R_eff``, the Joseph update and the angle wraps are the functions of
 :mod:`radarslam.slam.ekf` and :mod:`radarslam.core.angles`, compiled here as they are
 (:func:`compile_kernels`). Only the loop and the nearest-landmark search are written for numba.
-The two backends agree to rounding (tested on random states and scans); a run's backend is part of
-its configuration.
+The reference backend runs the same code in the interpreter; both agree with the schemes written in
+numpy over :mod:`radarslam.slam.ekf` to rounding (tests/test_components.py, random states and scans).
 """
 
 from __future__ import annotations

@@ -7,23 +7,26 @@ paper's sequential nearest-neighbour scheme: each candidate in scan order is sco
 ``N_s`` Euclidean-nearest landmarks by the log distance of APSIPA eq. (9) and, when the smallest
 is below ``beta``, updates the state at once (the next candidate sees the updated state).
 
-Two implementations of the same scheme are registered under ``"nearest-neighbour"``: this module's
-(``filter.backend = "python"``, the reference) and the compiled one of :mod:`._numba`
-(``"numba"``). Both run the kernels of :mod:`.ekf`.
+Each scheme is one kernel of :mod:`._numba` (score the candidates, then update), the one the fused
+engine's step 4 calls. An associator object runs it compiled (``backend = "numba"``, the default) or
+the same code in the interpreter (``"python"``, the reference: :func:`radarslam.core.jit.uncompiled`).
 """
 
 from __future__ import annotations
 
-import math
+import functools
 from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
 
-from radarslam.slam import ekf
-from radarslam.slam.layout import POSE_DIM
+from radarslam.core.errors import InputError
+from radarslam.slam._numba import associate_scan, batch_associate_scan, joint_batch_associate_scan, min_log_distance
 from radarslam.slam.state import SlamState
 
+__all__ = ["Associator", "BatchAssociator", "CompiledBatchAssociator", "CompiledJointBatchAssociator",
+           "CompiledNearestNeighbourAssociator", "JointBatchAssociator", "NearestNeighbourAssociator", "Spreads",
+           "kernel_form", "make_batch", "make_batch_joint", "make_nearest_neighbour"]
 
 
 @dataclass(frozen=True)
@@ -69,18 +72,23 @@ class Associator(Protocol):
         c.6, with the plain ``R``); ``inf`` without landmarks."""
 
 
-def nearest_landmarks(xs: list[float], s, count: int, platform: int = POSE_DIM) -> list[int]:
-    """Positions of the ``count`` landmarks Euclidean-nearest to detection ``s`` seen from the pose
-    of ``xs`` (the state as a list, its platform block of ``platform`` entries), nearest first,
-    ties by position."""
-    a = xs[2] + s[1]
-    zx, zy = xs[0] + s[0] * math.cos(a), xs[1] + s[0] * math.sin(a)
-    d2 = [(lx - zx) ** 2 + (ly - zy) ** 2 for lx, ly in zip(xs[platform::2], xs[platform + 1::2])]
-    return sorted(range(len(d2)), key=d2.__getitem__)[:count]
+@functools.cache
+def _python_form(kernel):
+    from radarslam.core.jit import uncompiled
+
+    return uncompiled(kernel)
+
+
+def kernel_form(kernel, backend: str):
+    """``kernel`` (a numba dispatcher) as ``backend`` runs it: itself for ``"numba"``, its code in the
+    interpreter for ``"python"`` (:func:`~radarslam.core.jit.uncompiled`, built once per kernel)."""
+    return kernel if backend == "numba" else _python_form(kernel)
 
 
 class NearestNeighbourAssociator:
-    """Sequential nearest-neighbour association by the log distance (APSIPA eq. 9), Python.
+    """Sequential nearest-neighbour association by the log distance (APSIPA eq. 9): the kernel
+    :func:`~radarslam.slam._numba.associate_scan`, the alpha test
+    :func:`~radarslam.slam._numba.min_log_distance`.
 
     Parameters
     ----------
@@ -90,56 +98,46 @@ class NearestNeighbourAssociator:
         ``N_s``: landmarks scored per detection.
     n_nearest_new : int
         ``N_a``: landmarks scored by the alpha test.
+    backend : {"python", "numba"}
+        How the kernels run (module docstring); the class's own by default.
     """
 
     name = "nearest-neighbour"
     backend = "python"
     #: Evaluates its Jacobians at ``state.linearisation(j)`` (first-estimates Jacobians, c.2.1).
     fej = True
+    #: Fuses a landmark's detections into their mean (a.7.3), taking ``Spreads.offset_k`` (c.17).
+    batch = False
+    kernel = staticmethod(associate_scan)
 
-    def __init__(self, beta: float, n_nearest: int, n_nearest_new: int):
+    def __init__(self, beta: float, n_nearest: int, n_nearest_new: int, backend: str | None = None):
         self.beta = float(beta)
         self.n_nearest = int(n_nearest)
         self.n_nearest_new = int(n_nearest_new)
-
-    def best_match(self, state: SlamState, s: np.ndarray, count: int, R: np.ndarray,
-                   spreads: Spreads | None = None):
-        """The landmark of smallest log distance among the ``count`` nearest, with its update terms.
-
-        Returns ``(j, D, e, Hs, idx, R_j)``; ``j = -1`` and ``D = inf`` without landmarks.
-        """
-        if not state.n_landmarks:
-            return (-1, math.inf, None, None, None, None)
-        xs, p = state.x.tolist(), state.platform_dim
-        js = nearest_landmarks(xs, s, count, p)
-        gX = None
-        if spreads is not None and spreads.has.any():
-            gX = [spreads.gX[j].tolist() if spreads.has[j] else None for j in js]
-        j, D, e = ekf.score_landmarks(state.x, state.P, s, js, R, gX, xs, p)
-        if j < 0:
-            return (-1, math.inf, None, None, None, None)
-        Hs, idx = ekf.sparse_jacobian(state.linearisation(j), j, p)   # first estimates under FEJ (c.2.1)
-        Rj = ekf.r_eff(R, Hs, spreads.gX[j]) if spreads is not None and spreads.has[j] else R
-        return (j, D, np.array(e), Hs, idx, Rj)
+        if backend is not None:
+            if backend not in ("python", "numba"):
+                raise InputError(f"backend: expected 'python' or 'numba', got {backend!r}")
+            self.backend = backend
 
     def associate(self, state: SlamState, polar: np.ndarray, candidates: np.ndarray, R: np.ndarray,
                   spreads: Spreads) -> tuple[np.ndarray, np.ndarray]:
-        out = np.full(candidates.shape[0], -1, dtype=int)
-        nis = []
-        for c, i in enumerate(candidates.tolist()):
-            j, D, e, Hs, idx, Rj = self.best_match(state, polar[i], self.n_nearest, R, spreads)
-            if j >= 0 and D < self.beta:
-                q = ekf.joseph_update_inplace(state.x, state.P, e, Hs, idx, Rj)
-                nis.append(q)
-                out[c] = j
-        return out, np.array(nis)
+        if not state.n_landmarks:
+            return np.full(candidates.shape[0], -1, dtype=int), np.empty(0)
+        args = (state.x, state.P, polar, candidates.astype(np.int64), R, spreads.gX, spreads.has, self.n_nearest,
+                self.beta, state.platform_dim, state.linearisation_all())
+        scan = kernel_form(type(self).kernel, self.backend)
+        x, P, out, nis = scan(*args, float(spreads.offset_k)) if self.batch else scan(*args)
+        state.set(x, P)
+        return out, nis
 
     def min_log_distance(self, state: SlamState, s: np.ndarray, R: np.ndarray) -> float:
-        return self.best_match(state, s, self.n_nearest_new, R)[1]
+        return float(kernel_form(min_log_distance, self.backend)(state.x, state.P, float(s[0]), float(s[1]),
+                                                                 self.n_nearest_new, R, state.platform_dim))
 
 
 class BatchAssociator(NearestNeighbourAssociator):
-    """Per-landmark batch update (docs/method.md a.7.3): one EKF update per landmark per scan.
+    """Per-landmark batch update (docs/method.md a.7.3; :func:`~radarslam.slam._numba.batch_associate_scan`):
+    one EKF update per landmark per scan.
 
     Every candidate is scored against its ``N_s`` nearest landmarks by the log distance of APSIPA
     eq. (9) at the state before the scan's updates (with ``R_eff``), exactly as the sequential
@@ -153,65 +151,41 @@ class BatchAssociator(NearestNeighbourAssociator):
     """
 
     name = "batch"
-
-    def scores(self, state: SlamState, polar: np.ndarray, candidates: np.ndarray, R: np.ndarray,
-               spreads: Spreads) -> np.ndarray:
-        """The landmark of each candidate (-1 for none), all scored at the current state."""
-        out = np.full(candidates.shape[0], -1, dtype=int)
-        for c, i in enumerate(candidates.tolist()):
-            j, D = self.best_match(state, polar[i], self.n_nearest, R, spreads)[:2]
-            if j >= 0 and D < self.beta:
-                out[c] = j
-        return out
-
-    def associate(self, state: SlamState, polar: np.ndarray, candidates: np.ndarray, R: np.ndarray,
-                  spreads: Spreads) -> tuple[np.ndarray, np.ndarray]:
-        out = self.scores(state, polar, candidates, R, spreads)
-        nis = []
-        for j in np.unique(out[out >= 0]).tolist():
-            dets = candidates[out == j]
-            pts, R_xy = ekf.polar_to_sensor_xy(polar[dets], R)
-            noise = ekf.batch_noise(state.x[2], spreads.gX[j], spreads.has[j], R_xy, dets.size, spreads.offset_k)
-            h, Hs, idx = ekf.sensor_xy_measurement(state.x, j, state.platform_dim)
-            if state.lin_pose is not None:        # first-estimates Jacobian (c.2.1), h at the estimate
-                Hs = ekf.sensor_xy_measurement(state.linearisation(j), j, state.platform_dim)[1]
-            q = ekf.joseph_update_inplace(state.x, state.P, pts.mean(axis=0) - h, Hs, idx, noise)
-            nis.append(q)
-        return out, np.array(nis)
+    batch = True
+    kernel = staticmethod(batch_associate_scan)
 
 
 class JointBatchAssociator(BatchAssociator):
-    """The batch scheme with all landmarks of the scan in one update (docs/method.md a.7.4).
+    """The batch scheme with all landmarks of the scan in one update (docs/method.md a.7.4;
+    :func:`~radarslam.slam._numba.joint_batch_associate_scan`).
 
     Scoring and grouping are :class:`BatchAssociator`'s; then the L landmarks' mean detections are
     stacked into one measurement of 2L rows, linearised at the state before the scan's updates,
-    with the block-diagonal noise of :func:`~radarslam.slam.ekf.batch_noise`, and applied by
-    :func:`~radarslam.slam.ekf.joint_update_inplace`: one pass over the n x n covariance per scan
-    instead of one per landmark. For a linear model this is the same update as the L sequential
-    ones (tested); here it differs from them only by where each landmark's measurement is
-    linearised (the sequential form relinearises after every landmark)."""
+    with the block-diagonal noise of :func:`~radarslam.slam.ekf.batch_noise`, and applied as one
+    pass over the n x n covariance per scan instead of one per landmark. For a linear model this is
+    the same update as the L sequential ones (tested); here it differs from them only by where each
+    landmark's measurement is linearised (the sequential form relinearises after every landmark)."""
 
     name = "batch-joint"
+    kernel = staticmethod(joint_batch_associate_scan)
 
-    def associate(self, state: SlamState, polar: np.ndarray, candidates: np.ndarray, R: np.ndarray,
-                  spreads: Spreads) -> tuple[np.ndarray, np.ndarray]:
-        out = self.scores(state, polar, candidates, R, spreads)
-        seen = np.unique(out[out >= 0]).tolist()
-        if not seen:
-            return out, np.empty(0)
-        n = state.x.shape[0]
-        e, H, Rb = np.empty(2 * len(seen)), np.zeros((2 * len(seen), n)), np.zeros((2 * len(seen), 2 * len(seen)))
-        for a, j in enumerate(seen):
-            dets = candidates[out == j]
-            pts, R_xy = ekf.polar_to_sensor_xy(polar[dets], R)
-            h, Hs, idx = ekf.sensor_xy_measurement(state.x, j, state.platform_dim)
-            if state.lin_pose is not None:        # first-estimates Jacobian (c.2.1)
-                Hs = ekf.sensor_xy_measurement(state.linearisation(j), j, state.platform_dim)[1]
-            e[2 * a:2 * a + 2] = pts.mean(axis=0) - h
-            H[2 * a:2 * a + 2, idx] = Hs
-            Rb[2 * a:2 * a + 2, 2 * a:2 * a + 2] = ekf.batch_noise(state.x[2], spreads.gX[j], spreads.has[j], R_xy,
-                                                                   dets.size, spreads.offset_k)
-        return out, ekf.joint_update_inplace(state.x, state.P, e, H, Rb)
+
+class CompiledNearestNeighbourAssociator(NearestNeighbourAssociator):
+    """:class:`NearestNeighbourAssociator`, its kernels compiled (``filter.backend = "numba"``)."""
+
+    backend = "numba"
+
+
+class CompiledBatchAssociator(BatchAssociator):
+    """:class:`BatchAssociator`, its kernels compiled."""
+
+    backend = "numba"
+
+
+class CompiledJointBatchAssociator(JointBatchAssociator):
+    """:class:`JointBatchAssociator`, its kernels compiled."""
+
+    backend = "numba"
 
 
 def _factory(cls):
@@ -222,7 +196,10 @@ def _factory(cls):
     return make
 
 
-# The factories core.registry.BUILT_INS names.
+# The factories core.registry.BUILT_INS names, per backend.
 make_nearest_neighbour = _factory(NearestNeighbourAssociator)
 make_batch = _factory(BatchAssociator)
 make_batch_joint = _factory(JointBatchAssociator)
+make_compiled_nearest_neighbour = _factory(CompiledNearestNeighbourAssociator)
+make_compiled_batch = _factory(CompiledBatchAssociator)
+make_compiled_batch_joint = _factory(CompiledJointBatchAssociator)

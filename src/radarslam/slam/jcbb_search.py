@@ -2,8 +2,8 @@
 Trans. Robot. Autom. 17(6), 2001) on arrays: innovations of candidate pairings and their joint
 covariance in, the largest jointly compatible set of pairings out. :func:`jcbb` checks its inputs
 and runs :func:`jcbb_search`, a kernel that :mod:`radarslam.slam._jcbb_numba` compiles as it is for
-the compiled associator and the fused engine; :mod:`radarslam.slam.jcbb` builds the problem from a
-scan (the observations, the individual gate, the batch updates).
+the associator and the fused engine; :func:`radarslam.slam._jcbb_numba.jcbb_associate_scan` builds the
+problem from a scan (the observations, the individual gate, the batch updates).
 """
 
 from __future__ import annotations

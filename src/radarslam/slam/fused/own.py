@@ -39,28 +39,23 @@ def own_motion(slam) -> bool:
     return slam.config.filter.odometry == "odometer" and type(slam.model) not in (UnicycleModel, AckermannModel)
 
 
-def builtin_associators(backend: str = "numba") -> dict:
-    """The associators the engine's step 4 reproduces, each with its ``FusedParams.assoc``: the nearest
-    neighbour (0), batch (1), batch-joint (2) and JCBB (3) associators, compiled and in the partial view's
-    forms, and under the reference backend (``backend`` "python") the reference's own. Under the compiled
-    backend a reference associator given by hand is run as it is, in Python (one of the user's own)."""
-    from radarslam.slam._jcbb_numba import CompiledJcbbAssociator
-    from radarslam.slam.association import BatchAssociator, JointBatchAssociator, NearestNeighbourAssociator
-    from radarslam.slam.compiled_associators import (CompiledBatchAssociator, CompiledJointBatchAssociator,
-                                                     CompiledNearestNeighbourAssociator)
-    from radarslam.slam.jcbb import JcbbAssociator
+def builtin_associators() -> dict:
+    """The associators whose kernels the engine's step 4 calls, each with its ``FusedParams.assoc``: the
+    nearest neighbour (0), batch (1), batch-joint (2) and JCBB (3) associators, under either backend (the
+    same kernels, compiled or not: slam/association.py) and in the partial view's forms."""
+    from radarslam.slam import association as a
+    from radarslam.slam.jcbb import CompiledJcbbAssociator, JcbbAssociator
     from radarslam.slam.partial_view import PartialViewBatch, PartialViewJointBatch, PartialViewNearestNeighbour
 
-    out = {CompiledNearestNeighbourAssociator: 0, PartialViewNearestNeighbour: 0, CompiledBatchAssociator: 1,
-           PartialViewBatch: 1, CompiledJointBatchAssociator: 2, PartialViewJointBatch: 2, CompiledJcbbAssociator: 3}
-    if backend == "python":
-        out.update({NearestNeighbourAssociator: 0, BatchAssociator: 1, JointBatchAssociator: 2, JcbbAssociator: 3})
-    return out
+    return {a.NearestNeighbourAssociator: 0, a.CompiledNearestNeighbourAssociator: 0, PartialViewNearestNeighbour: 0,
+            a.BatchAssociator: 1, a.CompiledBatchAssociator: 1, PartialViewBatch: 1,
+            a.JointBatchAssociator: 2, a.CompiledJointBatchAssociator: 2, PartialViewJointBatch: 2,
+            JcbbAssociator: 3, CompiledJcbbAssociator: 3}
 
 
 def own_associator(slam) -> bool:
     """Whether ``slam``'s associator is of the user's own: none of the engine's (:func:`builtin_associators`)."""
-    return type(slam.associator) not in builtin_associators(slam.config.filter.backend)
+    return type(slam.associator) not in builtin_associators()
 
 
 def own_extent(slam) -> bool:

@@ -145,7 +145,7 @@ def _parameters(slam, timing: bool = False, all_maps: bool = True) -> FusedParam
 
     in_slam = bool(ec.use_in_slam)
     return FusedParams(
-        assoc=builtin_associators(f.backend).get(type(slam.associator), 0),
+        assoc=builtin_associators().get(type(slam.associator), 0),
         n_near=int(getattr(slam.associator, "n_nearest", 1)), n_new=int(getattr(slam.associator, "n_nearest_new", 1)),
         min_samples=int(lc.cluster_min_samples),
         confirm_points=int(lc.confirm_points), confirm_window=int(lc.confirm_window),
