@@ -32,7 +32,7 @@ def _beating(line, name: str):
 
 
 @contextmanager
-def _heartbeat(expected_s: float, what: str = "run: still compiling the per-event engine's kernels"):
+def _heartbeat(expected_s: float, what: str = "run: still compiling the kernels of the engine's steps form"):
     """An event to set when the compile is over; until then, with ``expected_s`` > 0, a line on
     stderr every :data:`HEARTBEAT_S` seconds, ``what`` and the seconds so far, saying that numba still
     compiles (no silence longer than that while a first run compiles in the foreground)."""

@@ -20,7 +20,7 @@ from pathlib import Path
 #: (``core.jit.compile_kernels``); ``tests/test_layering.py`` checks that it is complete.
 COMPILED_SOURCES = (
     "core/angles.py", "core/arrays.py", "core/jit.py", "core/small_matrices.py", "slam/ekf.py", "slam/layout.py",
-    "slam/_numba.py", "slam/_jcbb_numba.py", "slam/jcbb_search.py",
+    "slam/_numba.py", "slam/_jcbb_numba.py", "slam/jcbb_search.py", "slam/state_loops.py",
     "slam/fused/storage.py", "slam/fused/tracking.py", "slam/fused/mapping.py", "slam/fused/engine.py",
     "slam/fused/events.py", "slam/fused/extent.py", "slam/fused/gate.py", "slam/gate_kernels.py",
     "landmarks/confirmation.py", "landmarks/merging.py", "landmarks/sifting.py", "landmarks/grouping.py",

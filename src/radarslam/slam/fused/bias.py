@@ -18,6 +18,7 @@ from numba import njit
 
 from radarslam.core.jit import compile_kernels, compiled_only
 from radarslam.models.input_bias import correct_input, input_jacobians, turn_terms
+from radarslam.slam.state_loops import write_platform_rows
 from radarslam.slam.bias import bias_transition, platform_jacobian, platform_prediction, thrust_turn
 from radarslam.slam.fused.tracking import _fej_motion_jacobian, _motion, predict
 from radarslam.slam.layout import POSE_DIM
@@ -77,13 +78,8 @@ def predict_biased(x, P, u, dt, U, Q, pose_first, model, cfg):  # pragma: no cov
     s, Pss, Psl = _platform_prediction(pose, b, P, Fx, Fu, Cu, Fb, phi, qb, U, Q)
     if not (_finite(s) and _finite(Pss) and _finite(Psl)):
         return False
-    n = x.shape[0]
     x[:p] = s
-    P[:p, :p] = Pss
-    for i in range(p):
-        for j in range(p, n):
-            P[i, j] = Psl[i, j - p]
-            P[j, i] = Psl[i, j - p]
+    write_platform_rows(P, Pss, Psl)
     if cfg.fej:
         pose_first[0], pose_first[1], pose_first[2] = s[0], s[1], s[2]
     return True

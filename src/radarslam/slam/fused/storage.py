@@ -20,6 +20,7 @@ from radarslam.extent._compiled import gated_diameter as compiled_gated_diameter
 from radarslam.landmarks._compiled import compiled_compact_records, compiled_grown, compiled_grown_inner, compiled_with_room
 from radarslam.landmarks.records import Records
 from radarslam.slam import _view_compiled
+from radarslam.slam.state_loops import all_finite as _all_finite, drop_state_rows as _drop_state_rows
 
 # The visible-arc estimator's trunk diameter, compiled as it is (docs/method.md a.9).
 _gated_diameter = compiled_gated_diameter
@@ -122,31 +123,6 @@ _grow_rows = compiled_grown
 _grow_buffer = compiled_grown_inner
 
 
-@compiled_only
-def _drop_state_rows(x, P, keep):  # pragma: no cover - compiled
-    """``x`` and ``P`` without the landmarks whose ``keep`` is False (ekf.remove_landmarks); the
-    platform block is what precedes the ``keep.shape[0]`` landmarks."""
-    N = keep.shape[0]
-    p = x.shape[0] - 2 * N
-    rows = np.empty(p + 2 * N, dtype=np.int64)
-    n = 0
-    for i in range(p):
-        rows[n] = i
-        n += 1
-    for j in range(N):
-        if keep[j]:
-            rows[n] = p + 2 * j
-            rows[n + 1] = p + 1 + 2 * j
-            n += 2
-    x_new = np.empty(n)
-    P_new = np.empty((n, n))
-    for a in range(n):
-        x_new[a] = x[rows[a]]
-        for b in range(n):
-            P_new[a, b] = P[rows[a], rows[b]]
-    return x_new, P_new
-
-
 @njit(cache=True, inline="always")
 def _blocks(x, P, platform):  # pragma: no cover - compiled
     """Landmark centroids ``(N, 2)`` and their 2 x 2 covariance blocks ``(N, 2, 2)`` after a
@@ -163,18 +139,6 @@ def _blocks(x, P, platform):  # pragma: no cover - compiled
         cov[j, 1, 0] = P[i, i + 1]
         cov[j, 1, 1] = P[i + 1, i + 1]
     return pos, cov
-
-
-@njit(cache=True, inline="always")
-def _all_finite(x, P):  # pragma: no cover - compiled
-    for i in range(x.shape[0]):
-        if not math.isfinite(x[i]):
-            return False
-    for i in range(P.shape[0]):
-        for j in range(P.shape[1]):
-            if not math.isfinite(P[i, j]):
-                return False
-    return True
 
 
 # ---------------------------------------------------------------------------------------- landmarks

@@ -30,6 +30,7 @@ from radarslam.slam._numba import (
     batch_associate_scan,
     joint_batch_associate_scan,
 )
+from radarslam.slam.state_loops import pose_cross_rows, write_platform_rows
 from radarslam.slam.layout import POSE_DIM
 from radarslam.slam.fused.storage import _drop_state_rows, _grow_rows, _grown_maps, compact_landmarks, write_map_row
 
@@ -98,26 +99,13 @@ def predict(x, P, u, dt, U, Q, pose_first, model, cfg):  # pragma: no cover - co
         for j in range(3):
             Ppp[i, j] += Q[i, j]
             ok = ok and math.isfinite(Ppp[i, j])
-    n = x.shape[0]
-    Ppl = np.empty((3, n - 3))
-    for i in range(3):
-        for j in range(3, n):
-            s = 0.0
-            for k in range(3):
-                s += Fx[i, k] * P[k, j]
-            Ppl[i, j - 3] = s
-            ok = ok and math.isfinite(s)
-    if not ok:
+    Ppl, ok_pl = pose_cross_rows(Fx, P)
+    if not (ok and ok_pl):
         return False
     x[0], x[1], x[2] = pose0, pose1, pose2
     if cfg.fej:
         pose_first[0], pose_first[1], pose_first[2] = pose0, pose1, pose2
-    for i in range(3):
-        for j in range(3):
-            P[i, j] = Ppp[i, j]
-        for j in range(3, n):
-            P[i, j] = Ppl[i, j - 3]
-            P[j, i] = Ppl[i, j - 3]
+    write_platform_rows(P, Ppp, Ppl)
     return True
 
 
