@@ -60,7 +60,11 @@ def run_stream(config: Config, events: list, first_run=None, *, observers: Seque
             n[0] += 1
             if n[0] == 2:
                 compiled.set()
-        record = drive(config, events, engine={"python": "fused-python", "steps": "fused-steps"}.get(engine, "auto"),
+        # the plan's Python form is the reference backend's whole (its numpy EKF updates and the Doppler
+        # gate's reference, slam/fused/own.py reference_kernels): a first run compiles nothing
+        run_config = config if engine != "python" else dataclasses.replace(
+            config, filter=dataclasses.replace(config.filter, backend="python"))
+        record = drive(run_config, events, engine={"python": "fused-python", "steps": "fused-steps"}.get(engine, "auto"),
                        observers=observers, maps=maps, on_scan=tick, on_scans=on_scans)
     if engine == "python" and config.filter.backend != "python":   # the plan chose the reference (a first run)
         record.engine = "python"
