@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 import radarslam
 from radarslam.config import profile_config
 from radarslam.montecarlo import trials as mc
@@ -151,6 +152,14 @@ def test_first_run_engine_takes_the_steps_form_while_it_ends_sooner():
     assert costs.first_run_engine(5000, 3, 2) == "auto"
     assert costs.first_run_engine(int(saved / per * 4 / 3), 3, 4) == "steps"
     assert costs.first_run_engine(boundary + 1, 3, 1) == "auto"         # one worker: less time to save
+    # a few trials: the Python reference whole at once, up to where the steps form's warm-up pays
+    few = int(costs.STEPS_WARM_UP_S / (costs.PYTHON_TRIAL_S - costs.STEPS_S) * 2 / 3)
+    assert 20 <= few <= 100                           # reproduce --trials 2 at once, --trials 200 not
+    assert costs.first_run_engine(2, 3, 2) == "python"
+    assert costs.first_run_engine(few, 3, 2) == "python"
+    assert costs.first_run_engine(few + 1, 3, 2) == "steps"
+    assert costs.first_run_engine(few + 1, 3, 1) == "steps"              # one worker: python's cost doubles
+    assert costs.first_run_engine(few // 2, 3, 1) == "python"
 
 
 def test_a_short_cold_run_uses_the_steps_form_and_stores_the_same_results(tmp_path, monkeypatch):
@@ -170,6 +179,7 @@ def test_a_short_cold_run_uses_the_steps_form_and_stores_the_same_results(tmp_pa
     monkeypatch.setattr(policy, "cache_is_cold", lambda: True)
     monkeypatch.setattr(policy, "fused_is_cold", lambda: True)
     monkeypatch.setattr(policy, "_steps_are_cold", lambda: True)
+    monkeypatch.setattr(policy, "first_run_engine", lambda *a: "steps")   # a run of some hundred trials
     monkeypatch.setattr(background, "start", lambda *a: started.append(a) or 4242)
     logs: list[str] = []
     mc.run_montecarlo(cfg, 5, 2, tmp_path / "short", jobs=2, progress=False, log=logs.append)
@@ -195,6 +205,40 @@ def test_a_short_cold_run_uses_the_steps_form_and_stores_the_same_results(tmp_pa
         np.testing.assert_allclose(b["poses"], a["poses"], rtol=0, atol=1e-9)
     rep = write_report(tmp_path / "short", n_boot=50)
     assert rep["fig2"]["matches_stored"] is True
+
+
+def test_a_few_cold_trials_run_the_python_reference_and_store_the_same_results(tmp_path, monkeypatch):
+    """A cold cache and a run of a few trials (reproduce --trials 2): no compiling line and no
+    warm-up, one line saying the trials go through the Python reference, the detached compilation
+    started once, every trial's every variant recorded as "python", and the results equal a
+    compiled run's (same landmark counts exactly, poses to 1e-9); the report's Fig. 2 reruns trial 1
+    by the reference, bit for bit. Negative control: with the steps form's kernels cached the same
+    run takes the steps form (nothing to wait for)."""
+    require("numba")
+    require("matplotlib")
+    from radarslam.compiling import background
+    from radarslam.montecarlo.report import write_report
+
+    cfg = profile_config()
+    mc.run_montecarlo(cfg, 5, 2, tmp_path / "plain", jobs=1, progress=False, log=lambda s: None)
+    started: list = []
+    for name in ("cache_is_cold", "fused_is_cold", "_steps_are_cold"):
+        monkeypatch.setattr(policy, name, lambda *families: True)
+    monkeypatch.setattr(background, "start", lambda *a: started.append(a) or 4242)
+    monkeypatch.setattr(warmup, "_steps_trial", lambda *a, **k: pytest.fail("the warm-up ran"))
+    logs: list[str] = []
+    mc.run_montecarlo(cfg, 5, 2, tmp_path / "few", jobs=2, progress=False, log=logs.append)
+    assert not any("compiling the numba" in line for line in logs)
+    assert sum(warmup.PYTHON_SHORT in line for line in logs) == 1
+    assert len(started) == 1 and any("pid 4242" in line for line in logs)
+    plain, few = mc.load_results(tmp_path / "plain"), mc.load_results(tmp_path / "few")
+    assert all(e == ["python", "python"] for e in few["engines"].values())
+    for v in ("noext", "ext", "consistent"):
+        assert np.array_equal(plain[v]["n_landmarks"], few[v]["n_landmarks"])
+        np.testing.assert_allclose(few[v]["poses"], plain[v]["poses"], rtol=0, atol=1e-9)
+    assert write_report(tmp_path / "few", n_boot=50)["fig2"]["matches_stored"] is True
+    monkeypatch.setattr(policy, "_steps_are_cold", lambda *families: False)
+    assert warmup.warm_up(cfg, mc.DEFAULT_VARIANTS, lambda s: None, n_trials=2, jobs=2) == "fused-steps"
 
 
 def test_a_short_warm_up_splits_the_variants_over_its_two_processes(monkeypatch):

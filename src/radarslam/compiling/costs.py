@@ -27,15 +27,24 @@ FUSED_COMPILE_S, STEPS_COMPILE_S = 140.0, 50.0
 STEPS_WARM_UP_S = 57.0
 
 
+#: Seconds per variant and trial through the Python reference whole (the scan simulation, the engine's
+#: Python form and the evaluation's matching, nothing compiled) from an empty numba cache, one core:
+#: 2.0-2.8 s for a car-park trial's three default variants (``python benchmarks/bench_first_run.py
+#: --python-trials 4``), about 0.8 s each. A Monte Carlo of up to about 70 variant-trials per worker
+#: ends sooner so than waiting for the steps form's warm-up.
+PYTHON_TRIAL_S = 0.8
+
+
 def first_run_engine(n_trials: int, n_variants: int, jobs: int) -> str:
     """The engine that ends a run of ``n_trials`` trials of ``n_variants`` variants on ``jobs``
-    workers sooner from a cold cache: ``"auto"`` (compile the fused engine first) or
-    ``"steps"`` (the engine's steps form over its compiled kernels)."""
+    workers soonest from a cold cache: ``"auto"`` (compile the fused engine first), ``"steps"``
+    (the engine's steps form over its compiled kernels) or ``"python"`` (the reference whole, at
+    once)."""
     par = max(1, min(int(jobs), int(n_trials)))
     work = n_trials * n_variants / par
-    fused = FUSED_COMPILE_S + work * FUSED_S
-    steps = STEPS_WARM_UP_S + work * STEPS_S
-    return "steps" if steps < fused else "auto"
+    costs = {"auto": FUSED_COMPILE_S + work * FUSED_S, "steps": STEPS_WARM_UP_S + work * STEPS_S,
+             "python": work * PYTHON_TRIAL_S}
+    return min(costs, key=costs.get)
 
 
 #: Seconds per scan of a real recording, the steps form and the fused engine compiled (the steps

@@ -145,14 +145,18 @@ def _trial(config: Config, w: Workload) -> Plan:
 
 def _trials(config: Config, w: Workload) -> Plan:
     """Warm: nothing to do. Cold: the fused engine compiled first, or (a run short enough to end
-    sooner so, :func:`~.costs.first_run_engine`) the kernels of its steps form, the fused engine then
+    sooner so, :func:`~.costs.first_run_engine`) the kernels of its steps form, or (shorter still,
+    the steps' kernels not compiled) the Python reference whole at once; the fused engine then
     compiling in the background."""
     families = fused_families(config, w.variants)
     if not cache_is_cold(*families):
         return Plan()
-    short = (w.n_trials > 0 and fused_is_cold(*families)
-             and first_run_engine(w.n_trials, max(1, len(w.variants)), w.jobs) == "steps")
-    if short:
+    short = first_run_engine(w.n_trials, max(1, len(w.variants)), w.jobs) if (
+        w.n_trials > 0 and fused_is_cold(*families)) else "auto"
+    if short == "python" and _steps_are_cold():
+        return Plan("python", background=True, simulation_compiled=False, matching_compiled=False,
+                    reference_parts=("filter", "simulation", "evaluation"))
+    if short != "auto":
         return Plan("steps", compiles=_steps_are_cold(), background=True)
     return Plan("auto", compiles=True)
 

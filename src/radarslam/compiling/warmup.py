@@ -34,6 +34,9 @@ from radarslam.config.variants import Variant, apply_variant
 from radarslam.core.types import Odometry, Scan
 from radarslam.slam.driver import run_filter
 
+#: ... and when this run's few trials go through the Python reference (:func:`first_run_engine`).
+PYTHON_SHORT = ("the numba kernels are not compiled on this machine yet and this run is short: its trials go "
+                "through the Python reference (the same results)")
 #: ... and when this run's trials go through the engine's steps form (:func:`first_run_engine`).
 COMPILING_SHORT = ("compiling the numba kernels the engine's steps use (once per machine, about {s:.0f} s); "
                    "this run is short, so it does not wait for the fused engine")
@@ -110,13 +113,18 @@ def warm_up(config: Config, variants: tuple[Variant, ...], log: Callable[[str], 
             n_trials: int | None = None, jobs: int = 1) -> str:
     """Compile the backend before the first trial when the cache is cold (module docstring); a
     no-op, silent, when it is warm or the backend is ``python``. Returns the ``engine`` the trials
-    run with (:func:`~.single.run_filter`): ``"fused-steps"`` when ``n_trials`` (None: unknown,
+    run with (:func:`~radarslam.montecarlo.trials.compute_trial`): ``"python"`` (the reference whole,
+    nothing compiled) or ``"fused-steps"`` when ``n_trials`` (None: unknown,
     compile the fused engine) on ``jobs`` workers end sooner so (:func:`first_run_engine`), the
     fused engine then compiling in the background (:mod:`.background`); else ``"auto"``."""
     p = plan(config, Workload("trials", n_trials=n_trials if n_trials is not None else 0, jobs=jobs,
                               variants=tuple(variants)))
     if p.engine == "auto" and not p.compiles:    # warm, or the reference: nothing to compile
         return "auto"
+    if p.engine == "python":                     # a few trials end sooner through the reference whole
+        log(f"montecarlo: {PYTHON_SHORT}")
+        _background(config, variants, log)
+        return "python"
     short = p.engine == "steps"
     if short:
         _background(config, variants, log)

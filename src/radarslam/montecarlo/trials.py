@@ -85,21 +85,24 @@ def compute_trial(config: Config | dict, seed: int, trial: int,
     (:func:`~.variants.apply_variant`) runs the filter on it. Arrays are stored as
     ``"{variant}/{key}"`` beside the shared ``true_poses``; the meta lists the variant names in order
     and the trial's identity: seed, number and the configuration hash ``chash`` of its run (by
-    default that of ``config`` and ``variants``). ``engine`` is :func:`~.single.run_filter`'s; the
-    meta records which engine ran each variant (``engines``).
+    default that of ``config`` and ``variants``). ``engine`` is :func:`~.single.run_filter`'s, or
+    ``"python"``: the Python reference whole, the scan simulation, the engine's Python form and the
+    evaluation's matching, nothing compiled (a short first run, :func:`~radarslam.compiling.costs.first_run_engine`;
+    the same results). The meta records which engine ran each variant (``engines``).
     """
     cfg = from_dict(config) if isinstance(config, dict) else config
     variants = check_variants(variants)
     t0 = time.perf_counter()
     ss = trial_seed(seed, trial)
-    scenario = generate_scenario(cfg, np.random.default_rng(ss))
+    python = engine == "python"
+    scenario = generate_scenario(cfg, np.random.default_rng(ss), compiled=not python)
     arrays: dict[str, np.ndarray] = {"true_poses": scenario.truth.poses}
     K = scenario.truth.poses.shape[0]
     seconds, engines = {}, {}
     for v in variants:
         c = with_initial_estimate(variant_config(cfg, v), scenario, ss)   # b.5: fixed, or drawn per trial
-        rec = run_filter(c, scenario.events, engine=engine)
-        m = evaluate(c, scenario, rec)
+        rec = run_filter(c, scenario.events, engine="fused-python" if python else engine)
+        m = evaluate(c, scenario, rec, not python)
         name = v.name
         arrays[f"{name}/poses"] = rec.poses
         arrays[f"{name}/n_landmarks"] = rec.n_landmarks
@@ -109,7 +112,7 @@ def compute_trial(config: Config | dict, seed: int, trial: int,
             arrays[f"{name}/{key}"] = np.asarray(m[key])
         arrays[f"{name}/scalars"] = np.array([float(m[k]) for k in SCALARS])
         seconds[name] = rec.seconds
-        engines[name] = rec.engine
+        engines[name] = "python" if python else rec.engine
     meta = {"trial": trial, "seed": seed, "spawn_key": [trial - 1], "seconds": time.perf_counter() - t0,
             "filter_seconds": seconds, "engines": engines, "scalar_names": list(SCALARS), "variants": [v.name for v in variants],
             "config_hash": chash or config_hash(cfg, variants)}

@@ -133,13 +133,18 @@ def _write_figures(rdir: Path, rep: dict, res: dict, variants: tuple[Variant, ..
         from radarslam.montecarlo.trials import trial_seed
         from radarslam.simulation.trial import run_trial
         from radarslam.config.variants import apply_variant
+        from radarslam.compiling.policy import Plan
 
         v = next((x for x in variants if x.name == FIG2_VARIANT), variants[-1])
         # the form of the engine that ran the stored trial (a first run's trials may have used its steps
-        # form, compiling/warmup.py), so that the figure's run is that trial bit for bit
+        # form or the Python reference whole, compiling/warmup.py), so that the figure's run is that trial
+        # bit for bit (the simulation's reference draws the same scans as its compiled form)
         stored_engine = res["engines"][v.name][trials.index(1)]
         engine = stored_engine if stored_engine in ("fused-steps", "fused-python") else "auto"
-        tr = run_trial(apply_variant(res["config"], v), trial_seed(res["seed"], 1), engine=engine)
+        reference = Plan("python", simulation_compiled=False, matching_compiled=False) if (
+            stored_engine == "python") else None            # nothing compiled: the run the trial was
+        tr = run_trial(apply_variant(res["config"], v), trial_seed(res["seed"], 1), engine=engine,
+                       first_run=reference)
         vr.plot_fig2(rdir / "fig2_trial1.png", tr, label=v.label)
         stored = res[v.name]["poses"][trials.index(1)]
         rep["fig2"] = {"trial": 1, "variant": v.name, "label": v.label,
