@@ -82,6 +82,10 @@ def main() -> None:
                     help="paper: No extent + With extent (the issue's trial); default: the Monte Carlo's three")
     ap.add_argument("--no-fused", action="store_true", help="filter.fused = false: the engine's steps form")
     ap.add_argument("--no-stages", action="store_true", help="skip pass 2")
+    ap.add_argument("--reference", action="store_true",
+                    help="the Python reference whole (compute_trial engine 'python': simulation, filter and "
+                         "matching uncompiled), what a short first run takes; with NUMBA_CACHE_DIR=$(mktemp -d) "
+                         "the first trial shows that it compiles nothing")
     a = ap.parse_args()
     cfg = profile_config()
     if a.backend:
@@ -89,23 +93,25 @@ def main() -> None:
     if a.no_fused:
         cfg = replace(cfg, filter=replace(cfg.filter, fused=False))
     variants = PAPER_VARIANTS if a.variants == "paper" else DEFAULT_VARIANTS
+    engine = "python" if a.reference else "auto"
     t0 = time.perf_counter()
-    montecarlo.compute_trial(cfg, a.seed, 1, variants)  # warm-up: imports, compiled-code cache
+    montecarlo.compute_trial(cfg, a.seed, 1, variants, engine=engine)  # warm-up: imports, compiled-code cache
     warm = time.perf_counter() - t0
     trials = range(1, a.trials + 1)
     t = []
     for k in trials:
         t0 = time.perf_counter()
-        montecarlo.compute_trial(cfg, a.seed, k, variants)
+        montecarlo.compute_trial(cfg, a.seed, k, variants, engine=engine)
         t.append(time.perf_counter() - t0)
     t = np.array(t)
     names = " + ".join(v.name for v in variants)
-    engine = "fused-python" if cfg.filter.backend == "python" else "fused" if cfg.filter.fused else "fused-steps"
+    engine = ("reference whole" if a.reference else "fused-python" if cfg.filter.backend == "python" else
+              "fused" if cfg.filter.fused else "fused-steps")
     print(f"complete trial (simulation, {names}, RMA + EFA, evaluation), backend {cfg.filter.backend}, {engine}, "
           f"{a.trials} trials, one core (first trial incl. warm-up: {warm:.2f} s):")
     print(f"  median {1e3 * np.median(t):.1f} ms   p10 {1e3 * np.percentile(t, 10):.1f} ms   "
           f"p90 {1e3 * np.percentile(t, 90):.1f} ms   min {1e3 * t.min():.1f} ms")
-    if a.no_stages:
+    if a.no_stages or a.reference:
         return
     total, rows, steps = stage_times(cfg, a.seed, trials, variants)
     print(f"\nby stage (pass 2, timers on; {1e3 * total:.1f} ms per trial):")

@@ -29,10 +29,11 @@ STEPS_WARM_UP_S = 57.0
 
 #: Seconds per variant and trial through the Python reference whole (the scan simulation, the engine's
 #: Python form and the evaluation's matching, nothing compiled) from an empty numba cache, one core:
-#: 2.0-2.8 s for a car-park trial's three default variants (``python benchmarks/bench_first_run.py
-#: --python-trials 4``), about 0.8 s each. A Monte Carlo of up to about 70 variant-trials per worker
+#: a car-park trial's three default variants in 2.56 s (median of 6; the first, with the imports, 2.73 s;
+#: ``NUMBA_CACHE_DIR=$(mktemp -d) python benchmarks/bench_trial.py --reference --variants default
+#: --trials 6``), about 0.85 s each. A Monte Carlo of up to about 70 variant-trials per worker
 #: ends sooner so than waiting for the steps form's warm-up.
-PYTHON_TRIAL_S = 0.8
+PYTHON_TRIAL_S = 0.85
 
 
 def first_run_engine(n_trials: int, n_variants: int, jobs: int) -> str:
