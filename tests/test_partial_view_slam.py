@@ -173,6 +173,26 @@ def test_components_are_selected_by_the_view_model():
     assert slam.view is None
 
 
+def test_a_partial_view_associator_called_on_its_own_refuses():
+    """The partial view's association has one implementation, the engine's (slam/fused/view.py): its
+    associator classes only name the scheme, and a direct call refuses in one line instead of running
+    the full view's kernel of its base class. Negative control: the full view's batch associator,
+    called the same way, runs its kernel and associates."""
+    from radarslam.core.errors import InputError
+    from radarslam.slam.association import BatchAssociator, Spreads
+    from radarslam.slam.state import SlamState
+
+    st = SlamState.initial(np.zeros(3), np.array([0.1, 0.1, 0.01]))
+    st.add_landmark(np.array([5.0, 0.0]), 0.01 * np.eye(2), 0)
+    polar = np.array([[5.0, 0.0]])
+    args = (st, polar, np.array([0]), 0.01 * np.eye(2), Spreads(np.zeros((1, 2, 2)), np.zeros(1, dtype=bool)))
+    with pytest.raises(InputError, match=r"^PartialViewBatch\.associate: the partial view's association runs in the "
+                                         r"filter .*got a direct call$"):
+        PartialViewBatch(10.0, 5, 5).associate(*args)
+    out, nis = BatchAssociator(10.0, 5, 5).associate(*args)
+    assert out.tolist() == [0] and nis.shape == (1,)
+
+
 def _vf_config():
     d = to_dict(profile_config())
     d["radar"]["spread_model"] = "visible-faces"

@@ -16,8 +16,9 @@ measurement of the full-view filter keeps its form with ``p - t`` replaced by ``
   ``h = Rot(-theta) delta``, ``Hs = [-Rot(-theta) B, (h_1, -h_0)^T, Rot(-theta) B]`` and the noise
   ``(Rot(-theta) S Rot(-theta)^T + R_xy) / m + Rot(-theta) Q_v Rot(-theta)^T``, where ``Q_v`` is
   the model-error covariance, which does not shrink with ``m`` (a.12.5);
-- the associators that use them (the partial-view forms of ``nearest-neighbour``, ``batch`` and
-  ``batch-joint``), and the view-corrected centroid of a new landmark (a.12.6).
+- the names of the associator schemes that use them (the partial-view forms of ``nearest-neighbour``,
+  ``batch`` and ``batch-joint``, which the filter's engine runs: ``slam/fused/view.py``), and the
+  view-corrected centroid of a new landmark (a.12.6).
 
 The shapes ``X`` come from the extent estimator (``view_shapes``); they are passed in
 :class:`~radarslam.slam.association.Spreads` (``shapes``, ``model_error``).
@@ -25,17 +26,15 @@ The shapes ``X`` come from the extent estimator (``view_shapes``); they are pass
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from radarslam.core.errors import InputError
-from radarslam.slam import ekf
 from radarslam.slam.association import (BatchAssociator, JointBatchAssociator, NearestNeighbourAssociator,
                                         Spreads)
-from radarslam.slam.layout import POSE_DIM, landmark_index, n_landmarks
+from radarslam.slam.layout import POSE_DIM, n_landmarks
 from radarslam.slam.state import SlamState
-from radarslam.slam.view_kernels import SHAPE_STEP, view_batch_noise
+from radarslam.slam.view_kernels import SHAPE_STEP
+
 
 def _kernels():
     """The compiled kernels of :mod:`radarslam.slam.view_kernels` (:mod:`radarslam.slam._view_compiled`)."""
@@ -92,15 +91,6 @@ def view_model_terms(x: np.ndarray, spreads: Spreads, js: np.ndarray, step: floa
                                         _rows(spreads.model_error, (2, 2)))
 
 
-def _pose_landmark_blocks(P: np.ndarray, js: np.ndarray, platform: int = POSE_DIM) -> np.ndarray:
-    """``P`` restricted to ``(x, y, theta, p_j)`` for every ``j`` of ``js``: ``(N, 5, 5)``."""
-    idx = np.empty((js.size, 5), dtype=np.int64)
-    idx[:, :3] = (0, 1, 2)
-    idx[:, 3] = landmark_index(js, platform)
-    idx[:, 4] = idx[:, 3] + 1
-    return P[idx[:, :, None], idx[:, None, :]], idx
-
-
 def polar_terms(x: np.ndarray, mu: np.ndarray, B: np.ndarray, S: np.ndarray, R: np.ndarray, Qv: np.ndarray):
     """Per landmark, the polar measurement of one detection (a.12.5): ``h (N, 2)``, ``Hs (N, 2, 5)``
     over ``(x, y, theta, p_x, p_y)`` and ``R_j (N, 2, 2)`` (``Qv`` per landmark or one for all);
@@ -129,39 +119,24 @@ def log_distances(z: np.ndarray, h: np.ndarray, Hs: np.ndarray, Pb: np.ndarray, 
 
 
 class _PartialView:
-    """The scoring shared by the partial-view associators: every candidate against its ``N_s``
-    landmarks nearest to it by their predicted detection means ``mu`` (not their centroids)."""
+    """The partial view's form of an associator scheme (a.12.5): every candidate scored against its
+    ``N_s`` landmarks nearest by their predicted detection means ``mu`` (not their centroids), with
+    the polar terms of :func:`polar_terms` for the scores and the nearest neighbour's updates and the
+    Cartesian ones of :func:`sensor_xy_terms` for the batch updates. The filter's engine runs it, the
+    one implementation (``slam/fused/view.py: view_associate``, compiled or by its Python forms);
+    the class names the scheme there (``slam/fused/own.py: builtin_associators``). Called on its own
+    it refuses in one line, rather than run the full view's kernel of its base class."""
 
     fej = False   # no first-estimates Jacobians for the partial view (docs/method.md c.2.1)
     #: The model error's ``dg/dxi``: central differences of this step, or analytic for 0 (extent.view_jacobian).
     shape_step = 0.0
 
-    def _terms(self, state: SlamState, R: np.ndarray, spreads: Spreads):
-        if spreads.shapes is None:
-            raise InputError("extent.view_model: 'partial' needs the extent estimator's shapes "
-                             "(extent.estimator = 'partial-view'), got none")
-        p = state.platform_dim
-        mu, B, S, Q = view_model_terms(state.x, spreads, np.arange(n_landmarks(state.x.shape[0], p)),
-                                       self.shape_step, p)
-        h, Hs, Rj, ok = polar_terms(state.x, mu, B, S, R, Q)
-        return mu, B, S, h, Hs, Rj, ok
+    def associate(self, state, polar, candidates, R, spreads):
+        raise InputError(f"{type(self).__name__}.associate: the partial view's association runs in the filter "
+                         f"(EkfSlam, slam/fused/view.py: view_associate), expected it called there, got a direct call")
 
-    def _score(self, state, polar, rows, R, spreads, count, terms=None):
-        """``(best landmark (C,), D (C,))`` of detections ``polar[rows]`` at the current state."""
-        mu, B, S, h, Hs, Rj, ok = terms if terms is not None else self._terms(state, R, spreads)
-        z = polar[rows]
-        th = state.x[2] + z[:, 1]
-        zw = state.x[:2] + z[:, :1] * np.column_stack([np.cos(th), np.sin(th)])
-        d2 = ((zw[:, None, :] - mu[None, :, :]) ** 2).sum(axis=2)     # (C, N)
-        d2[:, ~ok] = np.inf
-        near = np.argsort(d2, axis=1, kind="stable")[:, :count]
-        Pb, _ = _pose_landmark_blocks(state.P, np.arange(mu.shape[0]), state.platform_dim)
-        D_all = log_distances(z, h, Hs, Pb, Rj)
-        D = np.take_along_axis(D_all, near, axis=1)
-        D = np.where(np.take_along_axis(d2, near, axis=1) < np.inf, D, np.inf)
-        k = np.argmin(D, axis=1)
-        best = near[np.arange(len(rows)), k]
-        return np.where(np.isfinite(D[np.arange(len(rows)), k]), best, -1), D[np.arange(len(rows)), k]
+    def scores(self, state, polar, candidates, R, spreads):
+        return self.associate(state, polar, candidates, R, spreads)
 
     def min_log_distance(self, state: SlamState, s: np.ndarray, R: np.ndarray) -> float:
         """The alpha test (c.6) keeps the point model with the plain ``R``, as the full view does
@@ -171,53 +146,10 @@ class _PartialView:
 
 class PartialViewNearestNeighbour(_PartialView, NearestNeighbourAssociator):
     """Sequential nearest-neighbour association and point updates under the partial view (a.12.5):
-    each candidate is scored against its ``N_s`` landmarks nearest by their predicted means, with
-    the terms of those landmarks at the current state (after the previous candidates' updates)."""
+    each candidate against its ``N_s`` landmarks nearest by their predicted means, with the terms of
+    those landmarks at the current state (after the previous candidates' updates)."""
 
     name = "nearest-neighbour"
-
-    def associate(self, state, polar, candidates, R, spreads):
-        out = np.full(candidates.shape[0], -1, dtype=int)
-        if not state.n_landmarks or candidates.size == 0:
-            return out, np.empty(0)
-        if spreads.shapes is None:
-            self._terms(state, R, spreads)                 # the one-line error
-        nis = []
-        p = state.platform_dim
-        mu_all = view_terms(state.x, spreads.shapes, platform=p)[0]
-        for c, i in enumerate(candidates.tolist()):
-            x = state.x
-            a = x[2] + polar[i, 1]
-            zw = x[:2] + polar[i, 0] * np.array([math.cos(a), math.sin(a)])
-            d2 = ((mu_all - zw) ** 2).sum(axis=1)
-            js = np.argsort(d2, kind="stable")[:self.n_nearest]
-            mu, B, S, Q = view_model_terms(x, spreads, js, self.shape_step, p)
-            h, Hs, Rj, ok = polar_terms(x, mu, B, S, R, Q)
-            Pb, idx = _pose_landmark_blocks(state.P, js, p)
-            D = np.where(ok, log_distances(polar[i:i + 1], h, Hs, Pb, Rj)[0], np.inf)
-            k = int(np.argmin(D))
-            if D[k] < self.beta:
-                e = np.array([polar[i, 0] - h[k, 0], math.remainder(polar[i, 1] - h[k, 1], 2.0 * math.pi)])
-                nis.append(ekf.joseph_update_inplace(state.x, state.P, e, Hs[k], idx[k], Rj[k]))
-                out[c] = int(js[k])
-                mu_all = view_terms(state.x, spreads.shapes, platform=p)[0]
-        return out, np.array(nis)
-
-
-def _batch_measurements(state, polar, candidates, out, R, spreads, seen, step):
-    """The mean detection, its measurement and noise of every landmark of ``seen`` (a.12.5), at
-    the current state: ``[(j, e (2,), Hs (2, 5), idx (5,), noise (2, 2))]`` (``step``: :func:`model_errors`')."""
-    js, p = np.array(seen, dtype=np.int64), state.platform_dim
-    mu, B, S, Q = view_model_terms(state.x, spreads, js, step, p)
-    h, Hs = sensor_xy_terms(state.x, mu, B)
-    rows = []
-    for a, j in enumerate(seen):
-        dets = candidates[out == j]
-        pts, R_xy = ekf.polar_to_sensor_xy(polar[dets], R)
-        noise = view_batch_noise(state.x[2], S[a], Q[a], R_xy, dets.size)
-        i0 = landmark_index(j, p)
-        rows.append((j, pts.mean(axis=0) - h[a], Hs[a], np.array([0, 1, 2, i0, i0 + 1]), noise))
-    return rows
 
 
 class PartialViewBatch(_PartialView, BatchAssociator):
@@ -226,40 +158,11 @@ class PartialViewBatch(_PartialView, BatchAssociator):
 
     name = "batch"
 
-    def scores(self, state, polar, candidates, R, spreads):
-        if not state.n_landmarks or candidates.size == 0:
-            return np.full(candidates.shape[0], -1, dtype=int)
-        j, D = self._score(state, polar, candidates, R, spreads, self.n_nearest)
-        return np.where(D < self.beta, j, -1)
-
-    def associate(self, state, polar, candidates, R, spreads):
-        out = self.scores(state, polar, candidates, R, spreads)
-        nis = []
-        for j in np.unique(out[out >= 0]).tolist():
-            (_, e, Hs, idx, noise), = _batch_measurements(state, polar, candidates, out, R, spreads, [j],
-                                                                     self.shape_step)
-            nis.append(ekf.joseph_update_inplace(state.x, state.P, e, Hs, idx, noise))
-        return out, np.array(nis)
-
 
 class PartialViewJointBatch(PartialViewBatch, JointBatchAssociator):
     """The stacked update of a scan (a.7.4) under the partial view (a.12.5)."""
 
     name = "batch-joint"
-
-    def associate(self, state, polar, candidates, R, spreads):
-        out = self.scores(state, polar, candidates, R, spreads)
-        seen = np.unique(out[out >= 0]).tolist()
-        if not seen:
-            return out, np.empty(0)
-        n, L = state.x.shape[0], len(seen)
-        e, H, Rb = np.empty(2 * L), np.zeros((2 * L, n)), np.zeros((2 * L, 2 * L))
-        rows = _batch_measurements(state, polar, candidates, out, R, spreads, seen, self.shape_step)
-        for a, (_, ea, Hs, idx, noise) in enumerate(rows):
-            e[2 * a:2 * a + 2] = ea
-            H[2 * a:2 * a + 2, idx] = Hs
-            Rb[2 * a:2 * a + 2, 2 * a:2 * a + 2] = noise
-        return out, ekf.joint_update_inplace(state.x, state.P, e, H, Rb)
 
 
 PARTIAL_VIEW_ASSOCIATORS = {"nearest-neighbour": PartialViewNearestNeighbour, "batch": PartialViewBatch,
