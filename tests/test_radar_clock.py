@@ -93,7 +93,36 @@ def test_online_without_a_rig_is_refused_in_one_line():
     rec = SimpleNamespace(channels={}, sensors={}, det_t=np.zeros(0))
     with pytest.raises(ConfigError, match=r"^filter\.radar_clock: 'online' needs a rig .*got no rig with Doppler$"):
         clock_of(rec, cfg)
-    assert clock_of(rec, profile_config("automotive")) is None          # as-stamped: nothing asked
+    assert clock_of(rec, profile_config("automotive")) is None          # the profile's auto: no rig, as stamped
+
+
+def test_auto_is_online_on_a_rig_with_wheels_and_as_stamped_otherwise():
+    """``radar_clock = "auto"`` (the automotive profile's): a recording with a rig of radars with Doppler
+    and wheel speeds runs the online clock, the same track as "online"; one without a rig keeps its
+    stamps (where "online" refuses, above); a run with a car calibration, which gives each radar's
+    clock, keeps them too, and the run's configuration (its config.toml) holds the value chosen."""
+    from radarslam.egomotion.clock import resolved_clock
+    from radarslam.egomotion.car_calibration import calibrate_car
+    from radarslam.egomotion.rig import read_rig
+    from radarslam.io.recording import read_recording
+    from radarslam.runs.recording import run_recording
+
+    scene = NUSCENES / "scene-0103"
+    if not scene.is_dir():
+        pytest.skip("the given nuScenes scenes are not beside the checkout") if not __import__("os").environ.get("CI") \
+            else pytest.fail("CI must provide ../shared")
+    cfg = profile_config("automotive")
+    assert cfg.filter.radar_clock == "auto"
+    rec = read_recording(scene)
+    assert resolved_clock(rec, cfg).filter.radar_clock == "online"
+    online = dataclasses.replace(cfg, filter=dataclasses.replace(cfg.filter, radar_clock="online"))
+    a, b = clock_of(rec, cfg), clock_of(rec, online)
+    assert np.array_equal(a.offset_s, b.offset_s) and abs(a.offset_s[-1] - 0.040) < 0.01
+    bare = SimpleNamespace(channels={}, sensors={}, det_t=np.zeros(0))
+    assert resolved_clock(bare, cfg).filter.radar_clock == "as-stamped"
+    cal = calibrate_car(read_rig(scene), np.random.default_rng(0), source="scene-0103")
+    run = run_recording(rec, cfg, calibration=cal)
+    assert run.config.filter.radar_clock == "as-stamped" and "radar_clock" not in run.metrics
 
 
 @pytest.mark.parametrize("scene, review_ms", [("scene-0103", 40.0), ("scene-0655", 30.0)])

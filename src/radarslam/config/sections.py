@@ -63,10 +63,12 @@ class FilterConfig:
     calibration: str = param("", "[PROP] a car's calibration file from 'radarslam calibrate' "
                              "(car_calibration.json: thrust angle, wheel scale, each radar's yaw and clock; "
                              "docs/method.md c.16) applied to a recording run; '' none; --calibration wins")
-    radar_clock: str = param("as-stamped", "[PROP] a recording run's radar stamps: as-stamped, or online (the rig's "
+    radar_clock: str = param("as-stamped", "[PROP] a recording run's radar stamps: as-stamped, online (the rig's "
                              "clock offset against the wheels estimated from the first sweep on, from its Doppler "
                              "speed against the wheel speed, and each detection moved by the estimate known at its "
-                             "time; docs/method.md c.12.8)", choices=("as-stamped", "online"))
+                             "time; docs/method.md c.12.8) or auto (online where the recording has a rig of radars "
+                             "with Doppler and wheel speeds and no calibration gives the radars' clocks, else "
+                             "as-stamped)", choices=("as-stamped", "online", "auto"))
     radar_clock_std_s: float = param(0.1, "[PROP] prior std of the rig's clock offset under radar_clock online (s)",
                                      low=0.0, low_open=True)
     initial_error: str = param("fixed", "[PROP] simulation: the initial estimate's error (b.5): fixed (initial_pose, "

@@ -30,7 +30,7 @@ import numpy as np
 from radarslam.core.errors import ConfigError
 
 __all__ = ["ACCEL_HALF_S", "ClockTrack", "GATE_SIGMA", "MIN_SPEED_MPS", "SCALE_PRIOR_STD", "online_clock",
-           "restamped", "shift_stamps"]
+           "resolved_clock", "restamped", "shift_stamps"]
 
 #: Half the span of the wheel speed's central difference (s).
 ACCEL_HALF_S = 0.1
@@ -120,14 +120,31 @@ def shift_stamps(rec, track: ClockTrack):
     return restamped(rec, rec.det_t + track.at(rec.det_t))
 
 
+def resolved_clock(rec, config):
+    """``config`` with ``filter.radar_clock`` "auto" replaced by what ``rec`` supports: "online" where it
+    has a rig of radars with Doppler and wheel speeds (what the online clock reads, c.12.8), else
+    "as-stamped"; any other value is returned as it is. The written ``config.toml`` then holds the
+    value chosen, and ``metrics.json["radar_clock"]`` says it (present only when online)."""
+    import dataclasses
+
+    from radarslam.egomotion.rig_odometry import rig_of
+
+    f = config.filter
+    if f.radar_clock != "auto":
+        return config
+    rig = rig_of(rec)
+    chosen = "online" if rig is not None and rig.odometry is not None else "as-stamped"
+    return dataclasses.replace(config, filter=dataclasses.replace(f, radar_clock=chosen))
+
+
 def clock_of(rec, config):
     """The online clock of recording ``rec`` under ``config`` (``filter.radar_clock = "online"``),
-    or None ("as-stamped"); one-line :class:`ConfigError` without a rig with Doppler or without wheel
+    or None ("as-stamped"; "auto" as :func:`resolved_clock` decides); one-line :class:`ConfigError` without a rig with Doppler or without wheel
     speeds."""
     from radarslam.egomotion.rig import checked_rig_velocity, filter_series
     from radarslam.egomotion.rig_odometry import rig_of
 
-    f = config.filter
+    f = resolved_clock(rec, config).filter
     if f.radar_clock == "as-stamped":
         return None
     rig = rig_of(rec)

@@ -15,7 +15,7 @@ from radarslam.core.angles import wrap_pi
 from radarslam.core.errors import InputError
 from radarslam.core.types import Scan
 from radarslam.egomotion.rig_odometry import with_rig_velocity
-from radarslam.egomotion.clock import clock_of, shift_stamps
+from radarslam.egomotion.clock import clock_of, resolved_clock, shift_stamps
 from radarslam.runs.start import (FRAMES, START_STD, filter_to_platform, platform_to_filter,  # noqa: F401
                                   sensor_lever, start_pose, start_std, truth_at)
 from radarslam.runs.odometry_choice import resolved_odometry
@@ -217,11 +217,14 @@ def run_recording(rec: Recording, config: Config, *, on_scan=None, first_run=Non
 
         if calibration.reference == "truth":             # c.16.5: its own Doppler scale replaces the config's
             config = dataclasses.replace(config, sensor=dataclasses.replace(config.sensor, doppler_scale=1.0))
+        if config.filter.radar_clock == "auto":          # c.12.8: the calibration gives each radar's clock
+            config = dataclasses.replace(config, filter=dataclasses.replace(config.filter, radar_clock="as-stamped"))
         run = run_recording(apply_calibration(rec, calibration), config, on_scan=on_scan, first_run=first_run,
                             start=start, align=align)
         return _in_car_frame(run, rec, calibration, align)
     config = validate(config)
     config, odometry = resolved_odometry(rec, config)        # c.10.5.2: "auto" by what the recording carries
+    config = resolved_clock(rec, config)                      # c.12.8: the same for the radars' clock
     check_motion_model(rec, config.filter.motion_model)
     refuse_drawn_start(config)                  # b.5: a draw needs the true first pose of a simulation
     refuse_online_car_states(config)            # c.13.3: measured worse on every given drive
