@@ -59,7 +59,6 @@ LONG_RUN_SCANS = 2000
 
 def run(args: argparse.Namespace) -> int:
     from radarslam.cli.official import OFFICIAL, check_official_args, official_run_args
-    from radarslam.simulation.trial import check_simulation_config, run_trial
 
     check_official_args(args)
     official = bool(args.dataset) and args.dataset[0] in OFFICIAL   # nuScenes, RadarScenes: run as recordings
@@ -69,6 +68,8 @@ def run(args: argparse.Namespace) -> int:
         return run_recording_cmd(official_run_args(args) if official else args)
     if args.dataset:
         return run_dataset_cmd(args)
+    from radarslam.simulation.trial import check_simulation_config, run_trial    # the car park's trial only
+
     if args.seed < 0:
         raise InputError(f"--seed: expected an integer >= 0, got {args.seed}")
     config = config_from_args(args)
